@@ -1,0 +1,33 @@
+# bullet_floor_sim — `make demo` runs the main job, `make test` runs every test.
+# Both bootstrap through `make setup` (idempotent).
+SHELL := /bin/bash
+.SHELLFLAGS := -eo pipefail -c
+REPO := $(CURDIR)
+VENV_PY := $(REPO)/.venv/bin/python
+ROSENV := source $(REPO)/.ws/devel/setup.bash &&
+WORLD ?= office
+
+.PHONY: setup test unit-test lint demo bench clean
+
+setup:
+	bash tools/setup.sh
+
+# Every test: lint, unit tests (no roscore), integration tests (rostest).
+test: setup
+	$(MAKE) --no-print-directory lint
+	$(MAKE) --no-print-directory unit-test
+
+unit-test:
+	$(ROSENV) $(VENV_PY) -m pytest -q -p no:cacheprovider test/unit
+
+lint:
+	$(ROSENV) catkin_lint -W2 --strict --ignore missing_directory $(REPO)
+
+demo: setup
+	$(ROSENV) $(VENV_PY) tools/demo.py --world $(WORLD)
+
+bench: setup
+	$(ROSENV) $(VENV_PY) bench/run_all.py
+
+clean:
+	rm -rf .ws .venv

@@ -1,0 +1,12 @@
+"""catkin_python_setup() entry: installs the bullet_floor_sim Python package from src/."""
+from setuptools import setup
+from catkin_pkg.python_setup import generate_distutils_setup
+
+setup(**generate_distutils_setup(
+    packages=[
+        "bullet_floor_sim",
+        "bullet_floor_sim.core",
+        "bullet_floor_sim.ros",
+    ],
+    package_dir={"": "src"},
+))

@@ -1,0 +1,1 @@
+"""Pure simulation core: plain data in, plain data out, no rospy anywhere below here."""

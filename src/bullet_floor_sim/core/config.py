@@ -1,0 +1,330 @@
+"""World files (``worlds/<name>/world.yaml``) and per-robot settings, with defaults.
+
+Each section reads its own keys, fills defaults and rejects unknown keys with a message that
+names the file, the section and the key (as flatland's EnsureAccessedAllKeys does)::
+
+    map: map.yaml            # map_server map, relative to world.yaml
+    wall_height: 2.0
+    rois: rois.yaml
+    robots:
+      - name: robot1
+        model: scitos_a5     # urdf/<model>.urdf.xacro
+        pose: [x, y, yaw]
+        drive: {type: diff, max_linear: 0.8, ...}       # DriveConfig
+        laser: {range_max: 30.0, ...}                     # LaserConfig
+        odometry: {noise_trans: 0.005, ...}               # OdometryConfig
+        battery: {discharge_per_hour: 0.1, ...}           # BatteryConfig
+"""
+from __future__ import annotations
+
+import math
+import os
+import re
+from dataclasses import dataclass, field, fields
+from typing import Any, Dict, List, Optional, Tuple, Type, TypeVar
+
+import yaml
+
+from .errors import ConfigError
+
+__all__ = [
+    "DriveConfig",
+    "LaserConfig",
+    "OdometryConfig",
+    "BatteryConfig",
+    "RobotSpec",
+    "WorldConfig",
+    "load_world_config",
+    "resolve_world",
+]
+
+T = TypeVar("T")
+_NAME_RE = re.compile(r"^([A-Za-z][A-Za-z0-9_]*)?$")
+
+
+@dataclass(frozen=True)
+class DriveConfig:
+    """Drive kinematics and limits.
+
+    ``type`` is ``diff`` (v, w) or ``omni`` (vx, vy, w, as MORSE's MotionXYW). Velocities are
+    clamped to ``max_*``; accelerations to ``max_acc_*``. After ``cmd_timeout`` seconds of sim
+    time without a command the watchdog sets the target to zero. A command component larger
+    than ``absurd_factor`` times its limit is rejected, not clamped.
+    """
+
+    type: str = "diff"
+    max_linear: float = 0.8
+    max_lateral: float = 0.5
+    max_angular: float = 1.5
+    max_acc_linear: float = 1.0
+    max_acc_lateral: float = 1.0
+    max_acc_angular: float = 3.0
+    cmd_timeout: float = 0.5
+    absurd_factor: float = 10.0
+
+    def validate(self, where: str) -> None:
+        """Raise ConfigError if a value is out of range."""
+        from .robot import DRIVES  # the registry lives with the drives
+
+        if self.type not in DRIVES:
+            raise ConfigError("%s: drive type %r unknown, expected one of %s"
+                              % (where, self.type, ", ".join(sorted(DRIVES))))
+        _positive(self, where, ("max_linear", "max_lateral", "max_angular", "max_acc_linear",
+                                "max_acc_lateral", "max_acc_angular", "cmd_timeout",
+                                "absurd_factor"))
+
+
+@dataclass(frozen=True)
+class LaserConfig:
+    """A planar lidar at the model's ``base_laser_link`` (defaults: the Scitos A5 Hokuyo).
+
+    Beams are spread over ``fov`` degrees centred ahead, ``resolution`` degrees apart (a full
+    360-degree fov does not repeat its first beam). Ranges get Gaussian noise of ``noise_std``
+    metres; a beam with no return reads +inf and one closer than ``range_min`` reads -inf
+    (REP 117).
+    """
+
+    range_min: float = 0.1
+    range_max: float = 30.0
+    fov: float = 180.0
+    resolution: float = 1.0
+    rate: float = 10.0
+    noise_std: float = 0.01
+    enabled: bool = True
+
+    @property
+    def beams(self) -> int:
+        """Number of beams per scan."""
+        n = int(round(self.fov / self.resolution))
+        return n if self.fov >= 360.0 - 1e-9 else n + 1
+
+    def validate(self, where: str) -> None:
+        """Raise ConfigError if a value is out of range."""
+        _positive(self, where, ("range_max", "fov", "resolution", "rate"))
+        if not 0.0 <= self.range_min < self.range_max:
+            raise ConfigError("%s: range_min must be in [0, range_max), got %r"
+                              % (where, self.range_min))
+        if self.fov > 360.0:
+            raise ConfigError("%s: fov must be at most 360 degrees, got %r" % (where, self.fov))
+        if self.noise_std < 0.0:
+            raise ConfigError("%s: noise_std must be >= 0, got %r" % (where, self.noise_std))
+
+
+@dataclass(frozen=True)
+class OdometryConfig:
+    """Odometry integrated from the wheel motion, with error.
+
+    Per step, the travelled distance gets Gaussian error of std ``noise_trans`` x distance and
+    the rotation ``noise_rot`` x |rotation| + ``noise_rot_per_m`` x distance; ``drift_yaw`` adds
+    a systematic yaw error in radians per metre travelled (uneven wheels). Defaults are small
+    so that amcl has something to correct.
+    """
+
+    noise_trans: float = 0.01
+    noise_rot: float = 0.01
+    noise_rot_per_m: float = 0.005
+    drift_yaw: float = 0.0
+    rate: float = 50.0
+
+    def validate(self, where: str) -> None:
+        """Raise ConfigError if a value is out of range."""
+        for k in ("noise_trans", "noise_rot", "noise_rot_per_m"):
+            if getattr(self, k) < 0.0:
+                raise ConfigError("%s: %s must be >= 0, got %r" % (where, k, getattr(self, k)))
+        _positive(self, where, ("rate",))
+
+
+@dataclass(frozen=True)
+class BatteryConfig:
+    """A battery that discharges linearly in time (``discharge_per_hour``, fraction per hour)."""
+
+    initial: float = 1.0
+    discharge_per_hour: float = 0.1
+    voltage_full: float = 28.8
+    voltage_empty: float = 22.0
+    capacity_ah: float = 60.0
+
+    def validate(self, where: str) -> None:
+        """Raise ConfigError if a value is out of range."""
+        if not 0.0 <= self.initial <= 1.0:
+            raise ConfigError("%s: initial must be in [0, 1], got %r" % (where, self.initial))
+        if self.discharge_per_hour < 0.0:
+            raise ConfigError("%s: discharge_per_hour must be >= 0, got %r"
+                              % (where, self.discharge_per_hour))
+        _positive(self, where, ("voltage_full", "voltage_empty", "capacity_ah"))
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """One robot of a world: name (namespace and frame prefix), model and spawn pose."""
+
+    name: str
+    model: str = "scitos_a5"
+    pose: Tuple[float, float, float] = (0.0, 0.0, 0.0)
+    drive: DriveConfig = field(default_factory=DriveConfig)
+    laser: LaserConfig = field(default_factory=LaserConfig)
+    odometry: OdometryConfig = field(default_factory=OdometryConfig)
+    battery: BatteryConfig = field(default_factory=BatteryConfig)
+
+    @property
+    def prefix(self) -> str:
+        """Frame prefix: ``name/``, or empty for a robot with an empty name."""
+        return self.name + "/" if self.name else ""
+
+
+@dataclass(frozen=True)
+class WorldConfig:
+    """A parsed world.yaml; paths are absolute."""
+
+    path: str
+    map_yaml: str
+    wall_height: float = 2.0
+    rois: Optional[str] = None
+    robots: List[RobotSpec] = field(default_factory=list)
+
+    @property
+    def name(self) -> str:
+        """The world's name: its directory name."""
+        return os.path.basename(os.path.dirname(self.path))
+
+
+_WORLD_KEYS = ("map", "wall_height", "rois", "robots")
+_ROBOT_KEYS = ("name", "model", "pose", "drive", "laser", "odometry", "battery")
+
+
+def resolve_world(world: str, worlds_dir: str) -> str:
+    """Turn ``world:=`` (a name under worlds/ or a path to a world.yaml) into a file path.
+
+    Raises:
+        ConfigError: nothing by that name or path exists.
+    """
+    if world.endswith((".yaml", ".yml")) or os.sep in world:
+        path = os.path.abspath(os.path.expanduser(world))
+    else:
+        path = os.path.join(worlds_dir, world, "world.yaml")
+    if not os.path.isfile(path):
+        known = sorted(d for d in os.listdir(worlds_dir)
+                       if os.path.isfile(os.path.join(worlds_dir, d, "world.yaml"))) \
+            if os.path.isdir(worlds_dir) else []
+        raise ConfigError("world %r: no such world file %s (known worlds: %s)"
+                          % (world, path, ", ".join(known) or "none"))
+    return path
+
+
+def load_world_config(path: str) -> WorldConfig:
+    """Parse and validate a world.yaml.
+
+    Args:
+        path: the world.yaml.
+
+    Returns:
+        The WorldConfig with absolute map/rois paths.
+
+    Raises:
+        ConfigError: the file is missing, malformed, has unknown keys or bad values.
+    """
+    try:
+        with open(path, "r") as f:
+            doc = yaml.safe_load(f)
+    except FileNotFoundError:
+        raise ConfigError("%s: world file not found" % path) from None
+    except yaml.YAMLError as e:
+        line = getattr(getattr(e, "problem_mark", None), "line", None)
+        raise ConfigError("%s: not valid YAML%s"
+                          % (path, " (line %d)" % (line + 1) if line is not None else "")) from None
+    if not isinstance(doc, dict):
+        raise ConfigError("%s: expected a mapping with keys %s" % (path, ", ".join(_WORLD_KEYS)))
+    _reject_unknown(doc, _WORLD_KEYS, path)
+    if "map" not in doc or not isinstance(doc["map"], str):
+        raise ConfigError("%s: missing required key 'map' (a map_server map.yaml)" % path)
+    base = os.path.dirname(os.path.abspath(path))
+    map_yaml = _rel(base, doc["map"])
+    wall_height = doc.get("wall_height", 2.0)
+    if not _finite_positive(wall_height):
+        raise ConfigError("%s: wall_height must be a positive number of metres, got %r"
+                          % (path, wall_height))
+    rois = doc.get("rois")
+    if rois is not None and not isinstance(rois, str):
+        raise ConfigError("%s: rois must be a file name, got %r" % (path, rois))
+    robots_doc = doc.get("robots", [])
+    if not isinstance(robots_doc, list):
+        raise ConfigError("%s: robots must be a list, got %s" % (path, type(robots_doc).__name__))
+    robots = [_parse_robot(r, "%s: robots[%d]" % (path, i)) for i, r in enumerate(robots_doc)]
+    names = [r.name for r in robots]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ConfigError("%s: duplicate robot name(s): %s" % (path, ", ".join(repr(d) for d in dup)))
+    return WorldConfig(path=os.path.abspath(path), map_yaml=map_yaml, wall_height=float(wall_height),
+                       rois=_rel(base, rois) if rois else None, robots=robots)
+
+
+def _parse_robot(doc: Any, where: str) -> RobotSpec:
+    if not isinstance(doc, dict):
+        raise ConfigError("%s: expected a mapping with keys %s" % (where, ", ".join(_ROBOT_KEYS)))
+    _reject_unknown(doc, _ROBOT_KEYS, where)
+    name = doc.get("name")
+    if not isinstance(name, str) or not _NAME_RE.match(name):
+        raise ConfigError("%s: name must be empty or a ROS name ([A-Za-z][A-Za-z0-9_]*), got %r"
+                          % (where, name))
+    where = "%s (%s)" % (where, name or "<empty name>")
+    model = doc.get("model", "scitos_a5")
+    if not isinstance(model, str) or not model:
+        raise ConfigError("%s: model must be a model name, got %r" % (where, model))
+    pose = doc.get("pose", [0.0, 0.0, 0.0])
+    if (not isinstance(pose, (list, tuple)) or len(pose) != 3
+            or not all(_is_number(v) and math.isfinite(v) for v in pose)):
+        raise ConfigError("%s: pose must be [x, y, yaw] (3 finite numbers), got %r" % (where, pose))
+    sections = {}
+    for key, cls in (("drive", DriveConfig), ("laser", LaserConfig),
+                     ("odometry", OdometryConfig), ("battery", BatteryConfig)):
+        sections[key] = _section(cls, doc.get(key), "%s: %s" % (where, key))
+    return RobotSpec(name=name, model=model, pose=(float(pose[0]), float(pose[1]), float(pose[2])),
+                     **sections)
+
+
+def _section(cls: Type[T], doc: Any, where: str) -> T:
+    if doc is None:
+        doc = {}
+    if not isinstance(doc, dict):
+        raise ConfigError("%s: expected a mapping, got %r" % (where, doc))
+    defaults = {f.name: f.default for f in fields(cls)}
+    _reject_unknown(doc, tuple(defaults), where)
+    values: Dict[str, Any] = {}
+    for k, v in doc.items():
+        want = type(defaults[k])
+        if want is float and _is_number(v):
+            v = float(v)
+        if not isinstance(v, want) or (want is float and not math.isfinite(v)):
+            raise ConfigError("%s: %s must be %s, got %r"
+                              % (where, k, "a finite number" if want is float else want.__name__, v))
+        values[k] = v
+    obj = cls(**values)
+    obj.validate(where)  # type: ignore[attr-defined]
+    return obj
+
+
+def _reject_unknown(doc: Dict[str, Any], known: Tuple[str, ...], where: str) -> None:
+    unknown = sorted(str(k) for k in doc if k not in known)
+    if unknown:
+        raise ConfigError("%s: unknown key(s) %s (known: %s)"
+                          % (where, ", ".join(repr(k) for k in unknown), ", ".join(known)))
+
+
+def _positive(obj: Any, where: str, names: Tuple[str, ...]) -> None:
+    for k in names:
+        v = getattr(obj, k)
+        if not _finite_positive(v):
+            raise ConfigError("%s: %s must be a positive number, got %r" % (where, k, v))
+
+
+def _finite_positive(v: Any) -> bool:
+    return _is_number(v) and math.isfinite(v) and v > 0
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _rel(base: str, p: str) -> str:
+    p = os.path.expanduser(p)
+    return p if os.path.isabs(p) else os.path.normpath(os.path.join(base, p))

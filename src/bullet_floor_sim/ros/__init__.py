@@ -1,0 +1,1 @@
+"""Thin rospy glue, one module per node; each module has ``main()``."""
