@@ -22,7 +22,7 @@ die() { printf '[setup] error: %s\n' "$*" >&2; exit 1; }
 case "${ID}:${VERSION_CODENAME:-}" in
   debian:bookworm|debian:trixie)
     ROS_SETUP=""
-    APT_PKGS=(ros-base-dev catkin rosbash python3-venv python3-numpy python3-yaml python3-pil
+    APT_PKGS=(ros-base-dev catkin rosbash python3-venv python3-numpy python3-scipy python3-yaml python3-pil
       python3-lxml python3-rospy python3-rostest python3-rosbag python3-roslaunch python3-rosunit
       python3-tf2-ros python3-actionlib python3-interactive-markers python3-genpy
       ros-message-generation ros-message-runtime ros-robot-state-publisher
@@ -40,7 +40,7 @@ case "${ID}:${VERSION_CODENAME:-}" in
       ros-noetic-tf2-ros ros-noetic-actionlib ros-noetic-interactive-markers ros-noetic-nav-msgs
       ros-noetic-sensor-msgs ros-noetic-visualization-msgs ros-noetic-std-srvs
       ros-noetic-move-base-msgs ros-noetic-map-msgs ros-noetic-rostest ros-noetic-rosbag
-      python3-venv python3-numpy python3-yaml python3-pil python3-lxml python3-catkin-lint)
+      python3-venv python3-numpy python3-scipy python3-yaml python3-pil python3-lxml python3-catkin-lint)
     ;;
   *) die "unsupported system ${PRETTY_NAME:-unknown}: use Debian 12 or Ubuntu 20.04 + ROS Noetic" ;;
 esac

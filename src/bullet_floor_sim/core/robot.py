@@ -168,9 +168,9 @@ class Drive:
         Returns:
             (N, 3) new velocities.
         """
-        t = np.clip(target, -self.vmax, self.vmax)
+        t = np.minimum(np.maximum(target, -self.vmax), self.vmax)
         step = self.amax * dt
-        return np.clip(t, current - step, current + step)
+        return np.minimum(np.maximum(t, current - step), current + step)
 
 
 class DiffDrive(Drive):

@@ -1,0 +1,146 @@
+#!/usr/bin/env python3
+"""Simulator-core benchmark: real-time factor, ray cost, load time, memory.
+
+Prints a table and ends with one machine-readable line:
+
+    BENCH sim rtf_1=<x> rtf_10=<x> rtf_50=<x> ray_overhead=<ratio> load_s=<x> rss_mb_10=<x>
+
+Setup of every case: the office world, physics at 100 Hz, every robot with one 360-beam lidar
+(360 degrees, 1 degree) at 10 Hz, robots spread over free space and driven by random
+commands. Each case runs in its own process so its peak RSS is its own. ``ray_overhead`` is
+the lidar's cost per ray (building rays, casting, turning fractions into ranges) divided by
+the cost of the bare ``rayTestBatch`` calls on the very same rays, timed alternately in the
+same process.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "src"))
+
+
+def _world(n_robots: int, seed: int = 7):
+    """The office world with n robots at free, spread-out poses."""
+    import dataclasses
+
+    import numpy as np
+
+    from bullet_floor_sim.core.config import LaserConfig, RobotSpec, load_world_config, resolve_world
+    from bullet_floor_sim.core.floormap import load_map
+    from bullet_floor_sim.core.paths import worlds_dir
+    from bullet_floor_sim.core.world import World
+
+    cfg = load_world_config(resolve_world("office", worlds_dir()))
+    fmap = load_map(cfg.map_yaml)
+    from scipy.ndimage import distance_transform_edt
+
+    clear = distance_transform_edt(fmap.grid == 0) * fmap.resolution
+    rows, cols = np.nonzero(clear > 0.7)
+    rng = np.random.default_rng(seed)
+    poses = []
+    for k in rng.permutation(len(rows)):
+        x, y = fmap.cell_to_world(cols[k], rows[k])
+        if all((x - px) ** 2 + (y - py) ** 2 > 1.2 ** 2 for px, py, _ in poses):
+            poses.append((float(x), float(y), float(rng.uniform(-np.pi, np.pi))))
+        if len(poses) == n_robots:
+            break
+    laser = LaserConfig(fov=360.0, resolution=1.0, rate=10.0)
+    robots = [RobotSpec(name="robot%d" % (i + 1), pose=p, laser=laser) for i, p in enumerate(poses)]
+    cfg = dataclasses.replace(cfg, robots=robots)
+    t0 = time.perf_counter()
+    world = World(cfg, physics_rate=100.0, seed=seed)
+    return world, time.perf_counter() - t0
+
+
+def run_case(n_robots: int, sim_seconds: float) -> dict:
+    """Run one case in this process and return its numbers."""
+    import numpy as np
+
+    t_imports = time.perf_counter()
+    world, load_s = _world(n_robots)
+    load_total = time.perf_counter() - t_imports
+    rng = np.random.default_rng(1)
+    steps = int(round(sim_seconds / world.clock.dt))
+    turn = np.zeros(world.n)
+    front = np.abs(world.lidar.angles[0]) < 0.6
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        for scan in world.step():  # a reactive wanderer: cruise, turn away from what is ahead
+            i = scan.robot
+            if np.min(scan.ranges[front]) < 1.0 or world.stalled[i]:
+                turn[i] = turn[i] or float(rng.choice((-1.2, 1.2)))
+                world.command(i, 0.0, 0.0, turn[i])
+            else:
+                turn[i] = 0.0
+                world.command(i, 0.6, 0.0, float(rng.uniform(-0.3, 0.3)))
+    wall = time.perf_counter() - t0
+    out = {"robots": n_robots, "sim_s": sim_seconds, "wall_s": wall, "rtf": sim_seconds / wall,
+           "load_s": load_s, "load_with_imports_s": load_total,
+           "stalls": int(world.stall_count.sum()),
+           "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
+    out.update(_ray_overhead(world))
+    return out
+
+
+def _ray_overhead(world, reps: int = 20) -> dict:
+    """Lidar cost per ray vs bare rayTestBatch on the same rays, timed alternately."""
+    import numpy as np
+
+    from bullet_floor_sim.core.sensors import MAX_RAYS_PER_BATCH as B
+
+    due = np.arange(world.n)
+    froms, tos, _, _ = world.lidar.rays(due, world.pose, world._bounds)
+    n_rays = len(froms)
+    t_scan = t_raw = 0.0
+    for _ in range(reps):
+        t = time.perf_counter()
+        for s in range(0, n_rays, B):
+            world.client.rayTestBatch(froms[s:s + B], tos[s:s + B], numThreads=world.ray_threads)
+        t_raw += time.perf_counter() - t
+        world._next_scan_ns[due] = world.clock.now_ns
+        t = time.perf_counter()
+        world._scan()
+        t_scan += time.perf_counter() - t
+    return {"rays_per_scan_batch": n_rays, "raw_rays_per_s": n_rays * reps / t_raw,
+            "lidar_rays_per_s": n_rays * reps / t_scan, "ray_overhead": t_scan / t_raw}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--case", type=int, help="(internal) run one case with N robots")
+    ap.add_argument("--sim-seconds", type=float, default=None)
+    args = ap.parse_args()
+    if args.case:
+        print(json.dumps(run_case(args.case, args.sim_seconds)))
+        return 0
+    cases = [(1, 60.0), (10, 20.0), (50, 5.0)]
+    results = {}
+    for n, sim_s in cases:
+        proc = subprocess.run([sys.executable, __file__, "--case", str(n), "--sim-seconds",
+                               str(args.sim_seconds or sim_s)], stdout=subprocess.PIPE,
+                              stderr=subprocess.DEVNULL, universal_newlines=True, check=True)
+        results[n] = json.loads(proc.stdout.strip().splitlines()[-1])
+    print("%-7s %8s %8s %9s %10s %12s %12s %9s %8s %7s" % (
+        "robots", "sim_s", "wall_s", "rtf", "load_s", "raw_rays/s", "lidar_rays/s", "ray_ovh",
+        "rss_mb", "stalls"))
+    for n, r in sorted(results.items()):
+        print("%-7d %8.1f %8.2f %9.1f %10.3f %12.0f %12.0f %9.2f %8.1f %7d" % (
+            n, r["sim_s"], r["wall_s"], r["rtf"], r["load_s"], r["raw_rays_per_s"],
+            r["lidar_rays_per_s"], r["ray_overhead"], r["rss_mb"], r["stalls"]))
+    print("targets: rtf_1 >= 150, rtf_10 >= 30, rtf_50 >= 4, ray_overhead <= 1.3, "
+          "load_s < 0.5 (office, 2 robots' worth of model loading included), rss_mb_10 < 250")
+    print("BENCH sim rtf_1=%.1f rtf_10=%.1f rtf_50=%.2f ray_overhead=%.2f load_s=%.3f rss_mb_10=%.1f"
+          % (results[1]["rtf"], results[10]["rtf"], results[50]["rtf"],
+             results[50]["ray_overhead"], results[1]["load_s"], results[10]["rss_mb"]))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
