@@ -194,6 +194,7 @@ class World:
                 sel = slice(None) if len(rows) == n else np.array(rows)
                 self._drives.append((sel, cls([self.specs[i].drive for i in rows])))
         self.bodies = []
+        self._inertial = []
         for i, (spec, model) in enumerate(zip(self.specs, self.models)):
             x, y, yaw = self.pose[i]
             try:
@@ -205,14 +206,17 @@ class World:
                 raise ConfigError("robot %r: PyBullet cannot load model %r (%s): %s"
                                   % (spec.name, spec.model, model.urdf_path, e)) from None
             self.bodies.append(b)
+            info = p.getDynamicsInfo(b, -1)  # the base's pose in PyBullet is its inertial frame
+            self._inertial.append((tuple(info[3]), tuple(info[4])))
         self._body_index = {b: i for i, b in enumerate(self.bodies)}
         self.radius = np.array([self._body_radius(b) for b in self.bodies]).reshape(n)
         self.lidar = Lidar([s.laser for s in self.specs], [m.laser_pose for m in self.models],
                            self.rng)
         self._laser_robots = np.array([i for i, s in enumerate(self.specs) if s.laser.enabled],
                                       dtype=np.int64)
-        self._next_scan_ns = np.full(n, self.clock.now_ns, dtype=np.int64)
-        self._scan_due_ns = self.clock.now_ns if len(self._laser_robots) else 2 ** 62
+        self._next_scan_ns = self.clock.now_ns + self.lidar.period_ns
+        self._scan_due_ns = int(self._next_scan_ns[self._laser_robots].min()) \
+            if len(self._laser_robots) else 2 ** 62
         self.odometry = Odometry([s.odometry for s in self.specs], self.rng)
         self._odom_ref = self.pose.copy()
         rates = [s.odometry.rate for s in self.specs] or [1.0]
@@ -394,9 +398,13 @@ class World:
                 self._penetration[i] = depth[i]
 
     def _set_body(self, i: int, pose: np.ndarray) -> None:
+        """Place a robot's body with its base_footprint at ``pose`` (PyBullet wants the
+        pose of the base's inertial frame, so the URDF link pose is composed with it)."""
         x, y, yaw = pose
-        self.client.resetBasePositionAndOrientation(
-            self.bodies[i], (x, y, 0.0), (0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0)))
+        p = self.client
+        pos, orn = p.multiplyTransforms((x, y, 0.0), (0.0, 0.0, math.sin(yaw / 2.0),
+                                                      math.cos(yaw / 2.0)), *self._inertial[i])
+        p.resetBasePositionAndOrientation(self.bodies[i], pos, orn)
 
     def _sync_bodies(self, rows: Optional[Sequence[int]] = None) -> None:
         for i in (range(self.n) if rows is None else rows):

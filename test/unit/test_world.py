@@ -1,0 +1,359 @@
+"""The simulator core against known geometry and commanded motion (no ROS).
+
+``worlds/simple`` is a 6 m x 4 m room: free interior x in [0.10, 5.90], y in [0.10, 3.90], and a
+pillar over x in [4.00, 4.50], y in [1.00, 1.50]. The Scitos A5 laser sits at (0.3, 0, 0.437)
+in base_footprint; its base hull is an octagon of circumradius 0.32 m with a vertex ahead.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from bullet_floor_sim.core.config import (DriveConfig, LaserConfig, OdometryConfig, RobotSpec,
+                                          load_world_config, resolve_world)
+from bullet_floor_sim.core.errors import CommandError
+from bullet_floor_sim.core.paths import worlds_dir
+from bullet_floor_sim.core.sensors import cast_rays
+from bullet_floor_sim.core.world import SimClock, World
+
+BOXES = [  # (xmin, ymin, xmax, ymax) of every occupied region of worlds/simple
+    (0.0, 0.0, 6.0, 0.1), (0.0, 3.9, 6.0, 4.0), (0.0, 0.0, 0.1, 4.0), (5.9, 0.0, 6.0, 4.0),
+    (4.0, 1.0, 4.5, 1.5),
+]
+EXACT = LaserConfig(fov=360.0, resolution=1.0, noise_std=0.0)
+STILL = OdometryConfig(noise_trans=0.0, noise_rot=0.0, noise_rot_per_m=0.0)
+
+
+def expected_range(ox, oy, angle, boxes=BOXES):
+    """Distance from (ox, oy) along ``angle`` to the first box (slab method)."""
+    dx, dy = math.cos(angle), math.sin(angle)
+    best = math.inf
+    for x0, y0, x1, y1 in boxes:
+        tmin, tmax = -math.inf, math.inf
+        for o, d, lo, hi in ((ox, dx, x0, x1), (oy, dy, y0, y1)):
+            if abs(d) < 1e-12:
+                if not lo <= o <= hi:
+                    tmin, tmax = math.inf, -math.inf
+                continue
+            t0, t1 = (lo - o) / d, (hi - o) / d
+            tmin, tmax = max(tmin, min(t0, t1)), min(tmax, max(t0, t1))
+        if tmax >= max(tmin, 0.0):
+            best = min(best, max(tmin, 0.0))
+    return best
+
+
+def simple_world(robots, **kwargs):
+    cfg = load_world_config(resolve_world("simple", worlds_dir()))
+    return World(dataclasses.replace(cfg, robots=robots), seed=kwargs.pop("seed", 5), **kwargs)
+
+
+@pytest.fixture
+def one_robot():
+    w = simple_world([RobotSpec(name="r", pose=(1.5, 2.0, 0.0), laser=EXACT, odometry=STILL)])
+    yield w
+    w.close()
+
+
+def test_rays_from_known_points_hit_walls_at_exact_distances():
+    w = simple_world([])
+    try:
+        points = [(1.0, 1.0), (3.0, 2.0), (5.0, 3.5), (4.25, 0.5), (0.5, 3.0)]
+        angles = np.radians(np.arange(0.3, 360.0, 7.5))  # no ray grazes a corner
+        froms, tos, want = [], [], []
+        for x, y in points:
+            for a in angles:
+                froms.append((x, y, 0.4))
+                tos.append((x + 20 * math.cos(a), y + 20 * math.sin(a), 0.4))
+                want.append(expected_range(x, y, a))
+        frac, ids = cast_rays(w.client, np.array(froms), np.array(tos))
+        assert (ids >= 0).all()
+        np.testing.assert_allclose(frac * 20.0, want, atol=0.01)
+    finally:
+        w.close()
+
+
+def test_scan_matches_room_geometry(one_robot):
+    scans = one_robot.step(10)  # first scan after one laser period (0.1 s)
+    assert len(scans) == 1
+    scan = scans[0]
+    assert scan.ranges.shape == (360,) and scan.angle_min == pytest.approx(-math.pi)
+    angles = scan.angle_min + scan.angle_increment * np.arange(360)
+    want = [expected_range(1.8, 2.0, a) for a in angles]
+    np.testing.assert_allclose(scan.ranges, want, atol=0.01)
+    assert scan.ranges[180] == pytest.approx(4.1, abs=0.01)   # ahead: east wall at 5.9
+    assert scan.ranges[0] == pytest.approx(1.7, abs=0.01)     # behind: west wall at 0.1
+
+
+def test_scan_of_a_turned_robot():
+    w = simple_world([RobotSpec(name="r", pose=(3.0, 2.5, 2.0), laser=EXACT, odometry=STILL)])
+    try:
+        scan = w.step(10)[0]
+        ox, oy = 3.0 + 0.3 * math.cos(2.0), 2.5 + 0.3 * math.sin(2.0)
+        angles = 2.0 + scan.angle_min + scan.angle_increment * np.arange(360)
+        np.testing.assert_allclose(scan.ranges, [expected_range(ox, oy, a) for a in angles],
+                                   atol=0.01)
+    finally:
+        w.close()
+
+
+def test_robot_sees_other_robot_but_not_itself():
+    w = simple_world([RobotSpec(name="a", pose=(1.5, 2.0, 0.0), laser=EXACT, odometry=STILL),
+                      RobotSpec(name="b", pose=(3.5, 2.0, math.pi), laser=EXACT, odometry=STILL)])
+    try:
+        scans = {s.robot: s for s in w.step(10)}
+        # b's hull vertex faces a at x = 3.5 - 0.32; a's laser is at x = 1.8
+        assert scans[0].ranges[180] == pytest.approx(3.18 - 1.8, abs=0.01)
+        # b's laser at x = 3.2 looking west sees a's rear hull vertex at 1.5 + 0.32
+        assert scans[1].ranges[180] == pytest.approx(3.2 - 1.82, abs=0.01)
+        for s in scans.values():
+            assert np.isfinite(s.ranges).all() and s.ranges.min() > 0.3
+    finally:
+        w.close()
+
+
+def test_range_limits_and_noise():
+    laser = LaserConfig(fov=360.0, resolution=1.0, noise_std=0.05, range_max=3.0, range_min=0.1)
+    w = simple_world([RobotSpec(name="r", pose=(1.5, 2.0, 0.0), laser=laser, odometry=STILL)],
+                     seed=11)
+    try:
+        scans = w.step(200)  # 20 scans, robot still
+        r = np.array([s.ranges for s in scans])
+        angles = scans[0].angle_min + scans[0].angle_increment * np.arange(360)
+        want = np.array([expected_range(1.8, 2.0, a) for a in angles])
+        assert (want > 3.3).sum() > 50
+        assert np.isposinf(r[:, want > 3.3]).all()           # beyond range_max: no return
+        near = want < 2.7
+        err = r[:, near] - want[near]
+        assert abs(err.mean()) < 0.005
+        assert err.std() == pytest.approx(0.05, rel=0.08)
+    finally:
+        w.close()
+
+
+def drive(w, robot, cmd, seconds, every=0.1):
+    """Re-send a command every ``every`` s (as a planner does) for ``seconds`` of sim time."""
+    steps = int(round(seconds / w.clock.dt))
+    k_every = int(round(every / w.clock.dt))
+    for k in range(steps):
+        if k % k_every == 0:
+            w.command(robot, *cmd)
+        w.step(1)
+
+
+def ramp_distance(v, acc, dt, steps):
+    """Distance covered from rest under the drive's per-step acceleration limit."""
+    d, cur = 0.0, 0.0
+    for _ in range(steps):
+        cur = min(v, cur + acc * dt)
+        d += cur * dt
+    return d
+
+
+def test_diff_straight_line_and_odometry(one_robot):
+    w = one_robot
+    drive(w, 0, (0.5, 0.0, 0.0), 2.0)
+    view = w.view(0)
+    dist = ramp_distance(0.5, 1.0, 0.01, 200)
+    assert dist == pytest.approx(0.8775)
+    assert view.pose == pytest.approx((1.5 + dist, 2.0, 0.0), abs=1e-9)
+    assert view.odom_pose == pytest.approx((dist, 0.0, 0.0), abs=1e-9)
+    assert view.velocity == pytest.approx((0.5, 0.0, 0.0))
+    # wheels: both turned dist / radius
+    assert view.wheel_positions == pytest.approx((dist / 0.09, dist / 0.09))
+
+
+def test_diff_arc_follows_commanded_curvature(one_robot):
+    w = one_robot
+    w.pose[0] = (2.0, 1.2, 0.0)  # room for a circle of radius 1 m
+    w.spawn[0] = (2.0, 1.2, 0.0)
+    drive(w, 0, (0.5, 0.0, 0.5), 1.0)   # ramps are over by now (0.5 s for v, 0.17 s for w)
+    x0, y0, th0 = w.view(0).pose
+    o0 = w.view(0).odom_pose
+    drive(w, 0, (0.5, 0.0, 0.5), 2.0)
+    x1, y1, th1 = w.view(0).pose
+    t = 2.0
+    assert th1 == pytest.approx(th0 + 0.5 * t, abs=1e-9)
+    assert x1 == pytest.approx(x0 + (math.sin(th0 + 0.5 * t) - math.sin(th0)), abs=1e-6)
+    assert y1 == pytest.approx(y0 - (math.cos(th0 + 0.5 * t) - math.cos(th0)), abs=1e-6)
+    # noise-free odometry is the same rigid motion expressed in the odom frame
+    o1 = w.view(0).odom_pose
+    assert math.hypot(o1[0] - o0[0], o1[1] - o0[1]) == pytest.approx(math.hypot(x1 - x0, y1 - y0))
+    assert o1[2] - o0[2] == pytest.approx(th1 - th0)
+
+
+def test_diff_ignores_lateral_and_omni_moves_sideways():
+    omni = DriveConfig(type="omni")
+    w = simple_world([RobotSpec(name="d", pose=(1.5, 1.0, 0.0), laser=EXACT, odometry=STILL),
+                      RobotSpec(name="o", pose=(1.5, 3.0, 0.0), laser=EXACT, odometry=STILL,
+                                drive=omni)])
+    try:
+        for k in range(150):
+            if k % 10 == 0:
+                w.command(0, 0.0, 0.3, 0.0)
+                w.command(1, 0.2, -0.3, 0.0)
+            w.step(1)
+        assert w.view(0).pose == pytest.approx((1.5, 1.0, 0.0), abs=1e-12)
+        assert w.view(1).pose[0] == pytest.approx(1.5 + ramp_distance(0.2, 1.0, 0.01, 150))
+        assert w.view(1).pose[1] == pytest.approx(3.0 - ramp_distance(0.3, 1.0, 0.01, 150))
+    finally:
+        w.close()
+
+
+def test_limits_clamp_and_bad_commands_are_rejected(one_robot):
+    w = one_robot
+    drive(w, 0, (5.0, 0.0, 0.0), 1.5)       # above max_linear 0.8, not absurd: clamped
+    assert w.view(0).velocity[0] == pytest.approx(0.8)
+    with pytest.raises(CommandError, match=r"robot 'r': cmd_vel linear.x is nan; command rejected"):
+        w.command(0, float("nan"), 0.0, 0.0)
+    with pytest.raises(CommandError, match=r"cmd_vel angular.z is inf"):
+        w.command(0, 0.1, 0.0, float("inf"))
+    with pytest.raises(CommandError, match=r"cmd_vel linear.x = 100 is absurd \(limit 0.8\)"):
+        w.command(0, 100.0, 0.0, 0.0)
+    assert np.isfinite(w.pose).all()
+    assert tuple(w.target[0]) == (5.0, 0.0, 0.0)   # the last good command stands
+
+
+def test_watchdog_stops_robot(one_robot):
+    w = one_robot
+    w.command(0, 0.5, 0.0, 0.0)
+    w.step(50)                                  # 0.5 s: at speed, command still fresh
+    assert w.view(0).velocity[0] == pytest.approx(0.5)
+    w.step(1)                                   # this step starts 0.5 s after: still valid
+    assert w.target[0].tolist() == [0.5, 0.0, 0.0]
+    w.step(1)                                   # starts 0.51 s after the command: stopped
+    assert w.target[0].tolist() == [0.0, 0.0, 0.0]
+    w.step(60)                                  # decelerates at 1 m/s^2
+    assert w.view(0).velocity == (0.0, 0.0, 0.0)
+    x = w.view(0).pose[0]
+    w.step(100)
+    assert w.view(0).pose[0] == x
+
+
+def test_wall_stops_robot_without_penetration(one_robot):
+    w = one_robot
+    w.pose[0] = (1.0, 2.0, math.pi)             # facing the west wall (inner face x = 0.1)
+    w.spawn[0] = (1.0, 2.0, math.pi)
+    w._check_due_ns = 0
+    drive(w, 0, (0.5, 0.0, 0.0), 4.0)
+    view = w.view(0)
+    assert view.stalled or w.stall_count[0] > 0
+    # the hull's rear vertex... the front vertex (0.32 ahead) touches x = 0.1 at most 1 step deep
+    assert view.pose[0] - 0.32 >= 0.1 - 0.006
+    assert view.pose[0] - 0.32 < 0.1 + 0.02
+    assert view.velocity[0] == 0.0
+
+
+def test_robots_do_not_drive_through_each_other():
+    w = simple_world([RobotSpec(name="a", pose=(1.5, 2.0, 0.0), laser=EXACT, odometry=STILL),
+                      RobotSpec(name="b", pose=(3.5, 2.0, math.pi), laser=EXACT, odometry=STILL)])
+    try:
+        for k in range(400):
+            if k % 10 == 0:
+                w.command(0, 0.5, 0.0, 0.0)
+                w.command(1, 0.5, 0.0, 0.0)
+            w.step(1)
+        xa, xb = w.view(0).pose[0], w.view(1).pose[0]
+        assert w.stall_count.sum() > 0
+        assert xb - xa >= 0.64 - 0.012                  # two 0.32 m vertices meet, no overlap
+        assert xb - xa < 0.64 + 0.03
+    finally:
+        w.close()
+
+
+def test_odometry_error_statistics():
+    from bullet_floor_sim.core.sensors import Odometry
+
+    n = 4000
+    cfg = OdometryConfig(noise_trans=0.02, noise_rot=0.0, noise_rot_per_m=0.01, drift_yaw=0.0)
+    odo = Odometry([cfg] * n, np.random.default_rng(0))
+    pose = np.zeros((n, 3))
+    for _ in range(100):                        # 1 m straight in 1 cm steps
+        new = pose.copy()
+        new[:, 0] += 0.01
+        odo.update(pose, new)
+        pose = new
+    # heading noise also bends the path, but over 1 m its effect on x is second order
+    assert odo.pose[:, 0].std() == pytest.approx(0.02, rel=0.08)
+    assert abs(odo.pose[:, 0].mean() - 1.0) < 0.002
+    assert odo.pose[:, 2].std() == pytest.approx(0.01, rel=0.08)
+
+
+def test_odometry_drift_is_systematic():
+    from bullet_floor_sim.core.sensors import Odometry
+
+    cfg = OdometryConfig(noise_trans=0.0, noise_rot=0.0, noise_rot_per_m=0.0, drift_yaw=0.02)
+    odo = Odometry([cfg], np.random.default_rng(0))
+    old = np.zeros((1, 3))
+    new = np.array([[2.0, 0.0, 0.0]])
+    odo.update(old, new)
+    assert odo.pose[0, 2] == pytest.approx(0.04)
+
+
+def test_battery_discharges_linearly(one_robot):
+    pct, volt, charge = one_robot.battery.state(0, one_robot.clock.now_ns + 3600 * 10 ** 9)
+    assert pct == pytest.approx(0.9)
+    assert volt == pytest.approx(22.0 + 6.8 * 0.9)
+    assert charge == pytest.approx(54.0)
+
+
+def test_reset_returns_robots_and_odometry(one_robot):
+    w = one_robot
+    drive(w, 0, (0.5, 0.0, 0.3), 1.0)
+    assert w.view(0).pose != pytest.approx((1.5, 2.0, 0.0))
+    t = w.clock.now_ns
+    w.reset()
+    v = w.view(0)
+    assert v.pose == (1.5, 2.0, 0.0) and v.odom_pose == (0.0, 0.0, 0.0)
+    assert v.velocity == (0.0, 0.0, 0.0) and w.clock.now_ns == t   # time never goes back
+
+
+def test_sim_clock_never_zero_and_fixed_step():
+    c = SimClock(100.0)
+    assert c.now_ns == 10 ** 9 and c.step_ns == 10 ** 7
+    for _ in range(3):
+        c.tick()
+    assert c.now_ns == 10 ** 9 + 3 * 10 ** 7 and c.steps == 3
+    with pytest.raises(Exception, match="start time must be > 0"):
+        SimClock(100.0, start=0.0)
+
+
+def test_scans_at_laser_rate(one_robot):
+    scans = one_robot.step(100)
+    stamps = [s.stamp_ns for s in scans]
+    assert len(stamps) == 10
+    assert set(np.diff(stamps)) == {10 ** 8}
+
+
+def test_scans_over_the_ray_limit_are_split_and_exact():
+    from bullet_floor_sim.core import sensors
+
+    # 3 robots x 7200 beams = 21,600 rays: two rayTestBatch calls; every scan still exact
+    fine = LaserConfig(fov=360.0, resolution=0.05, noise_std=0.0)
+    poses = [(1.0, 1.0, 0.0), (2.5, 3.0, 1.0), (5.0, 2.5, -2.0)]
+    w = simple_world([RobotSpec(name="r%d" % i, pose=p, laser=fine, odometry=STILL)
+                      for i, p in enumerate(poses)])
+    try:
+        calls = []
+        orig = w.client.rayTestBatch
+
+        def counting(*a, **k):
+            calls.append(len(a[0]))
+            return orig(*a, **k)
+
+        w.client.rayTestBatch = counting
+        scans = w.step(10)
+        assert calls == [sensors.MAX_RAYS_PER_BATCH, 21600 - sensors.MAX_RAYS_PER_BATCH]
+        for scan, (x, y, yaw) in zip(scans, poses):
+            ox, oy = x + 0.3 * math.cos(yaw), y + 0.3 * math.sin(yaw)
+            angles = yaw + scan.angle_min + scan.angle_increment * np.arange(7200)
+            sel = slice(None, None, 37)   # a spread of beams across both batches
+            want = [expected_range(ox, oy, a) for a in angles[sel]]
+            got = scan.ranges[sel]
+            ok = np.abs(got - want) < 0.01
+            # beams that end on another robot are the only ones allowed to differ (shorter)
+            assert (ok | (got < np.array(want))).all() and ok.mean() > 0.9
+    finally:
+        w.close()
