@@ -21,7 +21,7 @@ unit-test:
 	$(ROSENV) $(VENV_PY) -m pytest -q -p no:cacheprovider test/unit
 
 lint:
-	$(ROSENV) catkin_lint -W2 --strict --ignore missing_directory $(REPO)
+	$(ROSENV) catkin_lint -q -W2 --strict $(REPO)/.ws/src/bullet_floor_sim
 
 demo: setup
 	$(ROSENV) $(VENV_PY) tools/demo.py --world $(WORLD)

@@ -111,16 +111,18 @@ class World:
 
     def __init__(self, config: WorldConfig, physics_rate: float = 100.0, gui: bool = False,
                  seed: Optional[int] = None, ray_threads: int = 0, start_time: float = 1.0) -> None:
-        import pybullet
-        from pybullet_utils import bullet_client
+        with _quiet_stdout():  # pybullet prints its build time and argv on import/connect
+            import pybullet
+            from pybullet_utils import bullet_client
 
         self.config = config
         self.clock = SimClock(physics_rate, start_time)
         self.rng = np.random.default_rng(seed)
         self.ray_threads = int(ray_threads)
         self.fmap: FloorMap = load_map(config.map_yaml)
-        self.client = bullet_client.BulletClient(
-            connection_mode=pybullet.GUI if gui else pybullet.DIRECT)
+        with _quiet_stdout():
+            self.client = bullet_client.BulletClient(
+                connection_mode=pybullet.GUI if gui else pybullet.DIRECT)
         self._gui = gui
         if gui:
             self.client.configureDebugVisualizer(pybullet.COV_ENABLE_GUI, 0)

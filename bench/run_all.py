@@ -1,0 +1,22 @@
+#!/usr/bin/env python3
+"""`make bench`: run every benchmark script in bench/ and print their tables and BENCH lines."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+BENCHES = ["sim_bench.py"]
+
+
+def main() -> int:
+    status = 0
+    for name in BENCHES:
+        print("== %s" % name, flush=True)
+        status |= subprocess.call([sys.executable, os.path.join(HERE, name)])
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main())
