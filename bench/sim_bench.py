@@ -134,11 +134,13 @@ def main() -> int:
         print("%-7d %8.1f %8.2f %9.1f %10.3f %12.0f %12.0f %9.2f %8.1f %7d" % (
             n, r["sim_s"], r["wall_s"], r["rtf"], r["load_s"], r["raw_rays_per_s"],
             r["lidar_rays_per_s"], r["ray_overhead"], r["rss_mb"], r["stalls"]))
+    print("ray_overhead in the BENCH line is the worst of the three cases")
     print("targets: rtf_1 >= 150, rtf_10 >= 30, rtf_50 >= 4, ray_overhead <= 1.3, "
           "load_s < 0.5 (office, 2 robots' worth of model loading included), rss_mb_10 < 250")
     print("BENCH sim rtf_1=%.1f rtf_10=%.1f rtf_50=%.2f ray_overhead=%.2f load_s=%.3f rss_mb_10=%.1f"
           % (results[1]["rtf"], results[10]["rtf"], results[50]["rtf"],
-             results[50]["ray_overhead"], results[1]["load_s"], results[10]["rss_mb"]))
+             max(r["ray_overhead"] for r in results.values()), results[1]["load_s"],
+             results[10]["rss_mb"]))
     return 0
 
 

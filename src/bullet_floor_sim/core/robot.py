@@ -13,7 +13,7 @@ import math
 import os
 import tempfile
 from dataclasses import dataclass
-from typing import Dict, Tuple, Type
+from typing import Dict, List, Tuple, Type
 
 import numpy as np
 
@@ -150,7 +150,7 @@ class Drive:
 
     holonomic = False
 
-    def __init__(self, cfgs: "list[DriveConfig]") -> None:
+    def __init__(self, cfgs: List[DriveConfig]) -> None:
         self.vmax = np.array([[c.max_linear, c.max_lateral, c.max_angular] for c in cfgs])
         self.amax = np.array([[c.max_acc_linear, c.max_acc_lateral, c.max_acc_angular]
                               for c in cfgs])
