@@ -68,6 +68,13 @@ def test_spawn_inside_a_wall_is_refused(tmp_path):
     p = write_world(tmp_path, "map: map.yaml\nrobots:\n  - {name: a, pose: [4.25, 1.25, 0]}\n")
     with pytest.raises(ConfigError, match=r"robot 'a' spawns inside a wall at \(4\.250, 1\.250\)"):
         World(load_world_config(p))
+    p = write_world(tmp_path, "map: map.yaml\nrobots:\n  - {name: a, pose: [0.3, 2.0, 0]}\n")
+    with pytest.raises(ConfigError, match=r"robot 'a' spawns overlapping a wall \(0\.\d+ m deep\)"):
+        World(load_world_config(p))
+    p = write_world(tmp_path, "map: map.yaml\nrobots:\n  - {name: a, pose: [2.0, 2.0, 0]}\n"
+                              "  - {name: b, pose: [2.3, 2.0, 0]}\n")
+    with pytest.raises(ConfigError, match=r"robot 'a' spawns overlapping robot 'b'"):
+        World(load_world_config(p))
 
 
 def test_unknown_robot_model(tmp_path):

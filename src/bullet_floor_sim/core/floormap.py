@@ -30,7 +30,6 @@ __all__ = [
     "load_map",
     "map_from_grid",
     "merge_rectangles",
-    "wall_boxes",
     "wall_mesh",
 ]
 
@@ -309,17 +308,6 @@ def merge_rectangles(mask: np.ndarray) -> List[Tuple[int, int, int, int]]:
             free[r:r1, c0:c1] = False
             rects.append((int(c0), int(r), int(c1), int(r1)))
     return rects
-
-
-def wall_boxes(fmap: FloorMap) -> List[Tuple[float, float, float, float, float]]:
-    """Wall rectangles as map-frame boxes (cx, cy, half_x, half_y, yaw)."""
-    out = []
-    res = fmap.resolution
-    yaw = fmap.origin[2]
-    for c0, r0, c1, r1 in fmap.rectangles():
-        cx, cy = fmap._grid_to_world(np.array((c0 + c1) * 0.5 * res), np.array((r0 + r1) * 0.5 * res))
-        out.append((float(cx), float(cy), (c1 - c0) * res * 0.5, (r1 - r0) * res * 0.5, yaw))
-    return out
 
 
 # Two triangles per face, counter-clockwise seen from outside, for a box whose corners are

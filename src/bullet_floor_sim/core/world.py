@@ -225,8 +225,7 @@ class World:
         self._odom_every = max(1, int(round(1e9 / max(rates) / self.clock.step_ns)))
         self.battery = Battery([s.battery for s in self.specs], self.clock.now_ns)
         self._bounds = self.fmap.bounds()
-        for i in range(n):
-            self._check_spawn(i)
+        self._check_spawns()
 
     def _body_radius(self, body: int) -> float:
         """Conservative footprint radius: the body's AABB half-diagonal in xy at its pose."""
@@ -237,12 +236,22 @@ class World:
         return float(math.hypot(max(abs(lo[0] - pos[0]), abs(hi[0] - pos[0])),
                                 max(abs(lo[1] - pos[1]), abs(hi[1] - pos[1]))))
 
-    def _check_spawn(self, i: int) -> None:
-        spec = self.specs[i]
-        x, y, _ = self.pose[i]
-        if self.fmap.value_at(x, y) == 100 or self._clearance_at(self.pose[i:i + 1])[0] < 0:
-            raise ConfigError("%s: robot %r spawns inside a wall at (%.3f, %.3f)"
-                              % (self.config.path, spec.name, x, y))
+    def _check_spawns(self) -> None:
+        """Refuse a robot whose spawn pose is in a wall cell or overlaps a wall or a robot."""
+        for i, spec in enumerate(self.specs):
+            x, y, _ = self.pose[i]
+            if self.fmap.value_at(x, y) == 100:
+                raise ConfigError("%s: robot %r spawns inside a wall at (%.3f, %.3f)"
+                                  % (self.config.path, spec.name, x, y))
+        self._sync_bodies()
+        self.client.performCollisionDetection()
+        for c in self.client.getContactPoints():
+            if c[8] < -_PENETRATION_TOL:
+                names = [self.specs[self._body_index[b]].name for b in (c[1], c[2])
+                         if b in self._body_index]
+                raise ConfigError("%s: robot %r spawns overlapping %s (%.3f m deep)"
+                                  % (self.config.path, names[0], "robot %r" % names[1]
+                                     if len(names) > 1 else "a wall", -c[8]))
 
     # ----------------------------------------------------------------------------- control
     def robot_index(self, name: str) -> int:
