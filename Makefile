@@ -4,10 +4,10 @@ SHELL := /bin/bash
 .SHELLFLAGS := -eo pipefail -c
 REPO := $(CURDIR)
 VENV_PY := $(REPO)/.venv/bin/python
-ROSENV := source $(REPO)/.ws/devel/setup.bash &&
+ROSENV := source $(REPO)/.venv/bin/activate && source $(REPO)/.ws/devel/setup.bash &&
 WORLD ?= office
 
-.PHONY: setup test unit-test lint demo bench clean
+.PHONY: setup test unit-test integration-test lint demo bench clean
 
 setup:
 	bash tools/setup.sh
@@ -16,9 +16,15 @@ setup:
 test: setup
 	$(MAKE) --no-print-directory lint
 	$(MAKE) --no-print-directory unit-test
+	$(MAKE) --no-print-directory integration-test
 
 unit-test:
 	$(ROSENV) $(VENV_PY) -m pytest -q -p no:cacheprovider test/unit
+
+# rostest starts its own master (port 22422), so a running roscore does not interfere.
+integration-test:
+	$(ROSENV) for t in test/integration/*.test; do \
+	  echo "== rostest $$t"; rostest --text bullet_floor_sim $$(basename $$t) || exit 1; done
 
 lint:
 	$(ROSENV) catkin_lint -q -W2 --strict $(REPO)/.ws/src/bullet_floor_sim

@@ -1,0 +1,296 @@
+"""The simulator node: steps the core world and speaks what map_server, amcl and move_base expect.
+
+Per robot ``N`` (topic namespace ``/N``, frame prefix ``N/``; a robot with an empty name uses
+bare names) it publishes, stamped with sim time: ``odom`` and tf ``N/odom -> N/base_footprint``,
+``base_scan``, ``base_pose_ground_truth`` (Odometry in ``map``), ``pose`` (PoseStamped in
+``map``), ``battery_state``, ``joint_states``; it subscribes ``cmd_vel``. It publishes
+``/clock`` from the core's clock and, unless ``~publish_map`` is false, a latched ``/map``.
+
+Parameters: ``~world`` (name under worlds/ or a world.yaml path; default office),
+``~real_time_factor`` (1.0; 0 = as fast as possible), ``~physics_rate`` (100), ``~gui``,
+``~seed`` (-1 = random), ``~clock_rate`` (100), ``~odom_rate`` (50), ``~pose_rate`` (20),
+``~state_rate`` (10: battery and joint states), ``~publish_map`` (true),
+``~robot_state_publishers`` (true: one robot_state_publisher per robot, started by this node
+with the robot's prefixed URDF, so any number of robots works from one launch file).
+Services: ``~reset``, ``~pause``, ``~unpause`` (std_srvs/Empty).
+"""
+from __future__ import annotations
+
+import math
+import sys
+import threading
+import time
+from typing import List, Optional
+
+import rospy
+from geometry_msgs.msg import PoseStamped, TransformStamped, Twist
+from nav_msgs.msg import MapMetaData, OccupancyGrid, Odometry
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import BatteryState, JointState, LaserScan
+from std_msgs.msg import Float64
+from std_srvs.srv import Empty, EmptyResponse
+from tf2_msgs.msg import TFMessage
+
+from ..core.errors import BulletFloorSimError, CommandError
+from ..core.robot import expand_xacro
+from ..core.world import World
+
+__all__ = ["main", "SimulatorNode"]
+
+
+def _stamp(ns: int) -> rospy.Time:
+    return rospy.Time(ns // 1_000_000_000, ns % 1_000_000_000)
+
+
+def _quat(yaw: float):
+    return 0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0)
+
+
+class SimulatorNode:
+    """ROS glue around one core ``World``: messages in and out, pacing, services."""
+
+    def __init__(self, world: World, rtf: float, rates: dict, publish_map: bool) -> None:
+        self.world = world
+        self.rtf = rtf
+        self.lock = threading.Lock()
+        self.paused = False
+        step = world.clock.step_ns
+        self.every = {k: max(1, int(round(1e9 / v / step))) for k, v in rates.items()}
+        self.robots = []
+        for i, spec in enumerate(world.specs):
+            ns = "/" + spec.name if spec.name else ""
+            pre = spec.prefix
+            r = {
+                "prefix": pre,
+                "odom": rospy.Publisher(ns + "/odom", Odometry, queue_size=10),
+                "scan": rospy.Publisher(ns + "/base_scan", LaserScan, queue_size=10),
+                "gt": rospy.Publisher(ns + "/base_pose_ground_truth", Odometry, queue_size=10),
+                "pose": rospy.Publisher(ns + "/pose", PoseStamped, queue_size=10),
+                "battery": rospy.Publisher(ns + "/battery_state", BatteryState, queue_size=2),
+                "joints": rospy.Publisher(ns + "/joint_states", JointState, queue_size=10),
+                "wheels": [pre + j for j in world.models[i].wheel_joints],
+            }
+            rospy.Subscriber(ns + "/cmd_vel", Twist, self._on_cmd, callback_args=i, queue_size=1)
+            self.robots.append(r)
+        self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=10)
+        self.tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=100)
+        self.rtf_pub = rospy.Publisher("~real_time_factor_achieved", Float64, queue_size=1)
+        if publish_map:
+            self._publish_map()
+        rospy.Service("~reset", Empty, self._on_reset)
+        rospy.Service("~pause", Empty, self._on_pause)
+        rospy.Service("~unpause", Empty, self._on_unpause)
+
+    # ------------------------------------------------------------------------- callbacks
+    def _on_cmd(self, msg: Twist, robot: int) -> None:
+        try:
+            with self.lock:
+                self.world.command(robot, msg.linear.x, msg.linear.y, msg.angular.z)
+        except CommandError as e:
+            rospy.logwarn_throttle(2.0, str(e))
+
+    def _on_reset(self, _req) -> EmptyResponse:
+        with self.lock:
+            self.world.reset()
+        rospy.loginfo("simulator: robots reset to their spawn poses")
+        return EmptyResponse()
+
+    def _on_pause(self, _req) -> EmptyResponse:
+        self.paused = True
+        return EmptyResponse()
+
+    def _on_unpause(self, _req) -> EmptyResponse:
+        self.paused = False
+        return EmptyResponse()
+
+    # ------------------------------------------------------------------------- output
+    def _publish_map(self) -> None:
+        fmap = self.world.fmap
+        info = MapMetaData()
+        info.map_load_time = _stamp(self.world.clock.now_ns)
+        info.resolution = fmap.resolution
+        info.width, info.height = fmap.width, fmap.height
+        info.origin.position.x, info.origin.position.y = fmap.origin[0], fmap.origin[1]
+        (info.origin.orientation.x, info.origin.orientation.y, info.origin.orientation.z,
+         info.origin.orientation.w) = _quat(fmap.origin[2])
+        grid = OccupancyGrid()
+        grid.header.frame_id = "map"
+        grid.header.stamp = info.map_load_time
+        grid.info = info
+        grid.data = fmap.grid.ravel().tolist()
+        self.map_pub = rospy.Publisher("/map", OccupancyGrid, queue_size=1, latch=True)
+        self.meta_pub = rospy.Publisher("/map_metadata", MapMetaData, queue_size=1, latch=True)
+        self.map_pub.publish(grid)
+        self.meta_pub.publish(info)
+
+    def publish(self, scans) -> None:
+        """Publish what is due after a step (called with the lock held)."""
+        w = self.world
+        steps = w.clock.steps
+        stamp = _stamp(w.clock.now_ns)
+        if steps % self.every["clock"] == 0:
+            self.clock_pub.publish(Clock(clock=stamp))
+        odom_due = steps % self.every["odom"] == 0
+        pose_due = steps % self.every["pose"] == 0
+        state_due = steps % self.every["state"] == 0
+        tfs: List[TransformStamped] = []
+        if odom_due or pose_due or state_due:
+            for i, r in enumerate(self.robots):
+                v = w.view(i)
+                if odom_due:
+                    self._odom(r, v, stamp, tfs)
+                if pose_due:
+                    self._ground_truth(r, v, stamp)
+                if state_due:
+                    self._state(i, r, v, stamp)
+        if tfs:
+            self.tf_pub.publish(TFMessage(transforms=tfs))
+        for s in scans:
+            self._scan(self.robots[s.robot], s)
+
+    def _odom(self, r: dict, v, stamp, tfs: List[TransformStamped]) -> None:
+        x, y, yaw = v.odom_pose
+        q = _quat(yaw)
+        m = Odometry()
+        m.header.stamp = stamp
+        m.header.frame_id = r["prefix"] + "odom"
+        m.child_frame_id = r["prefix"] + "base_footprint"
+        p = m.pose.pose
+        p.position.x, p.position.y = x, y
+        p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w = q
+        m.twist.twist.linear.x, m.twist.twist.linear.y = v.velocity[0], v.velocity[1]
+        m.twist.twist.angular.z = v.velocity[2]
+        r["odom"].publish(m)
+        t = TransformStamped()
+        t.header = m.header
+        t.child_frame_id = m.child_frame_id
+        t.transform.translation.x, t.transform.translation.y = x, y
+        (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+         t.transform.rotation.w) = q
+        tfs.append(t)
+
+    def _ground_truth(self, r: dict, v, stamp) -> None:
+        x, y, yaw = v.pose
+        q = _quat(yaw)
+        m = Odometry()
+        m.header.stamp = stamp
+        m.header.frame_id = "map"
+        m.child_frame_id = r["prefix"] + "base_footprint"
+        p = m.pose.pose
+        p.position.x, p.position.y = x, y
+        p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w = q
+        m.twist.twist.linear.x, m.twist.twist.linear.y = v.velocity[0], v.velocity[1]
+        m.twist.twist.angular.z = v.velocity[2]
+        r["gt"].publish(m)
+        ps = PoseStamped()
+        ps.header = m.header
+        ps.pose = m.pose.pose
+        r["pose"].publish(ps)
+
+    def _state(self, i: int, r: dict, v, stamp) -> None:
+        js = JointState()
+        js.header.stamp = stamp
+        js.name = r["wheels"]
+        js.position = list(v.wheel_positions)
+        js.velocity = list(v.wheel_velocities)
+        r["joints"].publish(js)
+        pct, volt, charge = self.world.battery.state(i, self.world.clock.now_ns)
+        b = BatteryState()
+        b.header.stamp = stamp
+        b.voltage, b.percentage, b.charge = volt, pct, charge
+        b.capacity = b.design_capacity = self.world.specs[i].battery.capacity_ah
+        b.current = float("nan")
+        b.power_supply_status = BatteryState.POWER_SUPPLY_STATUS_DISCHARGING
+        b.power_supply_technology = BatteryState.POWER_SUPPLY_TECHNOLOGY_UNKNOWN
+        b.present = True
+        r["battery"].publish(b)
+
+    def _scan(self, r: dict, s) -> None:
+        m = LaserScan()
+        m.header.stamp = _stamp(s.stamp_ns)
+        m.header.frame_id = r["prefix"] + "base_laser_link"
+        m.angle_min, m.angle_max, m.angle_increment = s.angle_min, s.angle_max, s.angle_increment
+        m.scan_time = s.scan_time
+        m.range_min, m.range_max = s.range_min, s.range_max
+        m.ranges = s.ranges.tolist()
+        r["scan"].publish(m)
+
+    # ------------------------------------------------------------------------- main loop
+    def spin(self) -> None:
+        """Step, publish and pace until shutdown; log the achieved real-time factor every 10 s."""
+        w = self.world
+        wall0, sim0 = time.perf_counter(), w.clock.now
+        report_at = wall0 + 10.0
+        rep_wall, rep_sim = wall0, sim0
+        while not rospy.is_shutdown():
+            if self.paused:
+                time.sleep(0.01)
+                wall0, sim0 = time.perf_counter(), w.clock.now
+                continue
+            with self.lock:
+                scans = w.step(1)
+                self.publish(scans)
+            now_wall = time.perf_counter()
+            if self.rtf > 0:
+                ahead = (w.clock.now - sim0) / self.rtf - (now_wall - wall0)
+                if ahead > 0:
+                    time.sleep(ahead)
+                elif ahead < -1.0:  # far behind: do not try to catch up in a burst
+                    wall0, sim0 = now_wall, w.clock.now
+            if now_wall >= report_at:
+                achieved = (w.clock.now - rep_sim) / (now_wall - rep_wall)
+                rospy.loginfo("simulator: real-time factor %.2f (asked %s)", achieved,
+                              self.rtf if self.rtf > 0 else "as fast as possible")
+                self.rtf_pub.publish(Float64(achieved))
+                report_at, rep_wall, rep_sim = now_wall + 10.0, now_wall, w.clock.now
+
+
+def _start_robot_state_publishers(world: World):
+    """One robot_state_publisher per robot, in its namespace, with the prefixed URDF."""
+    import roslaunch
+
+    launch = roslaunch.scriptapi.ROSLaunch()
+    launch.start()
+    for spec in world.specs:
+        ns = "/" + spec.name if spec.name else "/"
+        rospy.set_param((ns.rstrip("/") or "") + "/robot_description",
+                        expand_xacro(spec.model, spec.prefix))
+        node = roslaunch.core.Node("robot_state_publisher", "robot_state_publisher",
+                                   name="robot_state_publisher", namespace=ns,
+                                   output="log")
+        launch.launch(node)
+    return launch
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    """Entry point of ``rosrun bullet_floor_sim simulator``."""
+    rospy.init_node("simulator")
+    seed = int(rospy.get_param("~seed", -1))
+    try:
+        world = World.from_name(str(rospy.get_param("~world", "office")),
+                                physics_rate=float(rospy.get_param("~physics_rate", 100.0)),
+                                gui=bool(rospy.get_param("~gui", False)),
+                                seed=None if seed < 0 else seed)
+    except BulletFloorSimError as e:
+        rospy.logfatal("simulator: %s", e)
+        return 1
+    rates = {k: float(rospy.get_param("~%s_rate" % k, d))
+             for k, d in (("clock", 100.0), ("odom", 50.0), ("pose", 20.0), ("state", 10.0))}
+    node = SimulatorNode(world, float(rospy.get_param("~real_time_factor", 1.0)), rates,
+                         bool(rospy.get_param("~publish_map", True)))
+    launch = None
+    if rospy.get_param("~robot_state_publishers", True):
+        launch = _start_robot_state_publishers(world)
+    rospy.loginfo("simulator: world %s with robots %s", world.config.path,
+                  ", ".join(s.name or "<empty>" for s in world.specs))
+    try:
+        node.spin()
+    finally:
+        if launch is not None:
+            launch.stop()
+        world.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

@@ -1,0 +1,175 @@
+#!/usr/bin/env python3
+"""rostest node: the simulator's ROS interface in worlds/simple, checked against known values.
+
+worlds/simple: free interior x in [0.10, 5.90], y in [0.10, 3.90], pillar x in [4.0, 4.5],
+y in [1.0, 1.5]; robot1 spawns at (1.5, 2.0, 0), robot2 at (3.0, 3.0, pi). The Scitos laser is
+0.3 m ahead of base_footprint.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+import unittest
+
+import rospy
+import rostest
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import Odometry
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import LaserScan
+from std_srvs.srv import Empty
+from tf2_msgs.msg import TFMessage
+
+BOXES = [(0.0, 0.0, 6.0, 0.1), (0.0, 3.9, 6.0, 4.0), (0.0, 0.0, 0.1, 4.0), (5.9, 0.0, 6.0, 4.0),
+         (4.0, 1.0, 4.5, 1.5)]
+
+
+def expected_range(ox, oy, angle):
+    dx, dy = math.cos(angle), math.sin(angle)
+    best = math.inf
+    for x0, y0, x1, y1 in BOXES:
+        tmin, tmax = -math.inf, math.inf
+        for o, d, lo, hi in ((ox, dx, x0, x1), (oy, dy, y0, y1)):
+            if abs(d) < 1e-12:
+                if not lo <= o <= hi:
+                    tmin, tmax = math.inf, -math.inf
+                continue
+            t0, t1 = (lo - o) / d, (hi - o) / d
+            tmin, tmax = max(tmin, min(t0, t1)), min(tmax, max(t0, t1))
+        if tmax >= max(tmin, 0.0):
+            best = min(best, max(tmin, 0.0))
+    return best
+
+
+def yaw_of(q):
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def msg(topic, cls, timeout=10.0):
+    return rospy.wait_for_message(topic, cls, timeout=timeout)
+
+
+class SimInterface(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("test_sim_interface")
+        cls.cmd = rospy.Publisher("/robot1/cmd_vel", Twist, queue_size=1)
+        msg("/clock", Clock, 30.0)
+        msg("/robot1/base_scan", LaserScan, 30.0)
+
+    def drive(self, v, w, seconds):
+        t_end = rospy.get_time() + seconds
+        while rospy.get_time() < t_end and not rospy.is_shutdown():
+            self.cmd.publish(Twist(linear=_vec(v, 0, 0), angular=_vec(0, 0, w)))
+            rospy.sleep(0.1)
+
+    def test_1_scan_matches_walls(self):
+        gt = msg("/robot1/base_pose_ground_truth", Odometry)
+        scan = msg("/robot1/base_scan", LaserScan)
+        self.assertEqual(scan.header.frame_id, "robot1/base_laser_link")
+        self.assertEqual(len(scan.ranges), 181)
+        x, y = gt.pose.pose.position.x, gt.pose.pose.position.y
+        yaw = yaw_of(gt.pose.pose.orientation)
+        self.assertAlmostEqual(x, 1.5, places=6)
+        ox, oy = x + 0.3 * math.cos(yaw), y + 0.3 * math.sin(yaw)
+        to_r2 = math.atan2(3.0 - oy, 3.0 - ox)
+        checked = 0
+        for k, r in enumerate(scan.ranges):
+            a = yaw + scan.angle_min + k * scan.angle_increment
+            want = expected_range(ox, oy, a)
+            if abs(math.remainder(a - to_r2, 2 * math.pi)) < math.radians(16):
+                self.assertLess(r, want + 0.05)   # robot2 may stand in front of the wall
+                continue
+            self.assertAlmostEqual(r, want, delta=0.05, msg="beam %d" % k)
+            checked += 1
+        self.assertGreater(checked, 140)   # 181 beams less the 33 around robot2
+
+    def test_2_frames_and_tf_tree(self):
+        parents = {}
+        seen = []
+
+        def on_tf(m):
+            for t in m.transforms:
+                seen.append((t.header.frame_id, t.child_frame_id))
+
+        subs = [rospy.Subscriber("/tf", TFMessage, on_tf), rospy.Subscriber("/tf_static", TFMessage, on_tf)]
+        rospy.sleep(1.0)
+        for s in subs:
+            s.unregister()
+        for parent, child in seen:
+            self.assertFalse(parent.startswith("/") or child.startswith("/"), (parent, child))
+            self.assertEqual(parents.setdefault(child, parent), parent, "two parents for " + child)
+        for n in ("robot1", "robot2"):
+            self.assertEqual(parents[n + "/base_footprint"], n + "/odom")
+            self.assertEqual(parents[n + "/base_link"], n + "/base_footprint")
+            self.assertEqual(parents[n + "/base_laser_link"], n + "/base_link")
+        odom2 = msg("/robot2/odom", Odometry)
+        self.assertEqual((odom2.header.frame_id, odom2.child_frame_id),
+                         ("robot2/odom", "robot2/base_footprint"))
+        self.assertEqual(msg("/robot2/base_pose_ground_truth", Odometry).header.frame_id, "map")
+
+    def test_3_cmd_vel_moves_robot_and_odom_follows(self):
+        gt0, od0 = msg("/robot1/base_pose_ground_truth", Odometry), msg("/robot1/odom", Odometry)
+        self.drive(0.4, 0.2, 2.0)
+        gt1, od1 = msg("/robot1/base_pose_ground_truth", Odometry), msg("/robot1/odom", Odometry)
+        d_gt = _dist(gt0, gt1)
+        d_od = _dist(od0, od1)
+        self.assertGreater(d_gt, 0.4)
+        self.assertAlmostEqual(d_od, d_gt, delta=0.05 * d_gt + 0.01)
+        turn_gt = math.remainder(yaw_of(gt1.pose.pose.orientation) - yaw_of(gt0.pose.pose.orientation), 2 * math.pi)
+        turn_od = math.remainder(yaw_of(od1.pose.pose.orientation) - yaw_of(od0.pose.pose.orientation), 2 * math.pi)
+        self.assertGreater(turn_gt, 0.2)
+        self.assertAlmostEqual(turn_od, turn_gt, delta=0.05)
+
+    def test_4_watchdog_stops_robot(self):
+        self.drive(0.3, 0.0, 0.5)
+        rospy.sleep(1.5)       # no command for 1.5 s of sim time: watchdog (0.5 s) + braking
+        a = msg("/robot1/base_pose_ground_truth", Odometry)
+        rospy.sleep(0.5)
+        b = msg("/robot1/base_pose_ground_truth", Odometry)
+        self.assertEqual(b.twist.twist.linear.x, 0.0)
+        self.assertLess(_dist(a, b), 1e-9)
+
+    def test_5_nan_command_is_rejected(self):
+        a = msg("/robot1/base_pose_ground_truth", Odometry)
+        for _ in range(5):
+            self.cmd.publish(Twist(linear=_vec(float("nan"), 0, 0), angular=_vec(0, 0, 0)))
+            rospy.sleep(0.1)
+        b = msg("/robot1/base_pose_ground_truth", Odometry)
+        self.assertTrue(math.isfinite(b.pose.pose.position.x))
+        self.assertLess(_dist(a, b), 1e-9)
+        self.assertGreater(b.header.stamp, a.header.stamp)   # the simulator kept running
+
+    def test_6_reset_returns_robots(self):
+        rospy.ServiceProxy("/simulator/reset", Empty)()
+        gt = msg("/robot1/base_pose_ground_truth", Odometry)
+        od = msg("/robot1/odom", Odometry)
+        self.assertAlmostEqual(gt.pose.pose.position.x, 1.5, places=6)
+        self.assertAlmostEqual(gt.pose.pose.position.y, 2.0, places=6)
+        self.assertAlmostEqual(od.pose.pose.position.x, 0.0, places=6)
+
+    def test_7_pause_and_unpause(self):
+        rospy.ServiceProxy("/simulator/pause", Empty)()
+        time.sleep(0.2)
+        t0 = rospy.get_time()
+        time.sleep(0.5)
+        self.assertEqual(rospy.get_time(), t0)
+        rospy.ServiceProxy("/simulator/unpause", Empty)()
+        time.sleep(0.5)
+        self.assertGreater(rospy.get_time(), t0 + 0.3)
+
+
+def _vec(x, y, z):
+    from geometry_msgs.msg import Vector3
+
+    return Vector3(x, y, z)
+
+
+def _dist(a, b):
+    pa, pb = a.pose.pose.position, b.pose.pose.position
+    return math.hypot(pb.x - pa.x, pb.y - pa.y)
+
+
+if __name__ == "__main__":
+    rostest.rosrun("bullet_floor_sim", "sim_interface", SimInterface, sys.argv)
