@@ -101,6 +101,7 @@ class SimInterface(unittest.TestCase):
             self.assertFalse(parent.startswith("/") or child.startswith("/"), (parent, child))
             self.assertEqual(parents.setdefault(child, parent), parent, "two parents for " + child)
         for n in ("robot1", "robot2"):
+            self.assertEqual(parents[n + "/odom"], "map")      # sim.launch: ground_truth_tf
             self.assertEqual(parents[n + "/base_footprint"], n + "/odom")
             self.assertEqual(parents[n + "/base_link"], n + "/base_footprint")
             self.assertEqual(parents[n + "/base_laser_link"], n + "/base_link")
@@ -158,6 +159,17 @@ class SimInterface(unittest.TestCase):
         rospy.ServiceProxy("/simulator/unpause", Empty)()
         time.sleep(0.5)
         self.assertGreater(rospy.get_time(), t0 + 0.3)
+
+    def test_8_tf_chain_lands_on_ground_truth(self):
+        import tf2_ros
+
+        buf = tf2_ros.Buffer()
+        tf2_ros.TransformListener(buf)
+        t = buf.lookup_transform("map", "robot2/base_footprint", rospy.Time(0), rospy.Duration(5.0))
+        gt = msg("/robot2/base_pose_ground_truth", Odometry)   # robot2 never moved
+        self.assertAlmostEqual(t.transform.translation.x, gt.pose.pose.position.x, delta=1e-6)
+        self.assertAlmostEqual(t.transform.translation.y, gt.pose.pose.position.y, delta=1e-6)
+        self.assertAlmostEqual(abs(yaw_of(t.transform.rotation)), math.pi, delta=1e-6)
 
 
 def _vec(x, y, z):

@@ -10,6 +10,8 @@ Parameters: ``~world`` (name under worlds/ or a world.yaml path; default office)
 ``~real_time_factor`` (1.0; 0 = as fast as possible), ``~physics_rate`` (100), ``~gui``,
 ``~seed`` (-1 = random), ``~clock_rate`` (100), ``~odom_rate`` (50), ``~pose_rate`` (20),
 ``~state_rate`` (10: battery and joint states), ``~publish_map`` (true),
+``~ground_truth_tf`` (false: true publishes map -> N/odom from ground truth, for runs without
+amcl),
 ``~robot_state_publishers`` (true: one robot_state_publisher per robot, started by this node
 with the robot's prefixed URDF, so any number of robots works from one launch file).
 Services: ``~reset``, ``~pause``, ``~unpause`` (std_srvs/Empty).
@@ -49,8 +51,10 @@ def _quat(yaw: float):
 class SimulatorNode:
     """ROS glue around one core ``World``: messages in and out, pacing, services."""
 
-    def __init__(self, world: World, rtf: float, rates: dict, publish_map: bool) -> None:
+    def __init__(self, world: World, rtf: float, rates: dict, publish_map: bool,
+                 ground_truth_tf: bool = False) -> None:
         self.world = world
+        self.ground_truth_tf = ground_truth_tf
         self.rtf = rtf
         self.lock = threading.Lock()
         self.paused = False
@@ -139,6 +143,8 @@ class SimulatorNode:
                 v = w.view(i)
                 if odom_due:
                     self._odom(r, v, stamp, tfs)
+                    if self.ground_truth_tf:
+                        tfs.append(self._map_to_odom(r, v, stamp))
                 if pose_due:
                     self._ground_truth(r, v, stamp)
                 if state_due:
@@ -168,6 +174,23 @@ class SimulatorNode:
         (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
          t.transform.rotation.w) = q
         tfs.append(t)
+
+    def _map_to_odom(self, r: dict, v, stamp) -> TransformStamped:
+        """map -> N/odom that makes odom -> base_footprint land on the ground truth (what
+        fake_localization does); only when no localisation node (amcl) publishes it."""
+        xg, yg, thg = v.pose
+        xo, yo, tho = v.odom_pose
+        th = thg - tho
+        c, s = math.cos(th), math.sin(th)
+        t = TransformStamped()
+        t.header.stamp = stamp
+        t.header.frame_id = "map"
+        t.child_frame_id = r["prefix"] + "odom"
+        t.transform.translation.x = xg - (c * xo - s * yo)
+        t.transform.translation.y = yg - (s * xo + c * yo)
+        (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+         t.transform.rotation.w) = _quat(th)
+        return t
 
     def _ground_truth(self, r: dict, v, stamp) -> None:
         x, y, yaw = v.pose
@@ -277,7 +300,8 @@ def main(argv: Optional[List[str]] = None) -> int:
     rates = {k: float(rospy.get_param("~%s_rate" % k, d))
              for k, d in (("clock", 100.0), ("odom", 50.0), ("pose", 20.0), ("state", 10.0))}
     node = SimulatorNode(world, float(rospy.get_param("~real_time_factor", 1.0)), rates,
-                         bool(rospy.get_param("~publish_map", True)))
+                         bool(rospy.get_param("~publish_map", True)),
+                         bool(rospy.get_param("~ground_truth_tf", False)))
     launch = None
     if rospy.get_param("~robot_state_publishers", True):
         launch = _start_robot_state_publishers(world)
