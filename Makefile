@@ -27,7 +27,7 @@ integration-test:
 	  echo "== rostest $$t"; rostest --text bullet_floor_sim $$(basename $$t) || exit 1; done
 
 lint:
-	$(ROSENV) catkin_lint -q -W2 --strict $(REPO)/.ws/src/bullet_floor_sim
+	$(ROSENV) catkin_lint -q -W2 --strict --pkg bullet_floor_sim
 
 demo: setup
 	$(ROSENV) $(VENV_PY) tools/demo.py --world $(WORLD)
@@ -36,4 +36,4 @@ bench: setup
 	$(ROSENV) $(VENV_PY) bench/run_all.py
 
 clean:
-	rm -rf .ws .venv
+	rm -rf .ws .venv "$${BFS_WS:-$${XDG_CACHE_HOME:-$$HOME/.cache}/bullet_floor_sim/ws-$$(printf %s "$(REPO)" | sha1sum | cut -c1-8)}"

@@ -5,15 +5,20 @@
 #   2. creates .venv/ from the system python3 with --system-site-packages (ROS's Python lives there)
 #   3. installs the pinned PyPI packages (requirements/venv.txt, requirements/constraints.txt),
 #      with numpy pinned to the system's numpy
-#   4. creates the catkin workspace .ws/ (src/bullet_floor_sim -> this repo) and runs catkin_make
-#      with the venv active, so node wrappers run the venv's interpreter.
+#   4. creates a catkin workspace (src/bullet_floor_sim -> this repo) and runs catkin_make with
+#      the venv active, so node wrappers run the venv's interpreter. The workspace lives OUTSIDE
+#      the package ($BFS_WS, default ~/.cache/bullet_floor_sim/ws-<hash of this path>): a
+#      workspace inside the package it links to makes a directory loop, and rosrun's `find -L`
+#      then finds every node several times and stops to ask which one. .ws/devel/setup.bash is
+#      a one-line file that sources the real one.
 #
 # Safe to re-run: every step checks what is already there.
 set -euo pipefail
 
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 VENV="$REPO/.venv"
-WS="$REPO/.ws"
+WS="${BFS_WS:-${XDG_CACHE_HOME:-$HOME/.cache}/bullet_floor_sim/ws-$(printf %s "$REPO" | sha1sum | cut -c1-8)}"
+SHIM="$REPO/.ws/devel/setup.bash"
 SYS_PY=/usr/bin/python3
 log() { printf '[setup] %s\n' "$*"; }
 die() { printf '[setup] error: %s\n' "$*" >&2; exit 1; }
@@ -88,6 +93,7 @@ import numpy, pybullet, xacro, yourdfpy, shapely, pymongo, rospy  # noqa: F401
 PY
 
 # 4. catkin workspace with a link to the repo, built with the venv active
+[ -e "$REPO/.ws/src" ] && rm -rf "$REPO/.ws"   # an old in-package workspace: see the header
 mkdir -p "$WS/src"
 ln -sfn "$REPO" "$WS/src/bullet_floor_sim"
 log "catkin_make in $WS"
@@ -98,4 +104,6 @@ log "catkin_make in $WS"
   catkin_make -DPYTHON_EXECUTABLE="$VENV/bin/python" >"$WS/catkin_make.log" 2>&1 \
     || { tail -40 "$WS/catkin_make.log"; exit 1; }
 )
-log "done: source $WS/devel/setup.bash"
+mkdir -p "$(dirname "$SHIM")"
+printf '# Written by tools/setup.sh: the catkin workspace of this checkout lives outside it.\nsource "%s/devel/setup.bash"\n' "$WS" > "$SHIM"
+log "done: source $SHIM"
