@@ -29,8 +29,11 @@ integration-test:
 lint:
 	$(ROSENV) catkin_lint -q -W2 --strict --pkg bullet_floor_sim
 
+# The simulator on the office world, with rviz when a display is available (headless otherwise);
+# the Markov-walker demo replaces it when it lands. Ctrl-C stops it.
 demo: setup
-	$(ROSENV) $(VENV_PY) tools/demo.py --world $(WORLD)
+	$(ROSENV) roslaunch bullet_floor_sim sim.launch world:=$(WORLD) \
+	  rviz:=$$( [ -n "$$DISPLAY" ] && echo true || echo false )
 
 bench: setup
 	$(ROSENV) $(VENV_PY) bench/run_all.py

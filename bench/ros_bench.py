@@ -1,0 +1,127 @@
+#!/usr/bin/env python3
+"""Full simulator node benchmark: real-time factor with everything published and subscribed.
+
+For 1, 10 and 50 robots (the sim_bench set-up: office world, 360-beam 10 Hz lidars, robots at
+free poses) the simulator node runs as fast as it can (``real_time_factor: 0``) under its own
+roscore, and one subscriber (rospy.AnyMsg, so it does not deserialise) is attached to every
+topic it publishes. The real-time factor is sim time gained on /clock over a wall-clock
+window. robot_state_publishers are not started (they publish nothing per step). Robots stand
+still: this measures the node's publishing on top of the core, not driving.
+
+Prints a table and ``BENCH ros rtf_1=<x> rtf_10=<x> rtf_50=<x>``.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+import yaml
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+
+
+def _free_port() -> int:
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+def _world_file(n: int, tmp: str) -> str:
+    import sim_bench
+
+    world, _ = sim_bench._world(n)
+    doc = {"map": world.config.map_yaml, "wall_height": world.config.wall_height,
+           "robots": [{"name": s.name, "pose": [float(v) for v in s.pose],
+                       "laser": {"fov": 360.0, "resolution": 1.0}} for s in world.specs]}
+    world.close()
+    path = os.path.join(tmp, "world%d.yaml" % n)
+    with open(path, "w") as f:
+        yaml.safe_dump(doc, f)
+    return path
+
+
+def run_case(n: int, window: float) -> float:
+    """Achieved real-time factor of the node with n robots (sim s per wall s)."""
+    import rosgraph
+    import rospy
+    from rosgraph_msgs.msg import Clock
+
+    tmp = tempfile.mkdtemp(prefix="bfs_ros_bench_")
+    world = _world_file(n, tmp)
+    env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % _free_port(), ROS_HOME=tmp)
+    os.environ.update(ROS_MASTER_URI=env["ROS_MASTER_URI"])
+    core = subprocess.Popen(["roscore", "-p", env["ROS_MASTER_URI"].rsplit(":", 1)[1]], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    sim = None
+    try:
+        for _ in range(100):
+            if rosgraph.is_master_online(env["ROS_MASTER_URI"]):
+                break
+            time.sleep(0.1)
+        subprocess.call(["rosparam", "set", "/use_sim_time", "true"], env=env)
+        sim = subprocess.Popen(["rosrun", "bullet_floor_sim", "simulator", "_world:=" + world,
+                                "_real_time_factor:=0", "_robot_state_publishers:=false"],
+                               env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        rospy.init_node("ros_bench_%d" % n, anonymous=True, disable_signals=True)
+        last = {}
+
+        def on_clock(m):
+            last["t"] = m.clock.to_sec()
+
+        rospy.Subscriber("/clock", Clock, on_clock)
+        deadline = time.time() + 60
+        while "t" not in last and time.time() < deadline:
+            time.sleep(0.1)
+        subs = []
+        for name in ("odom", "base_scan", "base_pose_ground_truth", "pose", "battery_state",
+                     "joint_states"):
+            for i in range(n):
+                subs.append(rospy.Subscriber("/robot%d/%s" % (i + 1, name), rospy.AnyMsg,
+                                             lambda m: None))
+        subs.append(rospy.Subscriber("/tf", rospy.AnyMsg, lambda m: None))
+        time.sleep(3.0)                        # connections up
+        w0, s0 = time.time(), last["t"]
+        time.sleep(window)
+        w1, s1 = time.time(), last["t"]
+        for s in subs:
+            s.unregister()
+        rospy.signal_shutdown("done")
+        return (s1 - s0) / (w1 - w0)
+    finally:
+        for p in (sim, core):
+            if p is not None:
+                p.send_signal(signal.SIGINT)
+                try:
+                    p.wait(10)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+
+
+def main() -> int:
+    if len(sys.argv) == 3 and sys.argv[1] == "--case":
+        print(run_case(int(sys.argv[2]), 10.0))
+        return 0
+    rtf = {}
+    for n in (1, 10, 50):   # each case in its own process: rospy.init_node is once per process
+        out = subprocess.run([sys.executable, __file__, "--case", str(n)], stdout=subprocess.PIPE,
+                             stderr=subprocess.DEVNULL, universal_newlines=True)
+        lines = out.stdout.strip().splitlines()
+        rtf[n] = float(lines[-1]) if out.returncode == 0 and lines else float("nan")
+    print("%-7s %10s" % ("robots", "ros_rtf"))
+    for n, v in sorted(rtf.items()):
+        print("%-7d %10.1f" % (n, v))
+    print("targets: rtf_1 >= 100, rtf_10 >= 20, rtf_50 >= 3")
+    print("BENCH ros rtf_1=%.1f rtf_10=%.1f rtf_50=%.2f" % (rtf[1], rtf[10], rtf[50]))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
