@@ -17,7 +17,7 @@ set -euo pipefail
 
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 VENV="$REPO/.venv"
-WS="${BFS_WS:-${XDG_CACHE_HOME:-$HOME/.cache}/bullet_floor_sim/ws-$(printf %s "$REPO" | sha1sum | cut -c1-8)}"
+WS="${BFS_WS:-${XDG_CACHE_HOME:-${HOME:-/tmp}/.cache}/bullet_floor_sim/ws-$(printf %s "$REPO" | sha1sum | cut -c1-8)}"
 SHIM="$REPO/.ws/devel/setup.bash"
 SYS_PY=/usr/bin/python3
 log() { printf '[setup] %s\n' "$*"; }
