@@ -300,9 +300,16 @@ class World:
         self.odometry.update(self._odom_ref, self.pose)
         self._odom_ref[:] = self.pose
 
-    def view(self, robot: int) -> RobotView:
-        """Plain-number snapshot of one robot (odometry brought up to date first)."""
-        self.update_odometry()
+    def view(self, robot: int, refresh: bool = True) -> RobotView:
+        """Plain-number snapshot of one robot.
+
+        Args:
+            robot: robot index.
+            refresh: bring odometry up to date first (a caller viewing every robot at once
+                calls ``update_odometry()`` once and passes False).
+        """
+        if refresh:
+            self.update_odometry()
         x, y, yaw = (float(v) for v in self.pose[robot])
         v, w = self.vel[robot, 0], self.vel[robot, 2]
         half = 0.5 * self.wheel_sep[robot]

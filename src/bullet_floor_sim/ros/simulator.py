@@ -48,6 +48,34 @@ def _quat(yaw: float):
     return 0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0)
 
 
+def _stop_listening_to_own_clock() -> bool:
+    """Under /use_sim_time, rospy subscribes every node to /clock, the simulator included:
+    each /clock message would cross a TCP connection back into this process (a thread hand-off
+    and a deserialisation per step). The simulator owns the clock, so it drops that
+    subscription and sets rospy's time itself each step (rospy internals, checked here).
+
+    Returns:
+        True when rospy's time is now set by this node.
+    """
+    try:
+        from rospy.impl import simtime
+        from rospy.rostime import _set_rostime  # noqa: F401  (the setter used in publish)
+    except ImportError:
+        return False
+    sub = getattr(simtime, "_clock_sub", None)
+    if sub is None:
+        return False
+    sub.unregister()
+    simtime._clock_sub = None
+    return True
+
+
+def _set_rostime(stamp: rospy.Time) -> None:
+    from rospy.rostime import _set_rostime as setter
+
+    setter(stamp)
+
+
 class SimulatorNode:
     """ROS glue around one core ``World``: messages in and out, pacing, services."""
 
@@ -55,6 +83,7 @@ class SimulatorNode:
                  ground_truth_tf: bool = False) -> None:
         self.world = world
         self.ground_truth_tf = ground_truth_tf
+        self.own_time = _stop_listening_to_own_clock()
         self.rtf = rtf
         self.lock = threading.Lock()
         self.paused = False
@@ -132,6 +161,8 @@ class SimulatorNode:
         w = self.world
         steps = w.clock.steps
         stamp = _stamp(w.clock.now_ns)
+        if self.own_time:
+            _set_rostime(stamp)
         if steps % self.every["clock"] == 0:
             self.clock_pub.publish(Clock(clock=stamp))
         odom_due = steps % self.every["odom"] == 0
@@ -139,8 +170,9 @@ class SimulatorNode:
         state_due = steps % self.every["state"] == 0
         tfs: List[TransformStamped] = []
         if odom_due or pose_due or state_due:
+            w.update_odometry()
             for i, r in enumerate(self.robots):
-                v = w.view(i)
+                v = w.view(i, refresh=False)
                 if odom_due:
                     self._odom(r, v, stamp, tfs)
                     if self.ground_truth_tf:
