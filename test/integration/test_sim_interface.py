@@ -8,6 +8,7 @@ y in [1.0, 1.5]; robot1 spawns at (1.5, 2.0, 0), robot2 at (3.0, 3.0, pi). The S
 from __future__ import annotations
 
 import math
+import os
 import sys
 import time
 import unittest
@@ -21,26 +22,8 @@ from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty
 from tf2_msgs.msg import TFMessage
 
-BOXES = [(0.0, 0.0, 6.0, 0.1), (0.0, 3.9, 6.0, 4.0), (0.0, 0.0, 0.1, 4.0), (5.9, 0.0, 6.0, 4.0),
-         (4.0, 1.0, 4.5, 1.5)]
-
-
-def expected_range(ox, oy, angle):
-    dx, dy = math.cos(angle), math.sin(angle)
-    best = math.inf
-    for x0, y0, x1, y1 in BOXES:
-        tmin, tmax = -math.inf, math.inf
-        for o, d, lo, hi in ((ox, dx, x0, x1), (oy, dy, y0, y1)):
-            if abs(d) < 1e-12:
-                if not lo <= o <= hi:
-                    tmin, tmax = math.inf, -math.inf
-                continue
-            t0, t1 = (lo - o) / d, (hi - o) / d
-            tmin, tmax = max(tmin, min(t0, t1)), min(tmax, max(t0, t1))
-        if tmax >= max(tmin, 0.0):
-            best = min(best, max(tmin, 0.0))
-    return best
-
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from simple_room import expected_range  # noqa: E402
 
 def yaw_of(q):
     return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
+import sys
 
 import numpy as np
 import pytest
@@ -19,30 +21,11 @@ from bullet_floor_sim.core.paths import worlds_dir
 from bullet_floor_sim.core.sensors import cast_rays
 from bullet_floor_sim.core.world import SimClock, World
 
-BOXES = [  # (xmin, ymin, xmax, ymax) of every occupied region of worlds/simple
-    (0.0, 0.0, 6.0, 0.1), (0.0, 3.9, 6.0, 4.0), (0.0, 0.0, 0.1, 4.0), (5.9, 0.0, 6.0, 4.0),
-    (4.0, 1.0, 4.5, 1.5),
-]
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from simple_room import expected_range  # noqa: E402
+
 EXACT = LaserConfig(fov=360.0, resolution=1.0, noise_std=0.0)
 STILL = OdometryConfig(noise_trans=0.0, noise_rot=0.0, noise_rot_per_m=0.0)
-
-
-def expected_range(ox, oy, angle, boxes=BOXES):
-    """Distance from (ox, oy) along ``angle`` to the first box (slab method)."""
-    dx, dy = math.cos(angle), math.sin(angle)
-    best = math.inf
-    for x0, y0, x1, y1 in boxes:
-        tmin, tmax = -math.inf, math.inf
-        for o, d, lo, hi in ((ox, dx, x0, x1), (oy, dy, y0, y1)):
-            if abs(d) < 1e-12:
-                if not lo <= o <= hi:
-                    tmin, tmax = math.inf, -math.inf
-                continue
-            t0, t1 = (lo - o) / d, (hi - o) / d
-            tmin, tmax = max(tmin, min(t0, t1)), min(tmax, max(t0, t1))
-        if tmax >= max(tmin, 0.0):
-            best = min(best, max(tmin, 0.0))
-    return best
 
 
 def simple_world(robots, **kwargs):

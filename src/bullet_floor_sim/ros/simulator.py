@@ -48,6 +48,32 @@ def _quat(yaw: float):
     return 0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0)
 
 
+def _odometry(frame: str, child: str, pose, velocity, stamp) -> Odometry:
+    """nav_msgs/Odometry of a planar pose (x, y, yaw) and body velocity (vx, vy, w)."""
+    m = Odometry()
+    m.header.stamp = stamp
+    m.header.frame_id = frame
+    m.child_frame_id = child
+    p = m.pose.pose
+    p.position.x, p.position.y = pose[0], pose[1]
+    p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w = _quat(pose[2])
+    m.twist.twist.linear.x, m.twist.twist.linear.y = velocity[0], velocity[1]
+    m.twist.twist.angular.z = velocity[2]
+    return m
+
+
+def _transform(parent: str, child: str, pose, stamp) -> TransformStamped:
+    """A planar transform (x, y, yaw) from ``parent`` to ``child``."""
+    t = TransformStamped()
+    t.header.stamp = stamp
+    t.header.frame_id = parent
+    t.child_frame_id = child
+    t.transform.translation.x, t.transform.translation.y = pose[0], pose[1]
+    r = t.transform.rotation
+    r.x, r.y, r.z, r.w = _quat(pose[2])
+    return t
+
+
 def _stop_listening_to_own_clock() -> bool:
     """Under /use_sim_time, rospy subscribes every node to /clock, the simulator included:
     each /clock message would cross a TCP connection back into this process (a thread hand-off
@@ -187,25 +213,9 @@ class SimulatorNode:
             self._scan(self.robots[s.robot], s)
 
     def _odom(self, r: dict, v, stamp, tfs: List[TransformStamped]) -> None:
-        x, y, yaw = v.odom_pose
-        q = _quat(yaw)
-        m = Odometry()
-        m.header.stamp = stamp
-        m.header.frame_id = r["prefix"] + "odom"
-        m.child_frame_id = r["prefix"] + "base_footprint"
-        p = m.pose.pose
-        p.position.x, p.position.y = x, y
-        p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w = q
-        m.twist.twist.linear.x, m.twist.twist.linear.y = v.velocity[0], v.velocity[1]
-        m.twist.twist.angular.z = v.velocity[2]
-        r["odom"].publish(m)
-        t = TransformStamped()
-        t.header = m.header
-        t.child_frame_id = m.child_frame_id
-        t.transform.translation.x, t.transform.translation.y = x, y
-        (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
-         t.transform.rotation.w) = q
-        tfs.append(t)
+        odom, base = r["prefix"] + "odom", r["prefix"] + "base_footprint"
+        r["odom"].publish(_odometry(odom, base, v.odom_pose, v.velocity, stamp))
+        tfs.append(_transform(odom, base, v.odom_pose, stamp))
 
     def _map_to_odom(self, r: dict, v, stamp) -> TransformStamped:
         """map -> N/odom that makes odom -> base_footprint land on the ground truth (what
@@ -214,28 +224,11 @@ class SimulatorNode:
         xo, yo, tho = v.odom_pose
         th = thg - tho
         c, s = math.cos(th), math.sin(th)
-        t = TransformStamped()
-        t.header.stamp = stamp
-        t.header.frame_id = "map"
-        t.child_frame_id = r["prefix"] + "odom"
-        t.transform.translation.x = xg - (c * xo - s * yo)
-        t.transform.translation.y = yg - (s * xo + c * yo)
-        (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
-         t.transform.rotation.w) = _quat(th)
-        return t
+        return _transform("map", r["prefix"] + "odom",
+                          (xg - (c * xo - s * yo), yg - (s * xo + c * yo), th), stamp)
 
     def _ground_truth(self, r: dict, v, stamp) -> None:
-        x, y, yaw = v.pose
-        q = _quat(yaw)
-        m = Odometry()
-        m.header.stamp = stamp
-        m.header.frame_id = "map"
-        m.child_frame_id = r["prefix"] + "base_footprint"
-        p = m.pose.pose
-        p.position.x, p.position.y = x, y
-        p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w = q
-        m.twist.twist.linear.x, m.twist.twist.linear.y = v.velocity[0], v.velocity[1]
-        m.twist.twist.angular.z = v.velocity[2]
+        m = _odometry("map", r["prefix"] + "base_footprint", v.pose, v.velocity, stamp)
         r["gt"].publish(m)
         ps = PoseStamped()
         ps.header = m.header
