@@ -1,0 +1,697 @@
+"""The embedded navigation default: grid A* on the inflated map, smoothing, pure pursuit.
+
+This is what moves the simulated human (and any robot when the stock navigation stack is not
+installed). It localises from ground truth: it is legs, not a SLAM system.
+
+* :class:`PlanningGrid` turns a :class:`~bullet_floor_sim.core.floormap.FloorMap` into a
+  coarser planning grid. A cell is *lethal* when the robot's footprint circle centred on any
+  point of it could touch a wall (or unknown space); free cells near walls carry a cost that
+  decays exponentially with clearance, as costmap_2d's inflation layer does, so paths keep
+  away from walls and pass through the middle of doors.
+* :meth:`PlanningGrid.plan` runs 8-connected A* (no corner cutting), then shortcuts the cell
+  path where a straight segment is no closer to walls than the cells it replaces, and
+  resamples it. Bad goals raise :class:`PlanError` naming the goal and the reason.
+* :class:`PathFollower` is a pure-pursuit controller for a differential (or omni) base with
+  rotate-in-place, slow-down near the goal, final heading alignment and an obstacle stop from
+  the robot's own scan points.
+
+Everything is plain numbers in, plain numbers out; ``bullet_floor_sim.ros.path_follower``
+wraps it in a move_base-compatible action server.
+"""
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+from typing import Iterable, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .errors import BulletFloorSimError
+from .floormap import FloorMap
+
+__all__ = [
+    "PlanError",
+    "PlannerConfig",
+    "PlanningGrid",
+    "FollowerConfig",
+    "FollowerCommand",
+    "PathFollower",
+]
+
+_SQRT2 = math.sqrt(2.0)
+_NEIGHBOURS = ((1, 0, 1.0), (-1, 0, 1.0), (0, 1, 1.0), (0, -1, 1.0),
+               (1, 1, _SQRT2), (1, -1, _SQRT2), (-1, 1, _SQRT2), (-1, -1, _SQRT2))
+
+
+class PlanError(BulletFloorSimError):
+    """No plan: the goal is outside the map, in or too near a wall, or unreachable."""
+
+
+@dataclass
+class PlannerConfig:
+    """Planning parameters.
+
+    Attributes:
+        robot_radius: footprint circumradius (m); cells closer than this to a wall are lethal.
+        inflation_radius: distance beyond ``robot_radius`` over which the wall cost decays.
+        cost_scaling: exponential decay rate of the wall cost (1/m), as costmap_2d's.
+        cost_weight: how much a fully inflated cell adds to the length of a step (x1 + w).
+        resolution: planning cell size (m); rounded to a multiple of the map resolution.
+        unknown_is_obstacle: unknown (-1) cells are walls for planning (move_base's default).
+        path_spacing: spacing (m) of the resampled output path.
+    """
+
+    robot_radius: float = 0.34
+    inflation_radius: float = 0.6
+    cost_scaling: float = 4.0
+    cost_weight: float = 3.0
+    resolution: float = 0.1
+    unknown_is_obstacle: bool = True
+    path_spacing: float = 0.1
+
+
+class PlanningGrid:
+    """An inflated cost grid over a floor map, and A* on it.
+
+    Args:
+        fmap: the floor map (as map_server publishes it).
+        config: planning parameters.
+    """
+
+    def __init__(self, fmap: FloorMap, config: Optional[PlannerConfig] = None) -> None:
+        from scipy.ndimage import distance_transform_edt
+
+        self.fmap = fmap
+        self.config = cfg = config or PlannerConfig()
+        if cfg.robot_radius <= 0 or cfg.resolution <= 0:
+            raise PlanError("planner: robot_radius and resolution must be > 0")
+        k = max(1, int(round(cfg.resolution / fmap.resolution)))
+        self.factor = k
+        self.resolution = fmap.resolution * k
+        blocked = fmap.grid == 100
+        if cfg.unknown_is_obstacle:
+            blocked = blocked | (fmap.grid < 0)
+        # Distance from each fine cell centre to the nearest blocked cell centre, minus half a
+        # fine cell (the wall cell's extent); then the worst fine cell of each coarse block, minus
+        # the coarse cell's half-diagonal: a footprint centred anywhere in the coarse cell keeps
+        # at least this clearance.
+        if blocked.any():
+            fine = distance_transform_edt(~blocked) * fmap.resolution - 0.5 * fmap.resolution
+        else:
+            fine = np.full(blocked.shape, np.inf)
+        self._fine = fine
+        h, w = fine.shape
+        H, W = -(-h // k), -(-w // k)
+        pad = np.full((H * k, W * k), -1.0)
+        pad[:h, :w] = fine
+        coarse = pad.reshape(H, k, W, k).min(axis=(1, 3))
+        self.clearance = coarse - (self.resolution * _SQRT2 / 2.0 if k > 1 else 0.0)
+        self.height, self.width = H, W
+        cost = np.exp(-cfg.cost_scaling * np.clip(self.clearance - cfg.robot_radius, 0, None))
+        cost[self.clearance > cfg.robot_radius + cfg.inflation_radius] = 0.0
+        cost[self.clearance < cfg.robot_radius] = np.inf
+        self.cost = cost
+
+    # -- coordinates -----------------------------------------------------------------------
+    def to_cell(self, x: float, y: float) -> Tuple[int, int]:
+        """(col, row) of the planning cell containing a map-frame point (may be out of range)."""
+        col, row = self.fmap.world_to_cell(x, y)
+        return int(col) // self.factor, int(row) // self.factor
+
+    def to_world(self, col: float, row: float) -> Tuple[float, float]:
+        """Map-frame centre of a planning cell."""
+        u = (col + 0.5) * self.factor - 0.5
+        v = (row + 0.5) * self.factor - 0.5
+        x, y = self.fmap.cell_to_world(u, v)
+        return float(x), float(y)
+
+    def inside(self, col: int, row: int) -> bool:
+        """Whether a cell index lies on the grid."""
+        return 0 <= col < self.width and 0 <= row < self.height
+
+    def clearance_at(self, x: float, y: float) -> float:
+        """Guaranteed wall clearance (m) anywhere in the cell of (x, y); -inf off the map."""
+        c, r = self.to_cell(x, y)
+        return float(self.clearance[r, c]) if self.inside(c, r) else -math.inf
+
+    def is_free(self, x: float, y: float) -> bool:
+        """The robot fits at (x, y): on the map and at least robot_radius from every wall."""
+        c, r = self.to_cell(x, y)
+        return self.inside(c, r) and math.isfinite(self.cost[r, c])
+
+    # -- planning --------------------------------------------------------------------------
+    def plan(self, start: Sequence[float], goal: Sequence[float],
+             obstacles: Optional[np.ndarray] = None) -> np.ndarray:
+        """Plan from ``start`` (x, y[, yaw]) to ``goal`` (x, y[, yaw]).
+
+        Args:
+            start: the robot's map-frame position.
+            goal: the map-frame goal; the path ends exactly there.
+            obstacles: optional (N, 2) map-frame points (e.g. another robot seen in the scan),
+                inflated by the robot radius and treated as walls for this plan.
+
+        Returns:
+            (M, 2) array of map-frame points, spaced about ``path_spacing``, from start to goal.
+
+        Raises:
+            PlanError: goal outside the map, too close to a wall, or unreachable.
+        """
+        gx, gy = float(goal[0]), float(goal[1])
+        sx, sy = float(start[0]), float(start[1])
+        if not (math.isfinite(gx) and math.isfinite(gy)):
+            raise PlanError("goal (%s, %s) is not a finite position" % (goal[0], goal[1]))
+        cost = self.cost
+        if obstacles is not None and len(obstacles):
+            cost = cost.copy()
+            self._stamp_obstacles(cost, np.asarray(obstacles, dtype=float), (sx, sy))
+        gc, gr = self.to_cell(gx, gy)
+        if not self.inside(gc, gr):
+            b = self.fmap.bounds()
+            raise PlanError("goal (%.2f, %.2f) is outside the map (x %.2f..%.2f, y %.2f..%.2f)"
+                            % (gx, gy, b[0], b[2], b[1], b[3]))
+        if not math.isfinite(cost[gr, gc]):
+            fc, fr = self.fmap.world_to_cell(gx, gy)
+            clear = max(0.0, float(self._fine[int(fr), int(fc)]))
+            if self.fmap.value_at(gx, gy) == 100:
+                why = "inside a wall"
+            elif self.fmap.value_at(gx, gy) < 0 and self.config.unknown_is_obstacle:
+                why = "in unknown space"
+            elif not math.isfinite(self.cost[gr, gc]):
+                why = "too close to a wall (clearance %.2f m < robot radius %.2f m)" % (
+                    clear, self.config.robot_radius)
+            else:
+                why = "blocked by an obstacle seen in the scan"
+            raise PlanError("goal (%.2f, %.2f) is %s" % (gx, gy, why))
+        sc, sr = self.to_cell(sx, sy)
+        if not self.inside(sc, sr):
+            raise PlanError("start (%.2f, %.2f) is outside the map" % (sx, sy))
+        start_cell = self._nearest_free(cost, sc, sr)
+        if start_cell is None:
+            raise PlanError("start (%.2f, %.2f) is in collision and no free cell is near it"
+                            % (sx, sy))
+        cells = self._astar(cost, start_cell, (gc, gr))
+        if cells is None:
+            raise PlanError("goal (%.2f, %.2f) is unreachable from (%.2f, %.2f)"
+                            % (gx, gy, sx, sy))
+        pts = np.array([self.to_world(c, r) for c, r in cells], dtype=float)
+        pts = self._shortcut(cost, pts)
+        pts[0] = (sx, sy)
+        pts[-1] = (gx, gy)
+        return _resample(pts, self.config.path_spacing)
+
+    def _stamp_obstacles(self, cost: np.ndarray, pts: np.ndarray,
+                         start: Tuple[float, float]) -> None:
+        rad = self.config.robot_radius + 0.5 * self.resolution
+        n = int(math.ceil(rad / self.resolution))
+        for x, y in pts:
+            if math.hypot(x - start[0], y - start[1]) < self.config.robot_radius:
+                continue  # a point inside our own footprint is noise, never block the start
+            c0, r0 = self.to_cell(x, y)
+            for dr in range(-n, n + 1):
+                for dc in range(-n, n + 1):
+                    c, r = c0 + dc, r0 + dr
+                    if self.inside(c, r):
+                        wx, wy = self.to_world(c, r)
+                        if math.hypot(wx - x, wy - y) <= rad:
+                            cost[r, c] = np.inf
+
+    def _nearest_free(self, cost: np.ndarray, c: int, r: int,
+                      max_cells: int = 6) -> Optional[Tuple[int, int]]:
+        """The cell itself if free, else the nearest free cell within ``max_cells``."""
+        best = None
+        for d in range(0, max_cells + 1):
+            for dr in range(-d, d + 1):
+                for dc in range(-d, d + 1):
+                    if max(abs(dr), abs(dc)) != d:
+                        continue
+                    cc, rr = c + dc, r + dr
+                    if self.inside(cc, rr) and math.isfinite(cost[rr, cc]):
+                        dist = math.hypot(dc, dr)
+                        if best is None or dist < best[0]:
+                            best = (dist, (cc, rr))
+            if best is not None:
+                return best[1]
+        return None
+
+    def _astar(self, cost: np.ndarray, start: Tuple[int, int],
+               goal: Tuple[int, int]) -> Optional[List[Tuple[int, int]]]:
+        W = self.width
+        flat = cost.ravel().tolist()
+        weight = self.config.cost_weight
+        s = start[1] * W + start[0]
+        g = goal[1] * W + goal[0]
+        gc, gr = goal
+        n = self.width * self.height
+        best = [math.inf] * n
+        parent = [-1] * n
+        best[s] = 0.0
+        heap = [(0.0, 0.0, s)]
+        inf = math.inf
+        while heap:
+            _, d, u = heapq.heappop(heap)
+            if u == g:
+                break
+            if d > best[u]:
+                continue
+            ur, uc = divmod(u, W)
+            cu = flat[u]
+            for dc, dr, step in _NEIGHBOURS:
+                vc, vr = uc + dc, ur + dr
+                if vc < 0 or vr < 0 or vc >= W or vr >= self.height:
+                    continue
+                v = vr * W + vc
+                cv = flat[v]
+                if cv == inf:
+                    continue
+                if dc and dr and (flat[ur * W + vc] == inf or flat[vr * W + uc] == inf):
+                    continue  # no corner cutting past a lethal cell
+                nd = d + step * (1.0 + weight * 0.5 * (cu + cv))
+                if nd < best[v]:
+                    best[v] = nd
+                    parent[v] = u
+                    hx, hy = abs(vc - gc), abs(vr - gr)
+                    h = (hx + hy) + (_SQRT2 - 2.0) * min(hx, hy)
+                    heapq.heappush(heap, (nd + h, nd, v))
+        if best[g] == inf:
+            return None
+        out = []
+        u = g
+        while u != -1:
+            r, c = divmod(u, W)
+            out.append((c, r))
+            u = parent[u]
+        out.reverse()
+        return out
+
+    def _segment_cost(self, cost: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+        """Highest cell cost along the straight segment a-b (inf if it crosses a lethal cell)."""
+        length = float(np.hypot(*(b - a)))
+        n = max(2, int(math.ceil(length / (0.5 * self.resolution))) + 1)
+        t = np.linspace(0.0, 1.0, n)[:, None]
+        pts = a[None, :] * (1 - t) + b[None, :] * t
+        col, row = self.fmap.world_to_cell(pts[:, 0], pts[:, 1])
+        col, row = col // self.factor, row // self.factor
+        ok = (col >= 0) & (row >= 0) & (col < self.width) & (row < self.height)
+        if not ok.all():
+            return math.inf
+        return float(cost[row, col].max())
+
+    def _shortcut(self, cost: np.ndarray, pts: np.ndarray) -> np.ndarray:
+        """Greedy line-of-sight shortcuts that never bring the path closer to a wall."""
+        if len(pts) <= 2:
+            return pts
+        cell_cost = np.array([cost[self.to_cell(x, y)[::-1]] for x, y in pts])
+        out = [pts[0]]
+        i = 0
+        while i < len(pts) - 1:
+            j = i + 1
+            worst = max(cell_cost[i], cell_cost[j])
+            while j + 1 < len(pts):
+                worst_next = max(worst, cell_cost[j + 1])
+                if self._segment_cost(cost, pts[i], pts[j + 1]) <= worst_next + 1e-9:
+                    j += 1
+                    worst = worst_next
+                else:
+                    break
+            out.append(pts[j])
+            i = j
+        return np.array(out)
+
+
+def _resample(pts: np.ndarray, spacing: float) -> np.ndarray:
+    """Points along a polyline every ``spacing`` metres, keeping both ends."""
+    out = [pts[0]]
+    for a, b in zip(pts[:-1], pts[1:]):
+        seg = float(np.hypot(*(b - a)))
+        n = max(1, int(math.ceil(seg / spacing)))
+        for k in range(1, n + 1):
+            out.append(a + (b - a) * (k / n))
+    return np.array(out)
+
+
+def path_length(path: np.ndarray) -> float:
+    """Length (m) of a polyline."""
+    if len(path) < 2:
+        return 0.0
+    return float(np.hypot(*np.diff(path, axis=0).T).sum())
+
+
+@dataclass
+class FollowerConfig:
+    """Pure-pursuit parameters (defaults suit a Scitos A5 at walking pace).
+
+    Attributes:
+        lookahead: pure-pursuit look-ahead distance (m).
+        short_lookahead: look-ahead (m) used within 1 m of an obstacle ahead.
+        max_linear, max_angular: velocity limits (m/s, rad/s), within the drive's.
+        min_linear: slowest forward speed while following (m/s).
+        rotate_in_place: heading error (rad) above which the robot turns on the spot.
+        xy_tolerance: goal position tolerance (m).
+        yaw_tolerance: goal heading tolerance (rad); the goal yaw is ignored if it is None.
+        slow_radius: distance to the goal (m) where the speed starts to fall.
+        stop_distance: free space (m) needed ahead of the footprint to keep driving.
+        side_margin: extra half-width (m) of the stop corridor beyond the footprint radius.
+        robot_radius: footprint circumradius (m).
+    """
+
+    lookahead: float = 0.6
+    short_lookahead: float = 0.3
+    max_linear: float = 0.6
+    max_angular: float = 1.2
+    min_linear: float = 0.08
+    rotate_in_place: float = 0.9
+    xy_tolerance: float = 0.15
+    yaw_tolerance: float = 0.15
+    slow_radius: float = 1.0
+    stop_distance: float = 0.3
+    side_margin: float = 0.03
+    robot_radius: float = 0.34
+
+
+@dataclass
+class FollowerCommand:
+    """One control output: body velocities and the follower's state.
+
+    ``state`` is ``following``, ``rotating`` (turning on the spot towards the path),
+    ``aligning`` (at the goal, turning to its heading), ``blocked`` (an obstacle ahead) or
+    ``done``.
+    """
+
+    v: float
+    w: float
+    state: str
+    distance_to_goal: float
+
+
+class PathFollower:
+    """Pure pursuit along a planned path.
+
+    Args:
+        config: controller parameters.
+    """
+
+    def __init__(self, config: Optional[FollowerConfig] = None) -> None:
+        self.config = config or FollowerConfig()
+        self.path = np.zeros((0, 2))
+        self.goal_yaw: Optional[float] = None
+        self._index = 0
+        self._aligning = False
+
+    def set_path(self, path: np.ndarray, goal_yaw: Optional[float] = None) -> None:
+        """Follow a new (M, 2) map-frame path; ``goal_yaw`` is the final heading (or None)."""
+        self.path = np.asarray(path, dtype=float).reshape(-1, 2)
+        self.goal_yaw = goal_yaw
+        self._index = 0
+        self._aligning = False
+
+    def remaining(self) -> np.ndarray:
+        """The part of the path not yet passed."""
+        return self.path[self._index:]
+
+    def free_ahead(self, obstacles: Optional[np.ndarray]) -> float:
+        """Distance (m) from the footprint's front to the nearest point in its swept corridor."""
+        if obstacles is None or len(obstacles) == 0:
+            return math.inf
+        cfg = self.config
+        pts = np.asarray(obstacles, dtype=float)
+        sel = (pts[:, 0] > 0.0) & (np.abs(pts[:, 1]) < cfg.robot_radius + cfg.side_margin)
+        if not sel.any():
+            return math.inf
+        return float(pts[sel, 0].min()) - cfg.robot_radius
+
+    def obstacle_ahead(self, obstacles: Optional[np.ndarray]) -> bool:
+        """Whether any base-frame point lies in the stop corridor in front of the footprint."""
+        return self.free_ahead(obstacles) < self.config.stop_distance
+
+    def compute(self, pose: Sequence[float],
+                obstacles: Optional[np.ndarray] = None) -> FollowerCommand:
+        """Velocity command for the current ground-truth pose.
+
+        Args:
+            pose: (x, y, yaw) in the map frame.
+            obstacles: (N, 2) scan points in the robot's base frame (x forward), or None.
+
+        Returns:
+            The command; ``state == "done"`` once within tolerance of the goal.
+        """
+        cfg = self.config
+        if len(self.path) == 0:
+            return FollowerCommand(0.0, 0.0, "done", 0.0)
+        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+        goal = self.path[-1]
+        dist_goal = math.hypot(goal[0] - x, goal[1] - y)
+        if self._aligning or dist_goal <= cfg.xy_tolerance:
+            self._aligning = True
+            self._index = len(self.path) - 1
+            if self.goal_yaw is None:
+                return FollowerCommand(0.0, 0.0, "done", dist_goal)
+            err = _wrap(self.goal_yaw - yaw)
+            if abs(err) <= cfg.yaw_tolerance:
+                return FollowerCommand(0.0, 0.0, "done", dist_goal)
+            w = _clip(2.0 * err, cfg.max_angular)
+            if abs(w) < 0.3:
+                w = math.copysign(0.3, err)
+            return FollowerCommand(0.0, w, "aligning", dist_goal)
+
+        # progress: the closest path point within a window ahead of the last one
+        window = self.path[self._index:self._index + 60]
+        d = np.hypot(window[:, 0] - x, window[:, 1] - y)
+        self._index += int(np.argmin(d))
+        # look-ahead point: first point at least `lookahead` away, else the goal; close to an
+        # obstacle the look-ahead shrinks so that the robot follows the path's detours tightly
+        free = self.free_ahead(obstacles)
+        lookahead = cfg.lookahead if free > 1.0 else cfg.short_lookahead
+        rest = self.path[self._index:]
+        dr = np.hypot(rest[:, 0] - x, rest[:, 1] - y)
+        far = np.nonzero(dr >= lookahead)[0]
+        target = rest[far[0]] if len(far) else goal
+        dx, dy = target[0] - x, target[1] - y
+        c, s = math.cos(yaw), math.sin(yaw)
+        lx, ly = c * dx + s * dy, -s * dx + c * dy
+        alpha = math.atan2(ly, lx)
+        blocked = free < cfg.stop_distance
+        if abs(alpha) > cfg.rotate_in_place or (blocked and abs(alpha) > 0.25):
+            # turning on the spot is always safe for a round footprint
+            return FollowerCommand(0.0, _clip(1.5 * alpha, cfg.max_angular), "rotating", dist_goal)
+        if blocked:
+            return FollowerCommand(0.0, 0.0, "blocked", dist_goal)
+        ld = max(math.hypot(lx, ly), 1e-6)
+        curvature = 2.0 * ly / (ld * ld)
+        v = cfg.max_linear * min(1.0, dist_goal / cfg.slow_radius)
+        v *= max(0.2, math.cos(alpha))
+        v = max(v, cfg.min_linear)
+        # slow down when something is ahead, to stop in time (scan and control lag)
+        v = min(v, cfg.max_linear * max(0.2, min(1.0, (free - cfg.stop_distance) / 0.8)))
+        if abs(curvature) * v > cfg.max_angular:
+            v = cfg.max_angular / abs(curvature)
+        return FollowerCommand(v, _clip(curvature * v, cfg.max_angular), "following", dist_goal)
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def _clip(v: float, limit: float) -> float:
+    return max(-limit, min(limit, v))
+
+
+def obstacles_in_base(ranges: Iterable[float], angle_min: float, angle_increment: float,
+                      range_max: float, laser_pose: Tuple[float, float, float]) -> np.ndarray:
+    """Scan points (valid ranges only) in the base frame, given the laser's (x, y, yaw) there.
+
+    Returns:
+        (N, 2) array of points; +-inf, NaN and max-range readings are dropped.
+    """
+    r = np.asarray(list(ranges), dtype=float)
+    a = angle_min + angle_increment * np.arange(len(r))
+    ok = np.isfinite(r) & (r < range_max) & (r > 0)
+    r, a = r[ok], a[ok] + laser_pose[2]
+    return np.stack([laser_pose[0] + r * np.cos(a), laser_pose[1] + r * np.sin(a)], axis=1)
+
+
+__all__ += ["path_length", "obstacles_in_base"]
+
+
+@dataclass
+class NavigatorConfig:
+    """Recovery behaviour of :class:`Navigator` (times in sim seconds).
+
+    Attributes:
+        replan_after: blocked this long -> plan again, around the obstacles in the scan.
+        blocked_timeout: blocked this long in total -> abort.
+        progress_timeout: no 0.1 m of progress towards the goal for this long -> abort.
+        obstacle_range: scan points farther than this (m) are ignored when replanning.
+        sidestep: how far (m) to step aside when no path passes an obstacle.
+    """
+
+    replan_after: float = 2.0
+    blocked_timeout: float = 30.0
+    progress_timeout: float = 60.0
+    obstacle_range: float = 3.0
+    sidestep: float = 0.45
+
+
+@dataclass
+class NavStatus:
+    """What :meth:`Navigator.update` decided: a command and the goal's state.
+
+    ``state`` is ``active``, ``succeeded`` or ``aborted`` (``message`` says why).
+    """
+
+    v: float
+    w: float
+    state: str
+    message: str = ""
+    distance_to_goal: float = 0.0
+
+
+class Navigator:
+    """Plan, follow, and recover: the embedded move_base.
+
+    Args:
+        grid: the planning grid.
+        follower: the pure-pursuit controller.
+        config: recovery parameters.
+    """
+
+    def __init__(self, grid: PlanningGrid, follower: Optional[PathFollower] = None,
+                 config: Optional[NavigatorConfig] = None) -> None:
+        self.grid = grid
+        self.follower = follower or PathFollower()
+        self.config = config or NavigatorConfig()
+        self.goal: Optional[Tuple[float, float, Optional[float]]] = None
+        self.replans = 0
+        self._blocked_since: Optional[float] = None
+        self._blocked_total = 0.0
+        self._best = math.inf
+        self._best_t = 0.0
+        self._last_t: Optional[float] = None
+
+    @property
+    def path(self) -> np.ndarray:
+        """The path being followed (map frame)."""
+        return self.follower.path
+
+    def start(self, pose: Sequence[float], goal: Sequence[float], now: float) -> np.ndarray:
+        """Plan to a new goal (x, y, yaw-or-None) and start following it.
+
+        Raises:
+            PlanError: the goal is outside the map, in a wall, or unreachable.
+        """
+        yaw = goal[2] if len(goal) > 2 else None
+        path = self.grid.plan(pose, goal)
+        self.goal = (float(goal[0]), float(goal[1]), None if yaw is None else float(yaw))
+        self.follower.set_path(path, self.goal[2])
+        self.replans = 0
+        self._blocked_since = None
+        self._blocked_total = 0.0
+        self._best = math.inf
+        self._best_t = now
+        self._last_t = now
+        return path
+
+    def cancel(self) -> None:
+        """Forget the goal."""
+        self.goal = None
+        self.follower.set_path(np.zeros((0, 2)))
+
+    def update(self, pose: Sequence[float], obstacles: Optional[np.ndarray],
+               now: float) -> NavStatus:
+        """One control step.
+
+        Args:
+            pose: ground-truth (x, y, yaw) in the map frame.
+            obstacles: scan points in the base frame (x forward), or None.
+            now: sim time (s).
+
+        Returns:
+            The command to send and the goal's state.
+        """
+        if self.goal is None:
+            return NavStatus(0.0, 0.0, "aborted", "no goal")
+        cfg = self.config
+        dt = 0.0 if self._last_t is None else max(0.0, now - self._last_t)
+        self._last_t = now
+        cmd = self.follower.compute(pose, obstacles)
+        if cmd.state == "done":
+            self.goal = None
+            return NavStatus(0.0, 0.0, "succeeded", "goal reached", cmd.distance_to_goal)
+        if cmd.distance_to_goal < self._best - 0.1:
+            self._best = cmd.distance_to_goal
+            self._best_t = now
+        if cmd.state == "blocked":
+            self._blocked_total += dt
+            if self._blocked_since is None:
+                self._blocked_since = now
+            if self._blocked_total > cfg.blocked_timeout:
+                return self._abort("blocked by an obstacle for %.0f s, %.2f m from the goal"
+                                   % (self._blocked_total, cmd.distance_to_goal), cmd)
+            if now - self._blocked_since >= cfg.replan_after:
+                self._blocked_since = now  # again after another replan_after if still blocked
+                self._replan_around(pose, obstacles)
+            return NavStatus(0.0, 0.0, "active", "blocked", cmd.distance_to_goal)
+        self._blocked_since = None
+        if cmd.state not in ("aligning",) and now - self._best_t > cfg.progress_timeout:
+            return self._abort("no progress for %.0f s, %.2f m from the goal"
+                               % (now - self._best_t, cmd.distance_to_goal), cmd)
+        return NavStatus(cmd.v, cmd.w, "active", cmd.state, cmd.distance_to_goal)
+
+    def _abort(self, message: str, cmd: FollowerCommand) -> NavStatus:
+        self.goal_failed = self.goal
+        self.goal = None
+        return NavStatus(0.0, 0.0, "aborted", message, cmd.distance_to_goal)
+
+    def _replan_around(self, pose: Sequence[float], obstacles: Optional[np.ndarray]) -> None:
+        """Plan again with the nearby scan points as walls; keep the old path if none.
+
+        When no path passes the obstacle (two robots nose to nose in a corridor), step aside to
+        the right first, as people do: a waypoint ``sidestep`` metres to the robot's right (then
+        left) that is clear of walls and of the obstacle, and on to the goal from there. Both
+        robots of a head-on meeting do the same, so they pass each other.
+        """
+        if self.goal is None or obstacles is None or len(obstacles) == 0:
+            return
+        pts = np.asarray(obstacles, dtype=float)
+        pts = pts[np.hypot(pts[:, 0], pts[:, 1]) < self.config.obstacle_range]
+        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+        c, s = math.cos(yaw), math.sin(yaw)
+        world = np.stack([x + c * pts[:, 0] - s * pts[:, 1], y + s * pts[:, 0] + c * pts[:, 1]],
+                         axis=1)
+        # points on the static walls are already in the grid: keep only the new ones
+        if len(world):
+            keep = np.array([self.grid.fmap.value_at(px, py) != 100 for px, py in world])
+            world = world[keep]
+        try:
+            path = self.grid.plan(pose, self.goal, obstacles=world)
+        except PlanError:
+            path = self._sidestep(pose, world)
+            if path is None:
+                return  # nothing better: wait for the obstacle to move
+        self.replans += 1
+        self.follower.set_path(path, self.goal[2])
+
+    def _sidestep(self, pose: Sequence[float], world: np.ndarray) -> Optional[np.ndarray]:
+        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+        r = self.grid.config.robot_radius
+        for side in (-1.0, 1.0):  # right first
+            for dist in (self.config.sidestep, 0.5 * self.config.sidestep):
+                wx = x - side * dist * math.sin(yaw)
+                wy = y + side * dist * math.cos(yaw)
+                if not self.grid.is_free(wx, wy):
+                    continue
+                if len(world) and np.min(np.hypot(world[:, 0] - wx, world[:, 1] - wy)) < r + 0.05:
+                    continue
+                try:
+                    first = self.grid.plan(pose, (wx, wy))
+                    try:
+                        rest = self.grid.plan((wx, wy), self.goal, obstacles=world)
+                    except PlanError:  # the other one has not stepped aside yet
+                        rest = self.grid.plan((wx, wy), self.goal)
+                except PlanError:
+                    continue
+                return np.vstack([first, rest[1:]])
+        return None
+
+
+__all__ += ["NavigatorConfig", "NavStatus", "Navigator"]
