@@ -1,0 +1,198 @@
+"""``rosrun bullet_floor_sim markov_chain ROIS_YAML``: the region Markov chain as JSON.
+
+A plain command-line tool (no ROS master needed, rospy is not imported)::
+
+    markov_chain ROIS_YAML [--tol 0.2] [--mode vertex|edge] [--min-shared 0.8]
+                 [--map-yaml MAP] [--plot chain.png]
+
+prints ``{"map_name": ..., "transitions": {id: {id: p, ...}, ...}}`` on stdout (zeros left
+out); warnings (isolated regions, separate parts, ROI vertices outside the map given with
+``--map-yaml``) go to stderr. ``--plot`` draws the ROIs (over the map image with
+``--map-yaml``) and an arrow per transition, width proportional to its probability (needs
+matplotlib). Any error is one line on stderr and exit code 2.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from typing import Optional, Sequence
+
+from ..core.errors import BulletFloorSimError
+from ..core.markov import MODES, MarkovChain
+from ..core.rois import Roi, check_bounds, load_rois, roi_polygon
+
+__all__ = ["main", "plot_chain"]
+
+PROG = "markov_chain"
+
+
+class _UsageError(Exception):
+    """argparse's complaint, turned into one line."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise _UsageError(message)
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = _Parser(prog=PROG, description="Print the Markov chain over the regions of a rois.yaml "
+                "as JSON (transitions: id -> id -> probability).")
+    p.add_argument("rois", nargs="?", metavar="ROIS_YAML", help="ROI file (worlds/<name>/rois.yaml)")
+    p.add_argument("--tol", type=float, default=0.2,
+                   help="adjacency tolerance in metres (default 0.2)")
+    p.add_argument("--mode", choices=MODES, default="vertex",
+                   help="vertex: some vertices within tol in x and y (the seed rule, default); "
+                        "edge: a shared wall of at least --min-shared metres")
+    p.add_argument("--min-shared", type=float, default=0.8, dest="min_shared",
+                   help="edge mode: shortest shared wall, metres (default 0.8)")
+    p.add_argument("--map-yaml", dest="map_yaml", help="map_server map.yaml: bounds check, and "
+                   "background of --plot")
+    p.add_argument("--plot", metavar="PNG", help="draw the chain to this PNG (needs matplotlib)")
+    p.add_argument("--db", help="read the ROIs from this store instead (not available yet)")
+    p.add_argument("--map", dest="map_name", help="with --db: map name")
+    p.add_argument("--config", help="with --db: ROI config")
+    return p
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Entry point of ``rosrun bullet_floor_sim markov_chain``.
+
+    Args:
+        argv: arguments without the program name (default ``sys.argv[1:]``); ROS remapping
+            arguments (``name:=value``, added by roslaunch) are ignored.
+
+    Returns:
+        0 on success, 2 on any error (one line on stderr).
+    """
+    args_in = list(sys.argv[1:] if argv is None else argv)
+    args_in = [a for a in args_in if ":=" not in a]
+    try:
+        args = _parser().parse_args(args_in)
+        _check_args(args)
+        rois = load_rois(args.rois)
+        chain = MarkovChain.from_rois(rois, tol=args.tol, mode=args.mode,
+                                      min_shared=args.min_shared)
+        fmap = None
+        if args.map_yaml:
+            from ..core.floormap import load_map
+
+            fmap = load_map(args.map_yaml)
+            for w in check_bounds(rois, fmap.bounds()):
+                _warn("%s: %s" % (args.rois, w))
+        for w in chain.warnings:
+            _warn("%s: %s" % (args.rois, w))
+        if args.plot:
+            plot_chain(chain, rois, args.plot, fmap)
+    except (_UsageError, BulletFloorSimError, ValueError) as e:
+        return _fail(str(e))
+    sys.stdout.write(json.dumps(chain.to_json(), indent=2) + "\n")
+    sys.stdout.flush()
+    return 0
+
+
+def _check_args(args: argparse.Namespace) -> None:
+    if args.db is not None:
+        raise _UsageError("--db (reading ROIs from the store) is not available yet: give a "
+                          "ROIS_YAML file instead")
+    if args.map_name is not None or args.config is not None:
+        raise _UsageError("--map and --config select ROIs in the store and need --db, which "
+                          "is not available yet: give a ROIS_YAML file instead")
+    if not args.rois:
+        raise _UsageError("give a ROIS_YAML file (e.g. worlds/office/rois.yaml)")
+    if not (math.isfinite(args.tol) and args.tol >= 0.0):
+        raise _UsageError("--tol must be a finite number of metres >= 0, got %s" % args.tol)
+    if not (math.isfinite(args.min_shared) and args.min_shared > 0.0):
+        raise _UsageError("--min-shared must be a finite number of metres > 0, got %s"
+                          % args.min_shared)
+
+
+def _warn(message: str) -> None:
+    sys.stderr.write("%s: warning: %s\n" % (PROG, message))
+
+
+def _fail(message: str) -> int:
+    sys.stderr.write("%s: error: %s\n" % (PROG, " ".join(message.split())))
+    return 2
+
+
+def plot_chain(chain: MarkovChain, rois: Sequence[Roi], path: str, fmap=None) -> None:
+    """Draw the ROIs (over the map image when given) and the transitions to a PNG.
+
+    Each region is outlined and labelled with its id and P(stay); each transition i -> j is an
+    arrow between region anchors (the centroid, or a point inside when the centroid falls
+    outside a non-convex region) whose width is proportional to P(i -> j).
+
+    Args:
+        chain: the chain.
+        rois: its ROIs.
+        path: PNG file to write.
+        fmap: optional FloorMap drawn underneath.
+
+    Raises:
+        BulletFloorSimError: matplotlib is missing or the file cannot be written.
+    """
+    try:
+        import matplotlib
+    except ImportError:
+        raise BulletFloorSimError("--plot needs matplotlib, which is not installed "
+                                  "(apt install python3-matplotlib)") from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import FancyArrowPatch
+    from matplotlib.patches import Polygon as PolygonPatch
+    from matplotlib.transforms import Affine2D
+
+    fig, ax = plt.subplots(figsize=(12, 9))
+    try:
+        if fmap is not None:
+            import numpy as np
+
+            shade = np.where(fmap.grid == 100, 0.0, np.where(fmap.grid == 0, 1.0, 0.8))
+            ox, oy, yaw = fmap.origin
+            w, h = fmap.width * fmap.resolution, fmap.height * fmap.resolution
+            ax.imshow(shade, cmap="gray", vmin=0.0, vmax=1.0, origin="lower",
+                      extent=(ox, ox + w, oy, oy + h), interpolation="nearest",
+                      transform=Affine2D().rotate_around(ox, oy, yaw) + ax.transData)
+        colours = {}  # type: dict
+        palette = plt.get_cmap("tab10")
+        anchors = {}
+        for roi in rois:
+            colour = colours.setdefault(roi.type, palette(len(colours) % 10))
+            ax.add_patch(PolygonPatch(roi.vertices, closed=True, facecolor=colour, alpha=0.25,
+                                      edgecolor=colour, linewidth=1.5))
+            poly = roi_polygon(roi)
+            c = poly.centroid if poly.contains(poly.centroid) else poly.representative_point()
+            anchors[roi.id] = (float(c.x), float(c.y))
+            ax.text(c.x, c.y, "%s\nstay %.2f" % (roi.id, chain.probability(roi.id, roi.id)),
+                    ha="center", va="center", fontsize=8)
+        for i in chain.ids:
+            for j, p in chain.row(i).items():
+                if j == i:
+                    continue
+                ax.add_patch(FancyArrowPatch(anchors[i], anchors[j], arrowstyle="-|>",
+                                             mutation_scale=10, linewidth=0.5 + 6.0 * p,
+                                             connectionstyle="arc3,rad=0.15", color="tab:red",
+                                             alpha=0.7, shrinkA=12, shrinkB=12))
+        for t, colour in colours.items():
+            ax.plot([], [], color=colour, linewidth=6, alpha=0.4, label=t)
+        if colours:
+            ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+        ax.set_aspect("equal")
+        ax.autoscale_view()
+        ax.set_xlabel("x (m, map frame)")
+        ax.set_ylabel("y (m)")
+        ax.set_title("Markov chain of map %s (arrow width ~ probability)" % chain.map_name)
+        try:
+            fig.savefig(path, dpi=150, bbox_inches="tight")
+        except OSError as e:
+            raise BulletFloorSimError("%s: cannot write the plot: %s"
+                                      % (path, e.strerror or e)) from None
+    finally:
+        plt.close(fig)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
