@@ -12,12 +12,17 @@ Parameters: ``~world`` (name under worlds/ or a world.yaml path; default office)
 ``~state_rate`` (10: battery and joint states), ``~publish_map`` (true),
 ``~ground_truth_tf`` (false: true publishes map -> N/odom from ground truth, for runs without
 amcl),
+``~single_robot`` (false: true keeps only the world's first robot and gives it an empty name,
+i.e. bare topics and frames ``/odom``, ``odom``, ``base_footprint``, as the MORSE tutorial's),
+``~publish_initialpose`` (false: true publishes each spawn pose, latched, on ``N/initialpose``
+at start and after ``~reset``, so amcl starts localised whatever the world),
 ``~robot_state_publishers`` (true: one robot_state_publisher per robot, started by this node
 with the robot's prefixed URDF, so any number of robots works from one launch file).
 Services: ``~reset``, ``~pause``, ``~unpause`` (std_srvs/Empty).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 import threading
@@ -25,7 +30,8 @@ import time
 from typing import List, Optional
 
 import rospy
-from geometry_msgs.msg import PoseStamped, TransformStamped, Twist
+from geometry_msgs.msg import (PoseStamped, PoseWithCovarianceStamped, TransformStamped,
+                               Twist)
 from nav_msgs.msg import MapMetaData, OccupancyGrid, Odometry
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import BatteryState, JointState, LaserScan
@@ -33,7 +39,9 @@ from std_msgs.msg import Float64
 from std_srvs.srv import Empty, EmptyResponse
 from tf2_msgs.msg import TFMessage
 
-from ..core.errors import BulletFloorSimError, CommandError
+from ..core.config import load_world_config, resolve_world
+from ..core.errors import BulletFloorSimError, CommandError, ConfigError
+from ..core.paths import worlds_dir
 from ..core.robot import expand_xacro
 from ..core.world import World
 
@@ -106,7 +114,7 @@ class SimulatorNode:
     """ROS glue around one core ``World``: messages in and out, pacing, services."""
 
     def __init__(self, world: World, rtf: float, rates: dict, publish_map: bool,
-                 ground_truth_tf: bool = False) -> None:
+                 ground_truth_tf: bool = False, initialpose: bool = False) -> None:
         self.world = world
         self.ground_truth_tf = ground_truth_tf
         self.own_time = _stop_listening_to_own_clock()
@@ -136,6 +144,10 @@ class SimulatorNode:
         self.rtf_pub = rospy.Publisher("~real_time_factor_achieved", Float64, queue_size=1)
         if publish_map:
             self._publish_map()
+        self.initialpose = [rospy.Publisher(("/" + sp.name if sp.name else "") + "/initialpose",
+                                            PoseWithCovarianceStamped, queue_size=1, latch=True)
+                            for sp in world.specs] if initialpose else []
+        self._publish_initialposes()
         rospy.Service("~reset", Empty, self._on_reset)
         rospy.Service("~pause", Empty, self._on_pause)
         rospy.Service("~unpause", Empty, self._on_unpause)
@@ -152,7 +164,23 @@ class SimulatorNode:
         with self.lock:
             self.world.reset()
         rospy.loginfo("simulator: robots reset to their spawn poses")
+        self._publish_initialposes()
         return EmptyResponse()
+
+    def _publish_initialposes(self) -> None:
+        """Spawn poses on N/initialpose (latched), so amcl starts (and restarts) localised."""
+        for spec, pub in zip(self.world.specs, self.initialpose):
+            m = PoseWithCovarianceStamped()
+            m.header.frame_id = "map"
+            m.header.stamp = _stamp(self.world.clock.now_ns)
+            m.pose.pose.position.x, m.pose.pose.position.y = spec.pose[0], spec.pose[1]
+            q = m.pose.pose.orientation
+            q.x, q.y, q.z, q.w = _quat(spec.pose[2])
+            cov = [0.0] * 36
+            cov[0] = cov[7] = 0.05 ** 2
+            cov[35] = 0.05 ** 2
+            m.pose.covariance = cov
+            pub.publish(m)
 
     def _on_pause(self, _req) -> EmptyResponse:
         self.paused = True
@@ -315,10 +343,15 @@ def main(argv: Optional[List[str]] = None) -> int:
     rospy.init_node("simulator")
     seed = int(rospy.get_param("~seed", -1))
     try:
-        world = World.from_name(str(rospy.get_param("~world", "office")),
-                                physics_rate=float(rospy.get_param("~physics_rate", 100.0)),
-                                gui=bool(rospy.get_param("~gui", False)),
-                                seed=None if seed < 0 else seed)
+        config = load_world_config(resolve_world(str(rospy.get_param("~world", "office")),
+                                                 worlds_dir()))
+        if rospy.get_param("~single_robot", False):
+            if not config.robots:
+                raise ConfigError("%s: single_robot needs at least one robot" % config.path)
+            config = dataclasses.replace(
+                config, robots=[dataclasses.replace(config.robots[0], name="")])
+        world = World(config, physics_rate=float(rospy.get_param("~physics_rate", 100.0)),
+                      gui=bool(rospy.get_param("~gui", False)), seed=None if seed < 0 else seed)
     except BulletFloorSimError as e:
         rospy.logfatal("simulator: %s", e)
         return 1
@@ -326,7 +359,8 @@ def main(argv: Optional[List[str]] = None) -> int:
              for k, d in (("clock", 100.0), ("odom", 50.0), ("pose", 20.0), ("state", 10.0))}
     node = SimulatorNode(world, float(rospy.get_param("~real_time_factor", 1.0)), rates,
                          bool(rospy.get_param("~publish_map", True)),
-                         bool(rospy.get_param("~ground_truth_tf", False)))
+                         bool(rospy.get_param("~ground_truth_tf", False)),
+                         bool(rospy.get_param("~publish_initialpose", False)))
     launch = None
     if rospy.get_param("~robot_state_publishers", True):
         launch = _start_robot_state_publishers(world)

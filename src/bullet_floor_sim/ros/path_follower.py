@@ -1,0 +1,247 @@
+"""The embedded navigation default: a move_base-compatible action server over core/planner.py.
+
+Run it in a robot's namespace (``<group ns="robot1">``), or at the root for a robot with an empty
+name. Like move_base it serves ``move_base`` (move_base_msgs/MoveBaseAction: feedback with the
+current pose, preemption by a new goal or a cancel, ABORTED with a reason when there is no
+path) and turns ``move_base_simple/goal`` (PoseStamped) into an action goal. It localises from
+ground truth (``base_pose_ground_truth``), reads obstacles from ``base_scan``, drives
+``cmd_vel``, and plans on the map from ``~map_topic`` (``/map``, latched: the simulator's or
+map_server's). The plan is published where stock move_base with global_planner publishes it,
+``move_base/GlobalPlanner/plan``, so one rviz config serves both.
+
+Parameters (defaults suit a Scitos A5): ``~robot_radius`` 0.34, ``~inflation_radius`` 0.6,
+``~planning_resolution`` 0.1, ``~max_linear`` 0.6, ``~max_angular`` 1.2,
+``~xy_goal_tolerance`` 0.15, ``~yaw_goal_tolerance`` 0.15, ``~controller_frequency`` 10,
+``~blocked_timeout`` 30, ``~progress_timeout`` 60, ``~global_frame`` map, ``~map_topic`` /map.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import threading
+from typing import List, Optional
+
+import actionlib
+import numpy as np
+import rospy
+import tf2_geometry_msgs  # noqa: F401  (registers PoseStamped with tf2)
+import tf2_ros
+from geometry_msgs.msg import PoseStamped, Twist
+from move_base_msgs.msg import (MoveBaseAction, MoveBaseActionGoal, MoveBaseFeedback,
+                                MoveBaseResult)
+from nav_msgs.msg import OccupancyGrid, Odometry, Path
+from sensor_msgs.msg import LaserScan
+
+from ..core.floormap import map_from_grid
+from ..core.planner import (FollowerConfig, Navigator, NavigatorConfig, PlanError,
+                            PlannerConfig, PlanningGrid, PathFollower, obstacles_in_base)
+
+__all__ = ["main", "PathFollowerNode"]
+
+
+def _yaw(q) -> float:
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def grid_from_msg(msg: OccupancyGrid):
+    """FloorMap of a nav_msgs/OccupancyGrid (row 0 = bottom, as map_server publishes)."""
+    info = msg.info
+    grid = np.asarray(msg.data, dtype=np.int8).reshape(info.height, info.width)
+    return map_from_grid(grid, info.resolution,
+                         (info.origin.position.x, info.origin.position.y,
+                          _yaw(info.origin.orientation)))
+
+
+class PathFollowerNode:
+    """Action server + control loop; the planning itself lives in core/planner.py."""
+
+    def __init__(self) -> None:
+        gp = rospy.get_param
+        self.planner_cfg = PlannerConfig(
+            robot_radius=float(gp("~robot_radius", 0.34)),
+            inflation_radius=float(gp("~inflation_radius", 0.6)),
+            resolution=float(gp("~planning_resolution", 0.1)))
+        self.follower_cfg = FollowerConfig(
+            robot_radius=self.planner_cfg.robot_radius,
+            max_linear=float(gp("~max_linear", 0.6)),
+            max_angular=float(gp("~max_angular", 1.2)),
+            xy_tolerance=float(gp("~xy_goal_tolerance", 0.15)),
+            yaw_tolerance=float(gp("~yaw_goal_tolerance", 0.15)))
+        self.nav_cfg = NavigatorConfig(blocked_timeout=float(gp("~blocked_timeout", 30.0)),
+                                       progress_timeout=float(gp("~progress_timeout", 60.0)))
+        self.rate_hz = float(gp("~controller_frequency", 10.0))
+        self.global_frame = str(gp("~global_frame", "map"))
+        self.grid: Optional[PlanningGrid] = None
+        self.pose = None  # (x, y, yaw) in map
+        self.base_frame = ""
+        self.obstacles: Optional[np.ndarray] = None
+        self.laser = {}  # laser frame -> (x, y, yaw) in the base frame
+        self.tf_buffer = tf2_ros.Buffer()
+        self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
+        self.cmd_pub = rospy.Publisher("cmd_vel", Twist, queue_size=1)
+        self.plan_pub = rospy.Publisher("move_base/GlobalPlanner/plan", Path, queue_size=1,
+                                        latch=True)
+        self.goal_pub = rospy.Publisher("move_base/goal", MoveBaseActionGoal, queue_size=1)
+        self.have_map = threading.Event()
+        rospy.Subscriber(str(gp("~map_topic", "/map")), OccupancyGrid, self._on_map,
+                         queue_size=1)
+        rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_pose, queue_size=1)
+        rospy.Subscriber("base_scan", LaserScan, self._on_scan, queue_size=1)
+        rospy.Subscriber("move_base_simple/goal", PoseStamped, self._on_simple_goal,
+                         queue_size=1)
+        self.server = actionlib.SimpleActionServer("move_base", MoveBaseAction,
+                                                   execute_cb=self._execute, auto_start=False)
+        self.server.start()
+
+    # -- inputs ------------------------------------------------------------------------------
+    def _on_map(self, msg: OccupancyGrid) -> None:
+        try:
+            self.grid = PlanningGrid(grid_from_msg(msg), self.planner_cfg)
+        except Exception as e:  # a broken map must not kill the node: say so and keep the old
+            rospy.logerr("path_follower: cannot use the map (%s): %s", msg.header.frame_id, e)
+            return
+        self.have_map.set()
+        rospy.loginfo("path_follower: map %dx%d at %.3f m, planning at %.2f m",
+                      msg.info.width, msg.info.height, msg.info.resolution,
+                      self.grid.resolution)
+
+    def _on_pose(self, msg: Odometry) -> None:
+        p = msg.pose.pose
+        self.base_frame = msg.child_frame_id
+        self.pose = (p.position.x, p.position.y, _yaw(p.orientation))
+
+    def _on_scan(self, msg: LaserScan) -> None:
+        laser = self.laser.get(msg.header.frame_id)
+        if laser is None:
+            if not self.base_frame:
+                return
+            try:
+                t = self.tf_buffer.lookup_transform(self.base_frame, msg.header.frame_id,
+                                                    rospy.Time(0), rospy.Duration(0.5))
+            except (tf2_ros.LookupException, tf2_ros.ConnectivityException,
+                    tf2_ros.ExtrapolationException, tf2_ros.TransformException) as e:
+                rospy.logwarn_throttle(10.0, "path_follower: no transform %s -> %s yet: %s",
+                                       self.base_frame, msg.header.frame_id, e)
+                return
+            tr = t.transform
+            laser = (tr.translation.x, tr.translation.y, _yaw(tr.rotation))
+            self.laser[msg.header.frame_id] = laser
+        self.obstacles = obstacles_in_base(msg.ranges, msg.angle_min, msg.angle_increment,
+                                           msg.range_max, laser)
+
+    def _on_simple_goal(self, msg: PoseStamped) -> None:
+        """As move_base: wrap a PoseStamped into an action goal on our own server."""
+        g = MoveBaseActionGoal()
+        g.header.stamp = rospy.Time.now()
+        g.goal.target_pose = msg
+        self.goal_pub.publish(g)
+
+    # -- the action ---------------------------------------------------------------------------
+    def _goal_in_map(self, target: PoseStamped):
+        """(x, y, yaw) of a goal in the global frame, or raise PlanError with the reason."""
+        q = target.pose.orientation
+        vals = [target.pose.position.x, target.pose.position.y, q.x, q.y, q.z, q.w]
+        if not all(math.isfinite(v) for v in vals):
+            raise PlanError("goal has a non-finite value: %s" % vals)
+        if abs(math.sqrt(q.x ** 2 + q.y ** 2 + q.z ** 2 + q.w ** 2) - 1.0) > 1e-2:
+            raise PlanError("goal orientation is not a unit quaternion (%.3f, %.3f, %.3f, %.3f)"
+                            % (q.x, q.y, q.z, q.w))
+        frame = target.header.frame_id.lstrip("/")
+        if frame and frame != self.global_frame:
+            try:
+                target = self.tf_buffer.transform(target, self.global_frame,
+                                                  rospy.Duration(1.0))
+            except tf2_ros.TransformException as e:
+                raise PlanError("cannot transform the goal from %r to %r: %s"
+                                % (frame, self.global_frame, e))
+        p = target.pose
+        return p.position.x, p.position.y, _yaw(p.orientation)
+
+    def _execute(self, goal) -> None:
+        stop = Twist()
+        deadline = rospy.Time.now() + rospy.Duration(10.0)
+        while (self.grid is None or self.pose is None) and not rospy.is_shutdown():
+            if rospy.Time.now() > deadline:
+                self.server.set_aborted(MoveBaseResult(), "no map or no ground-truth pose yet "
+                                        "(is the simulator running and /map published?)")
+                return
+            rospy.sleep(0.1)
+        nav = Navigator(self.grid, PathFollower(self.follower_cfg), self.nav_cfg)
+        t0 = rospy.Time.now()
+        try:
+            target = self._goal_in_map(goal.target_pose)
+            path = nav.start(self.pose, target, t0.to_sec())
+        except PlanError as e:
+            rospy.logwarn("path_follower: goal aborted: %s", e)
+            self.server.set_aborted(MoveBaseResult(), str(e))
+            return
+        rospy.loginfo("path_follower: goal (%.2f, %.2f, %.2f): path of %.1f m", target[0],
+                      target[1], target[2], float(np.hypot(*np.diff(path, axis=0).T).sum()))
+        self._publish_plan(path)
+        replans = 0
+        rate = rospy.Rate(self.rate_hz)
+        fb = MoveBaseFeedback()
+        fb.base_position.header.frame_id = self.global_frame
+        while not rospy.is_shutdown():
+            if self.server.is_preempt_requested():
+                self.cmd_pub.publish(stop)
+                nav.cancel()
+                self.server.set_preempted(MoveBaseResult(), "preempted")
+                return
+            now = rospy.Time.now()
+            st = nav.update(self.pose, self.obstacles, now.to_sec())
+            if st.state != "active":
+                self.cmd_pub.publish(stop)
+                took = (now - t0).to_sec()
+                if st.state == "succeeded":
+                    rospy.loginfo("path_follower: goal reached in %.1f s", took)
+                    self.server.set_succeeded(MoveBaseResult(), "goal reached")
+                else:
+                    rospy.logwarn("path_follower: goal aborted after %.1f s: %s", took,
+                                  st.message)
+                    self.server.set_aborted(MoveBaseResult(), st.message)
+                return
+            cmd = Twist()
+            cmd.linear.x, cmd.angular.z = st.v, st.w
+            self.cmd_pub.publish(cmd)
+            if nav.replans != replans:
+                replans = nav.replans
+                self._publish_plan(nav.path)
+            x, y, yaw = self.pose
+            fb.base_position.header.stamp = now
+            fb.base_position.pose.position.x, fb.base_position.pose.position.y = x, y
+            fb.base_position.pose.orientation.z = math.sin(yaw / 2.0)
+            fb.base_position.pose.orientation.w = math.cos(yaw / 2.0)
+            self.server.publish_feedback(fb)
+            try:
+                rate.sleep()
+            except rospy.ROSInterruptException:
+                return
+            except rospy.ROSTimeMovedBackwardsException:
+                pass
+
+    def _publish_plan(self, path: np.ndarray) -> None:
+        msg = Path()
+        msg.header.frame_id = self.global_frame
+        msg.header.stamp = rospy.Time.now()
+        for x, y in path:
+            ps = PoseStamped()
+            ps.header = msg.header
+            ps.pose.position.x, ps.pose.position.y = float(x), float(y)
+            ps.pose.orientation.w = 1.0
+            msg.poses.append(ps)
+        self.plan_pub.publish(msg)
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    """Entry point of ``rosrun bullet_floor_sim path_follower``."""
+    rospy.init_node("path_follower")
+    PathFollowerNode()
+    rospy.loginfo("path_follower: serving %s (embedded navigation, ground-truth localisation)",
+                  rospy.resolve_name("move_base"))
+    rospy.spin()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
