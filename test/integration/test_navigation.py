@@ -21,6 +21,8 @@ from actionlib_msgs.msg import GoalStatus
 from geometry_msgs.msg import PoseStamped
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import Odometry
+from sensor_msgs.msg import LaserScan
+from tf2_msgs.msg import TFMessage
 from scipy.ndimage import distance_transform_edt
 
 from bullet_floor_sim.core.floormap import load_map
@@ -90,6 +92,18 @@ class TestBuiltinNavigation(unittest.TestCase):
         deadline = rospy.Time.now() + rospy.Duration(30)
         while any(w.pose is None for w in cls.watch) and rospy.Time.now() < deadline:
             rospy.sleep(0.1)
+
+    def test_0_empty_name_robot_uses_bare_names(self):
+        if self.robots != [""]:
+            self.skipTest("only for the single robot with an empty name")
+        odom = rospy.wait_for_message("/odom", Odometry, timeout=10)
+        self.assertEqual((odom.header.frame_id, odom.child_frame_id), ("odom", "base_footprint"))
+        scan = rospy.wait_for_message("/base_scan", LaserScan, timeout=10)
+        self.assertEqual(scan.header.frame_id, "base_laser_link")
+        static = rospy.wait_for_message("/tf_static", TFMessage, timeout=10)
+        pairs = {(t.header.frame_id, t.child_frame_id) for t in static.transforms}
+        self.assertIn(("base_footprint", "base_link"), pairs)
+        self.assertIn(("base_link", "base_laser_link"), pairs)
 
     def drive(self, goals, timeout=150.0):
         """Send one goal per robot at once; return their final states."""

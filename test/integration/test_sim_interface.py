@@ -47,6 +47,14 @@ class SimInterface(unittest.TestCase):
             self.cmd.publish(Twist(linear=_vec(v, 0, 0), angular=_vec(0, 0, w)))
             rospy.sleep(0.1)
 
+    def test_0_real_time_factor_is_held(self):
+        """sim.launch runs this world at rtf 2: sim time advances twice as fast as wall time."""
+        rospy.sleep(1.0)
+        w0, s0 = time.monotonic(), rospy.get_time()
+        time.sleep(5.0)
+        ratio = (rospy.get_time() - s0) / (time.monotonic() - w0)
+        self.assertAlmostEqual(ratio, 2.0, delta=0.2)
+
     def test_1_scan_matches_walls(self):
         gt = msg("/robot1/base_pose_ground_truth", Odometry)
         scan = msg("/robot1/base_scan", LaserScan)
