@@ -268,6 +268,9 @@ def test_bad_arguments(store, db):
         store.update(db, "c", {}, {"$set": {"a": 1}, "x": 2})
     with pytest.raises(StoreError, match=r"bad sort"):
         store.find(db, "c", sort=[("k", 2)])
+    with pytest.raises(StoreError, match=r"cannot store insert on t_\w+\.c \(Invalid document: "
+                                         r"cannot encode object: \{1, 2\}"):
+        store.insert(db, "c", {"k": {1, 2}})
     store.insert(db, "c", {"k": 1})
     with pytest.raises(StoreError, match=r"\$bogus"):
         store.find(db, "c", {"k": {"$bogus": 1}})
@@ -285,6 +288,18 @@ def test_bad_uris(tmp_path):
     (tmp_path / "file").write_text("")
     with pytest.raises(StoreError, match=r"file: not a directory"):
         open_store(str(tmp_path / "file"), journal_dir=str(tmp_path))
+
+
+def test_store_imports_without_rospy():
+    import subprocess
+
+    code = ("import sys, bullet_floor_sim.core.store as s; s.open_store; "
+            "bad = [m for m in ('rospy', 'rosgraph', 'genpy') if m in sys.modules]; "
+            "print(bad); sys.exit(1 if bad else 0)")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    out = subprocess.run([sys.executable, "-c", code], stdout=subprocess.PIPE, env=env,
+                         stderr=subprocess.STDOUT, universal_newlines=True)
+    assert out.returncode == 0, out.stdout
 
 
 def test_default_paths_and_port(tmp_path, monkeypatch):

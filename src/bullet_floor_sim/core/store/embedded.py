@@ -31,6 +31,8 @@ __all__ = ["EmbeddedBackend"]
 _CODEC = CodecOptions(tz_aware=False)
 _TABLE_PREFIX = "docs:"
 _KEY_IN_INDEX = re.compile(r"bfs_key\(doc, '((?:[^']|'')*)'\)")
+# OperationalErrors that are mistakes in a statement, not an unavailable database.
+_SQL_BUGS = ("syntax error", "no such column", "no such function", "unrecognized token")
 
 
 def _montydb_engine():
@@ -144,10 +146,21 @@ class EmbeddedBackend(Backend):
         except sqlite3.IntegrityError as e:
             raise DuplicateKeyError("store %s: duplicate _id in %s (%s)"
                                     % (self.directory, db, e)) from None
-        except (sqlite3.OperationalError, OSError) as e:  # locked, I/O error, cannot open
+        except sqlite3.OperationalError as e:
+            self._drop(db)
+            if any(bug in str(e) for bug in _SQL_BUGS):
+                raise StoreError("store %s: database %s: %s" % (self.directory, db, e)) from None
+            # locked past the timeout, I/O error, cannot open, disk full, read-only
+            raise StoreUnavailable("store %s: database %s unavailable (%s)"
+                                   % (self.directory, db, e)) from None
+        except OSError as e:
             self._drop(db)
             raise StoreUnavailable("store %s: database %s unavailable (%s)"
                                    % (self.directory, db, e)) from None
+        except sqlite3.DatabaseError as e:  # not a database, malformed: not transient
+            self._drop(db)
+            raise StoreError("store %s: database %s is damaged (%s)"
+                             % (self.directory, db, e)) from None
         except (bson.errors.InvalidDocument, bson.errors.InvalidBSON) as e:
             raise StoreError("store %s: cannot store the document (%s)"
                              % (self.directory, e)) from None

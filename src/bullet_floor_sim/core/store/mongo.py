@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from typing import Any, Dict, List, Tuple
 
+import bson
+
 from .base import (MONGODB_DEFAULT_PORT, Backend, DuplicateKeyError, StoreError,
                    StoreUnavailable, is_operator_update, redact_uri)
 
@@ -54,7 +56,7 @@ class MongoBackend(Backend):
         except errors.ConnectionFailure as e:  # AutoReconnect, ServerSelectionTimeout, ...
             raise StoreUnavailable("store %s: MongoDB unreachable (%s: %s)" % (
                 redact_uri(self.uri), type(e).__name__, _first_line(e))) from None
-        except errors.PyMongoError as e:
+        except (errors.PyMongoError, bson.errors.BSONError) as e:
             raise StoreError("store %s: %s" % (redact_uri(self.uri), _first_line(e))) from None
 
     def _coll(self, db: str, collection: str):

@@ -213,6 +213,7 @@ class Store:
         return self._down is not None and time.monotonic() < self._next_try
 
     def _write(self, entry: Dict[str, Any]) -> Any:
+        _check_bson(entry)
         with self._lock:
             self._check_open()
             if self._waiting() or (self._journal.pending() and not self._replay()):
@@ -368,6 +369,15 @@ def open_store(uri: Optional[str] = None, journal_dir: Optional[str] = None,
 def _check_filter(filter: Any) -> None:
     if not isinstance(filter, dict):
         raise StoreError("store: a filter must be a dict, not %s" % type(filter).__name__)
+
+
+def _check_bson(entry: Dict[str, Any]) -> None:
+    """Reject what BSON cannot hold before it reaches a backend or the journal."""
+    try:
+        bson.encode(entry)
+    except (bson.errors.BSONError, TypeError, OverflowError) as e:
+        raise StoreError("store: cannot store %s on %s.%s (%s)"
+                         % (entry["op"], entry["db"], entry["coll"], e)) from None
 
 
 def _short(message: str) -> str:
