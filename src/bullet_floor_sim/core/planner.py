@@ -638,7 +638,6 @@ class Navigator:
         return NavStatus(cmd.v, cmd.w, "active", cmd.state, cmd.distance_to_goal)
 
     def _abort(self, message: str, cmd: FollowerCommand) -> NavStatus:
-        self.goal_failed = self.goal
         self.goal = None
         return NavStatus(0.0, 0.0, "aborted", message, cmd.distance_to_goal)
 

@@ -34,7 +34,8 @@ from sensor_msgs.msg import LaserScan
 
 from ..core.floormap import map_from_grid
 from ..core.planner import (FollowerConfig, Navigator, NavigatorConfig, PlanError,
-                            PlannerConfig, PlanningGrid, PathFollower, obstacles_in_base)
+                            PlannerConfig, PlanningGrid, PathFollower, obstacles_in_base,
+                            path_length)
 
 __all__ = ["main", "PathFollowerNode"]
 
@@ -176,7 +177,7 @@ class PathFollowerNode:
             self.server.set_aborted(MoveBaseResult(), str(e))
             return
         rospy.loginfo("path_follower: goal (%.2f, %.2f, %.2f): path of %.1f m", target[0],
-                      target[1], target[2], float(np.hypot(*np.diff(path, axis=0).T).sum()))
+                      target[1], target[2], path_length(path))
         self._publish_plan(path)
         replans = 0
         rate = rospy.Rate(self.rate_hz)
