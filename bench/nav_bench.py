@@ -289,7 +289,9 @@ def _free_port() -> int:
     return port
 
 
-def _stop(p: Optional[subprocess.Popen], timeout: float = 15.0) -> None:
+def _stop(p: Optional[subprocess.Popen], timeout: float = 30.0) -> None:
+    """SIGINT to a process group, SIGKILL after ``timeout`` (roslaunch itself escalates to
+    SIGKILL for its nodes after ~17 s: give it the time)."""
     if p is None or p.poll() is not None:
         return
     try:
@@ -301,6 +303,28 @@ def _stop(p: Optional[subprocess.Popen], timeout: float = 15.0) -> None:
     except subprocess.TimeoutExpired:
         os.killpg(p.pid, signal.SIGKILL)
         p.wait()
+
+
+def _kill_leftovers(tag: str) -> int:
+    """SIGKILL processes whose command line holds ``tag`` (this run's private ROS_HOME, which
+    every node of its roslaunch gets in ``__log:=``): roslaunch starts nodes in their own
+    process groups, and one that hangs in shutdown would outlive it. Returns how many."""
+    n = 0
+    for pid in os.listdir("/proc"):
+        if not pid.isdigit() or int(pid) == os.getpid():
+            continue
+        try:
+            with open("/proc/%s/cmdline" % pid, "rb") as f:
+                cmd = f.read().decode(errors="replace")
+        except OSError:
+            continue
+        if tag in cmd:
+            try:
+                os.kill(int(pid), signal.SIGKILL)
+                n += 1
+            except OSError:
+                pass
+    return n
 
 
 def run_case(mode: str, n: int, seed: int, rtf: float, timeout: float) -> Dict:
@@ -345,6 +369,10 @@ def run_case(mode: str, n: int, seed: int, rtf: float, timeout: float) -> Dict:
     finally:
         _stop(launch)
         _stop(core)
+        left = _kill_leftovers(tmp)
+        if left:
+            print("nav_bench: killed %d process(es) still running after roslaunch and roscore "
+                  "shut down" % left, file=sys.stderr)
 
 
 def _log_problems(path: str) -> int:
