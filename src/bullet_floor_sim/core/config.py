@@ -23,9 +23,9 @@ import re
 from dataclasses import dataclass, field, fields
 from typing import Any, Dict, List, Optional, Tuple, Type, TypeVar
 
-import yaml
 
 from .errors import ConfigError
+from .yamlio import read_yaml
 
 __all__ = [
     "DriveConfig",
@@ -223,15 +223,7 @@ def load_world_config(path: str) -> WorldConfig:
     Raises:
         ConfigError: the file is missing, malformed, has unknown keys or bad values.
     """
-    try:
-        with open(path, "r") as f:
-            doc = yaml.safe_load(f)
-    except FileNotFoundError:
-        raise ConfigError("%s: world file not found" % path) from None
-    except yaml.YAMLError as e:
-        line = getattr(getattr(e, "problem_mark", None), "line", None)
-        raise ConfigError("%s: not valid YAML%s"
-                          % (path, " (line %d)" % (line + 1) if line is not None else "")) from None
+    doc = read_yaml(path, "world", ConfigError)
     if not isinstance(doc, dict):
         raise ConfigError("%s: expected a mapping with keys %s" % (path, ", ".join(_WORLD_KEYS)))
     _reject_unknown(doc, _WORLD_KEYS, path)

@@ -21,9 +21,9 @@ from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
-import yaml
 
 from .errors import MapError
+from .yamlio import read_yaml
 
 __all__ = [
     "FloorMap",
@@ -159,17 +159,7 @@ def map_from_grid(grid: np.ndarray, resolution: float,
 
 
 def _read_yaml(path: str) -> Dict[str, Any]:
-    try:
-        with open(path, "r") as f:
-            doc = yaml.safe_load(f)
-    except FileNotFoundError:
-        raise MapError("%s: map file not found" % path) from None
-    except OSError as e:
-        raise MapError("%s: cannot read map file: %s" % (path, e.strerror)) from None
-    except yaml.YAMLError as e:
-        line = getattr(getattr(e, "problem_mark", None), "line", None)
-        where = " (line %d)" % (line + 1) if line is not None else ""
-        raise MapError("%s: not valid YAML%s" % (path, where)) from None
+    doc = read_yaml(path, "map", MapError)
     if not isinstance(doc, dict):
         raise MapError("%s: expected a mapping of map_server keys, got %s"
                        % (path, type(doc).__name__))

@@ -26,6 +26,7 @@ from shapely.geometry import LinearRing, Point, Polygon
 from shapely.validation import explain_validity
 
 from .errors import BulletFloorSimError
+from .yamlio import read_yaml
 
 __all__ = [
     "RoiError",
@@ -91,18 +92,7 @@ def load_rois(path: str) -> List[Roi]:
         RoiError: the file is missing, not YAML, or any ROI is invalid; the message names
             the file, the ROI id and the problem.
     """
-    try:
-        with open(path, "r") as f:
-            doc = yaml.safe_load(f)
-    except FileNotFoundError:
-        raise RoiError("%s: ROI file not found" % path) from None
-    except OSError as e:
-        raise RoiError("%s: cannot read ROI file: %s" % (path, e.strerror)) from None
-    except yaml.YAMLError as e:
-        line = getattr(getattr(e, "problem_mark", None), "line", None)
-        where = " (line %d)" % (line + 1) if line is not None else ""
-        raise RoiError("%s: not valid YAML%s" % (path, where)) from None
-    return rois_from_dict(doc, source=path)
+    return rois_from_dict(read_yaml(path, "ROI", RoiError), source=path)
 
 
 def save_rois(rois: Sequence[Roi], path: str) -> None:
