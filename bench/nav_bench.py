@@ -43,7 +43,6 @@ import math
 import os
 import random
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -54,6 +53,8 @@ from typing import Dict, List, Optional, Sequence, Tuple
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
 sys.path.insert(0, os.path.join(REPO, "src"))
+sys.path.insert(0, HERE)
+from ros_bench import _free_port  # noqa: E402  (one free-port helper for the ROS benches)
 
 Goal = Tuple[str, float, float, float]   # (roi id, x, y, yaw)
 
@@ -281,14 +282,6 @@ def _row_text(row: Dict) -> str:
 
 
 # -- one mode under its own roscore -------------------------------------------------------------
-def _free_port() -> int:
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
-
-
 def _stop(p: Optional[subprocess.Popen], timeout: float = 30.0) -> None:
     """SIGINT to a process group, SIGKILL after ``timeout`` (roslaunch itself escalates to
     SIGKILL for its nodes after ~17 s: give it the time)."""
