@@ -1,0 +1,513 @@
+"""ROIs in the document store, as SOMA keeps them, and the edits rviz makes to them.
+
+Every saved ROI is a new document (SOMA kept history): the SOMAROIObject fields as mongodb_store
+writes a message (``header``, ``id``, ``map_name``, ``config``, ``type``, ``logtimestamp`` ...,
+``posearray`` with one pose per vertex, ``geotype: Polygon``) plus ``_meta`` with
+``stored_type: soma_msgs/SOMAROIObject`` and ``version``, a number increasing per (map, config,
+id) that orders the versions exactly (``logtimestamp`` has one-second resolution): the write
+time in milliseconds, or one more than the previous version when that is larger. Deleting an ROI
+writes a version with ``_meta.deleted: true``: the ROI disappears from queries, its history
+stays. Default place: database ``somadata``, collection ``roi``, as SOMA's ROI manager.
+
+:class:`RoiStore` reads and writes them (and answers SOMA's SOMAQueryROIs semantics);
+:func:`move_vertex`, :func:`add_point`, :func:`delete_point`, :func:`new_roi` are the rviz
+menu edits on plain :class:`~.rois.Roi` values; :class:`Debouncer` decides when a dragged
+ROI is saved. No rospy here.
+"""
+from __future__ import annotations
+
+import datetime
+import json
+import math
+import time
+from typing import Any, Dict, Iterable, List, Optional, Sequence, Tuple
+
+from .rois import Roi, RoiError, validate_roi, validate_rois
+from .store import Store, insert_message
+
+__all__ = [
+    "DATABASE",
+    "COLLECTION",
+    "STORED_TYPE",
+    "RoiQuery",
+    "RoiStore",
+    "roi_to_fields",
+    "roi_from_document",
+    "move_vertex",
+    "add_point",
+    "delete_point",
+    "new_roi",
+    "next_roi_id",
+    "Debouncer",
+]
+
+DATABASE = "somadata"
+COLLECTION = "roi"
+STORED_TYPE = "soma_msgs/SOMAROIObject"
+_INDEX = [("map_name", 1), ("config", 1), ("id", 1), ("_meta.version", 1)]
+_EPOCH = datetime.datetime(1970, 1, 1)
+
+
+# --------------------------------------------------------------------------------------------
+# documents
+# --------------------------------------------------------------------------------------------
+
+
+def _pose(x: float, y: float) -> Dict[str, Any]:
+    return {"position": {"x": float(x), "y": float(y), "z": 0.0},
+            "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}
+
+
+def _header(stamp: float, frame_id: str) -> Dict[str, Any]:
+    secs = int(math.floor(stamp))
+    return {"seq": 0, "stamp": {"secs": secs, "nsecs": int(round((stamp - secs) * 1e9)) % 10**9},
+            "frame_id": frame_id}
+
+
+def roi_to_fields(roi: Roi, logtimestamp: int, frame_id: str = "map") -> Dict[str, Any]:
+    """The SOMAROIObject fields of ``roi`` as mongodb_store stores them (a plain dict).
+
+    Args:
+        roi: the ROI.
+        logtimestamp: Unix time (UTC seconds) of this version; logday/loghour/logminute/
+            logtimeminutes are derived from it as SOMA's insert service does.
+        frame_id: the frame of the vertices.
+    """
+    t = _EPOCH + datetime.timedelta(seconds=int(logtimestamp))
+    header = _header(float(logtimestamp), frame_id)
+    return {
+        "header": header,
+        "id": roi.id,
+        "map_name": roi.map_name,
+        "map_unique_id": roi.map_name,
+        "config": roi.config,
+        "type": roi.type,
+        "logtimestamp": int(logtimestamp),
+        "logday": t.isoweekday(),
+        "loghour": t.hour,
+        "logminute": t.minute,
+        "logtimeminutes": t.hour * 60 + t.minute,
+        "posearray": {"header": header, "poses": [_pose(x, y) for x, y in roi.vertices]},
+        "geotype": "Polygon",
+        "geoposearray": {"header": header, "poses": []},
+    }
+
+
+def roi_from_document(doc: Dict[str, Any]) -> Roi:
+    """The ROI a stored SOMAROIObject document (or message dict) describes.
+
+    Raises:
+        RoiError: the document lacks the fields or they have the wrong shape.
+    """
+    try:
+        vertices = [(float(p["position"]["x"]), float(p["position"]["y"]))
+                    for p in doc["posearray"]["poses"]]
+        return Roi(id=str(doc["id"]), config=str(doc["config"]), type=str(doc["type"]),
+                   map_name=str(doc["map_name"]), vertices=vertices)
+    except (KeyError, TypeError, ValueError) as e:
+        raise RoiError("stored ROI %r: not a SOMAROIObject document (%s: %s)"
+                       % (doc.get("id", "?") if isinstance(doc, dict) else "?",
+                          type(e).__name__, e))
+
+
+# --------------------------------------------------------------------------------------------
+# SOMA query
+# --------------------------------------------------------------------------------------------
+
+
+class RoiQuery:
+    """SOMAQueryROIs' request fields (soma_query_manager semantics).
+
+    query_type 0 queries ROIs; 1 lists the ids and configs only. Time of day limits compare
+    ``logtimeminutes`` with hour * 60 + minutes; date limits compare ``logtimestamp`` (a limit
+    of 0 is ignored); ``weekday`` is ISO (1 = Monday). ``roiids``/``roiconfigs`` are OR-ed
+    within each list; an empty list does not filter. ``returnmostrecent`` keeps the newest
+    version of each ROI (after the other filters).
+    """
+
+    FIELDS = ("query_type", "uselowertime", "useuppertime", "usedates", "useweekday",
+              "returnmostrecent", "lowerhour", "upperhour", "lowerminutes", "upperminutes",
+              "lowerdate", "upperdate", "weekday", "roiids", "roiconfigs")
+
+    def __init__(self, **fields: Any) -> None:
+        unknown = sorted(set(fields) - set(self.FIELDS))
+        if unknown:
+            raise RoiError("ROI query: unknown field(s) %s" % ", ".join(unknown))
+        self.query_type = int(fields.get("query_type", 0))
+        for name in ("uselowertime", "useuppertime", "usedates", "useweekday",
+                     "returnmostrecent"):
+            setattr(self, name, bool(fields.get(name, False)))
+        for name in ("lowerhour", "upperhour", "lowerminutes", "upperminutes", "lowerdate",
+                     "upperdate", "weekday"):
+            setattr(self, name, int(fields.get(name, 0)))
+        self.roiids = [str(i) for i in fields.get("roiids", []) or []]
+        self.roiconfigs = [str(c) for c in fields.get("roiconfigs", []) or []]
+
+    @classmethod
+    def from_request(cls, request: Any) -> "RoiQuery":
+        """From a SOMAQueryROIs request (any object with the fields as attributes)."""
+        return cls(**{name: getattr(request, name) for name in cls.FIELDS
+                      if hasattr(request, name)})
+
+    def filter(self, map_name: str) -> Dict[str, Any]:
+        """The MongoDB filter of this query on ``map_name`` (deleted versions excluded)."""
+        clauses: List[Dict[str, Any]] = [{"map_name": map_name}]
+        if self.roiids:
+            clauses.append({"$or": [{"id": i} for i in self.roiids]})
+        if self.roiconfigs:
+            clauses.append({"$or": [{"config": c} for c in self.roiconfigs]})
+        if self.uselowertime:
+            clauses.append({"logtimeminutes": {"$gte": self.lowerhour * 60 + self.lowerminutes}})
+        if self.useuppertime:
+            clauses.append({"logtimeminutes": {"$lte": self.upperhour * 60 + self.upperminutes}})
+        if self.usedates:
+            if self.lowerdate > 0:
+                clauses.append({"logtimestamp": {"$gte": self.lowerdate}})
+            if self.upperdate > 0:
+                clauses.append({"logtimestamp": {"$lte": self.upperdate}})
+        if self.useweekday:
+            clauses.append({"logday": self.weekday})
+        return clauses[0] if len(clauses) == 1 else {"$and": clauses}
+
+
+# --------------------------------------------------------------------------------------------
+# the store
+# --------------------------------------------------------------------------------------------
+
+
+class RoiStore:
+    """ROI versions of one map in a :class:`~.store.Store`.
+
+    Args:
+        store: the open store.
+        map_name: the map whose ROIs this reads and writes.
+        inserted_by: the writing node's name (``_meta.inserted_by``).
+        database, collection: where the ROIs live (SOMA's defaults).
+        clock: seconds since the epoch for ``logtimestamp`` (wall clock by default).
+    """
+
+    def __init__(self, store: Store, map_name: str, inserted_by: str = "",
+                 database: str = DATABASE, collection: str = COLLECTION,
+                 clock: Any = time.time) -> None:
+        if not isinstance(map_name, str) or not map_name:
+            raise RoiError("ROI store: map_name must be a non-empty string, got %r"
+                           % (map_name,))
+        self.store = store
+        self.map_name = map_name
+        self.inserted_by = inserted_by
+        self.database = database
+        self.collection = collection
+        self._clock = clock
+        self._versions: Dict[Tuple[str, str], int] = {}
+        store.create_index(database, collection, _INDEX)
+
+    # -- reads ----------------------------------------------------------------------------------
+
+    def _latest_docs(self, filter: Optional[Dict[str, Any]] = None) -> List[Dict[str, Any]]:
+        flt = {"map_name": self.map_name}
+        if filter:
+            flt = {"$and": [flt, filter]}
+        return self.store.latest(self.database, self.collection, ["config", "id"],
+                                 "_meta.version", filter=flt)
+
+    def current(self, config: Optional[str] = None) -> List[Roi]:
+        """The newest version of every ROI not deleted (of one config, or all), by
+        (config, id) with numeric ids in numeric order.
+
+        Raises:
+            StoreUnavailable: the database is down.
+        """
+        docs = self._latest_docs({"config": config} if config is not None else None)
+        for doc in docs:
+            self._note_version(doc)
+        rois = [roi_from_document(d) for d in docs if not _deleted(d)]
+        return sorted(rois, key=lambda r: (r.config, _id_key(r.id)))
+
+    def versions(self, config: Optional[str] = None) -> Dict[Tuple[str, str], int]:
+        """The newest version number of every ROI ((config, id) -> version; deleted included).
+        """
+        docs = self._latest_docs({"config": config} if config is not None else None)
+        return {(d["config"], d["id"]): int(d.get("_meta", {}).get("version", 0)) for d in docs}
+
+    def configs(self) -> List[str]:
+        """Configs of the map that hold at least one ROI (deleted or not)."""
+        return sorted({c for c, _ in self.versions()})
+
+    def history(self, config: str, roi_id: str) -> List[Tuple[int, Optional[Roi]]]:
+        """Every version of one ROI, oldest first: (version, ROI or None when deleted)."""
+        docs = self.store.find(self.database, self.collection,
+                               {"map_name": self.map_name, "config": config, "id": roi_id},
+                               sort=[("_meta.version", 1)])
+        return [(int(d["_meta"].get("version", 0)),
+                 None if _deleted(d) else roi_from_document(d)) for d in docs]
+
+    def query(self, request: RoiQuery) -> Dict[str, Any]:
+        """Answer a SOMAQueryROIs request.
+
+        Returns:
+            ``{"configs": [...], "ids": [...], "rois": [document, ...], "queryjson": str}``
+            (documents are SOMAROIObject dicts with ``_meta``; none for query_type 1).
+
+        Raises:
+            RoiError: an unknown query_type.
+            StoreUnavailable: the database is down.
+        """
+        if request.query_type == 1:
+            latest = self._latest_docs()
+            live = [d for d in latest if not _deleted(d)]
+            return {"configs": sorted({d["config"] for d in live}),
+                    "ids": sorted({d["id"] for d in live}, key=_id_key), "rois": [],
+                    "queryjson": json.dumps({"map_name": self.map_name})}
+        if request.query_type != 0:
+            raise RoiError("ROI query: query_type must be 0 (query) or 1 (ids and configs), "
+                           "got %d" % request.query_type)
+        flt = request.filter(self.map_name)
+        if request.returnmostrecent:
+            docs = [d for d in self.store.latest(self.database, self.collection,
+                                                 ["config", "id"], "_meta.version", filter=flt)
+                    if not _deleted(d)]
+        else:
+            docs = [d for d in self.store.find(self.database, self.collection, flt,
+                                               sort=[("config", 1), ("id", 1),
+                                                     ("_meta.version", 1)])
+                    if not _deleted(d)]
+        docs.sort(key=lambda d: (d["config"], _id_key(d["id"]), d["_meta"].get("version", 0)))
+        return {"configs": sorted({d["config"] for d in docs}),
+                "ids": sorted({d["id"] for d in docs}, key=_id_key), "rois": docs,
+                "queryjson": json.dumps(flt, sort_keys=True)}
+
+    # -- writes ---------------------------------------------------------------------------------
+
+    def save(self, roi: Roi) -> int:
+        """Store a new version of ``roi`` (validated first); return its version number.
+
+        Raises:
+            RoiError: the ROI is invalid or belongs to another map.
+        """
+        self._check_map(roi)
+        validate_roi(roi)
+        return self._insert(roi, deleted=False)
+
+    def delete(self, config: str, roi_id: str) -> int:
+        """Mark an ROI deleted (a new version; its history stays). Returns the version.
+
+        Raises:
+            RoiError: no such ROI.
+        """
+        live = {(r.config, r.id): r for r in self.current(config)}
+        if (config, roi_id) not in live:
+            raise RoiError("ROI %s config %s of map %s: cannot delete, no such ROI"
+                           % (json.dumps(roi_id), json.dumps(config), json.dumps(self.map_name)))
+        return self._insert(live[(config, roi_id)], deleted=True)
+
+    def seed(self, rois: Sequence[Roi]) -> bool:
+        """Store ``rois`` when the store has nothing for their map and config (not even
+        deleted ROIs: after the first start the store is the truth).
+
+        Returns:
+            True when they were stored.
+
+        Raises:
+            RoiError: the ROIs are invalid, empty or span several configs or another map.
+        """
+        rois = list(rois)
+        if not rois:
+            raise RoiError("ROI seed for map %s: no ROIs" % json.dumps(self.map_name))
+        validate_rois(rois)
+        configs = {r.config for r in rois}
+        if len(configs) != 1:
+            raise RoiError("ROI seed: one config at a time, got %s" % ", ".join(sorted(configs)))
+        for roi in rois:
+            self._check_map(roi)
+        if self.versions(configs.pop()):
+            return False
+        for roi in rois:
+            self._insert(roi, deleted=False)
+        return True
+
+    def replace(self, rois: Sequence[Roi], config: str) -> Tuple[int, int]:
+        """Make ``rois`` the current ROIs of ``config``: a new version of each ROI that
+        changed (or is new), a deletion of each current ROI not in ``rois``.
+
+        Returns:
+            (versions written, ROIs deleted).
+        """
+        rois = list(rois)
+        validate_rois(rois)
+        for roi in rois:
+            self._check_map(roi)
+            if roi.config != config:
+                raise RoiError("ROI %s: config %s, expected %s"
+                               % (json.dumps(roi.id), json.dumps(roi.config),
+                                  json.dumps(config)))
+        current = {r.id: r for r in self.current(config)}
+        written = deleted = 0
+        for roi in rois:
+            old = current.pop(roi.id, None)
+            if old is None or old.type != roi.type or _vertices(old) != _vertices(roi):
+                self._insert(roi, deleted=False)
+                written += 1
+        for roi in current.values():
+            self._insert(roi, deleted=True)
+            deleted += 1
+        return written, deleted
+
+    # -- helpers --------------------------------------------------------------------------------
+
+    def _check_map(self, roi: Roi) -> None:
+        if roi.map_name != self.map_name:
+            raise RoiError("ROI %s: map %s, but this store holds map %s"
+                           % (json.dumps(roi.id), json.dumps(roi.map_name),
+                              json.dumps(self.map_name)))
+
+    def _note_version(self, doc: Dict[str, Any]) -> None:
+        key = (doc["config"], doc["id"])
+        version = int(doc.get("_meta", {}).get("version", 0))
+        if version > self._versions.get(key, 0):
+            self._versions[key] = version
+
+    def _next_version(self, roi: Roi, now: float) -> int:
+        # Milliseconds of the write time, or one more than the last version this process saw:
+        # increasing without reading the database, so edits made while it is down (journalled)
+        # still sort after the versions already stored.
+        return max(self._versions.get((roi.config, roi.id), 0) + 1, int(now * 1000))
+
+    def _insert(self, roi: Roi, deleted: bool) -> int:
+        now = float(self._clock())
+        version = self._next_version(roi, now)
+        meta: Dict[str, Any] = {"map": roi.map_name, "version": version}
+        if deleted:
+            meta["deleted"] = True
+        insert_message(self.store, self.database, self.collection,
+                       roi_to_fields(roi, int(now)), STORED_TYPE, meta=meta,
+                       inserted_by=self.inserted_by, now=now)
+        self._versions[(roi.config, roi.id)] = version
+        return version
+
+
+def _deleted(doc: Dict[str, Any]) -> bool:
+    return bool(doc.get("_meta", {}).get("deleted", False))
+
+
+def _vertices(roi: Roi) -> List[Tuple[float, float]]:
+    return [(float(x), float(y)) for x, y in roi.vertices]
+
+
+def _id_key(roi_id: str) -> Tuple[int, Any]:
+    """Numeric ids in numeric order ("2" < "10"), then the others alphabetically."""
+    return (0, int(roi_id), "") if roi_id.isdigit() else (1, 0, roi_id)
+
+
+# --------------------------------------------------------------------------------------------
+# edits (the rviz menu)
+# --------------------------------------------------------------------------------------------
+
+
+def _copy(roi: Roi, vertices: Iterable[Tuple[float, float]]) -> Roi:
+    return Roi(id=roi.id, config=roi.config, type=roi.type, map_name=roi.map_name,
+               vertices=[(float(x), float(y)) for x, y in vertices])
+
+
+def _check_index(roi: Roi, index: int) -> None:
+    if not 0 <= index < len(roi.vertices):
+        raise RoiError("ROI %s: no vertex %d (it has %d)"
+                       % (json.dumps(roi.id), index, len(roi.vertices)))
+
+
+def move_vertex(roi: Roi, index: int, x: float, y: float) -> Roi:
+    """A copy of ``roi`` with vertex ``index`` at (x, y).
+
+    Raises:
+        RoiError: no such vertex, or a non-finite coordinate.
+    """
+    _check_index(roi, index)
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise RoiError("ROI %s: vertex %d moved to a non-finite position (%s, %s)"
+                       % (json.dumps(roi.id), index, x, y))
+    vertices = list(roi.vertices)
+    vertices[index] = (float(x), float(y))
+    return _copy(roi, vertices)
+
+
+def add_point(roi: Roi, index: int) -> Roi:
+    """A copy of ``roi`` with a new vertex halfway along the edge from vertex ``index`` to the
+    next one (inserted after ``index``), as soma_roi_manager's Add Point."""
+    _check_index(roi, index)
+    n = len(roi.vertices)
+    (x0, y0), (x1, y1) = roi.vertices[index], roi.vertices[(index + 1) % n]
+    vertices = list(roi.vertices)
+    vertices.insert(index + 1, ((x0 + x1) / 2.0, (y0 + y1) / 2.0))
+    return _copy(roi, vertices)
+
+
+def delete_point(roi: Roi, index: int) -> Roi:
+    """A copy of ``roi`` without vertex ``index``.
+
+    Raises:
+        RoiError: no such vertex, or the ROI would keep fewer than 3 vertices.
+    """
+    _check_index(roi, index)
+    if len(roi.vertices) <= 3:
+        raise RoiError("ROI %s: cannot delete vertex %d, a polygon needs at least 3 vertices"
+                       % (json.dumps(roi.id), index))
+    return _copy(roi, [v for k, v in enumerate(roi.vertices) if k != index])
+
+
+def next_roi_id(rois: Iterable[Roi]) -> str:
+    """One more than the largest numeric id (SOMA numbers ROIs "1", "2", ...)."""
+    numbers = [int(r.id) for r in rois if r.id.isdigit()]
+    return str(max(numbers) + 1 if numbers else 1)
+
+
+def new_roi(roi_id: str, roi_type: str, map_name: str, config: str, x: float, y: float,
+            size: float = 1.0) -> Roi:
+    """A square ROI of side ``size`` centred on (x, y) (soma_roi_manager's Add ROI)."""
+    h = float(size) / 2.0
+    roi = Roi(id=roi_id, config=config, type=roi_type, map_name=map_name,
+              vertices=[(x - h, y - h), (x + h, y - h), (x + h, y + h), (x - h, y + h)])
+    validate_roi(roi)
+    return roi
+
+
+# --------------------------------------------------------------------------------------------
+# debouncing
+# --------------------------------------------------------------------------------------------
+
+
+class Debouncer:
+    """When to save edited items: once nothing touched them for ``quiet`` seconds, and at
+    the latest ``max_wait`` seconds after the first unsaved edit (a long drag is saved too).
+    """
+
+    def __init__(self, quiet: float = 1.0, max_wait: float = 3.0) -> None:
+        if not (quiet >= 0.0 and max_wait >= quiet):
+            raise ValueError("debounce: need 0 <= quiet <= max_wait, got %r, %r"
+                             % (quiet, max_wait))
+        self.quiet = float(quiet)
+        self.max_wait = float(max_wait)
+        self._first: Dict[Any, float] = {}
+        self._last: Dict[Any, float] = {}
+
+    def touch(self, key: Any, now: float) -> None:
+        """Record an edit of ``key`` at time ``now``."""
+        self._first.setdefault(key, now)
+        self._last[key] = now
+
+    def due(self, now: float) -> List[Any]:
+        """Keys to save now (they are forgotten until touched again)."""
+        out = [k for k in self._last
+               if now - self._last[k] >= self.quiet or now - self._first[k] >= self.max_wait]
+        for k in out:
+            del self._first[k], self._last[k]
+        return out
+
+    def pending(self) -> List[Any]:
+        """Keys edited and not yet due."""
+        return list(self._last)
+
+    def drain(self) -> List[Any]:
+        """Every pending key (at shutdown)."""
+        out = list(self._last)
+        self._first.clear()
+        self._last.clear()
+        return out
