@@ -11,14 +11,21 @@ import pytest
 from scipy.stats import chisquare
 
 from bullet_floor_sim.core.markov import (
+    ChainError,
     MarkovChain,
     chain_collection,
     edge_adjacency,
+    load_chain,
+    read_rois,
     roi_adjacency,
+    rois_from_documents,
+    store_chain,
     transition_matrix,
+    usable_rois,
     vertex_adjacency,
 )
 from bullet_floor_sim.core.rois import Roi, RoiError, load_rois
+from bullet_floor_sim.core.store import insert_message, open_store
 from bullet_floor_sim.ros.markov_chain import main
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
@@ -325,9 +332,10 @@ def test_to_json_and_documents():
     assert stored["database"] == "markov_chain_db"
     assert stored["collection"] == "roi_proba_connexions_m"
     assert chain.to_documents("office")["collection"] == "roi_proba_connexions_office"
-    assert stored["documents"][1]["ID_region"] == "O1"
-    assert stored["documents"][1]["proba_connexions"] == [
-        {"id": "C", "proba": pytest.approx(0.25)}, {"id": "O1", "proba": pytest.approx(0.75)}]
+    assert stored["documents"][1] == {"ID_region": "O1", "map_name": "m", "config": "1",
+                                      "proba_connexions": [["C", pytest.approx(0.25)],
+                                                           ["O1", pytest.approx(0.75)]]}
+    assert chain.to_documents("office")["documents"][0]["map_name"] == "office"
     assert len(stored["documents"][0]["proba_connexions"]) == 4
     with pytest.raises(ValueError, match="cannot name a collection"):
         chain_collection("a$b")
@@ -423,10 +431,15 @@ def test_cli_edge_mode_and_bounds(capsys):
                                  "'abc'"),
     (["x.yaml", "--mode", "walls"], "markov_chain: error: argument --mode: invalid choice: "
                                     "'walls' (choose from 'vertex', 'edge')"),
-    ([], "markov_chain: error: give a ROIS_YAML file (e.g. worlds/office/rois.yaml)"),
-    (["--db", "mongodb://localhost:62345/", "--map", "office", "--config", "1"],
-     "markov_chain: error: --db (reading ROIs from the store) is not available yet: give a "
-     "ROIS_YAML file instead"),
+    ([], "markov_chain: error: give a ROIS_YAML file (e.g. worlds/office/rois.yaml) or --db "
+         "URI"),
+    (["x.yaml", "--db", "/tmp/db"], "markov_chain: error: give a ROIS_YAML file or --db, not "
+                                    "both"),
+    (["x.yaml", "--map", "office"], "markov_chain: error: --map and --config select ROIs in "
+                                    "the store: add --db URI"),
+    (["--db", "http://localhost/"], "markov_chain: error: store http://localhost/: unsupported "
+                                    "URI scheme 'http' (use mongodb://host[:port]/ or a "
+                                    "directory path)"),
     (["x.yaml", "--tol", "-1"], "markov_chain: error: --tol must be a finite number of metres "
                                 ">= 0, got -1.0"),
 ])
@@ -467,3 +480,168 @@ def test_cli_plot(tmp_path, capsys):
         return
     assert code == 0 and err == ""
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+# --------------------------------------------------------------------------------------------
+# storage: the chain and the ROIs in the embedded store
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.fixture
+def store(tmp_path):
+    with open_store(str(tmp_path / "db"), journal_dir=str(tmp_path / "journal")) as s:
+        yield s
+
+
+def test_store_chain_roundtrip(store):
+    chain = corridor_and_offices()
+    assert store_chain(store, chain) == 4
+    docs = store.find("markov_chain_db", "roi_proba_connexions_m", sort=[("_id", 1)])
+    assert [d["ID_region"] for d in docs] == ["C", "O1", "O2", "O3"]
+    # the seed's document shape: [id, probability] pairs; C: candidates {C, O1, O2, O3},
+    # n = 3, 1, 1, 1, S = 6: P(C->C) = (1 - 3/6)/3 = 1/6, P(C->Ok) = (1 - 1/6)/3 = 5/18
+    assert docs[0]["proba_connexions"] == [["C", pytest.approx(1 / 6)],
+                                           ["O1", pytest.approx(5 / 18)],
+                                           ["O2", pytest.approx(5 / 18)],
+                                           ["O3", pytest.approx(5 / 18)]]
+    assert (docs[0]["map_name"], docs[0]["config"]) == ("m", "1")
+    back = load_chain(store, "m")
+    assert back.ids == chain.ids and (back.map_name, back.config) == ("m", "1")
+    np.testing.assert_allclose(back.matrix, chain.matrix, rtol=0, atol=1e-15)
+
+
+def test_store_chain_replaces_the_previous_chain_of_that_map_only(store):
+    store_chain(store, corridor_and_offices())
+    store_chain(store, corridor_and_offices(), map_name="other")
+    two = MarkovChain.from_rois(rois_of(box(0, 0, 1, 1), box(1, 0, 2, 1), ids=["A", "B"]))
+    assert store_chain(store, two, extra={"built_by": "/test", "ID_region": "ignored"}) == 2
+    docs = store.find("markov_chain_db", "roi_proba_connexions_m")
+    assert sorted(d["ID_region"] for d in docs) == ["A", "B"]
+    assert {d["built_by"] for d in docs} == {"/test"}
+    assert load_chain(store, "m").row("A") == pytest.approx({"A": 0.5, "B": 0.5})
+    assert load_chain(store, "other").ids == ["C", "O1", "O2", "O3"]
+
+
+def test_load_chain_errors(store):
+    with pytest.raises(ChainError, match=r"markov_chain_db.roi_proba_connexions_nowhere: no "
+                                         r"chain stored for map 'nowhere'"):
+        load_chain(store, "nowhere")
+    store.insert("markov_chain_db", "roi_proba_connexions_bad",
+                 {"ID_region": "A", "proba_connexions": [["B", 1.0]]})
+    with pytest.raises(ChainError, match="region 'A' leads to 'B', which has no document"):
+        load_chain(store, "bad")
+    store.insert("markov_chain_db", "roi_proba_connexions_half",
+                 {"ID_region": "A", "proba_connexions": [["A", 0.5]]})
+    with pytest.raises(ChainError, match="rows must be probabilities summing to 1"):
+        load_chain(store, "half")
+
+
+def soma_fields(roi_id, points, config="1", map_name="office", roi_type="office", stamp=100):
+    """A SOMAROIObject as a dict (mongodb_store's msg_to_document shape)."""
+    poses = [{"position": {"x": x, "y": y, "z": 0.0},
+              "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}} for x, y in points]
+    return {"header": {"seq": 0, "stamp": {"secs": 0, "nsecs": 0}, "frame_id": "map"},
+            "id": roi_id, "map_name": map_name, "map_unique_id": map_name, "config": config,
+            "type": roi_type, "logtimestamp": stamp, "logday": 4, "loghour": 0,
+            "logminute": 1, "logtimeminutes": 1,
+            "posearray": {"header": {"seq": 0, "stamp": {"secs": 0, "nsecs": 0},
+                                     "frame_id": "map"}, "poses": poses},
+            "geotype": "Polygon", "geoposearray": {"header": {"seq": 0, "stamp": {
+                "secs": 0, "nsecs": 0}, "frame_id": ""}, "poses": []}}
+
+
+def test_rois_from_documents():
+    docs = [soma_fields("1", [(0, 0), (1, 0), (1, 1), (0, 1), (0, 0)], roi_type="corridor"),
+            soma_fields("2", [(1, 0), (2, 0), (2, 1)])]
+    rois = rois_from_documents(docs)
+    assert rois == [Roi("1", "1", "corridor", "office", [(0, 0), (1, 0), (1, 1), (0, 1)]),
+                    Roi("2", "1", "office", "office", [(1, 0), (2, 0), (2, 1)])]
+    with pytest.raises(RoiError, match='ROI "3": missing field.s. posearray'):
+        rois_from_documents([{"id": "3", "config": "1", "type": "t", "map_name": "m"}])
+    with pytest.raises(RoiError, match=r'ROI "4": posearray.poses\[k\].position.x/y expected'):
+        rois_from_documents([dict(soma_fields("4", []), posearray={"poses": [{"x": 1}]})])
+    with pytest.raises(RoiError, match='ROI "5": a polygon needs at least 3 vertices, got 2'):
+        rois_from_documents([soma_fields("5", [(0, 0), (1, 0)])])
+    assert rois_from_documents([soma_fields("5", [(0, 0), (1, 0)])], strict=False)[0].id == "5"
+
+
+def test_usable_rois_drops_bad_ones_with_a_warning():
+    rois = [Roi("a", "1", "office", "m", box(0, 0, 1, 1)),
+            Roi("b", "1", "office", "m", [(0, 0), (1, 1), (1, 0), (0, 1)]),  # bow tie
+            Roi("a", "1", "office", "m", box(5, 5, 6, 6))]
+    good, warnings = usable_rois(rois)
+    assert [r.vertices for r in good] == [box(0, 0, 1, 1)]
+    assert len(warnings) == 2
+    assert warnings[0].startswith('ROI "b": polygon edges cross or touch')
+    assert warnings[0].endswith("left out of the chain")
+    assert warnings[1] == ('ROI "a": repeated id in map m config 1: the later one is left out '
+                           "of the chain")
+
+
+def test_read_rois_takes_the_most_recent_version_of_each(store):
+    def put(roi_id, points, stamp, config="1", map_name="office"):
+        insert_message(store, "somadata", "roi",
+                       soma_fields(roi_id, points, config, map_name, stamp=stamp),
+                       "soma_msgs/SOMAROIObject", meta={"map": map_name},
+                       inserted_by="/test")
+
+    put("1", box(0, 0, 4, 1), 100)
+    put("2", box(0, 1, 1, 3), 100)
+    put("2", box(0.1, 1, 1, 3), 200)   # an edit: newer version of "2"
+    put("2", box(0.2, 1, 1, 3), 150)   # older than the edit (stored late)
+    put("3", box(9, 9, 10, 10), 300, config="2")
+    put("4", box(9, 9, 10, 10), 300, map_name="lab")
+    rois = read_rois(store, "office", "1")
+    assert [(r.id, r.vertices[0]) for r in rois] == [("1", (0.0, 0.0)), ("2", (0.1, 1.0))]
+    assert [r.id for r in read_rois(store, "office", "2")] == ["3"]
+    assert read_rois(store, "nowhere") == []
+    chain = MarkovChain.from_rois(rois)
+    assert chain.row("2") == pytest.approx({"2": 0.5, "1": 0.5})
+
+
+def test_load_chain_reads_the_newest_build_while_both_are_there(store):
+    store_chain(store, corridor_and_offices())
+    # the moment between store_chain's inserts and its delete: both builds present
+    for doc in MarkovChain.from_rois(rois_of(box(0, 0, 1, 1), ids=["A"])).to_documents()[
+            "documents"]:
+        store.insert("markov_chain_db", "roi_proba_connexions_m", dict(doc, build_id="new"))
+    assert load_chain(store, "m").ids == ["A"]
+
+
+def test_cli_reads_rois_from_the_store(tmp_path, capsys, monkeypatch):
+    db = str(tmp_path / "db")
+    with open_store(db, journal_dir=str(tmp_path / "journal")) as s:
+        for k, roi in enumerate(load_rois(OFFICE_ROIS)):
+            insert_message(s, "somadata", "roi", soma_fields(roi.id, roi.vertices, stamp=10),
+                           "soma_msgs/SOMAROIObject", meta={"map": "office"})
+        # a later edit moved office_1's ("5") doorway away: it lost its connection
+        moved = [(x, y - 1.0) for x, y in load_rois(OFFICE_ROIS)[4].vertices]
+        insert_message(s, "somadata", "roi", soma_fields("5", moved, stamp=20),
+                       "soma_msgs/SOMAROIObject", meta={"map": "office"})
+        # and an edit left office_2 ("6") self-intersecting: it is left out, with a warning
+        insert_message(s, "somadata", "roi", soma_fields(
+            "6", [(5, 1), (8, 8), (8, 1), (5, 8)], stamp=20), "soma_msgs/SOMAROIObject")
+    monkeypatch.setenv("ROS_HOME", str(tmp_path / "ros_home"))  # the CLI's journal goes there
+    assert main(["--db", db, "--map", "office", "--config", "1"]) == 0
+    out, err = capsys.readouterr()
+    data = json.loads(out)
+    assert data["map_name"] == "office"
+    assert sorted(data["transitions"], key=int) == [str(k) for k in range(1, 16) if k != 6]
+    assert data["transitions"]["5"] == {"5": 1.0}
+    # corridor_west lost 5 and 6: candidates {1, 2, 10, 11}, n = 3, 6, 1, 1, S = 11
+    assert data["transitions"]["1"] == pytest.approx(
+        {"1": 8 / 33, "2": 5 / 33, "10": 10 / 33, "11": 10 / 33})
+    lines = err.splitlines()
+    assert lines[0].startswith("markov_chain: warning: %s somadata.roi (map office, "
+                               "config 1): ROI \"6\": polygon edges cross" % db)
+    assert lines[1].endswith('region "5" is isolated (no vertex within 0.2 m of another '
+                             "ROI's vertex): it keeps P(5 -> 5) = 1")
+    # --map defaults to the only map of the config
+    assert main(["--db", db]) == 0
+    assert json.loads(capsys.readouterr()[0]) == data
+    assert main(["--db", db, "--config", "2"]) == 2
+    assert capsys.readouterr()[1] == ("markov_chain: error: %s somadata.roi: no ROIs of "
+                                      "config '2': give --map NAME\n" % db)
+    assert main(["--db", db, "--map", "lab"]) == 2
+    assert capsys.readouterr()[1] == ("markov_chain: error: %s somadata.roi (map lab, "
+                                      "config 1): no usable ROIs stored\n" % db)

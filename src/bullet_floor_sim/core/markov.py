@@ -15,34 +15,57 @@ P(i→j) = (1 − n_j/S) / (|C| − 1). Offices (few connections) are sticky, co
 passed through. A region with no neighbour keeps P(i→i) = 1 and is reported in ``warnings``.
 
 The chain is stored as documents of database ``markov_chain_db``, collection
-``roi_proba_connexions_<map>``, one per region: ``{"ID_region": id, "proba_connexions":
-[{"id": id, "proba": p}, ...]}``.
+``roi_proba_connexions_<map>``, one per region, as the seed stored it: ``{"ID_region": id,
+"proba_connexions": [[id, p], ...], "map_name": ..., "config": ...}`` (the seed's pairs held
+percentages; here p is a probability in [0, 1]). :func:`store_chain` replaces a map's previous
+chain, :func:`load_chain` reads it back.
+
+ROIs come from the store as the ROI manager keeps them (SOMA's layout: database ``somadata``,
+collection ``roi``, one document per ROI version with SOMAROIObject's fields and mongodb_store's
+``_meta``): :func:`read_rois` picks the most recent version of each ROI of a map and config,
+:func:`rois_from_documents` turns documents into :class:`~bullet_floor_sim.core.rois.Roi`.
 """
 from __future__ import annotations
 
+import uuid
 from dataclasses import dataclass, field
 from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Set, Tuple, Union
 
 import numpy as np
 
-from .rois import Roi, RoiError, validate_rois
+from .errors import BulletFloorSimError
+from .rois import Roi, RoiError, validate_roi, validate_rois
 
 __all__ = [
     "DATABASE",
     "MODES",
+    "ROI_DATABASE",
+    "ROI_COLLECTION",
+    "ChainError",
     "MarkovChain",
     "vertex_adjacency",
     "edge_adjacency",
     "roi_adjacency",
     "transition_matrix",
     "chain_collection",
+    "store_chain",
+    "load_chain",
+    "rois_from_documents",
+    "usable_rois",
+    "read_rois",
 ]
 
 DATABASE = "markov_chain_db"
+ROI_DATABASE = "somadata"  # where SOMA's soma_roi_manager (and our ROI manager) keeps ROIs
+ROI_COLLECTION = "roi"
 MODES = ("vertex", "edge")
 _SLACK = 1e-9  # metres: |dx| = 0.2 written in decimal must count as within tol = 0.2
 
 Seed = Union[None, int, np.random.Generator]
+
+
+class ChainError(BulletFloorSimError):
+    """A stored chain (or the ROI documents it is built from) is missing or malformed."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -270,12 +293,14 @@ class MarkovChain:
         ids: region ids; row/column k of ``matrix`` is region ``ids[k]``.
         matrix: (n, n) row-stochastic transition probabilities.
         map_name: the map the regions belong to ("" when unknown).
+        config: the ROI config the regions belong to ("" when unknown).
         warnings: one line per problem found while building (isolated regions, separate parts).
     """
 
     ids: List[str]
     matrix: np.ndarray
     map_name: str = ""
+    config: str = ""
     warnings: List[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
@@ -324,11 +349,12 @@ class MarkovChain:
         adj = roi_adjacency(rois, tol, mode, min_shared)
         rule = ("no vertex within %g m of another ROI's vertex" % tol if mode == "vertex"
                 else "no wall of %g m shared with another ROI" % min_shared)
-        return cls.from_neighbours([r.id for r in rois], adj, maps[0], rule)
+        return cls.from_neighbours([r.id for r in rois], adj, maps[0], rule, configs[0])
 
     @classmethod
     def from_neighbours(cls, ids: Sequence[str], neighbours: Mapping[str, Iterable[str]],
-                        map_name: str = "", why_isolated: str = "no neighbour") -> "MarkovChain":
+                        map_name: str = "", why_isolated: str = "no neighbour",
+                        config: str = "") -> "MarkovChain":
         """Build the chain from an adjacency given by id (made symmetric).
 
         Args:
@@ -336,6 +362,7 @@ class MarkovChain:
             neighbours: id -> neighbour ids (missing ids have none; self-links are ignored).
             map_name: the map's name.
             why_isolated: reason quoted in the warning for a region without neighbours.
+            config: the ROI config.
 
         Raises:
             KeyError: a neighbour id is not in ``ids``.
@@ -350,7 +377,7 @@ class MarkovChain:
                 if r != o:
                     nb[index[r]].add(index[o])
                     nb[index[o]].add(index[r])
-        chain = cls(ids=ids, matrix=transition_matrix(nb), map_name=map_name)
+        chain = cls(ids=ids, matrix=transition_matrix(nb), map_name=map_name, config=config)
         for k, s in enumerate(nb):
             if not s:
                 chain.warnings.append('region "%s" is isolated (%s): it keeps P(%s -> %s) = 1'
@@ -474,17 +501,199 @@ class MarkovChain:
 
         Returns:
             ``{"database": "markov_chain_db", "collection": "roi_proba_connexions_<map>",
-            "documents": [{"ID_region": id, "proba_connexions": [{"id": id, "proba": p},
-            ...]}, ...]}``, regions and their targets in ``ids`` order, zeros left out.
+            "documents": [{"ID_region": id, "proba_connexions": [[id, p], ...],
+            "map_name": map, "config": config}, ...]}``, regions and their targets in ``ids``
+            order, zeros left out (the seed's document shape; its pairs held percentages).
 
         Raises:
             ValueError: no usable map name.
         """
         name = self.map_name if map_name is None else map_name
+        collection = chain_collection(name)
         docs = [{"ID_region": r,
-                 "proba_connexions": [{"id": j, "proba": p} for j, p in self.row(r).items()]}
+                 "proba_connexions": [[j, p] for j, p in self.row(r).items()],
+                 "map_name": name, "config": self.config}
                 for r in self.ids]
-        return {"database": DATABASE, "collection": chain_collection(name), "documents": docs}
+        return {"database": DATABASE, "collection": collection, "documents": docs}
+
+
+# --------------------------------------------------------------------------------------------
+# storage
+# --------------------------------------------------------------------------------------------
+
+
+def store_chain(store: Any, chain: MarkovChain, map_name: Optional[str] = None,
+                extra: Optional[Mapping[str, Any]] = None) -> int:
+    """Write the chain to a store, replacing the map's previous chain.
+
+    The seed emptied the collection and then inserted one document per region. Here the new
+    documents (all tagged with one fresh ``build_id``) go in first and every other document is
+    deleted after, so a reader never finds the collection empty; in between it may see both
+    builds (:func:`load_chain` then reads the newest).
+
+    Args:
+        store: a :class:`~bullet_floor_sim.core.store.Store` (or anything with its
+            ``delete``/``insert``).
+        chain: the chain.
+        map_name: the map whose collection to use (default: ``chain.map_name``).
+        extra: more fields for every document (e.g. ``{"built_by": "/markov_walker"}``);
+            they never override the chain's own fields.
+
+    Returns:
+        The number of documents written (journalled while the database is down).
+
+    Raises:
+        ValueError: no usable map name.
+        StoreError: the store refused the documents.
+    """
+    stored = chain.to_documents(map_name)
+    db, coll = stored["database"], stored["collection"]
+    build = uuid.uuid4().hex
+    for doc in stored["documents"]:
+        doc["build_id"] = build
+        if extra:
+            doc = dict(doc, **{k: v for k, v in extra.items() if k not in doc})
+        store.insert(db, coll, doc)
+    store.delete(db, coll, {"build_id": {"$ne": build}})
+    return len(stored["documents"])
+
+
+def load_chain(store: Any, map_name: str) -> MarkovChain:
+    """Read back the chain :func:`store_chain` wrote for a map.
+
+    Raises:
+        ChainError: no chain is stored for the map, or its documents are malformed (the
+            message names the collection and the region).
+        StoreUnavailable: the database is unreachable.
+    """
+    coll = chain_collection(map_name)
+    where = "%s.%s" % (DATABASE, coll)
+    docs = store.find(DATABASE, coll, {}, sort=[("_id", 1)])
+    if not docs:
+        raise ChainError("%s: no chain stored for map %r" % (where, map_name))
+    newest = docs[-1].get("build_id")  # store_chain's insert-then-delete window: newest build
+    docs = [d for d in docs if d.get("build_id") == newest]
+    ids = []  # type: List[str]
+    rows = []  # type: List[List[Tuple[str, float]]]
+    for doc in docs:
+        region = doc.get("ID_region")
+        pairs = doc.get("proba_connexions")
+        if not isinstance(region, str) or not isinstance(pairs, list):
+            raise ChainError("%s: document %s lacks ID_region (string) or proba_connexions "
+                             "(list)" % (where, doc.get("_id")))
+        row = []
+        for pair in pairs:
+            if (not isinstance(pair, (list, tuple)) or len(pair) != 2
+                    or not isinstance(pair[1], (int, float))):
+                raise ChainError("%s: region %r: proba_connexions entries must be [id, "
+                                 "probability], got %r" % (where, region, pair))
+            row.append((str(pair[0]), float(pair[1])))
+        ids.append(region)
+        rows.append(row)
+    index = {r: k for k, r in enumerate(ids)}
+    matrix = np.zeros((len(ids), len(ids)))
+    for k, row in enumerate(rows):
+        for j, p in row:
+            if j not in index:
+                raise ChainError("%s: region %r leads to %r, which has no document"
+                                 % (where, ids[k], j))
+            matrix[k, index[j]] = p
+    configs = sorted({str(d.get("config", "")) for d in docs})
+    try:
+        return MarkovChain(ids=ids, matrix=matrix, map_name=map_name,
+                           config=configs[0] if len(configs) == 1 else "")
+    except ValueError as e:
+        raise ChainError("%s: %s" % (where, e)) from None
+
+
+def rois_from_documents(docs: Iterable[Mapping[str, Any]], strict: bool = True) -> List[Roi]:
+    """ROIs from stored SOMAROIObject documents (or dicts with the same fields).
+
+    The vertices are ``posearray.poses[k].position.{x, y}``; a closing vertex equal to the
+    first is dropped, as in rois.yaml.
+
+    Args:
+        docs: documents with ``id``, ``config``, ``type``, ``map_name`` and ``posearray``.
+        strict: validate the result (polygons, duplicate ids) and raise on the first problem;
+            with False, see :func:`usable_rois` to drop bad ROIs instead.
+
+    Returns:
+        The ROIs, in document order.
+
+    Raises:
+        RoiError: a document lacks a field or has a malformed one (named with the ROI id), or,
+            with ``strict``, an ROI is invalid.
+    """
+    rois = []
+    for k, doc in enumerate(docs):
+        label = "ROI document %d" % k
+        if isinstance(doc, Mapping) and isinstance(doc.get("id"), str):
+            label = 'ROI "%s"' % doc["id"]
+        if not isinstance(doc, Mapping):
+            raise RoiError("%s: expected a SOMAROIObject document, got %s"
+                           % (label, type(doc).__name__))
+        missing = [f for f in ("id", "config", "type", "map_name", "posearray") if f not in doc]
+        if missing:
+            raise RoiError("%s: missing field(s) %s" % (label, ", ".join(missing)))
+        try:
+            poses = doc["posearray"]["poses"]
+            vertices = [(float(p["position"]["x"]), float(p["position"]["y"])) for p in poses]
+        except (KeyError, TypeError, ValueError) as e:
+            raise RoiError("%s: posearray.poses[k].position.x/y expected (%s: %s)"
+                           % (label, type(e).__name__, e)) from None
+        if len(vertices) > 1 and vertices[0] == vertices[-1]:
+            vertices.pop()
+        rois.append(Roi(id=str(doc["id"]), config=str(doc["config"]), type=str(doc["type"]),
+                        map_name=str(doc["map_name"]), vertices=vertices))
+    if strict:
+        validate_rois(rois)
+    return rois
+
+
+def usable_rois(rois: Iterable[Roi]) -> Tuple[List[Roi], List[str]]:
+    """The valid ROIs, and one warning per ROI left out (invalid polygon, repeated id).
+
+    For a live system: one ROI broken by an edit must not stop the chain of the others.
+    """
+    good, warnings = [], []  # type: List[Roi], List[str]
+    seen = set()  # type: Set[Tuple[str, str, str]]
+    for roi in rois:
+        try:
+            validate_roi(roi)
+        except RoiError as e:
+            warnings.append("%s: left out of the chain" % e)
+            continue
+        key = (roi.map_name, roi.config, roi.id)
+        if key in seen:
+            warnings.append('ROI "%s": repeated id in map %s config %s: the later one is left '
+                            "out of the chain" % (roi.id, roi.map_name, roi.config))
+            continue
+        seen.add(key)
+        good.append(roi)
+    return good, warnings
+
+
+def read_rois(store: Any, map_name: str, config: str = "1", order_by: str = "logtimestamp",
+              database: str = ROI_DATABASE, collection: str = ROI_COLLECTION) -> List[Roi]:
+    """The most recent version of each ROI of a map and config, from the ROI store.
+
+    Args:
+        store: a :class:`~bullet_floor_sim.core.store.Store`.
+        map_name: the map.
+        config: the ROI config (SOMA's ``config``).
+        order_by: the field that orders versions (SOMA: ``logtimestamp``).
+        database, collection: where the ROI manager keeps ROIs (SOMA's ``somadata.roi``).
+
+    Returns:
+        The ROIs, sorted by id (not validated: see :func:`usable_rois`).
+
+    Raises:
+        RoiError: a stored document is malformed.
+        StoreUnavailable: the database is unreachable.
+    """
+    docs = store.latest(database, collection, ["config", "id"], order_by,
+                        filter={"map_name": map_name, "config": config})
+    return rois_from_documents(docs, strict=False)
 
 
 def _dupes(ids: Sequence[str]) -> List[str]:

@@ -4,12 +4,18 @@ A plain command-line tool (no ROS master needed, rospy is not imported)::
 
     markov_chain ROIS_YAML [--tol 0.2] [--mode vertex|edge] [--min-shared 0.8]
                  [--map-yaml MAP] [--plot chain.png]
+    markov_chain --db URI [--map NAME] [--config 1] [...]
 
 prints ``{"map_name": ..., "transitions": {id: {id: p, ...}, ...}}`` on stdout (zeros left
 out); warnings (isolated regions, separate parts, ROI vertices outside the map given with
 ``--map-yaml``) go to stderr. ``--plot`` draws the ROIs (over the map image with
 ``--map-yaml``) and an arrow per transition, width proportional to its probability (needs
-matplotlib). Any error is one line on stderr and exit code 2.
+matplotlib). ``--db`` reads the ROIs from the store instead of a file (``mongodb://host:port/``
+or an embedded store's directory; "" for the default ``$ROS_HOME/bullet_floor_sim/db``): the
+most recent version of each ROI of map ``--map`` (default: the only map stored for the config)
+and config ``--config`` (default "1"), where the ROI manager keeps them (SOMA's ``somadata.roi``);
+ROIs that an edit left invalid are left out with a warning. Any error is one line on stderr and
+exit code 2.
 """
 from __future__ import annotations
 
@@ -20,7 +26,8 @@ import sys
 from typing import Optional, Sequence
 
 from ..core.errors import BulletFloorSimError
-from ..core.markov import MODES, MarkovChain
+from ..core.markov import (MODES, ROI_COLLECTION, ROI_DATABASE, MarkovChain, read_rois,
+                           usable_rois)
 from ..core.rois import Roi, check_bounds, load_rois, roi_polygon
 
 __all__ = ["main", "plot_chain"]
@@ -51,9 +58,12 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--map-yaml", dest="map_yaml", help="map_server map.yaml: bounds check, and "
                    "background of --plot")
     p.add_argument("--plot", metavar="PNG", help="draw the chain to this PNG (needs matplotlib)")
-    p.add_argument("--db", help="read the ROIs from this store instead (not available yet)")
-    p.add_argument("--map", dest="map_name", help="with --db: map name")
-    p.add_argument("--config", help="with --db: ROI config")
+    p.add_argument("--db", metavar="URI", help="read the ROIs from this store instead of a "
+                   "file: mongodb://host:port/ or a directory (\"\" = the default embedded "
+                   "store)")
+    p.add_argument("--map", dest="map_name", help="with --db: map name (default: the only map "
+                   "with ROIs of the config)")
+    p.add_argument("--config", help="with --db: ROI config (default \"1\")")
     return p
 
 
@@ -72,7 +82,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     try:
         args = _parser().parse_args(args_in)
         _check_args(args)
-        rois = load_rois(args.rois)
+        if args.db is not None:
+            source, rois = _rois_from_store(args.db, args.map_name, args.config or "1")
+        else:
+            source, rois = args.rois, load_rois(args.rois)
         chain = MarkovChain.from_rois(rois, tol=args.tol, mode=args.mode,
                                       min_shared=args.min_shared)
         fmap = None
@@ -81,9 +94,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 
             fmap = load_map(args.map_yaml)
             for w in check_bounds(rois, fmap.bounds()):
-                _warn("%s: %s" % (args.rois, w))
+                _warn("%s: %s" % (source, w))
         for w in chain.warnings:
-            _warn("%s: %s" % (args.rois, w))
+            _warn("%s: %s" % (source, w))
         if args.plot:
             plot_chain(chain, rois, args.plot, fmap)
     except (_UsageError, BulletFloorSimError, ValueError) as e:
@@ -94,19 +107,49 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 
 
 def _check_args(args: argparse.Namespace) -> None:
-    if args.db is not None:
-        raise _UsageError("--db (reading ROIs from the store) is not available yet: give a "
-                          "ROIS_YAML file instead")
-    if args.map_name is not None or args.config is not None:
-        raise _UsageError("--map and --config select ROIs in the store and need --db, which "
-                          "is not available yet: give a ROIS_YAML file instead")
-    if not args.rois:
-        raise _UsageError("give a ROIS_YAML file (e.g. worlds/office/rois.yaml)")
+    if args.db is not None and args.rois:
+        raise _UsageError("give a ROIS_YAML file or --db, not both")
+    if args.db is None and (args.map_name is not None or args.config is not None):
+        raise _UsageError("--map and --config select ROIs in the store: add --db URI")
+    if args.db is None and not args.rois:
+        raise _UsageError("give a ROIS_YAML file (e.g. worlds/office/rois.yaml) or --db URI")
     if not (math.isfinite(args.tol) and args.tol >= 0.0):
         raise _UsageError("--tol must be a finite number of metres >= 0, got %s" % args.tol)
     if not (math.isfinite(args.min_shared) and args.min_shared > 0.0):
         raise _UsageError("--min-shared must be a finite number of metres > 0, got %s"
                           % args.min_shared)
+
+
+def _rois_from_store(uri: str, map_name: Optional[str], config: str):
+    """(label for messages, ROIs) of a map and config in the store; bad ROIs are warned about.
+
+    Raises:
+        StoreError: the store cannot be opened or read (StoreUnavailable when it is down).
+        RoiError: no ROIs are stored for the map and config.
+    """
+    from ..core.rois import RoiError
+    from ..core.store import open_store
+
+    store = open_store(uri or None)
+    try:
+        where = "%s %s.%s" % (store.uri, ROI_DATABASE, ROI_COLLECTION)
+        if map_name is None:
+            maps = sorted({str(d.get("map_name")) for d in store.find(
+                ROI_DATABASE, ROI_COLLECTION, {"config": config})})
+            if len(maps) != 1:
+                raise RoiError("%s: %s: give --map NAME" % (where, (
+                    "no ROIs of config %r" % config) if not maps else (
+                    "ROIs of config %r on several maps (%s)" % (config, ", ".join(maps)))))
+            map_name = maps[0]
+        rois, warnings = usable_rois(read_rois(store, map_name, config))
+    finally:
+        store.close()
+    label = "%s (map %s, config %s)" % (where, map_name, config)
+    for w in warnings:
+        _warn("%s: %s" % (label, w))
+    if not rois:
+        raise RoiError("%s: no usable ROIs stored" % label)
+    return label, rois
 
 
 def _warn(message: str) -> None:
