@@ -24,6 +24,7 @@ from bullet_floor_sim.core.markov import (
     usable_rois,
     vertex_adjacency,
 )
+from bullet_floor_sim.core.roi_store import RoiStore
 from bullet_floor_sim.core.rois import Roi, RoiError, load_rois
 from bullet_floor_sim.core.store import insert_message, open_store
 from bullet_floor_sim.ros.markov_chain import main
@@ -578,19 +579,15 @@ def test_usable_rois_drops_bad_ones_with_a_warning():
                            "of the chain")
 
 
-def test_read_rois_takes_the_most_recent_version_of_each(store):
-    def put(roi_id, points, stamp, config="1", map_name="office"):
-        insert_message(store, "somadata", "roi",
-                       soma_fields(roi_id, points, config, map_name, stamp=stamp),
-                       "soma_msgs/SOMAROIObject", meta={"map": map_name},
-                       inserted_by="/test")
-
-    put("1", box(0, 0, 4, 1), 100)
-    put("2", box(0, 1, 1, 3), 100)
-    put("2", box(0.1, 1, 1, 3), 200)   # an edit: newer version of "2"
-    put("2", box(0.2, 1, 1, 3), 150)   # older than the edit (stored late)
-    put("3", box(9, 9, 10, 10), 300, config="2")
-    put("4", box(9, 9, 10, 10), 300, map_name="lab")
+def test_read_rois_takes_the_current_version_of_each(store):
+    office = RoiStore(store, "office", clock=iter(range(1000, 2000)).__next__)
+    office.save(Roi("1", "1", "corridor", "office", box(0, 0, 4, 1)))
+    office.save(Roi("2", "1", "office", "office", box(0, 1, 1, 3)))
+    office.save(Roi("2", "1", "office", "office", box(0.1, 1, 1, 3)))   # an edit of "2"
+    office.save(Roi("10", "1", "office", "office", box(3, 1, 4, 3)))
+    office.delete("1", "10")                                            # deleted: left out
+    office.save(Roi("3", "2", "office", "office", box(9, 9, 10, 10)))   # another config
+    RoiStore(store, "lab").save(Roi("4", "1", "office", "lab", box(9, 9, 10, 10)))
     rois = read_rois(store, "office", "1")
     assert [(r.id, r.vertices[0]) for r in rois] == [("1", (0.0, 0.0)), ("2", (0.1, 1.0))]
     assert [r.id for r in read_rois(store, "office", "2")] == ["3"]
@@ -611,16 +608,16 @@ def test_load_chain_reads_the_newest_build_while_both_are_there(store):
 def test_cli_reads_rois_from_the_store(tmp_path, capsys, monkeypatch):
     db = str(tmp_path / "db")
     with open_store(db, journal_dir=str(tmp_path / "journal")) as s:
-        for k, roi in enumerate(load_rois(OFFICE_ROIS)):
-            insert_message(s, "somadata", "roi", soma_fields(roi.id, roi.vertices, stamp=10),
-                           "soma_msgs/SOMAROIObject", meta={"map": "office"})
+        office = RoiStore(s, "office")
+        assert office.seed(load_rois(OFFICE_ROIS))
         # a later edit moved office_1's ("5") doorway away: it lost its connection
         moved = [(x, y - 1.0) for x, y in load_rois(OFFICE_ROIS)[4].vertices]
-        insert_message(s, "somadata", "roi", soma_fields("5", moved, stamp=20),
-                       "soma_msgs/SOMAROIObject", meta={"map": "office"})
-        # and an edit left office_2 ("6") self-intersecting: it is left out, with a warning
+        office.save(Roi("5", "1", "office", "office", moved))
+        # and a writer that does not validate left office_2 ("6") self-intersecting: it is
+        # left out, with a warning
         insert_message(s, "somadata", "roi", soma_fields(
-            "6", [(5, 1), (8, 8), (8, 1), (5, 8)], stamp=20), "soma_msgs/SOMAROIObject")
+            "6", [(5, 1), (8, 8), (8, 1), (5, 8)], stamp=20), "soma_msgs/SOMAROIObject",
+            meta={"map": "office", "version": 2 ** 60})
     monkeypatch.setenv("ROS_HOME", str(tmp_path / "ros_home"))  # the CLI's journal goes there
     assert main(["--db", db, "--map", "office", "--config", "1"]) == 0
     out, err = capsys.readouterr()

@@ -20,10 +20,11 @@ The chain is stored as documents of database ``markov_chain_db``, collection
 percentages; here p is a probability in [0, 1]). :func:`store_chain` replaces a map's previous
 chain, :func:`load_chain` reads it back.
 
-ROIs come from the store as the ROI manager keeps them (SOMA's layout: database ``somadata``,
-collection ``roi``, one document per ROI version with SOMAROIObject's fields and mongodb_store's
-``_meta``): :func:`read_rois` picks the most recent version of each ROI of a map and config,
-:func:`rois_from_documents` turns documents into :class:`~bullet_floor_sim.core.rois.Roi`.
+ROIs come from the store as the ROI manager keeps them (:mod:`.roi_store`, SOMA's layout:
+database ``somadata``, collection ``roi``, one document per ROI version): :func:`read_rois`
+gives the current ROIs of a map and config; :func:`rois_from_documents` turns SOMAROIObject
+documents into :class:`~bullet_floor_sim.core.rois.Roi`; :func:`usable_rois` leaves out the
+ones an edit broke.
 """
 from __future__ import annotations
 
@@ -56,7 +57,7 @@ __all__ = [
 ]
 
 DATABASE = "markov_chain_db"
-ROI_DATABASE = "somadata"  # where SOMA's soma_roi_manager (and our ROI manager) keeps ROIs
+ROI_DATABASE = "somadata"  # where SOMA's soma_roi_manager (and core/roi_store) keeps ROIs
 ROI_COLLECTION = "roi"
 MODES = ("vertex", "edge")
 _SLACK = 1e-9  # metres: |dx| = 0.2 written in decimal must count as within tol = 0.2
@@ -673,27 +674,26 @@ def usable_rois(rois: Iterable[Roi]) -> Tuple[List[Roi], List[str]]:
     return good, warnings
 
 
-def read_rois(store: Any, map_name: str, config: str = "1", order_by: str = "logtimestamp",
-              database: str = ROI_DATABASE, collection: str = ROI_COLLECTION) -> List[Roi]:
-    """The most recent version of each ROI of a map and config, from the ROI store.
+def read_rois(store: Any, map_name: str, config: str = "1") -> List[Roi]:
+    """The current ROIs of a map and config in the ROI store: the newest version of each ROI
+    (by ``_meta.version``), deleted ROIs left out, as the ROI manager answers
+    ``/soma/query_rois`` (:class:`~bullet_floor_sim.core.roi_store.RoiStore`).
 
     Args:
         store: a :class:`~bullet_floor_sim.core.store.Store`.
         map_name: the map.
         config: the ROI config (SOMA's ``config``).
-        order_by: the field that orders versions (SOMA: ``logtimestamp``).
-        database, collection: where the ROI manager keeps ROIs (SOMA's ``somadata.roi``).
 
     Returns:
-        The ROIs, sorted by id (not validated: see :func:`usable_rois`).
+        The ROIs, numeric ids in numeric order (not validated: see :func:`usable_rois`).
 
     Raises:
         RoiError: a stored document is malformed.
         StoreUnavailable: the database is unreachable.
     """
-    docs = store.latest(database, collection, ["config", "id"], order_by,
-                        filter={"map_name": map_name, "config": config})
-    return rois_from_documents(docs, strict=False)
+    from .roi_store import RoiStore
+
+    return RoiStore(store, map_name).current(config)
 
 
 def _dupes(ids: Sequence[str]) -> List[str]:
