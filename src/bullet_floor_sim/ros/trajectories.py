@@ -1,0 +1,357 @@
+"""``rosrun bullet_floor_sim trajectories export|import|plot --db URI``: stored trajectories
+as JSON lines and pictures.
+
+A plain command-line tool (no ROS master needed, rospy is not imported)::
+
+    trajectories export --db URI [--map M] [--since T] [--until T] [--out FILE]
+    trajectories import --db URI --map M [FILE ...] [--max-poses N]
+    trajectories plot   --db URI --out traj.png [--map M] [--since T] [--until T]
+                        [--world W | --map-yaml MAP] [--cell 0.25]
+
+``--db`` is ``mongodb://host:port/`` or a directory for the embedded store (default
+``$ROS_HOME/bullet_floor_sim/db``). Times are seconds (ROS time, sim time in simulation): a
+chunk is selected when it ends at or after ``--since`` and starts at or before ``--until``.
+
+* ``export`` prints one JSON line per stored chunk, ordered by start time, uuid and
+  sequence_id: ``{"uuid", "sequence_id", "start_time", "end_time", "complete",
+  "trajectory_length", "poses": [[t, x, y, yaw], ...]}``, t in seconds with 9 decimals.
+* ``import`` reads such lines (files or stdin) back into the store as the recorder stores
+  chunks (meta ``map`` from ``--map``, ``taken: "imported"``). A chunk already stored (same
+  uuid and sequence_id) is skipped, so importing twice changes nothing. A line with more
+  than ``--max-poses`` poses is split into several chunks sharing boundary poses, and the
+  later chunks of that trajectory are renumbered after it.
+* ``plot`` draws every selected trajectory (one colour each) and an occupancy heat-map (the
+  share of poses per ``--cell`` square) over the map image: ``--map-yaml``, else the map of
+  ``--world``, else of the world named like ``--map`` when there is one.
+
+A summary goes to stderr; any error is one line on stderr and exit code 2.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from dataclasses import replace
+from typing import Dict, IO, Iterable, List, Optional, Sequence, Tuple
+
+from ..core.errors import BulletFloorSimError
+from ..core.store import Store, insert_message, open_store
+from ..core.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_POSES, INDEXES, STORED_TYPE,
+                               Chunk, chunk_fields, chunk_from_json, chunk_to_json,
+                               join_chunks, parse_time, select_chunks, split_poses)
+
+__all__ = ["main", "export_chunks", "import_lines", "plot_trajectories"]
+
+PROG = "trajectories"
+
+
+class _UsageError(Exception):
+    """argparse's complaint, turned into one line."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise _UsageError(message)
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = _Parser(prog=PROG, description="Stored trajectories (message_store.people_trajectory) "
+                "as JSON lines, back into the store, or as a picture.")
+    sub = p.add_subparsers(dest="command", parser_class=_Parser)
+
+    def common(q: argparse.ArgumentParser, window: bool = True) -> None:
+        q.add_argument("--db", default="", help="mongodb://host:port/ or a directory (default "
+                       "$ROS_HOME/bullet_floor_sim/db)")
+        q.add_argument("--map", dest="map_name", default="", help="only this map")
+        if window:
+            q.add_argument("--since", help="only chunks ending at or after this time (s)")
+            q.add_argument("--until", help="only chunks starting at or before this time (s)")
+
+    e = sub.add_parser("export", help="print stored chunks as JSON lines")
+    common(e)
+    e.add_argument("--out", help="write to this file instead of stdout")
+    i = sub.add_parser("import", help="store JSON lines (files or stdin)")
+    common(i, window=False)
+    i.add_argument("files", nargs="*", metavar="FILE", help="JSON-lines files (default stdin)")
+    i.add_argument("--max-poses", dest="max_poses", type=int, default=DEFAULT_MAX_POSES,
+                   help="split longer chunks (default %d)" % DEFAULT_MAX_POSES)
+    g = sub.add_parser("plot", help="draw trajectories and a heat-map to a PNG")
+    common(g)
+    g.add_argument("--out", required=True, help="PNG file to write")
+    g.add_argument("--world", help="draw over this world's map (a name or a world.yaml)")
+    g.add_argument("--map-yaml", dest="map_yaml", help="draw over this map_server map.yaml")
+    g.add_argument("--cell", type=float, default=0.25, help="heat-map cell size, m (0.25)")
+    return p
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Entry point of ``rosrun bullet_floor_sim trajectories``.
+
+    Args:
+        argv: arguments without the program name (default ``sys.argv[1:]``); ROS remapping
+            arguments (``name:=value``) are ignored.
+
+    Returns:
+        0 on success, 2 on any error (one line on stderr).
+    """
+    args_in = [a for a in (sys.argv[1:] if argv is None else argv) if ":=" not in a]
+    try:
+        args = _parser().parse_args(args_in)
+        if not args.command:
+            raise _UsageError("give a command: export, import or plot")
+        since = until = None
+        if getattr(args, "since", None) is not None:
+            since = parse_time(args.since, "--since")
+        if getattr(args, "until", None) is not None:
+            until = parse_time(args.until, "--until")
+        if since is not None and until is not None and since > until:
+            raise _UsageError("--since %s is after --until %s" % (args.since, args.until))
+        if args.command == "import":
+            if not args.map_name:
+                raise _UsageError("import needs --map NAME: the map the trajectories belong to")
+            if args.max_poses < 2:
+                raise _UsageError("--max-poses must be >= 2, got %d" % args.max_poses)
+        if args.command == "plot" and not args.cell > 0:
+            raise _UsageError("--cell must be a positive number of metres, got %s" % args.cell)
+        with open_store(args.db or None) as store:
+            if args.command == "export":
+                _export(store, args, since, until)
+            elif args.command == "import":
+                _import(store, args)
+            else:
+                _plot(store, args, since, until)
+    except (_UsageError, BulletFloorSimError, ValueError, OSError) as e:
+        return _fail(str(e))
+    return 0
+
+
+# -- export -----------------------------------------------------------------------------------
+
+def export_chunks(store: Store, out: IO[str], map_name: str = "", since: Optional[int] = None,
+                  until: Optional[int] = None) -> Tuple[int, int]:
+    """Write the selected chunks as JSON lines to ``out``.
+
+    Returns:
+        (chunks, poses) written.
+    """
+    chunks = select_chunks(store, map_name or None, since, until)
+    poses = 0
+    write = out.write
+    for c in chunks:
+        write(chunk_to_json(c))
+        write("\n")
+        poses += len(c.poses)
+    return len(chunks), poses
+
+
+def _export(store: Store, args: argparse.Namespace, since: Optional[int],
+            until: Optional[int]) -> None:
+    t0 = time.monotonic()
+    if args.out:
+        try:
+            with open(args.out, "w") as f:
+                n, poses = export_chunks(store, f, args.map_name, since, until)
+        except OSError as e:
+            raise BulletFloorSimError("%s: cannot write (%s)" % (args.out, e.strerror or e))
+    else:
+        n, poses = export_chunks(store, sys.stdout, args.map_name, since, until)
+        sys.stdout.flush()
+    _note("exported %d chunks (%d poses) from %s in %.2f s" % (n, poses, store.uri,
+                                                               time.monotonic() - t0))
+
+
+# -- import -----------------------------------------------------------------------------------
+
+def _numbered(lines: Iterable[str], name: str) -> Iterable[Tuple[str, str]]:
+    for k, line in enumerate(lines, 1):
+        if line.strip():
+            yield line, "%s:%d" % (name, k)
+
+
+def import_lines(store: Store, lines: Iterable[Tuple[str, str]], map_name: str,
+                 max_poses: int = DEFAULT_MAX_POSES, inserted_by: str = "/" + PROG
+                 ) -> Tuple[int, int, int]:
+    """Store export lines ((text, where) pairs) as chunks of ``map_name``.
+
+    All lines are parsed before anything is stored: a bad line stores nothing.
+
+    Returns:
+        (chunks stored, chunks skipped because already stored, lines split).
+
+    Raises:
+        TrajectoryError: a bad line (named by its ``where``).
+        StoreUnavailable: the database cannot be read (to check for duplicates).
+    """
+    parsed = [chunk_from_json(text, where) for text, where in lines]
+    chunks, split = _split_oversize(parsed, max_poses)
+    for keys in INDEXES:
+        store.create_index(DATABASE, COLLECTION, keys)
+    stored = skipped = 0
+    now = time.time()
+    for c in chunks:
+        if store.find_one(DATABASE, COLLECTION, {"uuid": c.uuid,
+                                                 "sequence_id": c.sequence_id}) is not None:
+            skipped += 1
+            continue
+        stamp_ns = int(now * 1e9)
+        insert_message(store, DATABASE, COLLECTION, chunk_fields(c, stamp_ns), STORED_TYPE,
+                       meta={"map": map_name, "taken": "imported"}, inserted_by=inserted_by,
+                       now=now, stamp_ns=stamp_ns)
+        stored += 1
+    return stored, skipped, split
+
+
+def _split_oversize(chunks: List[Chunk], max_poses: int) -> Tuple[List[Chunk], int]:
+    """Chunks over ``max_poses`` as several; the later chunks of their uuid renumbered."""
+    if all(len(c.poses) <= max_poses for c in chunks):
+        return chunks, 0
+    by_uuid: Dict[str, List[Chunk]] = {}
+    for c in chunks:
+        by_uuid.setdefault(c.uuid, []).append(c)
+    out: List[Chunk] = []
+    split = 0
+    for uid, group in by_uuid.items():
+        group.sort(key=lambda c: c.sequence_id)
+        shift = 0
+        for c in group:
+            pieces = split_poses(c.poses, max_poses)
+            if len(pieces) == 1:
+                out.append(replace(c, sequence_id=c.sequence_id + shift) if shift else c)
+                continue
+            split += 1
+            for k, poses in enumerate(pieces):
+                out.append(Chunk.from_poses(uid, c.sequence_id + shift + k, poses,
+                                            c.complete and k == len(pieces) - 1))
+            shift += len(pieces) - 1
+    return out, split
+
+
+def _import(store: Store, args: argparse.Namespace) -> None:
+    t0 = time.monotonic()
+    lines: List[Tuple[str, str]] = []
+    for name in args.files or ["-"]:
+        if name == "-":
+            lines.extend(_numbered(sys.stdin, "<stdin>"))
+            continue
+        try:
+            with open(name) as f:
+                lines.extend(_numbered(f, name))
+        except OSError as e:
+            raise BulletFloorSimError("%s: cannot read (%s)" % (name, e.strerror or e))
+    stored, skipped, split = import_lines(store, lines, args.map_name, args.max_poses)
+    _note("imported %d chunks into %s (map %s) in %.2f s; %d already stored, skipped; %d split"
+          % (stored, store.uri, args.map_name, time.monotonic() - t0, skipped, split))
+    if store.pending:
+        _note("the database is unreachable: %d writes journalled in %s, replayed when it is "
+              "back" % (store.pending, store.journal_path))
+
+
+# -- plot -------------------------------------------------------------------------------------
+
+def _map_for_plot(args: argparse.Namespace):
+    from ..core.config import load_world_config, resolve_world
+    from ..core.floormap import load_map
+    from ..core.paths import worlds_dir
+
+    if args.map_yaml:
+        return load_map(args.map_yaml)
+    world = args.world
+    if not world and args.map_name and os.path.isfile(
+            os.path.join(worlds_dir(), args.map_name, "world.yaml")):
+        world = args.map_name
+    if not world:
+        return None
+    return load_map(load_world_config(resolve_world(world, worlds_dir())).map_yaml)
+
+
+def _plot(store: Store, args: argparse.Namespace, since: Optional[int],
+          until: Optional[int]) -> None:
+    chunks = select_chunks(store, args.map_name or None, since, until)
+    fmap = _map_for_plot(args)
+    n = plot_trajectories(chunks, args.out, fmap, args.cell)
+    _note("plotted %d trajectories (%d chunks) to %s" % (n, len(chunks), args.out))
+
+
+def plot_trajectories(chunks: Sequence[Chunk], path: str, fmap=None, cell: float = 0.25) -> int:
+    """Draw the trajectories (joined from ``chunks``) and the pose heat-map to a PNG.
+
+    Args:
+        chunks: stored chunks.
+        path: PNG file to write.
+        fmap: optional FloorMap drawn underneath.
+        cell: heat-map cell size, metres.
+
+    Returns:
+        How many trajectories were drawn.
+
+    Raises:
+        BulletFloorSimError: matplotlib is missing or the file cannot be written.
+    """
+    try:
+        import matplotlib
+    except ImportError:
+        raise BulletFloorSimError("plot needs matplotlib, which is not installed "
+                                  "(apt install python3-matplotlib)") from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from matplotlib.transforms import Affine2D
+
+    joined = join_chunks(chunks)
+    fig, ax = plt.subplots(figsize=(12, 9))
+    try:
+        bounds = None
+        if fmap is not None:
+            shade = np.where(fmap.grid == 100, 0.0, np.where(fmap.grid == 0, 1.0, 0.8))
+            ox, oy, yaw = fmap.origin
+            w, h = fmap.width * fmap.resolution, fmap.height * fmap.resolution
+            ax.imshow(shade, cmap="gray", vmin=0.0, vmax=1.0, origin="lower",
+                      extent=(ox, ox + w, oy, oy + h), interpolation="nearest",
+                      transform=Affine2D().rotate_around(ox, oy, yaw) + ax.transData)
+            bounds = (ox, ox + w, oy, oy + h)
+        xy = np.array([(p[1], p[2]) for j in joined for p in j.poses], dtype=float)
+        if len(xy):
+            x0, x1, y0, y1 = bounds or (xy[:, 0].min(), xy[:, 0].max(), xy[:, 1].min(),
+                                        xy[:, 1].max())
+            nx = max(1, int(np.ceil((x1 - x0) / cell)))
+            ny = max(1, int(np.ceil((y1 - y0) / cell)))
+            hist, _, _ = np.histogram2d(xy[:, 0], xy[:, 1], bins=(nx, ny),
+                                        range=((x0, x0 + nx * cell), (y0, y0 + ny * cell)))
+            share = np.ma.masked_equal(hist.T / len(xy), 0.0)
+            im = ax.imshow(share, origin="lower", cmap="inferno", alpha=0.6,
+                           extent=(x0, x0 + nx * cell, y0, y0 + ny * cell),
+                           interpolation="nearest")
+            fig.colorbar(im, ax=ax, fraction=0.03, label="share of poses per %.2f m cell"
+                         % cell)
+        palette = plt.get_cmap("tab10")
+        for k, j in enumerate(joined):
+            ax.plot([p[1] for p in j.poses], [p[2] for p in j.poses], linewidth=0.8,
+                    color=palette(k % 10), alpha=0.8)
+        ax.set_aspect("equal")
+        ax.autoscale_view()
+        ax.set_xlabel("x (m, map frame)")
+        ax.set_ylabel("y (m)")
+        ax.set_title("%d trajectories, %d poses" % (len(joined), sum(len(j.poses)
+                                                                      for j in joined)))
+        try:
+            fig.savefig(path, dpi=120, bbox_inches="tight")
+        except OSError as e:
+            raise BulletFloorSimError("%s: cannot write the plot: %s"
+                                      % (path, e.strerror or e)) from None
+    finally:
+        plt.close(fig)
+    return len(joined)
+
+
+def _note(message: str) -> None:
+    sys.stderr.write("%s: %s\n" % (PROG, message))
+
+
+def _fail(message: str) -> int:
+    sys.stderr.write("%s: error: %s\n" % (PROG, " ".join(message.split())))
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

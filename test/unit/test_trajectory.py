@@ -1,0 +1,485 @@
+"""Trajectory chunking and metrics on synthetic pose streams (exact values), the stored
+document layout, JSON lines and the trajectories command line (export -> import roundtrip on
+both store backends). No ROS master."""
+from __future__ import annotations
+
+import io
+import json
+import math
+import os
+import random
+import sys
+import warnings
+
+import pytest
+
+from bullet_floor_sim.core.rois import Roi, load_rois, roi_at
+from bullet_floor_sim.core.store import open_store
+from bullet_floor_sim.core.trajectory import (COLLECTION, DATABASE, STORED_TYPE, Chunk,
+                                              Chunker, RegionLocator, TrajectoryError,
+                                              chunk_fields, chunk_from_document,
+                                              chunk_from_json, chunk_to_json, displacement,
+                                              join_chunks, path_length, pose_from_xy_yaw,
+                                              select_chunks, split_poses, yaw_of)
+from bullet_floor_sim.ros import trajectories as cli
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from mongo_server import ENABLE_HINT, MongoServer, find_launcher  # noqa: E402
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
+OFFICE_ROIS = os.path.join(ROOT, "worlds", "office", "rois.yaml")
+NS = 1000000000
+T0 = 100 * NS  # sim time never starts at 0
+
+
+def pose(t_ns, x, y, yaw=0.0):
+    return pose_from_xy_yaw(t_ns, x, y, yaw)
+
+
+def line_stream(n, dt_ns=NS // 10, step=0.25, t0=T0):
+    """n poses along +x, `step` metres apart (exact in binary), every dt_ns."""
+    return [pose(t0 + k * dt_ns, k * step, 1.0) for k in range(n)]
+
+
+def counter_uuids():
+    n = [0]
+
+    def make():
+        n[0] += 1
+        return "traj-%d" % n[0]
+
+    return make
+
+
+def feed(chunker, poses):
+    out = []
+    for p in poses:
+        out.extend(chunker.add(p))
+    return out
+
+
+# -- metrics ------------------------------------------------------------------------------------
+
+def test_metrics_of_a_3_4_5_path_are_exact():
+    poses = [pose(T0, 0.0, 0.0), pose(T0 + NS, 3.0, 0.0), pose(T0 + 2 * NS, 3.0, 4.0)]
+    c = Chunk.from_poses("u", 0, poses, True)
+    assert c.trajectory_length == 7.0
+    assert c.trajectory_displacement == 5.0
+    assert c.displacement_pose_ratio == 5.0 / 3.0
+    assert (c.start_ns, c.end_ns) == (T0, T0 + 2 * NS)
+    assert path_length(poses[:1]) == 0.0 and displacement([]) == 0.0
+    assert Chunk.from_poses("u", 0, [], True).displacement_pose_ratio == 0.0
+
+
+def test_length_is_fsum_exact_and_planar():
+    # 1000 steps of 0.1 m: a naive running sum drifts, fsum of the hypots does not.
+    poses = [(T0 + k, 0.1 * k, 0.0, 5.0 * (k % 2), 0.0, 0.0, 0.0, 1.0) for k in range(11)]
+    steps = [math.hypot(b[1] - a[1], 0.0) for a, b in zip(poses, poses[1:])]
+    assert path_length(poses) == math.fsum(steps)  # z (5 m jumps) is ignored
+    assert displacement(poses) == 0.1 * 10
+
+
+def test_yaw_roundtrip_and_planar_quaternion():
+    for yaw in (0.0, 0.5, -2.0, math.pi - 1e-9):
+        p = pose_from_xy_yaw(T0, 1.0, 2.0, yaw)
+        assert p[3:6] == (0.0, 0.0, 0.0) and p[6] == math.sin(yaw / 2)
+        assert yaw_of(p) == pytest.approx(yaw, abs=1e-12)
+
+
+# -- chunking -----------------------------------------------------------------------------------
+
+def test_period_chunks_share_boundaries_and_end_complete():
+    stream = line_stream(951)  # 95 s at 10 Hz, 0.25 m per pose
+    ch = Chunker(period=30.0, new_uuid=counter_uuids())
+    closed = feed(ch, stream)
+    assert [len(c.poses) for c in closed] == [301, 301, 301]
+    assert [c.closed_by for c in closed] == ["period"] * 3
+    assert ch.open_poses == stream[900:]
+    last = ch.finish()
+    chunks = closed + [last]
+    assert [c.sequence_id for c in chunks] == [0, 1, 2, 3]
+    assert [c.complete for c in chunks] == [False, False, False, True]
+    assert {c.uuid for c in chunks} == {"traj-1"} and last.closed_by == "end"
+    assert len(last.poses) == 51
+    for a, b in zip(chunks, chunks[1:]):
+        assert a.poses[-1] is b.poses[0]  # the boundary pose is shared
+        assert b.start_ns - a.start_ns == 30 * NS
+    assert [c.trajectory_length for c in chunks] == [75.0, 75.0, 75.0, 12.5]
+    assert [c.trajectory_displacement for c in chunks] == [75.0, 75.0, 75.0, 12.5]
+    assert [c.displacement_pose_ratio for c in chunks] == [75.0 / 301] * 3 + [12.5 / 51]
+    joined = join_chunks(reversed(chunks))
+    assert len(joined) == 1 and joined[0].poses == stream and joined[0].complete
+    assert joined[0].chunks == 4
+    assert ch.finish() is None and ch.uuid is None
+
+
+def test_region_split_at_each_region_change():
+    west = Roi("w", "1", "office", "m", [(0, 0), (10, 0), (10, 10), (0, 10)])
+    east = Roi("e", "1", "corridor", "m", [(10, 0), (20, 0), (20, 10), (10, 10)])
+    # x = 0.5, 1.5, ... 24.5 at y = 5: 10 poses in w, 10 in e, 5 outside every region
+    stream = [pose(T0 + k * NS, k + 0.5, 5.0) for k in range(25)]
+    ch = Chunker(period=0, split="region", region_of=RegionLocator([west, east]),
+                 new_uuid=counter_uuids())
+    closed = feed(ch, stream)
+    last = ch.finish()
+    chunks = closed + [last]
+    assert [(c.region, len(c.poses), c.closed_by) for c in chunks] == [
+        ("w", 11, "region"), ("e", 11, "region"), (None, 5, "end")]
+    assert chunks[0].poses[-1] == stream[10] == chunks[1].poses[0]  # entering e closes w
+    assert [c.trajectory_length for c in chunks] == [10.0, 10.0, 4.0]
+    assert join_chunks(chunks)[0].poses == stream
+
+
+def test_region_split_also_closes_long_stays_with_a_period():
+    room = Roi("r", "1", "office", "m", [(0, 0), (100, 0), (100, 10), (0, 10)])
+    ch = Chunker(period=30.0, split="region", region_of=RegionLocator([room]))
+    closed = feed(ch, line_stream(700, step=0.125))  # x < 87.5: always in the room
+    assert [(c.region, len(c.poses), c.closed_by) for c in closed] == [("r", 301, "period")] * 2
+
+
+def test_oversize_chunk_is_split_never_dropped():
+    stream = line_stream(1000, dt_ns=NS // 1000)  # 1 s at 1 kHz: period never reached
+    ch = Chunker(period=30.0, max_poses=100, new_uuid=counter_uuids())
+    closed = feed(ch, stream)
+    last = ch.finish()
+    assert [len(c.poses) for c in closed] == [100] * 10 and len(last.poses) == 10
+    assert {c.closed_by for c in closed} == {"size"}
+    assert [c.sequence_id for c in closed + [last]] == list(range(11))
+    assert join_chunks(closed + [last])[0].poses == stream
+    pieces = split_poses(stream, 100)
+    assert [p for p in pieces] == [c.poses for c in closed + [last]]
+    assert split_poses(stream[:100], 100) == [stream[:100]]
+    assert sum(len(p) for p in split_poses(stream, 2)) == 2 * 999  # every step its own piece
+    with pytest.raises(TrajectoryError, match=r"max_poses 1: must be an integer >= 2"):
+        split_poses(stream, 1)
+
+
+def test_gap_and_time_jump_end_the_trajectory():
+    ch = Chunker(period=30.0, max_gap=10.0, new_uuid=counter_uuids())
+    a = [pose(T0 + k * NS, k, 0.0) for k in range(5)]
+    b = [pose(T0 + (15 + k) * NS, k, 1.0) for k in range(3)]  # 11 s after a's last pose
+    c = [pose(T0 + k * NS, k, 2.0) for k in range(2)]  # back in time: a restarted simulation
+    out = feed(ch, a)
+    assert out == [] and ch.uuid == "traj-1"
+    out = feed(ch, b)
+    assert [(x.uuid, x.complete, x.closed_by, x.poses) for x in out] == [
+        ("traj-1", True, "gap", a)]
+    out = feed(ch, c)
+    assert [(x.uuid, x.closed_by, x.poses) for x in out] == [("traj-2", "time_jump", b)]
+    assert ch.check_gap(c[-1][0] + 10 * NS) is None  # exactly max_gap: still open
+    ended = ch.check_gap(c[-1][0] + 10 * NS + 1)
+    assert (ended.uuid, ended.closed_by, ended.poses) == ("traj-3", "gap", c)
+    assert ch.uuid is None and ch.poses_added == 10
+
+
+def test_equal_stamps_are_kept():
+    ch = Chunker(period=30.0)
+    stream = [pose(T0, 0.0, 0.0), pose(T0, 1.0, 0.0), pose(T0 + 1, 1.0, 0.0)]
+    assert feed(ch, stream) == []
+    assert ch.finish().poses == stream
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"split": "room"}, r"split 'room': use one of period, region"),
+    ({"period": 0}, r"period 0: must be a finite number of seconds > 0"),
+    ({"period": float("nan")}, r"period nan: must be"),
+    ({"max_poses": 1}, r"max_poses 1: must be an integer >= 2"),
+    ({"max_gap": -1.0}, r"max_gap -1.0: must be a finite number of seconds >= 0"),
+    ({"split": "region"}, r"split region needs regions"),
+])
+def test_bad_chunker_settings(kwargs, message):
+    with pytest.raises(TrajectoryError, match=message):
+        Chunker(**kwargs)
+
+
+def test_region_locator_agrees_with_roi_at_on_the_office():
+    rois = load_rois(OFFICE_ROIS)
+    loc = RegionLocator(rois)
+    rng = random.Random(5)
+    points = [(rng.uniform(-1, 31), rng.uniform(-1, 21)) for _ in range(3000)]
+    points += [v for r in rois for v in r.vertices]  # boundaries count as inside
+    for x, y in points:
+        want = roi_at(rois, x, y)
+        assert loc(x, y) == (want.id if want else None), (x, y)
+    assert loc(3.0, 10.0) == "1" and loc(-5.0, -5.0) is None
+
+
+# -- documents and JSON lines -------------------------------------------------------------------
+
+def sample_chunk(n=4, uuid="0b5c7c1e-1111-4a4a-8b8b-123456789abc", seq=2, complete=True):
+    poses = [pose_from_xy_yaw(T0 + k * 123456789, 1.5 + 0.25 * k, -2.0 + 0.5 * k, 0.1 * k)
+             for k in range(n)]
+    return Chunk.from_poses(uuid, seq, poses, complete)
+
+
+def test_document_has_mongodb_store_layout_of_the_message():
+    c = sample_chunk(2)
+    f = chunk_fields(c, stamp_ns=7 * NS + 5, seq=3)
+    assert list(f) == ["header", "uuid", "trajectory", "robot", "start_time", "end_time",
+                       "trajectory_length", "complete", "sequence_id",
+                       "trajectory_displacement", "displacement_pose_ratio"]
+    assert f["header"] == {"seq": 3, "stamp": {"secs": 7, "nsecs": 5}, "frame_id": "map"}
+    assert f["trajectory"][1] == {
+        "header": {"seq": 0, "stamp": {"secs": 100, "nsecs": 123456789}, "frame_id": "map"},
+        "pose": {"position": {"x": 1.75, "y": -1.5, "z": 0.0},
+                 "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(0.05),
+                                 "w": math.cos(0.05)}}}
+    assert f["start_time"] == {"secs": 100, "nsecs": 0}
+    assert f["end_time"] == {"secs": 100, "nsecs": 123456789}
+    assert (f["robot"], f["complete"], f["sequence_id"]) == ([], True, 2)
+    assert f["trajectory_length"] == math.hypot(0.25, 0.5)
+    back = chunk_from_document(dict(f, _meta={"map": "office", "region": "5"}))
+    assert back == Chunk(c.uuid, 2, c.poses, True, c.trajectory_length,
+                         c.trajectory_displacement, c.displacement_pose_ratio,
+                         region="5", map_name="office")
+    with pytest.raises(TrajectoryError, match=r"stored trajectory 42: malformed \(KeyError"):
+        chunk_from_document({"_id": 42, "uuid": "u", "trajectory": [{"header": {}}]})
+
+
+def test_json_line_exact_text_and_roundtrip():
+    c = Chunk.from_poses("u-1", 0, [pose(12 * NS + 300000000, 1.0, 2.0, 0.5),
+                                    pose(13 * NS + 5, 4.0, 6.0, 0.0)], False)
+    line = chunk_to_json(c)
+    assert line == ('{"uuid": "u-1", "sequence_id": 0, "start_time": 12.300000000, '
+                    '"end_time": 13.000000005, "complete": false, "trajectory_length": 5.0, '
+                    '"poses": [[12.300000000, 1.0, 2.0, %r], [13.000000005, 4.0, 6.0, 0.0]]}'
+                    % yaw_of(c.poses[0]))
+    assert json.loads(line)["poses"][1][0] == 13.000000005
+    back = chunk_from_json(line)
+    assert [p[0] for p in back.poses] == [12 * NS + 300000000, 13 * NS + 5]  # exact ns
+    assert chunk_to_json(back) == line
+    assert (back.trajectory_length, back.trajectory_displacement,
+            back.displacement_pose_ratio) == (5.0, 5.0, 2.5)
+
+
+@pytest.mark.parametrize("mutate, message", [
+    (lambda d: d.pop("poses"), r"where: missing key\(s\) poses"),
+    (lambda d: d.update(extra=1), r"where: unknown key\(s\) extra"),
+    (lambda d: d.update(sequence_id=-1), r"sequence_id must be an integer >= 0, got -1"),
+    (lambda d: d.update(complete="yes"), r"complete must be true or false"),
+    (lambda d: d.update(uuid=""), r"uuid must be a non-empty string"),
+    (lambda d: d.update(poses=[]), r"poses must be a non-empty list"),
+    (lambda d: d["poses"].append([1.0, 2.0]), r"poses\[2\] must be \[t, x, y, yaw\]"),
+    (lambda d: d["poses"][1].__setitem__(0, 1.0), r"poses\[1\] t 1.000000000 is before"),
+    (lambda d: d["poses"][0].__setitem__(0, -1), r"poses\[0\] t -1: must be a number of sec"),
+    (lambda d: d["poses"][0].__setitem__(1, "x"), r"poses\[0\] x, y, yaw must be finite"),
+    (lambda d: d.update(end_time=99), r"end_time 99 is not the last pose's time 13.000000005"),
+    (lambda d: d.update(trajectory_length=-1), r"trajectory_length must be a number of metres"),
+])
+def test_bad_json_lines_are_named(mutate, message):
+    d = json.loads(chunk_to_json(Chunk.from_poses("u", 0, [pose(12 * NS, 0, 0),
+                                                           pose(13 * NS + 5, 1, 0)], True)))
+    mutate(d)
+    with pytest.raises(TrajectoryError, match=message):
+        chunk_from_json(json.dumps(d), "where")
+    with pytest.raises(TrajectoryError, match=r"^f:3: not JSON"):
+        chunk_from_json("{", "f:3")
+
+
+# -- store and command line ---------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def mongo_uri(tmp_path_factory):
+    launcher, why = find_launcher()
+    if launcher is None:
+        message = "MongoDB backend tests SKIPPED: %s; %s" % (why, ENABLE_HINT)
+        warnings.warn(message)
+        pytest.skip(message)
+    server = MongoServer(launcher, str(tmp_path_factory.mktemp("mongo")), memory=True).start()
+    yield server.uri
+    server.stop()
+
+
+@pytest.fixture(params=["embedded", "mongodb"])
+def db_pair(request, tmp_path, monkeypatch):
+    """Two empty databases of one backend (the journal kept in tmp_path)."""
+    monkeypatch.setenv("ROS_HOME", str(tmp_path / "ros_home"))
+    if request.param == "embedded":
+        return str(tmp_path / "a"), str(tmp_path / "b")
+    uri = request.getfixturevalue("mongo_uri")
+    return uri, uri  # one server, two databases would need a db option: clear in between
+
+
+def record(store, chunks, map_name="office"):
+    from bullet_floor_sim.core.store import insert_message
+
+    for c in chunks:
+        insert_message(store, DATABASE, COLLECTION, chunk_fields(c, c.end_ns), STORED_TYPE,
+                       meta={"map": map_name, "taken": "online"}, inserted_by="/test",
+                       now=c.end_ns / 1e9)
+
+
+def recorded_chunks(uuid_start=0):
+    """Two trajectories of the walker (4 + 2 chunks) and one of another map."""
+    make = counter_uuids()
+    for _ in range(uuid_start):
+        make()
+    ch = Chunker(period=30.0, max_gap=10.0, new_uuid=make)
+    rng = random.Random(1)
+    stream = [pose_from_xy_yaw(T0 + k * NS // 10, rng.uniform(0, 30), rng.uniform(0, 20),
+                               rng.uniform(-3, 3)) for k in range(1000)]
+    stream += [pose_from_xy_yaw(T0 + 200 * NS + k * NS // 10, 0.5 * k, 1.0, 0.0)
+               for k in range(400)]
+    chunks = feed(ch, stream) + [ch.finish()]
+    return stream, chunks
+
+
+def assert_same_lines(got, want):
+    """Export lines equal field for field; yaw went through a quaternion on import, so it
+    is equal to rounding (1e-12 rad), everything else exactly (times to the nanosecond)."""
+    assert len(got) == len(want)
+    for g, w in zip(got, want):
+        g, w = json.loads(g, parse_float=str), json.loads(w, parse_float=str)
+        gp, wp = g.pop("poses"), w.pop("poses")
+        assert g == w
+        assert [p[:3] for p in gp] == [p[:3] for p in wp]
+        for a, b in zip(gp, wp):
+            assert abs(math.remainder(float(a[3]) - float(b[3]), 2 * math.pi)) < 1e-12
+
+
+def run_cli(args, capsys):
+    code = cli.main(args)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_select_by_map_window_and_last_n(tmp_path):
+    stream, chunks = recorded_chunks()
+    assert [(c.uuid, c.sequence_id, len(c.poses)) for c in chunks] == [
+        ("traj-1", 0, 301), ("traj-1", 1, 301), ("traj-1", 2, 301), ("traj-1", 3, 100),
+        ("traj-2", 0, 301), ("traj-2", 1, 100)]
+    other = Chunk.from_poses("lab-1", 0, [pose(T0, 0, 0), pose(T0 + NS, 1, 0)], True)
+    with open_store(str(tmp_path / "db"), journal_dir=str(tmp_path / "j")) as store:
+        record(store, chunks)
+        record(store, [other], map_name="lab")
+        got = select_chunks(store, "office")
+        assert [(c.uuid, c.sequence_id) for c in got] == [(c.uuid, c.sequence_id)
+                                                          for c in chunks]
+        assert all(c.map_name == "office" for c in got)
+        assert [j.poses for j in join_chunks(got)] == [stream[:1000], stream[1000:]]
+        assert len(select_chunks(store)) == 7
+        # window [130 s, 170 s]: chunks 1 (130-160) and 2 (160-190) of traj-1; end/start
+        # limits are inclusive, to the nanosecond
+        win = select_chunks(store, "office", since_ns=130 * NS, until_ns=160 * NS)
+        assert [(c.uuid, c.sequence_id) for c in win] == [("traj-1", 0), ("traj-1", 1),
+                                                          ("traj-1", 2)]
+        win = select_chunks(store, "office", since_ns=130 * NS + 1, until_ns=160 * NS - 1)
+        assert [(c.uuid, c.sequence_id) for c in win] == [("traj-1", 1)]
+        last = select_chunks(store, None, last_n=1)
+        assert [(c.uuid, c.sequence_id) for c in last] == [("traj-2", 0), ("traj-2", 1)]
+
+
+def test_export_import_roundtrip_on_both_backends(db_pair, tmp_path, capsys):
+    a, b = db_pair
+    stream, chunks = recorded_chunks()
+    with open_store(a) as store:
+        if a == b:  # the module's MongoDB server: empty the collection
+            store.delete(DATABASE, COLLECTION, {})
+        record(store, chunks)
+    code, out, err = run_cli(["export", "--db", a, "--map", "office"], capsys)
+    assert code == 0, err
+    assert "exported 6 chunks (1404 poses)" in err
+    lines = out.splitlines()
+    assert [json.loads(x)["sequence_id"] for x in lines] == [0, 1, 2, 3, 0, 1]
+    assert lines == [chunk_to_json(c) for c in chunks]
+    first = json.loads(lines[0])
+    assert list(first) == ["uuid", "sequence_id", "start_time", "end_time", "complete",
+                           "trajectory_length", "poses"]
+    assert first["poses"][0] == [100.0, stream[0][1], stream[0][2], yaw_of(stream[0])]
+    dump = tmp_path / "dump.jsonl"
+    dump.write_text(out)
+    if a == b:  # one MongoDB server: empty it before importing
+        with open_store(a) as store:
+            store.delete(DATABASE, COLLECTION, {})
+    code, _, err = run_cli(["import", "--db", b, "--map", "office", str(dump)], capsys)
+    assert code == 0, err
+    assert "imported 6 chunks" in err and "0 already stored" in err
+    code, _, err = run_cli(["import", "--db", b, "--map", "office", str(dump)], capsys)
+    assert "imported 0 chunks" in err and "6 already stored, skipped" in err
+    code, again, err = run_cli(["export", "--db", b], capsys)
+    assert code == 0
+    assert_same_lines(again.splitlines(), lines)
+    with open_store(b) as store:
+        docs = store.find(DATABASE, COLLECTION, {}, sort=[("start_time.secs", 1)])
+        assert len(docs) == 6
+        assert docs[0]["_meta"]["taken"] == "imported"
+        assert docs[0]["_meta"]["stored_type"] == STORED_TYPE
+        back = select_chunks(store)
+        assert [j.poses[0][0] for j in join_chunks(back)] == [stream[0][0], stream[1000][0]]
+        assert sum(len(j.poses) for j in join_chunks(back)) == len(stream)
+
+
+def test_export_window_to_a_file_and_plot(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("ROS_HOME", str(tmp_path / "ros_home"))
+    db = str(tmp_path / "db")
+    stream, chunks = recorded_chunks()
+    with open_store(db) as store:
+        record(store, chunks)
+    out = tmp_path / "w.jsonl"
+    code, _, err = run_cli(["export", "--db", db, "--since", "130.000000001", "--until",
+                            "159.999999999", "--out", str(out)], capsys)
+    assert code == 0, err
+    assert [json.loads(x)["start_time"] for x in out.read_text().splitlines()] == [130.0]
+    png = tmp_path / "traj.png"
+    code, _, err = run_cli(["plot", "--db", db, "--out", str(png), "--map", "office"], capsys)
+    assert code == 0, err
+    assert "plotted 2 trajectories (6 chunks)" in err
+    from PIL import Image
+
+    with Image.open(str(png)) as im:
+        assert im.format == "PNG" and im.size[0] > 500
+
+
+def test_import_splits_an_oversize_line_and_renumbers(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("ROS_HOME", str(tmp_path / "ros_home"))
+    long = Chunk.from_poses("u", 0, line_stream(25), False)
+    rest = [pose(long.end_ns + k * NS, 6.0 + k, 1.0) for k in (1, 2)]
+    tail = Chunk.from_poses("u", 1, [long.poses[-1]] + rest, True)
+    dump = tmp_path / "in.jsonl"
+    dump.write_text(chunk_to_json(long) + "\n\n" + chunk_to_json(tail) + "\n")
+    db = str(tmp_path / "db")
+    code, _, err = run_cli(["import", "--db", db, "--map", "m", "--max-poses", "10", str(dump)],
+                           capsys)
+    assert code == 0, err
+    assert "imported 4 chunks" in err and "1 split" in err
+    with open_store(db) as store:
+        got = select_chunks(store)
+    assert [(c.sequence_id, len(c.poses), c.complete) for c in got] == [
+        (0, 10, False), (1, 10, False), (2, 7, False), (3, 3, True)]
+    assert got[0].trajectory_length == 9 * 0.25 and got[2].trajectory_length == 6 * 0.25
+    assert join_chunks(got)[0].poses == long.poses + rest
+
+
+@pytest.mark.parametrize("args, message", [
+    ([], r"give a command: export, import or plot"),
+    (["import", "--db", "D"], r"import needs --map NAME"),
+    (["export", "--since", "5", "--until", "4"], r"--since 5 is after --until 4"),
+    (["export", "--since", "soon"], r"--since 'soon': must be a number of seconds >= 0"),
+    (["plot", "--db", "D"], r"the following arguments are required: --out"),
+    (["export", "--db", "ftp://x"], r"unsupported URI scheme 'ftp'"),
+])
+def test_cli_errors_are_one_line(args, message, capsys, tmp_path, monkeypatch):
+    monkeypatch.setenv("ROS_HOME", str(tmp_path))
+    code, out, err = run_cli(args, capsys)
+    assert code == 2 and out == ""
+    assert err.startswith("trajectories: error: ") and err.count("\n") == 1
+    assert __import__("re").search(message, err), err
+
+
+def test_cli_bad_import_line_stores_nothing(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("ROS_HOME", str(tmp_path))
+    good = chunk_to_json(sample_chunk())
+    monkeypatch.setattr("sys.stdin", io.StringIO(good + "\n" + good[:-1] + "\n"))
+    db = str(tmp_path / "db")
+    code, _, err = run_cli(["import", "--db", db, "--map", "m"], capsys)
+    assert code == 2 and "<stdin>:2: not JSON" in err
+    with open_store(db) as store:
+        assert store.find(DATABASE, COLLECTION) == []
+
+
+def test_cli_imports_without_rospy():
+    import subprocess
+
+    code = ("import sys; import bullet_floor_sim.ros.trajectories, "
+            "bullet_floor_sim.core.trajectory; sys.exit('rospy' in sys.modules)")
+    assert subprocess.call([sys.executable, "-c", code]) == 0
