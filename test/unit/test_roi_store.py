@@ -247,7 +247,7 @@ def test_edits():
         move_vertex(roi, 0, float("nan"), 0)
     sq = new_roi("9", "kitchen", "office", "1", 10.0, 5.0, size=2.0)
     assert sq.vertices == [(9, 4), (11, 4), (11, 6), (9, 6)] and sq.type == "kitchen"
-    assert next_roi_id([roi, sq, square("x", 0, 0)]) == "10" and next_roi_id([]) == "1"
+    assert next_roi_id([roi.id, sq.id, "x"]) == "10" and next_roi_id([]) == "1"
 
 
 def test_debouncer_saves_after_quiet_time_and_after_max_wait():

@@ -453,9 +453,10 @@ def delete_point(roi: Roi, index: int) -> Roi:
     return _copy(roi, [v for k, v in enumerate(roi.vertices) if k != index])
 
 
-def next_roi_id(rois: Iterable[Roi]) -> str:
-    """One more than the largest numeric id (SOMA numbers ROIs "1", "2", ...)."""
-    numbers = [int(r.id) for r in rois if r.id.isdigit()]
+def next_roi_id(ids: Iterable[str]) -> str:
+    """One more than the largest numeric id (SOMA numbers ROIs "1", "2", ...). Pass deleted
+    ids too, so that a new ROI does not continue a deleted one's history."""
+    numbers = [int(i) for i in ids if i.isdigit()]
     return str(max(numbers) + 1 if numbers else 1)
 
 
