@@ -94,6 +94,31 @@ fi
 import numpy, pybullet, xacro, yourdfpy, shapely, pymongo, rospy  # noqa: F401
 PY
 
+# 3b. optional: a MongoDB wire-protocol server for the store tests (test/unit/mongo_server.py).
+# Debian 12 has no mongod; mongoeco needs Python >= 3.13. Made only where such an interpreter
+# exists (BFS_NO_MONGO=1 skips it); without it those tests are skipped with a warning.
+MONGO_VENV="$REPO/.venv-mongo"
+PY313=""
+for cand in python3.13 python3.14 /usr/bin/python3.13 /usr/local/bin/python3.13 \
+    "${PYENV_ROOT:-$HOME/.pyenv}"/versions/3.1[3-9]*/bin/python3; do
+  if "$cand" -c 'import sys, venv; sys.exit(sys.version_info < (3, 13))' >/dev/null 2>&1; then
+    PY313="$(command -v "$cand")"; break
+  fi
+done
+if [ -z "${BFS_NO_MONGO:-}" ] && [ -n "$PY313" ] && ! command -v mongod >/dev/null; then
+  if ! "$MONGO_VENV/bin/python" -c 'import mongoeco, pymongo' 2>/dev/null; then
+    log "creating $MONGO_VENV (mongoeco wire server for the MongoDB store tests)"
+    rm -rf "$MONGO_VENV"
+    if ! { "$PY313" -m venv "$MONGO_VENV" && "$MONGO_VENV/bin/python" -m pip install -q \
+        --disable-pip-version-check "mongoeco[wire]==4.11.0" "pymongo==4.20.0"; }; then
+      rm -rf "$MONGO_VENV"
+      log "warning: could not set up $MONGO_VENV; the MongoDB store tests will be skipped"
+    fi
+  else
+    log "mongoeco test server: present"
+  fi
+fi
+
 # 4. catkin workspace with a link to the repo, built with the venv active
 [ -e "$REPO/.ws/src" ] && rm -rf "$REPO/.ws"   # an old in-package workspace: see the header
 mkdir -p "$WS/src"
