@@ -1,0 +1,335 @@
+"""Trajectory recorder: every pose of a walker, chunked (core/trajectory.py) and stored.
+
+Subscribes to ``~pose_topic`` (geometry_msgs/PoseStamped in ``map``, e.g. the simulator's
+ground truth ``/robot1/pose``), records every pose, and stores each chunk as a
+human_trajectory Trajectory in database ``message_store``, collection ``people_trajectory``, in
+mongodb_store's layout with ``_meta`` ``{"map", "taken": "online", "closed_by"}`` (and
+``"region"`` with ``split: region``). Stored chunks are also published: those that continue
+a trajectory on ``~trajectories/batch``, the last one of each trajectory (``complete``) on
+``~trajectories/complete`` (together: exactly what is stored). ``~path`` (nav_msgs/Path,
+latched) shows the open chunk, ``~path_rate`` times a second.
+
+On shutdown (SIGINT/SIGTERM from roslaunch, or Ctrl-C) the open chunk is stored, marked
+complete, before the node exits. If the database is down, chunks are journalled and replayed
+when it is back (core/store): nothing is lost.
+
+Parameters: ``~pose_topic`` (pose), ``~db`` ("" = ``$ROS_HOME/bullet_floor_sim/db``; or
+``mongodb://host:port/``), ``~period`` 30 s, ``~split`` period|region, ``~max_poses`` 20000,
+``~max_gap`` 10 s (a silence that ends a trajectory; 0 = never), ``~map`` (map name for the
+stored meta; default the ROIs' map or the world's name), ``~world`` office, ``~rois_file``
+(default the world's rois.yaml), ``~rois_service`` /soma/query_rois (used first when it
+answers within ``~rois_wait`` 2 s), ``~rois_config`` (""), ``~frame_id`` map,
+``~path_rate`` 2 Hz, ``~db_timeout`` 1.5 s (an unreachable database counts as down after
+that long), ``~db_retry_interval`` 5 s (how often a database found down is tried again).
+"""
+from __future__ import annotations
+
+import logging
+import math
+import sys
+import threading
+from typing import List, Optional, Sequence
+
+import rospy
+from geometry_msgs.msg import Point, Pose, PoseStamped, Quaternion
+from nav_msgs.msg import Path
+from std_msgs.msg import Header
+
+from ..core.config import load_world_config, resolve_world
+from ..core.errors import BulletFloorSimError
+from ..core.paths import worlds_dir
+from ..core.rois import Roi, load_rois
+from ..core.store import StoreError, insert_message, open_store
+from ..core.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_GAP, DEFAULT_MAX_POSES,
+                               DEFAULT_PERIOD, INDEXES, STORED_TYPE, Chunk, Chunker,
+                               RegionLocator, chunk_fields)
+from ..msg import Trajectory
+
+__all__ = ["main", "RecorderNode", "RospyLogHandler", "chunk_to_msg", "forward_store_log",
+           "pose_msgs", "pose_of_msg"]
+
+_NS = 1000000000
+
+
+def pose_of_msg(msg: PoseStamped):
+    """A PoseStamped as core/trajectory's pose tuple (t_ns, x, y, z, qx, qy, qz, qw)."""
+    s = msg.header.stamp
+    p = msg.pose.position
+    q = msg.pose.orientation
+    return (s.secs * _NS + s.nsecs, p.x, p.y, p.z, q.x, q.y, q.z, q.w)
+
+
+def _time(t_ns: int) -> rospy.Time:
+    secs, nsecs = divmod(int(t_ns), _NS)
+    return rospy.Time(secs, nsecs)
+
+
+def pose_msgs(poses: Sequence, frame_id: str) -> List[PoseStamped]:
+    """Pose tuples as PoseStamped messages."""
+    out = []
+    for t, x, y, z, qx, qy, qz, qw in poses:
+        out.append(PoseStamped(Header(0, _time(t), frame_id),
+                               Pose(Point(x, y, z), Quaternion(qx, qy, qz, qw))))
+    return out
+
+
+def chunk_to_msg(chunk: Chunk, stamp: rospy.Time, seq: int = 0):
+    """A chunk as a bullet_floor_sim/Trajectory message (human_trajectory's fields)."""
+    return Trajectory(header=Header(seq, stamp, chunk.frame_id), uuid=chunk.uuid,
+                      trajectory=pose_msgs(chunk.poses, chunk.frame_id), robot=[],
+                      start_time=_time(chunk.start_ns), end_time=_time(chunk.end_ns),
+                      trajectory_length=chunk.trajectory_length, complete=chunk.complete,
+                      sequence_id=chunk.sequence_id,
+                      trajectory_displacement=chunk.trajectory_displacement,
+                      displacement_pose_ratio=chunk.displacement_pose_ratio)
+
+
+class RospyLogHandler(logging.Handler):
+    """Forwards Python ``logging`` records (the store's outage and replay messages) to rospy,
+    so they reach the node's screen output and /rosout."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        msg = self.format(record)
+        if record.levelno >= logging.ERROR:
+            rospy.logerr(msg)
+        elif record.levelno >= logging.WARNING:
+            rospy.logwarn(msg)
+        else:
+            rospy.loginfo(msg)
+
+
+def forward_store_log() -> None:
+    """Send the store's log (logger ``bullet_floor_sim.store``, INFO and up) to rospy."""
+    log = logging.getLogger("bullet_floor_sim.store")
+    if not any(isinstance(h, RospyLogHandler) for h in log.handlers):
+        log.addHandler(RospyLogHandler())
+        log.setLevel(logging.INFO)
+        log.propagate = False
+
+
+def rois_from_service(name: str, wait: float, map_name: str, config: str) -> List[Roi]:
+    """The most recent ROIs of ``map_name`` (and ``config``) from a SOMAQueryROIs service.
+
+    Returns:
+        The ROIs, or [] when the service does not answer within ``wait`` seconds or has none.
+    """
+    from ..srv import SOMAQueryROIs, SOMAQueryROIsRequest
+
+    try:
+        rospy.wait_for_service(name, timeout=wait)
+    except rospy.ROSException:
+        return []
+    try:
+        resp = rospy.ServiceProxy(name, SOMAQueryROIs)(SOMAQueryROIsRequest(
+            query_type=0, returnmostrecent=True, roiconfigs=[config] if config else []))
+    except (rospy.ServiceException, rospy.ROSException) as e:
+        rospy.logwarn("trajectory_recorder: ROI service %s failed (%s); using the ROI file",
+                      name, e)
+        return []
+    rois = []
+    for r in resp.rois:
+        if map_name and r.map_name != map_name:
+            continue
+        rois.append(Roi(r.id, r.config, r.type, r.map_name,
+                        [(p.position.x, p.position.y) for p in r.posearray.poses]))
+    return rois
+
+
+class RecorderNode:
+    """Parameters, subscriptions and the store; the chunking lives in core/trajectory.py.
+
+    Raises:
+        BulletFloorSimError: a bad parameter, an unreadable world or ROI file, or a store URI
+            that cannot be opened.
+    """
+
+    def __init__(self) -> None:
+        gp = rospy.get_param
+        self.frame_id = str(gp("~frame_id", "map")).lstrip("/")
+        split = str(gp("~split", "period"))
+        self.map_name = str(gp("~map", ""))
+        rois: List[Roi] = []
+        self.rois_source = ""
+        if split == "region":
+            rois = self._load_rois(gp)
+        if not self.map_name:
+            self.map_name = rois[0].map_name if rois else self._world().name
+        self.chunker = Chunker(period=float(gp("~period", DEFAULT_PERIOD)), split=split,
+                               max_poses=int(gp("~max_poses", DEFAULT_MAX_POSES)),
+                               max_gap=float(gp("~max_gap", DEFAULT_MAX_GAP)),
+                               region_of=RegionLocator(rois) if rois else None)
+        self.store = open_store(str(gp("~db", "")) or None,
+                                timeout=float(gp("~db_timeout", 1.5)),
+                                retry_interval=float(gp("~db_retry_interval", 5.0)))
+        for keys in INDEXES:
+            self.store.create_index(DATABASE, COLLECTION, keys)
+        self.lock = threading.Lock()
+        self.finished = False
+        self.live: List[PoseStamped] = []
+        self.live_dirty = False
+        self.header_seq = 0
+        self.stored_chunks = 0
+        self.stored_poses = 0
+        self.received = 0
+        self.rejected = 0
+        self.last_rx: Optional[rospy.Time] = None
+        self.batch_pub = rospy.Publisher("~trajectories/batch", Trajectory, queue_size=100)
+        self.complete_pub = rospy.Publisher("~trajectories/complete", Trajectory,
+                                            queue_size=100)
+        self.path_pub = rospy.Publisher("~path", Path, queue_size=1, latch=True)
+        self.topic = rospy.resolve_name(str(gp("~pose_topic", "pose")))
+        # queue_size None: rospy keeps every message (a bounded queue drops the oldest).
+        self.sub = rospy.Subscriber(self.topic, PoseStamped, self._on_pose, queue_size=None)
+        rate = float(gp("~path_rate", 2.0))
+        self.timer = rospy.Timer(rospy.Duration(1.0 / rate if rate > 0 else 1.0), self._tick)
+        self.path_rate = rate
+        rospy.loginfo("trajectory_recorder: %s -> %s %s.%s (map %s, split %s, period %.1f s, "
+                      "max %d poses/chunk%s)", self.topic, self.store.uri, DATABASE,
+                      COLLECTION, self.map_name, split, self.chunker.period,
+                      self.chunker.max_poses, self.rois_source)
+
+    # -- set-up -------------------------------------------------------------------------------
+    def _world(self):
+        world = str(rospy.get_param("~world", "office"))
+        return load_world_config(resolve_world(world, worlds_dir()))
+
+    def _load_rois(self, gp) -> List[Roi]:
+        service = str(gp("~rois_service", "/soma/query_rois"))
+        if service:
+            rois = rois_from_service(service, float(gp("~rois_wait", 2.0)), self.map_name,
+                                     str(gp("~rois_config", "")))
+            if rois:
+                self.rois_source = ", %d ROIs from %s" % (len(rois), service)
+                return rois
+        path = str(gp("~rois_file", ""))
+        if not path:
+            world = self._world()
+            if not world.rois:
+                raise BulletFloorSimError("trajectory_recorder: split region needs ROIs: world "
+                                          "%s has no rois file; set ~rois_file" % world.path)
+            path = world.rois
+        rois = load_rois(path)
+        if self.map_name:
+            rois = [r for r in rois if r.map_name == self.map_name] or rois
+        if not rois:
+            raise BulletFloorSimError("trajectory_recorder: %s holds no ROIs" % path)
+        self.rois_source = ", %d ROIs from %s" % (len(rois), path)
+        return rois
+
+    # -- poses --------------------------------------------------------------------------------
+    def _on_pose(self, msg: PoseStamped) -> None:
+        if msg.header.frame_id.lstrip("/") != self.frame_id:
+            self.rejected += 1
+            rospy.logwarn_throttle(10.0, "trajectory_recorder: %s: pose in frame %r, not %r: "
+                                   "not recorded (%d so far)", self.topic,
+                                   msg.header.frame_id, self.frame_id, self.rejected)
+            return
+        pose = pose_of_msg(msg)
+        if not all(math.isfinite(v) for v in pose[1:]):
+            self.rejected += 1
+            rospy.logwarn_throttle(10.0, "trajectory_recorder: %s: non-finite pose at %s: not "
+                                   "recorded (%d so far)", self.topic, msg.header.stamp,
+                                   self.rejected)
+            return
+        with self.lock:
+            if self.finished:
+                return
+            self.received += 1
+            self.last_rx = rospy.Time.now()
+            closed = self.chunker.add(pose)
+            if closed:
+                self.live = [msg]
+                for chunk in closed:
+                    self._store(chunk)
+            else:
+                self.live.append(msg)
+            self.live_dirty = True
+
+    def _tick(self, event) -> None:
+        with self.lock:
+            if self.finished:
+                return
+            now = rospy.Time.now()
+            # The gap is measured on this node's clock (when poses arrived), so a publisher
+            # stamping with another clock cannot end trajectories here.
+            gap = self.chunker.max_gap
+            if (gap > 0 and self.last_rx is not None and not self.last_rx.is_zero()
+                    and self.chunker.uuid is not None and (now - self.last_rx).to_sec() > gap):
+                ended = self.chunker.finish("gap")
+                rospy.loginfo("trajectory_recorder: no pose for %.1f s: trajectory %s ended "
+                              "after %d chunks", gap, ended.uuid, ended.sequence_id + 1)
+                self._store(ended)
+                self.live = []
+                self.live_dirty = True
+            if not self.live_dirty:
+                return
+            self.live_dirty = False
+            path = Path(Header(0, now, self.frame_id), list(self.live))
+        self.path_pub.publish(path)
+
+    # -- storing ------------------------------------------------------------------------------
+    def _store(self, chunk: Chunk) -> None:
+        """Store one chunk (journalled if the database is down) and publish it (lock held)."""
+        now = rospy.Time.now()
+        stamp_ns = now.secs * _NS + now.nsecs
+        self.header_seq += 1
+        chunk.frame_id = self.frame_id
+        meta = {"map": self.map_name, "taken": "online", "closed_by": chunk.closed_by}
+        if chunk.region is not None or self.chunker.split == "region":
+            meta["region"] = chunk.region
+        try:
+            insert_message(self.store, DATABASE, COLLECTION,
+                           chunk_fields(chunk, stamp_ns, self.header_seq), STORED_TYPE,
+                           meta=meta, inserted_by=rospy.get_name(), now=stamp_ns / 1e9,
+                           stamp_ns=stamp_ns)
+        except StoreError as e:  # not an outage (those are journalled): the chunk is lost
+            rospy.logerr("trajectory_recorder: chunk %d of %s (%d poses) NOT stored: %s",
+                         chunk.sequence_id, chunk.uuid, len(chunk.poses), e)
+            return
+        self.stored_chunks += 1
+        self.stored_poses += len(chunk.poses)
+        pub = self.complete_pub if chunk.complete else self.batch_pub
+        if pub.get_num_connections() > 0:
+            pub.publish(chunk_to_msg(chunk, now, self.header_seq))
+
+    def shutdown(self, reason: str = "") -> None:
+        """Store the open chunk (complete) and close the store; safe to call twice."""
+        with self.lock:
+            if self.finished:
+                return
+            self.finished = True
+            self.timer.shutdown()
+            self.sub.unregister()
+            last = self.chunker.finish()
+            if last is not None:
+                self._store(last)
+            pending = self.store.pending
+            self.store.close()
+        rospy.loginfo("trajectory_recorder: %s: stored %d chunks (%d poses incl. shared "
+                      "boundaries) from %d poses received", reason or "shutdown",
+                      self.stored_chunks, self.stored_poses, self.received)
+        if pending:
+            rospy.logwarn("trajectory_recorder: %d writes wait in the journal %s; they are "
+                          "replayed when the database is reachable and a store opens it",
+                          pending, self.store.journal_path)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Entry point of ``rosrun bullet_floor_sim trajectory_recorder``."""
+    rospy.init_node("trajectory_recorder")
+    forward_store_log()
+    try:
+        node = RecorderNode()
+    except (BulletFloorSimError, ValueError) as e:
+        rospy.logfatal("trajectory_recorder: %s", " ".join(str(e).split()))
+        return 1
+    # The hook stores the open chunk; rospy calls it from the SIGINT/SIGTERM handler before
+    # the node goes down. Calling shutdown() again after spin() returns waits for it.
+    rospy.on_shutdown(lambda: node.shutdown("shutdown"))
+    rospy.spin()
+    node.shutdown("shutdown")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

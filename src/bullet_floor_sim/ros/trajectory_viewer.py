@@ -1,0 +1,319 @@
+"""Trajectory viewer: stored trajectories for rviz, selected at start and at run time.
+
+Reads the chunks the recorder stored (``message_store.people_trajectory``, either backend),
+joins them per trajectory (uuid) and publishes:
+
+* ``~markers`` (visualization_msgs/MarkerArray, latched): one LINE_STRIP per trajectory in
+  namespace ``trajectories``, coloured by time (blue = oldest shown pose, red = newest) or by
+  trajectory (one hue each); a DELETEALL first, so a new selection replaces the old one.
+* with ``paths``: one latched nav_msgs/Path per trajectory on ``~paths/t_<uuid>``.
+
+Long trajectories are thinned for display to ``~max_points`` points (first and last kept).
+
+The selection: ``~map`` ("" = every map), ``~since`` / ``~until`` (seconds, ROS time; 0 = no
+limit: chunks ending at or after since and starting at or before until), ``~last_n`` (the N
+trajectories that end last; 0 = all), ``~color_by`` time|trajectory, ``~paths`` false. The
+service ``~select`` (bullet_floor_sim/SelectTrajectories) changes it at run time.
+
+New chunks appear without polling: the viewer subscribes to the recorder's
+``~trajectories/batch`` and ``~trajectories/complete`` (``~chunk_topics``, default
+``/trajectory_recorder/trajectories/{batch,complete}``) and reads each announced chunk back
+from the store (so the map filter applies). ``~refresh_period`` > 0 also re-reads everything
+that often (seconds), e.g. to see imported trajectories. Other parameters: ``~db``,
+``~db_timeout`` 1.5, ``~frame_id`` map, ``~line_width`` 0.05 m, ``~max_points`` 10000.
+"""
+from __future__ import annotations
+
+import colorsys
+import math
+import re
+import sys
+import threading
+from dataclasses import dataclass
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import rospy
+from geometry_msgs.msg import Point, Pose, Quaternion
+from nav_msgs.msg import Path
+from std_msgs.msg import ColorRGBA, Header
+from visualization_msgs.msg import Marker, MarkerArray
+
+from ..core.errors import BulletFloorSimError
+from ..core.store import StoreError, open_store
+from ..core.trajectory import (COLLECTION, DATABASE, Chunk, Joined, chunk_from_document,
+                               join_chunks, select_chunks, store_filter)
+from ..msg import Trajectory
+from ..srv import SelectTrajectories, SelectTrajectoriesResponse
+from .trajectory_recorder import forward_store_log, pose_msgs
+
+__all__ = ["main", "ViewerNode", "Selection", "decimate", "time_colour", "trajectory_colour"]
+
+_NS = 1000000000
+COLOR_BY = ("time", "trajectory")
+
+
+@dataclass(frozen=True)
+class Selection:
+    """Which stored chunks are shown (see module doc); times in seconds, 0 = no limit."""
+
+    map_name: str = ""
+    since: float = 0.0
+    until: float = 0.0
+    last_n: int = 0
+    color_by: str = "time"
+    paths: bool = False
+
+    def check(self) -> None:
+        """Raises BulletFloorSimError naming the bad field."""
+        for name in ("since", "until"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise BulletFloorSimError("%s %r: must be seconds >= 0 (0 = no limit)"
+                                          % (name, v))
+        if self.since and self.until and self.since > self.until:
+            raise BulletFloorSimError("since %s is after until %s" % (self.since, self.until))
+        if self.last_n < 0:
+            raise BulletFloorSimError("last_n %d: must be >= 0 (0 = all)" % self.last_n)
+        if self.color_by not in COLOR_BY:
+            raise BulletFloorSimError("color_by %r: use %s" % (self.color_by,
+                                                               " or ".join(COLOR_BY)))
+
+    @property
+    def since_ns(self) -> Optional[int]:
+        return int(round(self.since * _NS)) if self.since else None
+
+    @property
+    def until_ns(self) -> Optional[int]:
+        return int(round(self.until * _NS)) if self.until else None
+
+    def describe(self) -> str:
+        parts = ["map %s" % self.map_name if self.map_name else "every map"]
+        if self.since:
+            parts.append("since %.3f s" % self.since)
+        if self.until:
+            parts.append("until %.3f s" % self.until)
+        if self.last_n:
+            parts.append("last %d" % self.last_n)
+        parts.append("coloured by %s" % self.color_by)
+        return ", ".join(parts)
+
+
+def decimate(poses: Sequence, max_points: int) -> List:
+    """At most ``max_points`` poses, evenly spaced, the first and last always kept."""
+    n = len(poses)
+    if n <= max_points or max_points < 2:
+        return list(poses)
+    step = (n - 1) / float(max_points - 1)
+    return [poses[int(round(k * step))] for k in range(max_points)]
+
+
+def time_colour(f: float) -> ColorRGBA:
+    """Blue (f = 0, oldest) through green to red (f = 1, newest)."""
+    r, g, b = colorsys.hsv_to_rgb(0.66 * (1.0 - min(max(f, 0.0), 1.0)), 1.0, 1.0)
+    return ColorRGBA(r, g, b, 1.0)
+
+
+def trajectory_colour(k: int) -> ColorRGBA:
+    """The k-th of a sequence of well-separated hues (golden-ratio steps)."""
+    r, g, b = colorsys.hsv_to_rgb((k * 0.618033988749895) % 1.0, 0.85, 0.95)
+    return ColorRGBA(r, g, b, 1.0)
+
+
+def path_topic_name(uuid: str) -> str:
+    """``t_<uuid without dashes>``: a valid ROS name for any uuid string."""
+    return "t_" + re.sub(r"[^A-Za-z0-9_]", "_", uuid.replace("-", ""))
+
+
+class ViewerNode:
+    """The viewer (see module doc).
+
+    Raises:
+        BulletFloorSimError: a bad parameter or store URI.
+    """
+
+    def __init__(self) -> None:
+        gp = rospy.get_param
+        self.frame_id = str(gp("~frame_id", "map"))
+        self.line_width = float(gp("~line_width", 0.05))
+        self.max_points = int(gp("~max_points", 10000))
+        if self.max_points < 2:
+            raise BulletFloorSimError("~max_points %d: must be >= 2" % self.max_points)
+        self.selection = Selection(str(gp("~map", "")), float(gp("~since", 0.0)),
+                                   float(gp("~until", 0.0)), int(gp("~last_n", 0)),
+                                   str(gp("~color_by", "time")), bool(gp("~paths", False)))
+        self.selection.check()
+        self.store = open_store(str(gp("~db", "")) or None,
+                                timeout=float(gp("~db_timeout", 1.5)))
+        self.lock = threading.RLock()
+        self.chunks: Dict[Tuple[str, int], Chunk] = {}
+        self.shown: List[Joined] = []
+        self.need_reload = True
+        self.marker_pub = rospy.Publisher("~markers", MarkerArray, queue_size=1, latch=True)
+        self.path_pubs: Dict[str, rospy.Publisher] = {}
+        self.service = rospy.Service("~select", SelectTrajectories, self._on_select)
+        topics = gp("~chunk_topics", ["/trajectory_recorder/trajectories/batch",
+                                      "/trajectory_recorder/trajectories/complete"])
+        self.subs = [rospy.Subscriber(t, Trajectory, self._on_chunk, queue_size=100)
+                     for t in topics]
+        self.refresh_period = float(gp("~refresh_period", 0.0))
+        self.next_refresh = 0.0
+        with self.lock:
+            self._reload_or_warn()
+        self.timer = rospy.Timer(rospy.Duration(2.0), self._tick)
+
+    # -- loading ------------------------------------------------------------------------------
+    def _reload(self, sel: Selection) -> Dict[Tuple[str, int], Chunk]:
+        chunks = select_chunks(self.store, sel.map_name, sel.since_ns, sel.until_ns, sel.last_n)
+        return {(c.uuid, c.sequence_id): c for c in chunks}
+
+    def _reload_or_warn(self) -> None:
+        try:
+            self.chunks = self._reload(self.selection)
+        except (StoreError, BulletFloorSimError) as e:
+            rospy.logwarn_throttle(30.0, "trajectory_viewer: cannot read the stored "
+                                   "trajectories yet: %s", e)
+            return
+        self.need_reload = False
+        self._publish()
+
+    def _tick(self, event) -> None:
+        with self.lock:
+            wall = rospy.get_rostime().to_sec()
+            due = self.refresh_period > 0 and wall >= self.next_refresh
+            if self.need_reload or due:
+                self.next_refresh = wall + self.refresh_period
+                self._reload_or_warn()
+
+    def _on_chunk(self, msg: Trajectory) -> None:
+        with self.lock:
+            sel = self.selection
+            f = store_filter(sel.map_name, sel.since_ns, sel.until_ns)
+            f.update(uuid=msg.uuid, sequence_id=msg.sequence_id)
+            try:
+                docs = self.store.find(DATABASE, COLLECTION, f)
+                found = [chunk_from_document(d) for d in docs]
+            except (StoreError, BulletFloorSimError) as e:
+                rospy.logwarn_throttle(30.0, "trajectory_viewer: cannot read chunk %d of %s "
+                                       "back (%s); reloading later", msg.sequence_id, msg.uuid,
+                                       e)
+                self.need_reload = True
+                return
+            for c in found:
+                if sel.since_ns is not None and c.end_ns < sel.since_ns:
+                    continue
+                if sel.until_ns is not None and c.start_ns > sel.until_ns:
+                    continue
+                if (c.sequence_id > 0 and (c.uuid, c.sequence_id - 1) not in self.chunks
+                        and (sel.since_ns is None or c.start_ns >= sel.since_ns)):
+                    # its predecessor (which ends where it starts) is selected too but was
+                    # not announced to us (we started late, or a message was lost): read all
+                    self._reload_or_warn()
+                    return
+                self.chunks[(c.uuid, c.sequence_id)] = c
+            if found:
+                self._apply_last_n()
+                self._publish()
+
+    def _apply_last_n(self) -> None:
+        n = self.selection.last_n
+        if n <= 0:
+            return
+        ends: Dict[str, int] = {}
+        for c in self.chunks.values():
+            ends[c.uuid] = max(ends.get(c.uuid, 0), c.end_ns)
+        keep = set(sorted(ends, key=lambda u: (ends[u], u))[-n:])
+        self.chunks = {k: c for k, c in self.chunks.items() if c.uuid in keep}
+
+    # -- output -------------------------------------------------------------------------------
+    def _publish(self) -> None:
+        sel = self.selection
+        self.shown = join_chunks(self.chunks.values())
+        stamp = rospy.Time.now()
+        header = Header(0, stamp, self.frame_id)
+        markers = [Marker(header=header, ns="trajectories", action=Marker.DELETEALL)]
+        times = [p[0] for j in self.shown for p in (j.poses[0], j.poses[-1]) if j.poses]
+        t0, t1 = (min(times), max(times)) if times else (0, 0)
+        span = float(t1 - t0) or 1.0
+        for k, j in enumerate(self.shown):
+            poses = decimate(j.poses, self.max_points)
+            if len(poses) < 2:
+                continue
+            m = Marker(header=header, ns="trajectories", id=k, type=Marker.LINE_STRIP,
+                       action=Marker.ADD, pose=Pose(orientation=Quaternion(0, 0, 0, 1)))
+            m.scale.x = self.line_width
+            m.points = [Point(p[1], p[2], p[3]) for p in poses]
+            if sel.color_by == "time":
+                m.color = ColorRGBA(1, 1, 1, 1)
+                m.colors = [time_colour((p[0] - t0) / span) for p in poses]
+            else:
+                m.color = trajectory_colour(k)
+            m.text = j.uuid
+            markers.append(m)
+        self.marker_pub.publish(MarkerArray(markers))
+        self._publish_paths(stamp)
+
+    def _publish_paths(self, stamp: rospy.Time) -> None:
+        wanted = {}
+        if self.selection.paths:
+            wanted = {path_topic_name(j.uuid): j for j in self.shown}
+        for name in list(self.path_pubs):
+            if name not in wanted:
+                self.path_pubs.pop(name).unregister()
+        for name, j in wanted.items():
+            pub = self.path_pubs.get(name)
+            if pub is None:
+                pub = rospy.Publisher("~paths/" + name, Path, queue_size=1, latch=True)
+                self.path_pubs[name] = pub
+            pub.publish(Path(Header(0, stamp, self.frame_id),
+                             pose_msgs(decimate(j.poses, self.max_points), self.frame_id)))
+
+    def path_topics(self) -> List[str]:
+        """The resolved Path topics of the shown trajectories, in their order."""
+        if not self.selection.paths:
+            return []
+        return [self.path_pubs[path_topic_name(j.uuid)].resolved_name for j in self.shown]
+
+    # -- service ------------------------------------------------------------------------------
+    def _on_select(self, req) -> SelectTrajectoriesResponse:
+        with self.lock:
+            sel = Selection(req.map_name, req.since, req.until, req.last_n,
+                            req.color_by or self.selection.color_by, bool(req.paths))
+            try:
+                sel.check()
+                chunks = self._reload(sel)
+            except (StoreError, BulletFloorSimError) as e:
+                return self._response(False, "refused, selection unchanged: %s"
+                                      % " ".join(str(e).split()))
+            self.selection, self.chunks, self.need_reload = sel, chunks, False
+            self._publish()
+            poses = sum(len(j.poses) for j in self.shown)
+            return self._response(True, "%d trajectories (%d chunks, %d poses): %s"
+                                  % (len(self.shown), len(self.chunks), poses,
+                                     sel.describe()))
+
+    def _response(self, ok: bool, message: str) -> SelectTrajectoriesResponse:
+        if not ok:
+            rospy.logwarn("trajectory_viewer: ~select %s", message)
+        return SelectTrajectoriesResponse(success=ok, count=len(self.shown),
+                                          uuids=[j.uuid for j in self.shown],
+                                          path_topics=self.path_topics(), message=message)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Entry point of ``rosrun bullet_floor_sim trajectory_viewer``."""
+    rospy.init_node("trajectory_viewer")
+    forward_store_log()
+    try:
+        node = ViewerNode()
+    except (BulletFloorSimError, ValueError) as e:
+        rospy.logfatal("trajectory_viewer: %s", " ".join(str(e).split()))
+        return 1
+    rospy.loginfo("trajectory_viewer: %d trajectories shown (%s) from %s",
+                  len(node.shown), node.selection.describe(), node.store.uri)
+    rospy.spin()
+    node.store.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
