@@ -29,11 +29,15 @@ integration-test:
 lint:
 	$(ROSENV) catkin_lint -q -W2 --strict --pkg bullet_floor_sim
 
-# The simulator on the office world, with rviz when a display is available (headless otherwise);
-# the Markov-walker demo replaces it when it lands. Ctrl-C stops it.
+# The main job: demo.launch on the office world (walker, observer, ROIs, trajectories), with
+# rviz when a display is available (headless otherwise). Ctrl-C stops it.
+# make demo NAV=builtin RECORD=true RTF=2 passes those launch args.
+NAV ?= auto
+RECORD ?= false
+RTF ?= 1.0
 demo: setup
-	$(ROSENV) roslaunch bullet_floor_sim sim.launch world:=$(WORLD) \
-	  rviz:=$$( [ -n "$$DISPLAY" ] && echo true || echo false )
+	$(ROSENV) roslaunch bullet_floor_sim demo.launch world:=$(WORLD) nav:=$(NAV) \
+	  record:=$(RECORD) rtf:=$(RTF) rviz:=$$( [ -n "$$DISPLAY" ] && echo true || echo false )
 
 bench: setup
 	$(ROSENV) $(VENV_PY) bench/run_all.py
