@@ -1,0 +1,532 @@
+"""The Markov walker node: a robot that stands in for a person wandering between ROIs.
+
+It asks the ROI manager for the regions (``/soma/query_rois``, SOMAQueryROIs: the most recent
+version of each ROI of ``~config``; the map name from ``/soma/map_info``), builds the Markov
+chain by the seed rules (core/markov.py), writes it to the store (database
+``markov_chain_db``, collection ``roi_proba_connexions_<map>``), and walks forever: draw the
+next region from the one the robot is in, send a MoveBaseAction goal at a random point well
+inside it (free on the inflated map and reachable: core/walker.py), wait up to
+``~goal_timeout``, dwell a random time, repeat; a failed leg is followed by a new draw. The
+chain is rebuilt when ``/soma/rois_changed`` says the ROIs changed, and from a re-query every
+``~requery_period`` seconds (when the ROIs differ).
+
+Topics (in the node's namespace, ``~`` = ``markov_walker/``):
+
+* ``pose`` (in, geometry_msgs/PoseStamped): the robot's ground truth in the map frame.
+* ``~current_region`` (std_msgs/String, latched): the id of the region the robot is in (""
+  when in none), on every change and at 1 Hz.
+* ``~goal_region`` (std_msgs/String, latched) and ``~goal`` (PoseStamped, latched): the leg's
+  target.
+* ``~leg`` (std_msgs/String): one JSON object per finished leg (number, from, to, goal,
+  duration, outcome, detail, end_region).
+* ``~chain`` (visualization_msgs/MarkerArray, latched): an arrow per transition between region
+  anchors, shaft width proportional to its probability, and a label per region with P(stay).
+
+Parameters: ``~seed`` (-1: random, logged so a run can be repeated), ``~goal_timeout`` (120 s
+sim time; see core.walker.WalkerConfig), ``~dwell_min``/``~dwell_max`` (5/20 s), ``~margin``
+(0.5 m inside the polygon), ``~clearance`` (0.45 m from walls), ``~robot_radius`` (0.34),
+``~action`` (``move_base``, relative to the namespace), ``~config`` ("1"), ``~map_name`` (""
+= ask ``/soma/map_info``), ``~tol`` (0.2), ``~mode`` (vertex|edge), ``~min_shared`` (0.8),
+``~query_service``, ``~map_info_service``, ``~rois_changed_topic``, ``~requery_period`` (30),
+``~map_topic`` (``/map``), ``~map_yaml`` ("" = use the topic), ``~db`` (``mongodb://...`` or a
+directory; "" = the embedded default), ``~store_chain`` (true), ``~frame_id`` (map).
+
+Problems (no ROIs, service missing, no map, no action server, unreachable regions) are one
+line each in the log and retried; the node does not exit.
+"""
+from __future__ import annotations
+
+import json
+import math
+import sys
+import threading
+import time
+from typing import Any, Dict, List, Optional, Sequence, Tuple
+
+import actionlib
+import rospy
+from actionlib.action_client import CommState
+from actionlib_msgs.msg import GoalStatus
+from geometry_msgs.msg import Point, PoseStamped
+from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
+from nav_msgs.msg import OccupancyGrid
+from std_msgs.msg import ColorRGBA, String
+from visualization_msgs.msg import Marker, MarkerArray
+
+from ..core.errors import BulletFloorSimError
+from ..core.markov import MODES, MarkovChain, store_chain, usable_rois
+from ..core.planner import PlannerConfig, PlanningGrid
+from ..core.rois import Roi
+from ..core.walker import (GoalSampler, Leg, RegionIndex, Walker, WalkerConfig, WalkerError,
+                           anchor, region_label)
+
+__all__ = ["main", "MarkovWalkerNode", "roi_from_msg", "chain_markers"]
+
+_STATES = {GoalStatus.SUCCEEDED: "succeeded", GoalStatus.ABORTED: "aborted",
+           GoalStatus.REJECTED: "rejected", GoalStatus.PREEMPTED: "preempted",
+           GoalStatus.RECALLED: "preempted", GoalStatus.LOST: "lost"}
+
+
+def roi_from_msg(msg: Any) -> Roi:
+    """A core Roi from a SOMAROIObject (vertices: posearray.poses[k].position.x/y; a closing
+    vertex equal to the first is dropped). Not validated (see markov.usable_rois)."""
+    vertices = [(float(p.position.x), float(p.position.y)) for p in msg.posearray.poses]
+    if len(vertices) > 1 and vertices[0] == vertices[-1]:
+        vertices.pop()
+    return Roi(id=str(msg.id), config=str(msg.config), type=str(msg.type),
+               map_name=str(msg.map_name), vertices=vertices)
+
+
+def _yaw(q: Any) -> float:
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def chain_markers(chain: MarkovChain, rois: Sequence[Roi], frame_id: str, stamp: Any,
+                  width_per_probability: float = 0.4) -> MarkerArray:
+    """The chain for rviz: DELETEALL, then an arrow per transition i -> j (i != j) from region
+    anchor to region anchor, shaft diameter ``width_per_probability * P(i -> j)`` (offset to
+    its right so that i -> j and j -> i are both seen), and a label per region with P(stay).
+    """
+    by_id = {r.id: r for r in rois}
+    anchors = {r: anchor(by_id[r]) for r in chain.ids}
+    out = MarkerArray()
+    clear = Marker()
+    clear.header.frame_id = frame_id
+    clear.header.stamp = stamp
+    clear.action = Marker.DELETEALL
+    out.markers.append(clear)
+    n = 0
+    for i in chain.ids:
+        for j, p in chain.row(i).items():
+            if j == i:
+                continue
+            (x0, y0), (x1, y1) = anchors[i], anchors[j]
+            length = math.hypot(x1 - x0, y1 - y0)
+            if length < 1e-6:
+                continue
+            ux, uy = (x1 - x0) / length, (y1 - y0) / length
+            side = 0.15  # metres to the right of the line i -> j
+            trim = min(0.5, 0.25 * length)
+            m = _marker(frame_id, stamp, "chain_arrows", n, Marker.ARROW)
+            m.points = [Point(x0 + ux * trim + uy * side, y0 + uy * trim - ux * side, 0.3),
+                        Point(x1 - ux * trim + uy * side, y1 - uy * trim - ux * side, 0.3)]
+            shaft = max(0.01, width_per_probability * p)
+            m.scale.x, m.scale.y, m.scale.z = shaft, shaft + 0.15, 0.3
+            m.color = ColorRGBA(1.0, 0.45, 0.0, 0.85)
+            out.markers.append(m)
+            n += 1
+    for k, r in enumerate(chain.ids):
+        m = _marker(frame_id, stamp, "chain_labels", k, Marker.TEXT_VIEW_FACING)
+        m.pose.position.x, m.pose.position.y = anchors[r]
+        m.pose.position.z = 0.8
+        m.scale.z = 0.4
+        m.color = ColorRGBA(1.0, 1.0, 1.0, 1.0)
+        m.text = "%s\nstay %.2f" % (region_label(by_id[r]), chain.probability(r, r))
+        out.markers.append(m)
+    return out
+
+
+def _marker(frame_id: str, stamp: Any, ns: str, mid: int, kind: int) -> Marker:
+    m = Marker()
+    m.header.frame_id = frame_id
+    m.header.stamp = stamp
+    m.ns, m.id, m.type, m.action = ns, mid, kind, Marker.ADD
+    m.pose.orientation.w = 1.0
+    return m
+
+
+class _Complaints:
+    """One log line per problem: again only when it changes or every ``every`` seconds."""
+
+    def __init__(self, every: float = 30.0) -> None:
+        self.every = every
+        self._last: Dict[str, Tuple[str, float]] = {}
+
+    def __call__(self, key: str, message: str, log: Any = None) -> None:
+        now = time.monotonic()
+        last = self._last.get(key)
+        if last is None or last[0] != message or now - last[1] >= self.every:
+            self._last[key] = (message, now)
+            (log or rospy.logerr)(message)
+
+    def clear(self, key: str, message: Optional[str] = None) -> None:
+        if self._last.pop(key, None) is not None and message:
+            rospy.loginfo(message)
+
+
+class MarkovWalkerNode:
+    """Wiring: services, topics and the action client around core.walker.Walker."""
+
+    def __init__(self) -> None:
+        gp = rospy.get_param
+        self.config = WalkerConfig(
+            goal_timeout=float(gp("~goal_timeout", 120.0)),
+            dwell_min=float(gp("~dwell_min", 5.0)), dwell_max=float(gp("~dwell_max", 20.0)),
+            margin=float(gp("~margin", 0.5)), clearance=float(gp("~clearance", 0.45)))
+        self.config.check()
+        seed = int(gp("~seed", -1))
+        self.seed = seed if seed >= 0 else None
+        self.roi_config = str(gp("~config", "1"))
+        self.map_name = str(gp("~map_name", ""))
+        self.tol = float(gp("~tol", 0.2))
+        self.mode = str(gp("~mode", "vertex"))
+        if self.mode not in MODES:
+            raise WalkerError("~mode must be one of %s, got %r" % ("/".join(MODES), self.mode))
+        self.min_shared = float(gp("~min_shared", 0.8))
+        self.robot_radius = float(gp("~robot_radius", 0.34))
+        self.query_service = str(gp("~query_service", "/soma/query_rois"))
+        self.map_info_service = str(gp("~map_info_service", "/soma/map_info"))
+        self.requery_period = float(gp("~requery_period", 30.0))
+        self.map_yaml = str(gp("~map_yaml", ""))
+        self.db = str(gp("~db", ""))
+        self.store_enabled = bool(gp("~store_chain", True))
+        self.frame_id = str(gp("~frame_id", "map"))
+        self.action_name = rospy.resolve_name(str(gp("~action", "move_base")))
+
+        self.lock = threading.Lock()
+        self.refresh = threading.Event()
+        self.complain = _Complaints()
+        self.sampler: Optional[GoalSampler] = None
+        self.chain: Optional[MarkovChain] = None
+        self.rois: List[Roi] = []
+        self.walker: Optional[Walker] = None
+        self.index: Optional[RegionIndex] = None
+        self.pose: Optional[Tuple[float, float, float]] = None
+        self.region: Optional[str] = None
+        self.store = None
+        # The plain ActionClient, polled: SimpleActionClient logs "Got a transition callback on
+        # a goal handle that we're not tracking" when a fast server's status for the new goal
+        # arrives before send_goal() has returned.
+        self.client = actionlib.ActionClient(self.action_name, MoveBaseAction)
+        self.goal_handle: Optional[Any] = None
+
+        latched = dict(queue_size=1, latch=True)
+        self.pub_current = rospy.Publisher("~current_region", String, **latched)
+        self.pub_goal_region = rospy.Publisher("~goal_region", String, **latched)
+        self.pub_goal = rospy.Publisher("~goal", PoseStamped, **latched)
+        self.pub_leg = rospy.Publisher("~leg", String, queue_size=10)
+        self.pub_chain = rospy.Publisher("~chain", MarkerArray, **latched)
+        if self.map_yaml:
+            self._use_map_file(self.map_yaml)
+        else:
+            self.map_topic = rospy.resolve_name(str(gp("~map_topic", "/map")))
+            rospy.Subscriber(self.map_topic, OccupancyGrid, self._on_map, queue_size=1)
+        rospy.Subscriber("pose", PoseStamped, self._on_pose, queue_size=5)
+        rospy.Subscriber(str(gp("~rois_changed_topic", "/soma/rois_changed")), String,
+                         self._on_rois_changed, queue_size=5)
+        rospy.Timer(rospy.Duration(1.0), self._publish_region)
+        rospy.Timer(rospy.Duration(self.requery_period), lambda _: self.refresh.set())
+        rospy.on_shutdown(self._on_shutdown)
+        self.refresh.set()
+        threading.Thread(target=self._refresh_loop, name="rois", daemon=True).start()
+
+    # -- map ----------------------------------------------------------------------------------
+
+    def _planner_config(self) -> PlannerConfig:
+        return PlannerConfig(robot_radius=self.robot_radius)
+
+    def _use_map_file(self, path: str) -> None:
+        from ..core.floormap import load_map
+
+        self._set_grid(PlanningGrid(load_map(path), self._planner_config()), path)
+
+    def _on_map(self, msg: OccupancyGrid) -> None:
+        from .path_follower import grid_from_msg
+
+        try:
+            grid = PlanningGrid(grid_from_msg(msg), self._planner_config())
+        except BulletFloorSimError as e:
+            self.complain("map", "markov_walker: cannot use the map on %s: %s"
+                          % (self.map_topic, e))
+            return
+        self._set_grid(grid, self.map_topic)
+
+    def _set_grid(self, grid: PlanningGrid, source: str) -> None:
+        sampler = GoalSampler(grid, self.config.clearance, self.config.margin,
+                              self.config.goal_tries)
+        with self.lock:
+            self.sampler = sampler
+            if self.walker is not None:
+                self.walker.sampler = sampler
+        rospy.loginfo("markov_walker: map from %s (%d x %d cells of %.2f m, %d free-space "
+                      "parts)", source, grid.width, grid.height, grid.resolution,
+                      sampler.components)
+        self.refresh.set()
+
+    # -- regions ------------------------------------------------------------------------------
+
+    def _on_rois_changed(self, msg: String) -> None:
+        if not msg.data or msg.data == self.roi_config:
+            self.refresh.set()
+
+    def _refresh_loop(self) -> None:
+        while not rospy.is_shutdown():
+            if not self.refresh.wait(1.0):
+                continue
+            self.refresh.clear()
+            try:
+                ok = self._update_rois()
+            except Exception as e:  # keep the thread alive; say what happened
+                ok = False
+                self.complain("rois", "markov_walker: rebuilding the chain failed: %s: %s"
+                              % (type(e).__name__, e))
+            if not ok and self.chain is None:
+                time.sleep(2.0)  # nothing to walk on yet: try again soon
+                self.refresh.set()
+
+    def _fetch_rois(self) -> Optional[List[Roi]]:
+        from ..srv import MapInfo, SOMAQueryROIs
+
+        if not self.map_name:
+            try:
+                rospy.wait_for_service(self.map_info_service, timeout=2.0)
+                self.map_name = rospy.ServiceProxy(self.map_info_service, MapInfo)(0).map_name
+            except (rospy.ROSException, rospy.ServiceException):
+                pass  # the ROIs' own map name is used
+        try:
+            rospy.wait_for_service(self.query_service, timeout=2.0)
+            answer = rospy.ServiceProxy(self.query_service, SOMAQueryROIs)(
+                query_type=0, returnmostrecent=True, roiconfigs=[self.roi_config])
+        except rospy.ROSException:
+            self.complain("rois", "markov_walker: no ROI service %s (SOMAQueryROIs): start the "
+                          "ROI manager (roslaunch bullet_floor_sim rois.launch); retrying"
+                          % self.query_service)
+            return None
+        except rospy.ServiceException as e:
+            self.complain("rois", "markov_walker: %s failed: %s; retrying"
+                          % (self.query_service, " ".join(str(e).split())))
+            return None
+        rois = [roi_from_msg(m) for m in answer.rois if m.config == self.roi_config]
+        maps = sorted({r.map_name for r in rois})
+        if not self.map_name and len(maps) > 1:
+            self.complain("rois", "markov_walker: ROIs of config %s on several maps (%s): set "
+                          "~map_name; retrying" % (self.roi_config, ", ".join(maps)))
+            return None
+        if self.map_name:
+            rois = [r for r in rois if r.map_name == self.map_name]
+        if not rois:
+            self.complain("rois", "markov_walker: %s has no ROIs of config %s%s: draw some (rviz, "
+                          "rois.launch) or import a rois.yaml; retrying" % (
+                              self.query_service, self.roi_config,
+                              " on map %s" % self.map_name if self.map_name else ""))
+            return None
+        return rois
+
+    def _update_rois(self) -> bool:
+        """Query the ROIs; rebuild the chain when they changed. True when a chain exists."""
+        rois = self._fetch_rois()
+        if rois is None:
+            return self.chain is not None
+        good, warnings = usable_rois(rois)
+        if good == self.rois and self.chain is not None:
+            return True
+        for w in warnings:
+            rospy.logwarn("markov_walker: %s", w)
+        if not good:
+            self.complain("rois", "markov_walker: none of the %d ROIs of config %s is usable; "
+                          "retrying" % (len(rois), self.roi_config))
+            return self.chain is not None
+        chain = MarkovChain.from_rois(good, tol=self.tol, mode=self.mode,
+                                      min_shared=self.min_shared)
+        for w in chain.warnings:
+            rospy.logwarn("markov_walker: %s", w)
+        index = RegionIndex(good)
+        with self.lock:
+            rebuilt = self.chain is not None
+            self.chain, self.rois, self.index = chain, good, index
+            if self.walker is not None:
+                self.walker.set_regions(chain, good)
+        self.complain.clear("rois")
+        rospy.loginfo("markov_walker: %s the chain of map %s config %s: %d regions, %d "
+                      "transitions", "rebuilt" if rebuilt else "built", chain.map_name,
+                      self.roi_config, len(chain.ids),
+                      int((chain.matrix > 0).sum()) - len(chain.ids))
+        self.pub_chain.publish(chain_markers(chain, good, self.frame_id, rospy.Time.now()))
+        self._store_chain(chain)
+        return True
+
+    def _store_chain(self, chain: MarkovChain) -> None:
+        if not self.store_enabled:
+            return
+        from ..core.store import StoreError, open_store, ros_datetime
+
+        try:
+            if self.store is None:
+                self.store = open_store(self.db or None)
+            n = store_chain(self.store, chain, extra={"built_by": rospy.get_name(),
+                                                      "built_at": ros_datetime()})
+            rospy.loginfo("markov_walker: chain stored in %s (markov_chain_db.%s, %d regions)",
+                          self.store.uri, chain.to_documents()["collection"], n)
+        except (StoreError, ValueError) as e:
+            self.complain("store", "markov_walker: cannot store the chain: %s" % e)
+
+    # -- pose ---------------------------------------------------------------------------------
+
+    def _on_pose(self, msg: PoseStamped) -> None:
+        p = msg.pose.position
+        pose = (p.x, p.y, _yaw(msg.pose.orientation))
+        with self.lock:
+            self.pose = pose
+            index = self.index
+        if index is None:
+            return
+        region = index.region_at(pose[0], pose[1])
+        if region != self.region:
+            self.region = region
+            self.pub_current.publish(String(region))
+
+    def _publish_region(self, _event: Any = None) -> None:
+        if self.region is not None:
+            self.pub_current.publish(String(self.region))
+
+    # -- the walk -----------------------------------------------------------------------------
+
+    def _wait(self, what: str, ready: Any, hint: str) -> bool:
+        """Wait until ready() is true, saying what is missing every 10 s. False on shutdown."""
+        start = time.monotonic()
+        while not rospy.is_shutdown():
+            if ready():
+                return True
+            if time.monotonic() - start > 5.0:
+                self.complain("wait", "markov_walker: waiting for %s: %s" % (what, hint),
+                              rospy.logwarn)
+            time.sleep(0.2)
+        return False
+
+    def _start(self) -> bool:
+        if not self._wait("the map", lambda: self.sampler is not None,
+                          "nothing on %s (nav_msgs/OccupancyGrid, latched): run the simulator "
+                          "with publish_map or map_server, or set ~map_yaml"
+                          % getattr(self, "map_topic", "/map")):
+            return False
+        if not self._wait("the regions", lambda: self.chain is not None,
+                          "see the errors above"):
+            return False
+        if not self._wait("the robot's pose", lambda: self.pose is not None,
+                          "nothing on %s (geometry_msgs/PoseStamped, ground truth in map)"
+                          % rospy.resolve_name("pose")):
+            return False
+        with self.lock:
+            self.walker = Walker(self.chain, self.rois, self.sampler, self.config, self.seed)
+        rospy.loginfo("markov_walker: seed %d (set ~seed to repeat this walk)",
+                      self.walker.seed_used)
+        return self._wait_for_server()
+
+    def _wait_for_server(self) -> bool:
+        while not rospy.is_shutdown():
+            if self.client.wait_for_server(rospy.Duration(2.0)):
+                self.complain.clear("server")
+                return True
+            self.complain("server", "markov_walker: no MoveBaseAction server %s: start the "
+                          "navigation (navigation.launch, or path_follower in this namespace); "
+                          "waiting" % self.action_name, rospy.logwarn)
+        return False
+
+    def run(self) -> None:
+        """Walk until shutdown."""
+        if not self._start():
+            return
+        walker = self.walker
+        while not rospy.is_shutdown():
+            with self.lock:
+                pose = self.pose
+            try:
+                leg = walker.next_leg(pose, rospy.get_time())
+            except WalkerError as e:
+                self.complain("leg", "markov_walker: %s; trying again" % e)
+                rospy.sleep(5.0)
+                continue
+            finally:
+                for line in walker.log:
+                    if not line.startswith("leg "):
+                        rospy.logwarn("markov_walker: %s", line)
+                del walker.log[:]
+            if not self.client.wait_for_server(rospy.Duration(1.0)) and \
+                    not self._wait_for_server():
+                return
+            line = self._drive(walker, leg)
+            self.pub_leg.publish(String(json.dumps(leg.to_dict())))
+            del walker.log[:]
+            if leg.outcome == "succeeded":
+                pause = walker.dwell()
+                rospy.loginfo("markov_walker: %s; dwelling %.1f s", line, pause)
+            else:
+                pause = walker.retry_delay()
+                rospy.logwarn("markov_walker: %s%s", line,
+                              "; next leg in %.1f s" % pause if pause > 0 else "")
+            if pause > 0:
+                rospy.sleep(pause)
+
+    def _drive(self, walker: Walker, leg: Leg) -> str:
+        """Send the leg's goal, wait for it (up to goal_timeout); record the result and return
+        the leg's log line."""
+        gx, gy, yaw = leg.goal
+        goal = MoveBaseGoal()
+        goal.target_pose.header.frame_id = self.frame_id
+        goal.target_pose.header.stamp = rospy.Time.now()
+        goal.target_pose.pose.position.x, goal.target_pose.pose.position.y = gx, gy
+        goal.target_pose.pose.orientation.z = math.sin(yaw / 2.0)
+        goal.target_pose.pose.orientation.w = math.cos(yaw / 2.0)
+        self.pub_goal_region.publish(String(leg.target_region))
+        self.pub_goal.publish(goal.target_pose)
+        leg.started = rospy.get_time()
+        gh = self.goal_handle = self.client.send_goal(goal)
+        done = self._wait_done(gh, self.config.goal_timeout)
+        detail = ""
+        if done:
+            outcome = _STATES.get(gh.get_goal_status(), "aborted")
+            detail = gh.get_goal_status_text() if outcome != "succeeded" else ""
+        else:
+            gh.cancel()
+            self._wait_done(gh, 5.0)
+            outcome = "timeout"
+            detail = "no result within %g s (~goal_timeout)" % self.config.goal_timeout
+        self.goal_handle = None
+        with self.lock:
+            pose = self.pose
+        here = walker.region_at(pose[0], pose[1]) if pose is not None else ""
+        return walker.finish(leg, outcome, rospy.get_time(), here, detail)
+
+    @staticmethod
+    def _wait_done(gh: Any, timeout: float) -> bool:
+        """Poll a goal until it is done or ``timeout`` sim seconds passed."""
+        deadline = rospy.get_time() + timeout
+        while gh.get_comm_state() != CommState.DONE:
+            if rospy.get_time() >= deadline:
+                return False
+            rospy.sleep(0.05)
+        return True
+
+    def _on_shutdown(self) -> None:
+        gh = self.goal_handle
+        if gh is not None:
+            gh.cancel()
+        walker = self.walker
+        if walker is not None and walker.legs:
+            rospy.loginfo("markov_walker: %d legs, %d regions reached: %s", walker.legs,
+                          len(walker.visited), ", ".join(sorted(walker.visited, key=_id_key)))
+        if self.store is not None:
+            self.store.close()
+
+
+def _id_key(region: str) -> Tuple[int, Any]:
+    return (0, int(region)) if region.isdigit() else (1, region)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Entry point of ``rosrun bullet_floor_sim markov_walker``."""
+    rospy.init_node("markov_walker", argv=list(sys.argv if argv is None else argv))
+    try:
+        node = MarkovWalkerNode()
+    except BulletFloorSimError as e:
+        rospy.logfatal("markov_walker: %s", e)
+        return 2
+    try:
+        node.run()
+    except rospy.ROSInterruptException:
+        pass
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
