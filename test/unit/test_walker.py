@@ -307,3 +307,41 @@ def test_no_acceptable_goal_gives_up_with_the_reasons(office):
 def test_bad_config(office, config, message):
     with pytest.raises(WalkerError, match="walker: " + message):
         walker(office, **config)
+
+
+# --------------------------------------------------------------------------------------------
+# the node's message helpers (no master needed)
+# --------------------------------------------------------------------------------------------
+
+
+def test_roi_from_msg_and_chain_markers():
+    from geometry_msgs.msg import Pose
+    from visualization_msgs.msg import Marker
+
+    from bullet_floor_sim.msg import SOMAROIObject
+    from bullet_floor_sim.ros.markov_walker import chain_markers, roi_from_msg
+
+    msg = SOMAROIObject(id="a", config="1", type="office", map_name="m")
+    for x, y in [(0, 0), (2, 0), (2, 2), (0, 2), (0, 0)]:
+        p = Pose()
+        p.position.x, p.position.y = x, y
+        msg.posearray.poses.append(p)
+    a = roi_from_msg(msg)
+    assert a == Roi("a", "1", "office", "m", [(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0)])
+    b = Roi("b", "1", "corridor", "m", [(2.0, 0.0), (6.0, 0.0), (6.0, 2.0), (2.0, 2.0)])
+    chain = MarkovChain.from_rois([a, b])  # P(a->b) = P(b->a) = 1/2
+    out = chain_markers(chain, [a, b], "map", None).markers
+    assert out[0].action == Marker.DELETEALL
+    arrows = [m for m in out if m.ns == "chain_arrows"]
+    labels = [m for m in out if m.ns == "chain_labels"]
+    assert len(arrows) == 2 and len(labels) == 2
+    assert [m.scale.x for m in arrows] == pytest.approx([0.2, 0.2])  # 0.4 x 1/2
+    a_to_b = arrows[0]
+    # from a's centre (1, 1) towards b's (4, 1), 0.5 m trimmed at each end, 0.15 m to the
+    # right of the line (y - 0.15), so that b -> a (to its own right) does not cover it
+    assert [c for p in a_to_b.points for c in (p.x, p.y)] == pytest.approx([1.5, 0.85, 3.5, 0.85])
+    assert [c for p in arrows[1].points for c in (p.x, p.y)] == pytest.approx([3.5, 1.15, 1.5,
+                                                                               1.15])
+    assert labels[0].text == "office a\nstay 0.50"
+    assert (labels[1].pose.position.x, labels[1].pose.position.y) == (4.0, 1.0)
+    assert all(m.header.frame_id == "map" for m in out)

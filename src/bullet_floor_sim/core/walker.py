@@ -56,9 +56,12 @@ class WalkerConfig:
 
     Attributes:
         goal_timeout: a leg not finished after this long is cancelled and counts as failed.
-            The seed used 30 s; the default 120 s lets the slowest legs of the office world
-            finish at the robot's 0.6 m/s (lab corner to corridor: about 25 m of path plus
-            turns, about 60 s, doubled for side-stepping the other robot).
+            The seed used 30 s, which the longest legs of the office world need already
+            (14 m of planned path between adjacent regions: about 25 s at the robot's 0.6 m/s
+            plus turns; 22 s measured) with no room for waiting behind the other robot. The
+            default, 120 s, leaves that room and suits larger regions elsewhere; a robot that
+            is really stuck is given up by the navigation first (the embedded follower aborts
+            after 30 s blocked or 60 s without progress).
         dwell_min, dwell_max: the dwell after a reached goal is uniform in [min, max].
         margin: a goal keeps at least this distance from its region's boundary.
         clearance: a goal keeps at least this distance from every wall (the robot's radius,
