@@ -24,10 +24,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
+import signal
+import subprocess
 import sys
 import threading
 import time
-from typing import List, Optional
+from typing import Callable, List, Optional
 
 import rospy
 from geometry_msgs.msg import (PoseStamped, PoseWithCovarianceStamped, TransformStamped,
@@ -108,6 +111,44 @@ def _set_rostime(stamp: rospy.Time) -> None:
     from rospy.rostime import _set_rostime as setter
 
     setter(stamp)
+
+
+class StopSignals:
+    """SIGINT/SIGTERM handlers that only record the request; the main loop acts on it.
+
+    rospy's own handlers (and roslaunch's ``rl_signal``, which any roslaunch ``Process`` made in
+    this process installs) run the whole shutdown inside the handler: in the main thread, at
+    whatever bytecode it was interrupted. The simulator's main thread spends much of its time in
+    ``Publisher.publish`` -> ``QueuedConnection.write_data``, holding that connection's
+    non-reentrant lock; rospy's shutdown then closes all topics and waits for the topic
+    manager's lock, which rospy's registration thread holds while it waits for the connection
+    lock the interrupted main thread still has: a deadlock (2-3 runs in 20 of sim.launch in
+    worlds/simple with scan subscribers; the rostests and nav_bench saw it too). Both rospy and roslaunch ignore every later signal once shutdown
+    has begun, so roslaunch's SIGTERM did nothing either and only SIGKILL ended the node.
+
+    Here the first signal sets ``signum``; the loop sees it between steps, where it holds no
+    lock, and shuts down from there. A second signal exits at once (shutdown itself is stuck).
+    """
+
+    def __init__(self) -> None:
+        self.signum: Optional[int] = None
+
+    def install(self) -> "StopSignals":
+        """Take over SIGINT and SIGTERM (call from the main thread, after rospy.init_node
+        with ``disable_signals=True``)."""
+        for s in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(s, self._handle)
+        return self
+
+    def _handle(self, signum: int, _frame) -> None:
+        if self.signum is not None:
+            os.write(2, b"simulator: second signal during shutdown, exiting now\n")
+            os._exit(128 + signum)
+        self.signum = signum  # a plain assignment: safe whatever the main thread holds
+
+    def __call__(self) -> bool:
+        """True once a stop signal arrived."""
+        return self.signum is not None
 
 
 class SimulatorNode:
@@ -292,13 +333,18 @@ class SimulatorNode:
         r["scan"].publish(m)
 
     # ------------------------------------------------------------------------- main loop
-    def spin(self) -> None:
-        """Step, publish and pace until shutdown; log the achieved real-time factor every 10 s."""
+    def spin(self, stop: Callable[[], bool] = lambda: False) -> None:
+        """Step, publish and pace until shutdown; log the achieved real-time factor every 10 s.
+
+        Args:
+            stop: polled every step (and while pacing or paused); True ends the loop, as
+                rospy shutdown does. Never blocks for more than 50 ms of wall time at once.
+        """
         w = self.world
         wall0, sim0 = time.perf_counter(), w.clock.now
         report_at = wall0 + 10.0
         rep_wall, rep_sim = wall0, sim0
-        while not rospy.is_shutdown():
+        while not (rospy.is_shutdown() or stop()):
             if self.paused:
                 time.sleep(0.01)
                 wall0, sim0 = time.perf_counter(), w.clock.now
@@ -310,7 +356,7 @@ class SimulatorNode:
             if self.rtf > 0:
                 ahead = (w.clock.now - sim0) / self.rtf - (now_wall - wall0)
                 if ahead > 0:
-                    time.sleep(ahead)
+                    time.sleep(min(ahead, 0.05))
                 elif ahead < -1.0:  # far behind: do not try to catch up in a burst
                     wall0, sim0 = now_wall, w.clock.now
             if now_wall >= report_at:
@@ -321,26 +367,57 @@ class SimulatorNode:
                 report_at, rep_wall, rep_sim = now_wall + 10.0, now_wall, w.clock.now
 
 
-def _start_robot_state_publishers(world: World):
-    """One robot_state_publisher per robot, in its namespace, with the prefixed URDF."""
-    import roslaunch
+class RobotStatePublishers:
+    """One robot_state_publisher per robot, in its namespace, with the prefixed URDF.
 
-    launch = roslaunch.scriptapi.ROSLaunch()
-    launch.start()
-    for spec in world.specs:
-        ns = "/" + spec.name if spec.name else "/"
-        rospy.set_param((ns.rstrip("/") or "") + "/robot_description",
-                        expand_xacro(spec.model, spec.prefix))
-        node = roslaunch.core.Node("robot_state_publisher", "robot_state_publisher",
-                                   name="robot_state_publisher", namespace=ns,
-                                   output="log")
-        launch.launch(node)
-    return launch
+    Plain child processes in the simulator's process group (what roslaunch and a terminal
+    signal), so they stop with it, and stopped here within ``timeout`` when it stops. Not
+    roslaunch's scriptapi: that installs signal handlers doing the whole shutdown inside the
+    handler and waits up to 15 s per child.
+    """
+
+    def __init__(self, world: World) -> None:
+        import rospkg
+        from roslib.packages import find_node
+
+        exe = find_node("robot_state_publisher", "robot_state_publisher")
+        if not exe:
+            raise BulletFloorSimError("robot_state_publisher is not installed "
+                                      "(set ~robot_state_publishers false to run without it)")
+        log_dir = os.path.join(rospkg.get_log_dir(), str(rospy.get_param("/run_id", "")))
+        os.makedirs(log_dir, exist_ok=True)
+        self.procs: List[subprocess.Popen] = []
+        for spec in world.specs:
+            ns = "/" + spec.name if spec.name else "/"
+            rospy.set_param((ns.rstrip("/") or "") + "/robot_description",
+                            expand_xacro(spec.model, spec.prefix))
+            tag = (spec.name or "") + ("-" if spec.name else "") + "robot_state_publisher"
+            env = dict(os.environ, ROS_NAMESPACE=ns)
+            with open(os.path.join(log_dir, tag + "-stdout.log"), "ab") as out:
+                self.procs.append(subprocess.Popen(
+                    [exe[0], "__name:=robot_state_publisher",
+                     "__log:=" + os.path.join(log_dir, tag + ".log")],
+                    env=env, stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
+                    close_fds=True))
+
+    def stop(self, timeout: float = 1.0) -> None:
+        """SIGINT every child still running, SIGKILL what is left after ``timeout`` s."""
+        for p in self.procs:
+            if p.poll() is None:
+                p.send_signal(signal.SIGINT)
+        deadline = time.monotonic() + timeout
+        for p in self.procs:
+            try:
+                p.wait(max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
 
 
 def main(argv: Optional[List[str]] = None) -> int:
     """Entry point of ``rosrun bullet_floor_sim simulator``."""
-    rospy.init_node("simulator")
+    rospy.init_node("simulator", disable_signals=True)
+    stop = StopSignals().install()  # see StopSignals: never shut down inside a handler
     seed = int(rospy.get_param("~seed", -1))
     try:
         config = load_world_config(resolve_world(str(rospy.get_param("~world", "office")),
@@ -361,16 +438,21 @@ def main(argv: Optional[List[str]] = None) -> int:
                          bool(rospy.get_param("~publish_map", True)),
                          bool(rospy.get_param("~ground_truth_tf", False)),
                          bool(rospy.get_param("~publish_initialpose", False)))
-    launch = None
-    if rospy.get_param("~robot_state_publishers", True):
-        launch = _start_robot_state_publishers(world)
-    rospy.loginfo("simulator: world %s with robots %s", world.config.path,
-                  ", ".join(s.name or "<empty>" for s in world.specs))
+    rsps = None
     try:
-        node.spin()
+        if rospy.get_param("~robot_state_publishers", True):
+            rsps = RobotStatePublishers(world)
+        rospy.loginfo("simulator: world %s with robots %s", world.config.path,
+                      ", ".join(s.name or "<empty>" for s in world.specs))
+        node.spin(stop)
+    except BulletFloorSimError as e:
+        rospy.logfatal("simulator: %s", e)
+        return 1
     finally:
-        if launch is not None:
-            launch.stop()
+        # from the main loop, holding no lock: rospy closes topics and unregisters here
+        rospy.signal_shutdown("signal %d" % stop.signum if stop() else "simulator stopped")
+        if rsps is not None:
+            rsps.stop()
         world.close()
     return 0
 
