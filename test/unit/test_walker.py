@@ -267,6 +267,7 @@ def test_dwell_is_uniform_in_range_and_seeded(office):
 
 def test_seed_none_draws_and_reports_one(office):
     w = walker(office, seed=None)
+    assert 0 <= w.seed_used < 2 ** 31  # fits a ROS int parameter
     again = walker(office, seed=w.seed_used)
     assert [leg.goal for leg in run_legs(w, (3.0, 10.0), 5)] == \
         [leg.goal for leg in run_legs(again, (3.0, 10.0), 5)]

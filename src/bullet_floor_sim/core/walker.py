@@ -317,7 +317,8 @@ class Walker:
         sampler: goal sampler on the map.
         config: parameters.
         seed: one integer for the three random streams (regions, goals, dwell times); None
-            draws one from the OS (see ``seed_used``).
+            draws one from the OS, below 2**31 so that it can be given back as ``~seed``
+            (see ``seed_used``).
     """
 
     chain: MarkovChain
@@ -332,8 +333,10 @@ class Walker:
 
     def __post_init__(self) -> None:
         self.config.check()
-        entropy = self.seed if self.seed is not None else np.random.SeedSequence().entropy
-        self.seed_used = int(entropy)
+        if self.seed is None:  # a fresh seed small enough for a ROS int parameter (~seed)
+            self.seed_used = int(np.random.SeedSequence().generate_state(1)[0]) & 0x7FFFFFFF
+        else:
+            self.seed_used = int(self.seed)
         streams = np.random.SeedSequence(self.seed_used).spawn(3)
         self.rng_region, self.rng_goal, self.rng_dwell = (np.random.default_rng(s)
                                                           for s in streams)
