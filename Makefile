@@ -22,9 +22,14 @@ unit-test:
 	$(ROSENV) $(VENV_PY) -m pytest -q -p no:cacheprovider test/unit
 
 # rostest starts its own master (port 22422), so a running roscore does not interfere.
+# rostest --text exits 0 even when a test fails ("overall test result is not accurate"), so
+# the summary it prints decides: every file must report RESULT: SUCCESS and none a FAIL.
 integration-test:
-	$(ROSENV) for t in test/integration/*.test; do \
-	  echo "== rostest $$t"; rostest --text bullet_floor_sim $$(basename $$t) || exit 1; done
+	$(ROSENV) log=$$(mktemp); trap 'rm -f "$$log"' EXIT; \
+	for t in test/integration/*.test; do \
+	  echo "== rostest $$t"; rostest --text bullet_floor_sim $$(basename $$t) 2>&1 | tee "$$log"; \
+	  if ! grep -q "RESULT: SUCCESS" "$$log" || grep -q "RESULT: FAIL" "$$log"; then \
+	    echo "== FAILED: $$t"; exit 1; fi; done
 
 lint:
 	$(ROSENV) catkin_lint -q -W2 --strict --pkg bullet_floor_sim

@@ -200,6 +200,15 @@ def test_delete(store, db):
     assert store.delete(db, "c", {}) == 3 and store.find(db, "c") == []
 
 
+def test_delete_and_update_on_a_collection_never_written(store, db):
+    # not an outage: nothing to delete or update, nothing journalled, the store stays usable
+    assert store.delete(db, "never_written", {}) == 0
+    assert store.update(db, "never_written2", {"k": 1}, {"$set": {"k": 2}}) == 0
+    assert store.pending == 0 and store.available
+    store.insert(db, "never_written", {"k": 1})
+    assert [d["k"] for d in store.find(db, "never_written")] == [1]
+
+
 def soma_roi(roi_id, version, map_name="office", config="default"):
     return {"header": {"seq": 0, "stamp": {"secs": 0, "nsecs": 0}, "frame_id": "map"},
             "id": roi_id, "map_name": map_name, "map_unique_id": "", "config": config,

@@ -275,6 +275,8 @@ class EmbeddedBackend(Backend):
 
     def delete(self, db: str, collection: str, filter: Dict[str, Any]) -> int:
         def run(handle: _Database) -> int:
+            if collection not in handle.tables:  # nothing written yet: nothing to delete
+                return 0
             found = self._candidates(handle, collection, filter)
             handle.conn.executemany("DELETE FROM %s WHERE seq = ?" % _table(collection),
                                     [(seq,) for seq, _ in found])
