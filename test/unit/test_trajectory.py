@@ -19,8 +19,10 @@ from bullet_floor_sim.core.trajectory import (COLLECTION, DATABASE, STORED_TYPE,
                                               Chunker, RegionLocator, TrajectoryError,
                                               chunk_fields, chunk_from_document,
                                               chunk_from_json, chunk_to_json, displacement,
-                                              join_chunks, path_length, pose_from_xy_yaw,
-                                              select_chunks, split_poses, yaw_of)
+                                              document_to_json, ensure_indexes,
+                                              iter_documents, join_chunks, path_length,
+                                              pose_from_xy_yaw, select_chunks, split_poses,
+                                              yaw_of)
 from bullet_floor_sim.ros import trajectories as cli
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -303,6 +305,7 @@ def db_pair(request, tmp_path, monkeypatch):
 def record(store, chunks, map_name="office"):
     from bullet_floor_sim.core.store import insert_message
 
+    ensure_indexes(store)
     for c in chunks:
         insert_message(store, DATABASE, COLLECTION, chunk_fields(c, c.end_ns), STORED_TYPE,
                        meta={"map": map_name, "taken": "online"}, inserted_by="/test",
@@ -367,6 +370,62 @@ def test_select_by_map_window_and_last_n(tmp_path):
         assert [(c.uuid, c.sequence_id) for c in win] == [("traj-1", 1)]
         last = select_chunks(store, None, last_n=1)
         assert [(c.uuid, c.sequence_id) for c in last] == [("traj-2", 0), ("traj-2", 1)]
+
+
+@pytest.mark.parametrize("page_poses", [10, 20000])
+def test_iter_documents_reads_trajectory_after_trajectory(tmp_path, monkeypatch, page_poses):
+    """Every selected chunk exactly once: trajectories in order of their first pose, each in
+    sequence_id order; reads of one chunk (10 poses a read) or of up to 16; a trajectory with
+    a sequence_id missing in the middle; map and time limits; last_n."""
+    import bullet_floor_sim.core.trajectory as traj
+
+    monkeypatch.setattr(traj, "_PAGE_POSES", page_poses)
+    chunks = []
+    for u in (2, 0, 1):  # stored out of order; walker-u starts at T0 + u * 0.1 s
+        ch = Chunker(period=0.35, new_uuid=lambda u=u: "walker-%d" % u)
+        chunks += feed(ch, [pose(T0 + u * NS // 10 + k * NS // 20, k, u) for k in range(40)])
+        chunks.append(ch.finish())
+    holed = [c for c in chunks if c.uuid == "walker-1" and c.sequence_id != 3]
+    chunks = [c for c in chunks if c.uuid != "walker-1"] + holed
+    wall = Chunk.from_poses("wall", 0, [pose(1700000000 * NS + k, k, 0) for k in range(3)],
+                            True)
+    with open_store(str(tmp_path / "db"), journal_dir=str(tmp_path / "j")) as store:
+        record(store, chunks)
+        record(store, [wall], map_name="lab")
+        by_walker = [("walker-%d" % u, s) for u in range(3) for s in range(6)
+                     if (u, s) != (1, 3)]
+        assert len(by_walker) == 17
+        keys = lambda docs: [(d["uuid"], d["sequence_id"]) for d in docs]  # noqa: E731
+        assert keys(iter_documents(store)) == by_walker + [("wall", 0)]
+        assert [(c.uuid, c.sequence_id) for c in select_chunks(store)] == by_walker + [
+            ("wall", 0)]
+        assert keys(iter_documents(store, "office")) == by_walker
+        assert keys(iter_documents(store, "lab")) == [("wall", 0)]
+        since, until = T0 + NS // 2, T0 + 3 * NS // 2
+        inside = [(c.uuid, c.sequence_id) for c in chunks
+                  if c.end_ns >= since and c.start_ns <= until]
+        assert 0 < len(inside) < 17
+        assert keys(iter_documents(store, "office", since, until)) == sorted(inside)
+        assert keys(iter_documents(store, since_ns=T0 + 86400 * NS)) == [("wall", 0)]
+        assert keys(iter_documents(store, until_ns=T0 + NS // 10)) == [  # inclusive
+            ("walker-0", 0), ("walker-1", 0)]
+        assert list(iter_documents(store, "nowhere")) == []
+        last = select_chunks(store, "office", last_n=1)
+        assert {c.uuid for c in last} == {"walker-2"} and len(last) == 6
+    with open_store(str(tmp_path / "empty")) as empty:
+        assert list(iter_documents(empty)) == []
+
+
+def test_document_to_json_is_the_general_path_faster():
+    c = sample_chunk(5)
+    doc = dict(chunk_fields(c, 0), _meta={"map": "m"})
+    assert document_to_json(doc) == chunk_to_json(chunk_from_document(doc))
+    # an unnormalised stamp (nsecs >= 1e9, as some writers leave it) takes the general path
+    doc["trajectory"][0]["header"]["stamp"] = {"secs": 99, "nsecs": NS}
+    assert document_to_json(doc) == chunk_to_json(chunk_from_document(doc))
+    assert '"start_time": 100.000000000' in document_to_json(doc)
+    with pytest.raises(TrajectoryError, match=r"stored trajectory 7: no poses"):
+        document_to_json({"_id": 7, "uuid": "u", "trajectory": [], "trajectory_length": 0})
 
 
 def test_export_import_roundtrip_on_both_backends(db_pair, tmp_path, capsys):

@@ -30,9 +30,7 @@ No rospy here: the ROS glue turns PoseStamped messages into pose tuples.
 """
 from __future__ import annotations
 
-import contextlib
 import decimal
-import gc
 import json
 import math
 import uuid as uuidlib
@@ -68,7 +66,11 @@ __all__ = [
     "chunk_from_json",
     "format_time",
     "parse_time",
-    "store_filter",
+    "ensure_indexes",
+    "Head",
+    "trajectory_heads",
+    "iter_documents",
+    "document_to_json",
     "select_chunks",
 ]
 
@@ -81,9 +83,11 @@ DEFAULT_PERIOD = 30.0
 # MongoDB's 16 MB document limit (and 100 s of a 200 Hz pose stream).
 DEFAULT_MAX_POSES = 20000
 DEFAULT_MAX_GAP = 10.0
-# Indexes the recorder creates: the viewer's and the exporter's filters.
-INDEXES = ([("uuid", 1), ("sequence_id", 1)], [("end_time.secs", 1)],
-           [("start_time.secs", 1)], [("_meta.map", 1)])
+# Indexes the recorder (and the readers) create: (uuid, sequence_id) and sequence_id let the
+# embedded store answer latest(uuid, sequence_id) and chunk lookups from the index alone;
+# start time and map serve users' own queries.
+INDEXES = ([("uuid", 1), ("sequence_id", 1)], [("sequence_id", 1)], [("start_time.secs", 1)],
+           [("_meta.map", 1)])
 
 Pose = Tuple[int, float, float, float, float, float, float, float]
 
@@ -440,6 +444,11 @@ def chunk_fields(chunk: Chunk, stamp_ns: int = 0, seq: int = 0) -> Dict[str, Any
     }
 
 
+def _pose_of_doc(s: Dict[str, Any], o: Dict[str, Any], q: Dict[str, Any]) -> Pose:
+    return (s["secs"] * _NS + s["nsecs"], o["x"], o["y"], o["z"], q["x"], q["y"], q["z"],
+            q["w"])
+
+
 def chunk_from_document(doc: Dict[str, Any]) -> Chunk:
     """A stored Trajectory document (ours or human_trajectory's) as a :class:`Chunk`.
 
@@ -447,14 +456,8 @@ def chunk_from_document(doc: Dict[str, Any]) -> Chunk:
         TrajectoryError: a field is missing or has the wrong shape; names the document.
     """
     try:
-        poses = []
-        append = poses.append
-        for p in doc["trajectory"]:
-            s = p["header"]["stamp"]
-            q = p["pose"]["orientation"]
-            o = p["pose"]["position"]
-            append((s["secs"] * _NS + s["nsecs"], o["x"], o["y"], o["z"], q["x"], q["y"],
-                    q["z"], q["w"]))
+        poses = [_pose_of_doc(p["header"]["stamp"], p["pose"]["position"],
+                              p["pose"]["orientation"]) for p in doc["trajectory"]]
         if not poses:
             raise TrajectoryError("stored trajectory %s: no poses" % (doc.get("_id"),))
         frame = doc["trajectory"][0]["header"].get("frame_id", "map") or "map"
@@ -500,12 +503,10 @@ def chunk_to_json(chunk: Chunk) -> str:
     """One export line: ``{"uuid", "sequence_id", "start_time", "end_time", "complete",
     "trajectory_length", "poses": [[t, x, y, yaw], ...]}``, t in seconds (9 decimals)."""
     atan2 = math.atan2
-    parts = []
-    append = parts.append
-    for t, x, y, _, qx, qy, qz, qw in chunk.poses:
-        secs, nsecs = divmod(t, _NS)
-        append("[%d.%09d, %r, %r, %r]" % (secs, nsecs, x, y, atan2(
-            2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))))
+    fmt = "[%d.%09d, %r, %r, %r]".__mod__
+    parts = [fmt((t // _NS, t % _NS, x, y,
+                  atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))))
+             for t, x, y, _, qx, qy, qz, qw in chunk.poses]
     return ('{"uuid": %s, "sequence_id": %d, "start_time": %s, "end_time": %s, '
             '"complete": %s, "trajectory_length": %r, "poses": [%s]}'
             % (json.dumps(chunk.uuid), chunk.sequence_id, format_time(chunk.start_ns),
@@ -585,64 +586,201 @@ def chunk_from_json(line: str, where: str = "line") -> Chunk:
 
 # -- queries ----------------------------------------------------------------------------------
 
-def store_filter(map_name: Optional[str] = None, since_ns: Optional[int] = None,
-                 until_ns: Optional[int] = None) -> Dict[str, Any]:
-    """The store filter for chunks of a map that end at or after ``since_ns`` and start at
-    or before ``until_ns`` (None: no limit). Whole seconds only: refine with
-    :func:`select_chunks`, which applies the exact limits."""
-    f: Dict[str, Any] = {}
-    if map_name:
-        f["_meta.map"] = map_name
-    if since_ns is not None:
-        f["end_time.secs"] = {"$gte": int(since_ns) // _NS}
-    if until_ns is not None:
-        f["start_time.secs"] = {"$lte": int(until_ns) // _NS}
-    return f
+def ensure_indexes(store: Any, database: str = DATABASE, collection: str = COLLECTION) -> None:
+    """Create (if missing) the indexes :func:`iter_documents` and the viewer rely on."""
+    for keys in INDEXES:
+        store.create_index(database, collection, keys)
+
+
+def _span(doc: Dict[str, Any]) -> Tuple[int, int]:
+    """(first, last) pose stamp of a stored chunk, ns."""
+    try:
+        a = doc["trajectory"][0]["header"]["stamp"]
+        b = doc["trajectory"][-1]["header"]["stamp"]
+        return a["secs"] * _NS + a["nsecs"], b["secs"] * _NS + b["nsecs"]
+    except (KeyError, IndexError, TypeError) as e:
+        raise TrajectoryError("stored trajectory %s: malformed (%s: %s)"
+                              % (doc.get("_id"), type(e).__name__, e)) from None
+
+
+@dataclass
+class Head:
+    """A stored trajectory as :func:`trajectory_heads` finds it.
+
+    Attributes:
+        uuid: its id.
+        start_ns: first pose of its first chunk; end_ns: last pose of its last chunk.
+        first_seq, last_seq: its first and last ``sequence_id``.
+        only: the document, when the trajectory is a single chunk (already read).
+    """
+
+    uuid: Any
+    start_ns: int
+    end_ns: int
+    first_seq: int
+    last_seq: int
+    only: Optional[Dict[str, Any]] = field(default=None, repr=False)
+
+
+def trajectory_heads(store: Any, map_name: Optional[str] = None,
+                     since_ns: Optional[int] = None, until_ns: Optional[int] = None,
+                     database: str = DATABASE, collection: str = COLLECTION) -> List[Head]:
+    """The stored trajectories of ``map_name`` (all when empty) that reach into
+    [since, until], ordered by their first pose (then uuid).
+
+    One ``latest(group_by=uuid, order_by=sequence_id)`` (an index walk reading the last chunk
+    of each trajectory) and, for trajectories of several chunks, one indexed lookup of the
+    first chunk. A trajectory's chunks are taken to follow each other in time (the recorder
+    starts a new trajectory when stamps jump back), so its span is [first start, last end].
+    Needs :func:`ensure_indexes`.
+
+    Raises:
+        StoreUnavailable: the database cannot be read now.
+        TrajectoryError: a stored document is malformed.
+    """
+    heads = []
+    for last in store.latest(database, collection, ["uuid"], "sequence_id"):
+        if map_name and _map_of(last) != map_name:
+            continue
+        end = _span(last)[1]
+        if since_ns is not None and end < since_ns:
+            continue
+        uid, last_seq = last.get("uuid"), _seq(last)
+        if last_seq == 0:
+            first, only = last, last
+        else:
+            first = store.find(database, collection, {"uuid": uid}, sort=[("sequence_id", 1)],
+                               limit=1)[0]
+            only = first if _seq(first) == last_seq else None
+        start = _span(first)[0]
+        if until_ns is not None and start > until_ns:
+            continue
+        heads.append(Head(uid, start, end, _seq(first), last_seq, only))
+    heads.sort(key=lambda h: (h.start_ns, str(h.uuid)))
+    return heads
+
+
+# iter_documents reads a trajectory's chunks this many at a time at most ($in on
+# sequence_id: the embedded store checks each document against every value in Python), and
+# aims at about this many poses per read.
+_PAGE_CHUNKS = 16
+_PAGE_POSES = 20000
+
+
+def iter_documents(store: Any, map_name: Optional[str] = None, since_ns: Optional[int] = None,
+                   until_ns: Optional[int] = None, heads: Optional[List[Head]] = None,
+                   database: str = DATABASE, collection: str = COLLECTION
+                   ) -> Iterator[Dict[str, Any]]:
+    """The stored chunks of ``map_name`` that end at or after ``since_ns`` and start at or
+    before ``until_ns``, as documents: trajectory after trajectory (in order of their first
+    pose), each in ``sequence_id`` order.
+
+    Memory stays bounded however much is stored (a day of one walker at 10 Hz decodes to
+    1.5 GB of dicts at once): each trajectory is read a few chunks at a time, by indexed
+    ``{"uuid": u, "sequence_id": {"$in": [...]}}`` lookups (:func:`ensure_indexes`).
+
+    Args:
+        heads: the trajectories to read (default: :func:`trajectory_heads` of the same
+            selection).
+
+    Raises:
+        StoreUnavailable: the database cannot be read now.
+        TrajectoryError: a stored document is malformed.
+    """
+    if heads is None:
+        heads = trajectory_heads(store, map_name, since_ns, until_ns, database, collection)
+    for head in heads:
+        if head.only is not None:
+            pages: Iterable[List[Dict[str, Any]]] = [[head.only]]
+        else:
+            pages = _pages(store, head, database, collection)
+        for page in pages:
+            for doc in page:
+                if (not map_name or _map_of(doc) == map_name) and _wanted(doc, since_ns,
+                                                                          until_ns):
+                    yield doc
+
+
+def _pages(store: Any, head: Head, database: str, collection: str
+           ) -> Iterator[List[Dict[str, Any]]]:
+    seq, k = head.first_seq, 2
+    while seq <= head.last_seq:
+        n = min(k, head.last_seq - seq + 1)
+        docs = store.find(database, collection, {"uuid": head.uuid, "sequence_id": {
+            "$in": list(range(seq, seq + n))}})
+        docs.sort(key=_seq)
+        poses = sum(len(d.get("trajectory") or ()) for d in docs)
+        yield docs
+        del docs
+        seq += n
+        k = max(1, min(_PAGE_CHUNKS, n * _PAGE_POSES // poses)) if poses else _PAGE_CHUNKS
+
+
+def _seq(doc: Dict[str, Any]) -> int:
+    try:
+        return int(doc.get("sequence_id", 0))
+    except (TypeError, ValueError):
+        raise TrajectoryError("stored trajectory %s: bad sequence_id %r"
+                              % (doc.get("_id"), doc.get("sequence_id"))) from None
+
+
+def _map_of(doc: Dict[str, Any]) -> Any:
+    meta = doc.get("_meta")
+    return meta.get("map") if isinstance(meta, dict) else None
+
+
+def _wanted(doc: Dict[str, Any], since_ns: Optional[int], until_ns: Optional[int]) -> bool:
+    start, end = _span(doc)
+    return not ((since_ns is not None and end < since_ns)
+                or (until_ns is not None and start > until_ns))
+
+
+def document_to_json(doc: Dict[str, Any]) -> str:
+    """``chunk_to_json(chunk_from_document(doc))``, formatted straight from the document
+    (the export's inner loop, in about half the time).
+
+    Raises:
+        TrajectoryError: the document is malformed.
+    """
+    atan2 = math.atan2
+    fmt = "[%d.%09d, %r, %r, %r]".__mod__
+    try:
+        parts = []
+        for p in doc["trajectory"]:
+            s, o, q = p["header"]["stamp"], p["pose"]["position"], p["pose"]["orientation"]
+            if not 0 <= s["nsecs"] < _NS:
+                raise ValueError
+            qx, qy, qz, qw = q["x"], q["y"], q["z"], q["w"]
+            parts.append(fmt((s["secs"], s["nsecs"], o["x"], o["y"], atan2(
+                2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz)))))
+        start, end = _span(doc)
+        return ('{"uuid": %s, "sequence_id": %d, "start_time": %s, "end_time": %s, '
+                '"complete": %s, "trajectory_length": %r, "poses": [%s]}'
+                % (json.dumps(str(doc["uuid"])), int(doc.get("sequence_id", 0)),
+                   format_time(start), format_time(end),
+                   "true" if doc.get("complete", False) else "false",
+                   float(doc["trajectory_length"]), ", ".join(parts)))
+    except (KeyError, IndexError, TypeError, ValueError, TrajectoryError):
+        # malformed, or unnormalised stamps: the general path says what is wrong, or copes
+        return chunk_to_json(chunk_from_document(doc))
 
 
 def select_chunks(store: Any, map_name: Optional[str] = None, since_ns: Optional[int] = None,
                   until_ns: Optional[int] = None, last_n: int = 0,
                   database: str = DATABASE, collection: str = COLLECTION) -> List[Chunk]:
     """Stored chunks of ``map_name`` (all maps when empty) overlapping [since, until], of the
-    ``last_n`` trajectories that end last (0: all), ordered by start time, uuid, sequence_id.
+    ``last_n`` trajectories that end last (0: all), in :func:`iter_documents`' order.
 
     Raises:
         StoreUnavailable: the database cannot be read now.
         TrajectoryError: a stored document is malformed.
     """
-    with _gc_paused():  # decoding builds millions of small dicts; see _gc_paused
-        docs = store.find(database, collection, store_filter(map_name, since_ns, until_ns))
-        docs.reverse()
-        chunks = []
-        while docs:
-            c = chunk_from_document(docs.pop())  # drop each document once converted
-            if since_ns is not None and c.end_ns < since_ns:
-                continue
-            if until_ns is not None and c.start_ns > until_ns:
-                continue
-            chunks.append(c)
+    heads = trajectory_heads(store, map_name, since_ns, until_ns, database, collection)
     if last_n and last_n > 0:
-        ends: Dict[str, int] = {}
-        for c in chunks:
-            ends[c.uuid] = max(ends.get(c.uuid, 0), c.end_ns)
-        keep = set(sorted(ends, key=lambda u: (ends[u], u))[-last_n:])
-        chunks = [c for c in chunks if c.uuid in keep]
-    chunks.sort(key=lambda c: (c.start_ns, c.uuid, c.sequence_id))
-    return chunks
-
-
-@contextlib.contextmanager
-def _gc_paused() -> Iterator[None]:
-    """Pause the cyclic garbage collector: decoding a day of poses (about 5 million dicts)
-    otherwise triggers full collections over everything already decoded, which made reading
-    200,000 poses 5x slower (1.7 s instead of 0.35 s). Nothing created here has cycles."""
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if enabled:
-            gc.enable()
+        keep = sorted(heads, key=lambda h: (h.end_ns, str(h.uuid)))[-last_n:]
+        heads = [h for h in heads if h in keep]
+    return [chunk_from_document(d) for d in iter_documents(
+        store, map_name, since_ns, until_ns, heads, database, collection)]
 
 
 def _finite_at_least(v: Any, low: float) -> bool:

@@ -41,7 +41,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from ..core.errors import BulletFloorSimError
 from ..core.store import StoreError, open_store
 from ..core.trajectory import (COLLECTION, DATABASE, Chunk, Joined, chunk_from_document,
-                               join_chunks, select_chunks, store_filter)
+                               ensure_indexes, join_chunks, select_chunks)
 from ..msg import Trajectory
 from ..srv import SelectTrajectories, SelectTrajectoriesResponse
 from .trajectory_recorder import forward_store_log, pose_msgs
@@ -144,6 +144,7 @@ class ViewerNode:
         self.selection.check()
         self.store = open_store(str(gp("~db", "")) or None,
                                 timeout=float(gp("~db_timeout", 1.5)))
+        ensure_indexes(self.store)  # reads go by start time and by uuid
         self.lock = threading.RLock()
         self.chunks: Dict[Tuple[str, int], Chunk] = {}
         self.shown: List[Joined] = []
@@ -187,10 +188,9 @@ class ViewerNode:
     def _on_chunk(self, msg: Trajectory) -> None:
         with self.lock:
             sel = self.selection
-            f = store_filter(sel.map_name, sel.since_ns, sel.until_ns)
-            f.update(uuid=msg.uuid, sequence_id=msg.sequence_id)
-            try:
-                docs = self.store.find(DATABASE, COLLECTION, f)
+            try:  # an indexed lookup; the map and time limits are checked below
+                docs = self.store.find(DATABASE, COLLECTION, {"uuid": msg.uuid,
+                                                              "sequence_id": msg.sequence_id})
                 found = [chunk_from_document(d) for d in docs]
             except (StoreError, BulletFloorSimError) as e:
                 rospy.logwarn_throttle(30.0, "trajectory_viewer: cannot read chunk %d of %s "
@@ -199,6 +199,8 @@ class ViewerNode:
                 self.need_reload = True
                 return
             for c in found:
+                if sel.map_name and c.map_name != sel.map_name:
+                    continue
                 if sel.since_ns is not None and c.end_ns < sel.since_ns:
                     continue
                 if sel.until_ns is not None and c.start_ns > sel.until_ns:
@@ -210,7 +212,7 @@ class ViewerNode:
                     self._reload_or_warn()
                     return
                 self.chunks[(c.uuid, c.sequence_id)] = c
-            if found:
+            if self.chunks:
                 self._apply_last_n()
                 self._publish()
 
