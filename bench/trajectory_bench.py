@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import gc
+import importlib.util
 import math
 import os
 import resource
@@ -40,15 +41,13 @@ from typing import Callable, List, Optional, Tuple
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.normpath(os.path.join(HERE, ".."))
-try:  # the workspace's package (with its generated messages), else the sources
-    import bullet_floor_sim  # noqa: F401
-except ImportError:
+if importlib.util.find_spec("bullet_floor_sim") is None:  # else the workspace's (with msgs)
     sys.path.insert(0, os.path.join(REPO, "src"))
 
 from bullet_floor_sim.core.rois import load_rois  # noqa: E402
 from bullet_floor_sim.core.store import insert_message, open_store  # noqa: E402
-from bullet_floor_sim.core.trajectory import (COLLECTION, DATABASE, INDEXES, STORED_TYPE,  # noqa: E402
-                                              Chunker, RegionLocator, chunk_fields)
+from bullet_floor_sim.core.trajectory import (  # noqa: E402
+    COLLECTION, DATABASE, STORED_TYPE, Chunker, RegionLocator, chunk_fields, ensure_indexes)
 
 NS = 1000000000
 TARGET_POSES_PER_S = 20000.0
@@ -68,8 +67,7 @@ def walker_pose(w: int, k: int, hz: float, t0: int = 10 * NS) -> Tuple:
 
 def open_bench_store(path: str):
     store = open_store(path, journal_dir=os.path.join(path, "journal"))
-    for keys in INDEXES:
-        store.create_index(DATABASE, COLLECTION, keys)
+    ensure_indexes(store)  # as the recorder does
     return store
 
 

@@ -24,7 +24,12 @@ A pose is a plain tuple ``(t_ns, x, y, z, qx, qy, qz, qw)``: the stamp in intege
 (exact, as ROS keeps it) and the pose in the map frame. Documents are mongodb_store's layout of
 the message (:func:`chunk_fields`, :func:`chunk_from_document`); the command-line export is one
 JSON line per chunk (:func:`chunk_to_json`, :func:`chunk_from_json`) with times as decimal
-seconds with 9 digits, so export -> import -> export gives the same text.
+seconds with 9 digits: times, positions and metrics survive export -> import exactly, the
+heading as a planar quaternion (to about 1e-15 rad).
+
+Reading (:func:`trajectory_heads`, :func:`iter_documents`, :func:`select_chunks`) goes
+trajectory by trajectory through indexed lookups (:func:`ensure_indexes`), a few chunks at a
+time, so memory stays bounded however much is stored.
 
 No rospy here: the ROS glue turns PoseStamped messages into pose tuples.
 """
@@ -632,7 +637,9 @@ def trajectory_heads(store: Any, map_name: Optional[str] = None,
     of each trajectory) and, for trajectories of several chunks, one indexed lookup of the
     first chunk. A trajectory's chunks are taken to follow each other in time (the recorder
     starts a new trajectory when stamps jump back), so its span is [first start, last end].
-    Needs :func:`ensure_indexes`.
+    Needs :func:`ensure_indexes`. Memory: the last chunk of every trajectory is read at once
+    (and single-chunk trajectories are kept for :func:`iter_documents`), so a collection of
+    very many short trajectories is held whole; long recordings are not.
 
     Raises:
         StoreUnavailable: the database cannot be read now.
@@ -777,8 +784,8 @@ def select_chunks(store: Any, map_name: Optional[str] = None, since_ns: Optional
     """
     heads = trajectory_heads(store, map_name, since_ns, until_ns, database, collection)
     if last_n and last_n > 0:
-        keep = sorted(heads, key=lambda h: (h.end_ns, str(h.uuid)))[-last_n:]
-        heads = [h for h in heads if h in keep]
+        keep = {id(h) for h in sorted(heads, key=lambda h: (h.end_ns, str(h.uuid)))[-last_n:]}
+        heads = [h for h in heads if id(h) in keep]
     return [chunk_from_document(d) for d in iter_documents(
         store, map_name, since_ns, until_ns, heads, database, collection)]
 

@@ -12,9 +12,10 @@ A plain command-line tool (no ROS master needed, rospy is not imported)::
 ``$ROS_HOME/bullet_floor_sim/db``). Times are seconds (ROS time, sim time in simulation): a
 chunk is selected when it ends at or after ``--since`` and starts at or before ``--until``.
 
-* ``export`` prints one JSON line per stored chunk, ordered by start time, uuid and
-  sequence_id: ``{"uuid", "sequence_id", "start_time", "end_time", "complete",
-  "trajectory_length", "poses": [[t, x, y, yaw], ...]}``, t in seconds with 9 decimals.
+* ``export`` prints one JSON line per stored chunk: ``{"uuid", "sequence_id", "start_time",
+  "end_time", "complete", "trajectory_length", "poses": [[t, x, y, yaw], ...]}``, t in
+  seconds with 9 decimals; trajectory after trajectory (in order of their first pose), each
+  in sequence_id order. Memory stays bounded (the store is read a few chunks at a time).
 * ``import`` reads such lines (files or stdin) back into the store as the recorder stores
   chunks (meta ``map`` from ``--map``, ``taken: "imported"``). A chunk already stored (same
   uuid and sequence_id) is skipped, so importing twice changes nothing. A line with more

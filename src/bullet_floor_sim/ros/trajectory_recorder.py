@@ -16,7 +16,8 @@ when it is back (core/store): nothing is lost.
 Parameters: ``~pose_topic`` (pose), ``~db`` ("" = ``$ROS_HOME/bullet_floor_sim/db``; or
 ``mongodb://host:port/``), ``~period`` 30 s, ``~split`` period|region, ``~max_poses`` 20000,
 ``~max_gap`` 10 s (a silence that ends a trajectory; 0 = never), ``~map`` (map name for the
-stored meta; default the ROIs' map or the world's name), ``~world`` office, ``~rois_file``
+stored meta; default the ROIs' map or the world's name), ``~world`` (default the running
+simulator's ``/simulator/world``, else office), ``~rois_file``
 (default the world's rois.yaml), ``~rois_service`` /soma/query_rois (used first when it
 answers within ``~rois_wait`` 2 s), ``~rois_config`` (""), ``~frame_id`` map,
 ``~path_rate`` 2 Hz, ``~db_timeout`` 1.5 s (an unreachable database counts as down after
@@ -190,7 +191,9 @@ class RecorderNode:
 
     # -- set-up -------------------------------------------------------------------------------
     def _world(self):
-        world = str(rospy.get_param("~world", "office"))
+        # ~world, else the running simulator's world (sim.launch sets /simulator/world)
+        world = (str(rospy.get_param("~world", "")) or str(rospy.get_param("/simulator/world", ""))
+                 or "office")
         return load_world_config(resolve_world(world, worlds_dir()))
 
     def _load_rois(self, gp) -> List[Roi]:
