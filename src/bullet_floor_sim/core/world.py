@@ -31,7 +31,7 @@ from .paths import worlds_dir
 from .robot import DRIVES, RobotModel, check_command, load_model
 from .sensors import Battery, Lidar, Odometry, Scan, cast_rays
 
-__all__ = ["SimClock", "World", "RobotView"]
+__all__ = ["SimClock", "World", "RobotView", "Snapshot"]
 
 #: PyBullet accepts at most this many vertices per mesh shape (B3_MAX_NUM_VERTICES).
 _MAX_MESH_RECTS = 16000
@@ -92,6 +92,25 @@ class RobotView:
     wheel_positions: Tuple[float, float]
     wheel_velocities: Tuple[float, float]
     stalled: bool
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """Every robot at once, one row per robot (the arrays are copies).
+
+    Attributes:
+        pose: (N, 3) ground truth (x, y, yaw), yaw in [-pi, pi).
+        velocity: (N, 3) applied body velocity (vx, vy, w).
+        odom_pose: (N, 3) odometry (x, y, yaw) in each robot's odom frame.
+        wheel_positions: (N, 2) (left, right) wheel angles, radians.
+        wheel_velocities: (N, 2) (left, right) wheel speeds, rad/s.
+    """
+
+    pose: np.ndarray
+    velocity: np.ndarray
+    odom_pose: np.ndarray
+    wheel_positions: np.ndarray
+    wheel_velocities: np.ndarray
 
 
 class World:
@@ -321,6 +340,21 @@ class World:
                          wheel_positions=(float((tv - half * tw) / r), float((tv + half * tw) / r)),
                          wheel_velocities=(float((v - half * w) / r), float((v + half * w) / r)),
                          stalled=bool(self.stalled[robot]))
+
+    def snapshot(self) -> Snapshot:
+        """Every robot at once as arrays (what ``view`` gives one robot at a time); call
+        ``update_odometry()`` first for up-to-date odometry."""
+        v, w = self.vel[:, 0], self.vel[:, 2]
+        half = 0.5 * self.wheel_sep
+        tv, tw = self._travel[:, 0], self._travel[:, 1]
+        pose = self.pose.copy()
+        pose[:, 2] = (pose[:, 2] + math.pi) % (2.0 * math.pi) - math.pi
+        return Snapshot(pose=pose, velocity=self.vel.copy(),
+                        odom_pose=self.odometry.pose.copy(),
+                        wheel_positions=np.column_stack(((tv - half * tw) / self.wheel_radius,
+                                                         (tv + half * tw) / self.wheel_radius)),
+                        wheel_velocities=np.column_stack(((v - half * w) / self.wheel_radius,
+                                                          (v + half * w) / self.wheel_radius)))
 
     # ----------------------------------------------------------------------------- stepping
     def step(self, n: int = 1) -> List[Scan]:

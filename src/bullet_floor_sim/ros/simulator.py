@@ -23,14 +23,19 @@ Services: ``~reset``, ``~pause``, ``~unpause`` (std_srvs/Empty).
 from __future__ import annotations
 
 import dataclasses
+import io
 import math
 import os
 import signal
+import socket
+import struct
 import subprocess
 import sys
 import threading
 import time
-from typing import Callable, List, Optional
+from typing import Callable, Dict, List, Optional, Tuple
+
+import numpy as np
 
 import rospy
 from geometry_msgs.msg import (PoseStamped, PoseWithCovarianceStamped, TransformStamped,
@@ -83,6 +88,294 @@ def _transform(parent: str, child: str, pose, stamp) -> TransformStamped:
     r = t.transform.rotation
     r.x, r.y, r.z, r.w = _quat(pose[2])
     return t
+
+
+# ------------------------------------------------------------------------------ wire format
+# A robot costs ~270 messages per sim second. Through rospy each is a genpy build and
+# serialisation (15-20 us) and, per subscriber, a hand-off to that connection's writer thread
+# (QueuedConnection.write_data ends in time.sleep(0): a GIL switch per message, two thirds of
+# the node's time in bench/ros_bench.py). Here each message kind has a template of its wire
+# bytes, built once by genpy and patched with struct.pack_into (checked against genpy at
+# start-up, see _check_wires), and _Outbox sends them in batches without blocking.
+
+_U32 = struct.Struct("<I")
+_II = struct.Struct("<II")
+_HDR = struct.Struct("<III")        # std_msgs/Header seq, stamp.secs, stamp.nsecs
+_D7 = struct.Struct("<7d")          # Pose: position xyz, orientation xyzw
+_D6 = struct.Struct("<6d")          # Twist: linear xyz, angular xyz
+_D2 = struct.Struct("<2d")
+_F7 = struct.Struct("<7f")
+_SENTINELS = (1234.5678125, 2345.6789125)   # exact in float32 too
+
+
+def _wire(msg) -> bytes:
+    """What rospy sends for ``msg``: its length (uint32), then the serialised message."""
+    b = io.BytesIO()
+    msg.serialize(b)
+    data = b.getvalue()
+    return _U32.pack(len(data)) + data
+
+
+def _at(data: bytes, fmt: str, value: float) -> int:
+    """Offset of the single place where ``value`` packed as ``fmt`` occurs in ``data``."""
+    key = struct.pack(fmt, value)
+    i = data.find(key)
+    if i < 0 or data.find(key, i + 1) >= 0:
+        raise RuntimeError("simulator: message template has no unique slot for %r" % value)
+    return i
+
+
+class _OdomWire:
+    """nav_msgs/Odometry of a planar pose and body velocity between two fixed frames."""
+
+    def __init__(self, frame: str, child: str) -> None:
+        t = _wire(_odometry(frame, child, (_SENTINELS[0], 0.0, 0.0), (_SENTINELS[1], 0.0, 0.0),
+                            rospy.Time(1, 0)))
+        self.buf = bytearray(t)
+        self.pose_at = _at(t, "<d", _SENTINELS[0])
+        self.twist_at = _at(t, "<d", _SENTINELS[1])
+
+    def pack(self, seq: int, secs: int, nsecs: int, pose, vel) -> bytes:
+        b = self.buf
+        h = 0.5 * pose[2]
+        _HDR.pack_into(b, 4, seq, secs, nsecs)
+        _D7.pack_into(b, self.pose_at, pose[0], pose[1], 0.0, 0.0, 0.0, math.sin(h), math.cos(h))
+        _D6.pack_into(b, self.twist_at, vel[0], vel[1], 0.0, 0.0, 0.0, vel[2])
+        return bytes(b)
+
+
+class _PoseWire:
+    """geometry_msgs/PoseStamped of a planar pose in a fixed frame."""
+
+    def __init__(self, frame: str) -> None:
+        m = PoseStamped()
+        m.header.frame_id = frame
+        m.pose.position.x = _SENTINELS[0]
+        m.pose.orientation.w = 1.0
+        t = _wire(m)
+        self.buf = bytearray(t)
+        self.pose_at = _at(t, "<d", _SENTINELS[0])
+
+    def pack(self, seq: int, secs: int, nsecs: int, pose) -> bytes:
+        b = self.buf
+        h = 0.5 * pose[2]
+        _HDR.pack_into(b, 4, seq, secs, nsecs)
+        _D7.pack_into(b, self.pose_at, pose[0], pose[1], 0.0, 0.0, 0.0, math.sin(h), math.cos(h))
+        return bytes(b)
+
+
+class _TfWire:
+    """tf2_msgs/TFMessage of planar transforms between fixed frame pairs, one stamp for all."""
+
+    def __init__(self, pairs: List[Tuple[str, str]]) -> None:
+        self.parts = []
+        for parent, child in pairs:
+            b = io.BytesIO()
+            _transform(parent, child, (_SENTINELS[0], 0.0, 0.0), rospy.Time(1, 0)).serialize(b)
+            t = b.getvalue()
+            self.parts.append((bytearray(t), _at(t, "<d", _SENTINELS[0])))
+        self.head = _U32.pack(4 + sum(len(t) for t, _ in self.parts)) + _U32.pack(len(pairs))
+
+    def pack(self, secs: int, nsecs: int, poses) -> bytes:
+        out = [self.head]
+        for (b, at), pose in zip(self.parts, poses):
+            h = 0.5 * pose[2]
+            _II.pack_into(b, 4, secs, nsecs)          # the header's seq (0) comes first
+            _D7.pack_into(b, at, pose[0], pose[1], 0.0, 0.0, 0.0, math.sin(h), math.cos(h))
+            out.append(bytes(b))
+        return b"".join(out)
+
+
+class _ScanWire:
+    """sensor_msgs/LaserScan of one robot's lidar (geometry fixed, ranges float32)."""
+
+    def __init__(self, frame: str, s) -> None:
+        m = LaserScan()
+        m.header.frame_id = frame
+        m.angle_min, m.angle_max, m.angle_increment = s.angle_min, s.angle_max, s.angle_increment
+        m.scan_time = s.scan_time
+        m.range_min, m.range_max = s.range_min, s.range_max
+        self.key = (s.angle_min, s.angle_max, s.angle_increment, s.scan_time, s.range_min,
+                    s.range_max)
+        self.head = bytearray(_wire(m)[:-8])    # without the empty ranges and intensities
+
+    def pack(self, seq: int, secs: int, nsecs: int, ranges: np.ndarray) -> bytes:
+        r = ranges.astype("<f4", copy=False).tobytes()
+        h = self.head
+        _U32.pack_into(h, 0, len(h) + len(r) + 4)
+        _HDR.pack_into(h, 4, seq, secs, nsecs)
+        return b"".join((h, _U32.pack(len(ranges)), r, b"\0\0\0\0"))
+
+
+class _JointsWire:
+    """sensor_msgs/JointState of the two wheels (positions, velocities; no efforts)."""
+
+    def __init__(self, names: List[str]) -> None:
+        m = JointState()
+        m.name = list(names)
+        m.position = [_SENTINELS[0], 0.0]
+        m.velocity = [_SENTINELS[1], 0.0]
+        t = _wire(m)
+        self.buf = bytearray(t)
+        self.pos_at = _at(t, "<d", _SENTINELS[0])
+        self.vel_at = _at(t, "<d", _SENTINELS[1])
+
+    def pack(self, seq: int, secs: int, nsecs: int, pos, vel) -> bytes:
+        b = self.buf
+        _HDR.pack_into(b, 4, seq, secs, nsecs)
+        _D2.pack_into(b, self.pos_at, pos[0], pos[1])
+        _D2.pack_into(b, self.vel_at, vel[0], vel[1])
+        return bytes(b)
+
+
+def _battery(stamp, volt: float, pct: float, charge: float, capacity: float) -> BatteryState:
+    b = BatteryState()
+    b.header.stamp = stamp
+    b.voltage, b.percentage, b.charge = volt, pct, charge
+    b.capacity = b.design_capacity = capacity
+    b.current = float("nan")
+    b.power_supply_status = BatteryState.POWER_SUPPLY_STATUS_DISCHARGING
+    b.power_supply_technology = BatteryState.POWER_SUPPLY_TECHNOLOGY_UNKNOWN
+    b.present = True
+    return b
+
+
+class _BatteryWire:
+    """sensor_msgs/BatteryState: voltage, charge and percentage change, the rest is fixed."""
+
+    def __init__(self, capacity: float) -> None:
+        t = _wire(_battery(rospy.Time(1, 0), _SENTINELS[0], 0.0, 0.0, capacity))
+        self.capacity = capacity
+        self.buf = bytearray(t)
+        self.at = _at(t, "<f", _SENTINELS[0])   # voltage .. percentage: seven float32
+
+    def pack(self, seq: int, secs: int, nsecs: int, volt: float, pct: float,
+             charge: float) -> bytes:
+        b = self.buf
+        _HDR.pack_into(b, 4, seq, secs, nsecs)
+        _F7.pack_into(b, self.at, volt, 0.0, math.nan, charge, self.capacity, self.capacity,
+                      pct)
+        return bytes(b)
+
+
+def _check_wires() -> None:
+    """Every template against genpy's serialisation of the same message (start-up check).
+
+    Raises:
+        RuntimeError: a template writes different bytes than genpy (a message definition
+            differs from the one these templates were written for).
+    """
+    stamp = rospy.Time(1234567, 89012345)
+    pose, vel = (1.25, -3.5, 2.75), (0.4, 0.1, -0.3)
+
+    def same(mine: bytes, msg, seq: int = 7) -> None:
+        if hasattr(msg, "header"):
+            msg.header.seq = seq
+        if mine != _wire(msg):
+            raise RuntimeError("simulator: wire template for %s differs from genpy" % msg._type)
+
+    same(_OdomWire("a/odom", "a/base_footprint").pack(7, stamp.secs, stamp.nsecs, pose, vel),
+         _odometry("a/odom", "a/base_footprint", pose, vel, stamp))
+    ps = PoseStamped()
+    ps.header.stamp, ps.header.frame_id = stamp, "map"
+    ps.pose = _odometry("map", "", pose, vel, stamp).pose.pose
+    same(_PoseWire("map").pack(7, stamp.secs, stamp.nsecs, pose), ps)
+    pairs = [("odom", "base_footprint"), ("map", "r2/odom")]
+    same(_TfWire(pairs).pack(stamp.secs, stamp.nsecs, [pose, vel]),
+         TFMessage(transforms=[_transform(a, b, p, stamp) for (a, b), p in zip(pairs, [pose, vel])]))
+    from ..core.sensors import Scan
+
+    ranges = np.array([0.5, np.inf, -np.inf, 2.25], dtype=np.float32)
+    scan = Scan(robot=0, stamp_ns=stamp.to_nsec(), ranges=ranges, angle_min=-1.5,
+                angle_max=1.5, angle_increment=1.0, range_min=0.1, range_max=30.0,
+                scan_time=0.1)
+    m = LaserScan()
+    m.header.stamp, m.header.frame_id = stamp, "base_laser_link"
+    m.angle_min, m.angle_max, m.angle_increment = -1.5, 1.5, 1.0
+    m.scan_time, m.range_min, m.range_max = 0.1, 0.1, 30.0
+    m.ranges = ranges.tolist()
+    same(_ScanWire("base_laser_link", scan).pack(7, stamp.secs, stamp.nsecs, ranges), m)
+    js = JointState()
+    js.header.stamp, js.name = stamp, ["l", "r"]
+    js.position, js.velocity = [1.5, -2.5], [0.25, 0.5]
+    same(_JointsWire(["l", "r"]).pack(7, stamp.secs, stamp.nsecs, (1.5, -2.5), (0.25, 0.5)), js)
+    same(_BatteryWire(60.0).pack(7, stamp.secs, stamp.nsecs, 28.1, 0.75, 45.0),
+         _battery(stamp, 28.1, 0.75, 45.0, 60.0))
+
+
+class _Outbox:
+    """Batched, non-blocking delivery of wire bytes to the subscribers of some publishers.
+
+    rospy hands every message to one writer thread per subscriber. Here messages wait per
+    connection and leave in one non-blocking ``send`` per connection per ``flush``; a
+    subscriber that does not keep up loses its oldest messages beyond the publisher's queue
+    size (as with rospy's queue) and never stalls the simulation. Main thread only. Publishers
+    used here are created without a rospy queue (raw connections) and never publish through
+    rospy, so nothing else writes to their sockets.
+    """
+
+    def __init__(self) -> None:
+        self._queues: Dict[object, list] = {}   # connection -> [messages, bytes sent of the first]
+
+    @staticmethod
+    def publisher(topic: str, cls, queue_size: int) -> rospy.Publisher:
+        """A publisher for ``put``: rospy connections without rospy's per-connection queue."""
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")     # rospy warns about a missing queue_size
+            pub = rospy.Publisher(topic, cls, queue_size=None)
+        pub._bfs_queue_size = queue_size
+        return pub
+
+    @staticmethod
+    def wanted(pub: rospy.Publisher) -> bool:
+        """Whether anyone subscribes (build nothing otherwise)."""
+        return bool(pub.impl.connections)
+
+    def put(self, pub: rospy.Publisher, data: bytes) -> None:
+        """Queue ``data`` (from a *Wire ``pack``) for every current subscriber of ``pub``."""
+        limit = pub._bfs_queue_size
+        for c in pub.impl.connections:
+            q = self._queues.get(c)
+            if q is None:
+                q = self._queues[c] = [[], 0]
+            msgs = q[0]
+            msgs.append(data)
+            if len(msgs) > limit:               # drop the oldest not yet being sent
+                del msgs[1 if q[1] else 0]
+
+    def flush(self) -> None:
+        """Send what each connection's socket takes now; keep the rest for the next flush."""
+        for c, q in list(self._queues.items()):
+            msgs = q[0]
+            sock = getattr(c, "socket", None)
+            if getattr(c, "done", True) or sock is None:
+                del self._queues[c]
+                continue
+            if not msgs:
+                continue
+            data = msgs[0] if len(msgs) == 1 else b"".join(msgs)
+            try:
+                n = sock.send(memoryview(data)[q[1]:], socket.MSG_DONTWAIT)
+            except (BlockingIOError, InterruptedError):
+                continue
+            except OSError:                     # subscriber gone: rospy's own clean-up
+                del self._queues[c]
+                try:
+                    c.close()
+                except Exception:  # noqa: BLE001  (already closing)
+                    pass
+                continue
+            left = n + q[1]
+            k = 0
+            while k < len(msgs) and left >= len(msgs[k]):
+                left -= len(msgs[k])
+                k += 1
+            del msgs[:k]
+            q[1] = left
+            c.stat_bytes = getattr(c, "stat_bytes", 0) + n
+            c.stat_num_msg = getattr(c, "stat_num_msg", 0) + k
 
 
 def _stop_listening_to_own_clock() -> bool:
@@ -152,37 +445,69 @@ class StopSignals:
 
 
 class SimulatorNode:
-    """ROS glue around one core ``World``: messages in and out, pacing, services."""
+    """ROS glue around one core ``World``: messages in and out, pacing, services.
+
+    Args:
+        world: the core world.
+        rtf: real-time factor to hold (0 = as fast as possible).
+        rates: Hz of "clock", "odom" (and tf), "pose" (ground truth), "state" (battery, joints).
+        publish_map: publish the world's map, latched, on /map and /map_metadata.
+        ground_truth_tf: publish map -> N/odom from ground truth.
+        initialpose: publish spawn poses, latched, on N/initialpose.
+        clock_wall_period: when running faster than real time, /clock is published at most
+            once per this many wall seconds (nobody consumes it faster; every message still
+            carries its exact sim-time stamp).
+        flush_period: wall seconds between sends of the queued messages when not pacing.
+    """
 
     def __init__(self, world: World, rtf: float, rates: dict, publish_map: bool,
-                 ground_truth_tf: bool = False, initialpose: bool = False) -> None:
+                 ground_truth_tf: bool = False, initialpose: bool = False,
+                 clock_wall_period: float = 0.001, flush_period: float = 0.002) -> None:
+        _check_wires()
         self.world = world
         self.ground_truth_tf = ground_truth_tf
         self.own_time = _stop_listening_to_own_clock()
         self.rtf = rtf
         self.lock = threading.Lock()
         self.paused = False
+        self.clock_wall_period = clock_wall_period
+        self.flush_period = flush_period
         step = world.clock.step_ns
         self.every = {k: max(1, int(round(1e9 / v / step))) for k, v in rates.items()}
+        self.out = _Outbox()
+        pub = self.out.publisher
         self.robots = []
         for i, spec in enumerate(world.specs):
             ns = "/" + spec.name if spec.name else ""
             pre = spec.prefix
             r = {
                 "prefix": pre,
-                "odom": rospy.Publisher(ns + "/odom", Odometry, queue_size=10),
-                "scan": rospy.Publisher(ns + "/base_scan", LaserScan, queue_size=10),
-                "gt": rospy.Publisher(ns + "/base_pose_ground_truth", Odometry, queue_size=10),
-                "pose": rospy.Publisher(ns + "/pose", PoseStamped, queue_size=10),
-                "battery": rospy.Publisher(ns + "/battery_state", BatteryState, queue_size=2),
-                "joints": rospy.Publisher(ns + "/joint_states", JointState, queue_size=10),
-                "wheels": [pre + j for j in world.models[i].wheel_joints],
+                "odom": pub(ns + "/odom", Odometry, 10),
+                "scan": pub(ns + "/base_scan", LaserScan, 10),
+                "gt": pub(ns + "/base_pose_ground_truth", Odometry, 10),
+                "pose": pub(ns + "/pose", PoseStamped, 10),
+                "battery": pub(ns + "/battery_state", BatteryState, 2),
+                "joints": pub(ns + "/joint_states", JointState, 10),
+                "odom_wire": _OdomWire(pre + "odom", pre + "base_footprint"),
+                "gt_wire": _OdomWire("map", pre + "base_footprint"),
+                "pose_wire": _PoseWire("map"),
+                "joints_wire": _JointsWire([pre + j for j in world.models[i].wheel_joints]),
+                "battery_wire": _BatteryWire(spec.battery.capacity_ah),
+                "scan_wire": None,
+                "seq": {"odom": 0, "gt": 0, "pose": 0, "joints": 0, "battery": 0, "scan": 0},
             }
             rospy.Subscriber(ns + "/cmd_vel", Twist, self._on_cmd, callback_args=i, queue_size=1)
             self.robots.append(r)
-        self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=10)
-        self.tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=100)
+        self.clock_pub = pub("/clock", Clock, 10)
+        self.tf_pub = pub("/tf", TFMessage, 100)
+        pairs = [(r["prefix"] + "odom", r["prefix"] + "base_footprint") for r in self.robots]
+        if ground_truth_tf:
+            pairs += [("map", r["prefix"] + "odom") for r in self.robots]
+        self.tf_wire = _TfWire(pairs)
         self.rtf_pub = rospy.Publisher("~real_time_factor_achieved", Float64, queue_size=1)
+        self._clock_wall = -math.inf      # wall time of the last /clock
+        self._clock_behind = False        # a due /clock was skipped (wall-rate bound)
+        self._flush_wall = time.perf_counter()
         if publish_map:
             self._publish_map()
         self.initialpose = [rospy.Publisher(("/" + sp.name if sp.name else "") + "/initialpose",
@@ -251,86 +576,90 @@ class SimulatorNode:
         self.map_pub.publish(grid)
         self.meta_pub.publish(info)
 
+    def _publish_clock(self, now_ns: int) -> None:
+        secs, nsecs = divmod(now_ns, 1_000_000_000)
+        if self.own_time:
+            _set_rostime(rospy.Time(secs, nsecs))
+        if self.out.wanted(self.clock_pub):
+            self.out.put(self.clock_pub, _U32.pack(8) + _II.pack(secs, nsecs))
+        self._clock_behind = False
+
     def publish(self, scans) -> None:
-        """Publish what is due after a step (called with the lock held)."""
+        """Queue what is due after a step (called with the lock held; ``flush`` sends)."""
         w = self.world
         steps = w.clock.steps
-        stamp = _stamp(w.clock.now_ns)
-        if self.own_time:
-            _set_rostime(stamp)
+        now_ns = w.clock.now_ns
         if steps % self.every["clock"] == 0:
-            self.clock_pub.publish(Clock(clock=stamp))
+            wall = time.perf_counter()
+            if wall - self._clock_wall >= self.clock_wall_period:
+                self._clock_wall = wall
+                self._publish_clock(now_ns)
+            else:
+                self._clock_behind = True
         odom_due = steps % self.every["odom"] == 0
         pose_due = steps % self.every["pose"] == 0
         state_due = steps % self.every["state"] == 0
-        tfs: List[TransformStamped] = []
         if odom_due or pose_due or state_due:
-            w.update_odometry()
-            for i, r in enumerate(self.robots):
-                v = w.view(i, refresh=False)
-                if odom_due:
-                    self._odom(r, v, stamp, tfs)
-                    if self.ground_truth_tf:
-                        tfs.append(self._map_to_odom(r, v, stamp))
-                if pose_due:
-                    self._ground_truth(r, v, stamp)
-                if state_due:
-                    self._state(i, r, v, stamp)
-        if tfs:
-            self.tf_pub.publish(TFMessage(transforms=tfs))
+            self._robot_states(now_ns, odom_due, pose_due, state_due)
+        out = self.out
         for s in scans:
-            self._scan(self.robots[s.robot], s)
+            r = self.robots[s.robot]
+            if not out.wanted(r["scan"]):
+                continue
+            wire = r["scan_wire"]
+            if wire is None or wire.key != (s.angle_min, s.angle_max, s.angle_increment,
+                                            s.scan_time, s.range_min, s.range_max):
+                wire = r["scan_wire"] = _ScanWire(r["prefix"] + "base_laser_link", s)
+            r["seq"]["scan"] += 1
+            secs, nsecs = divmod(s.stamp_ns, 1_000_000_000)
+            out.put(r["scan"], wire.pack(r["seq"]["scan"], secs, nsecs, s.ranges))
 
-    def _odom(self, r: dict, v, stamp, tfs: List[TransformStamped]) -> None:
-        odom, base = r["prefix"] + "odom", r["prefix"] + "base_footprint"
-        r["odom"].publish(_odometry(odom, base, v.odom_pose, v.velocity, stamp))
-        tfs.append(_transform(odom, base, v.odom_pose, stamp))
+    def _robot_states(self, now_ns: int, odom_due: bool, pose_due: bool,
+                      state_due: bool) -> None:
+        w = self.world
+        out = self.out
+        wanted = out.wanted
+        secs, nsecs = divmod(now_ns, 1_000_000_000)
+        w.update_odometry()
+        snap = w.snapshot()
+        pose, vel, odom = snap.pose.tolist(), snap.velocity.tolist(), snap.odom_pose.tolist()
+        if state_due:
+            wpos, wvel = snap.wheel_positions.tolist(), snap.wheel_velocities.tolist()
+        for i, r in enumerate(self.robots):
+            seq = r["seq"]
+            if odom_due and wanted(r["odom"]):
+                seq["odom"] += 1
+                out.put(r["odom"], r["odom_wire"].pack(seq["odom"], secs, nsecs, odom[i], vel[i]))
+            if pose_due:
+                if wanted(r["gt"]):
+                    seq["gt"] += 1
+                    out.put(r["gt"], r["gt_wire"].pack(seq["gt"], secs, nsecs, pose[i], vel[i]))
+                if wanted(r["pose"]):
+                    seq["pose"] += 1
+                    out.put(r["pose"], r["pose_wire"].pack(seq["pose"], secs, nsecs, pose[i]))
+            if state_due:
+                if wanted(r["joints"]):
+                    seq["joints"] += 1
+                    out.put(r["joints"], r["joints_wire"].pack(seq["joints"], secs, nsecs,
+                                                               wpos[i], wvel[i]))
+                if wanted(r["battery"]):
+                    seq["battery"] += 1
+                    pct, volt, charge = w.battery.state(i, now_ns)
+                    out.put(r["battery"], r["battery_wire"].pack(seq["battery"], secs, nsecs,
+                                                                 volt, pct, charge))
+        if odom_due and wanted(self.tf_pub):
+            poses = odom
+            if self.ground_truth_tf:
+                poses = odom + [_map_to_odom(g, o) for g, o in zip(pose, odom)]
+            out.put(self.tf_pub, self.tf_wire.pack(secs, nsecs, poses))
 
-    def _map_to_odom(self, r: dict, v, stamp) -> TransformStamped:
-        """map -> N/odom that makes odom -> base_footprint land on the ground truth (what
-        fake_localization does); only when no localisation node (amcl) publishes it."""
-        xg, yg, thg = v.pose
-        xo, yo, tho = v.odom_pose
-        th = thg - tho
-        c, s = math.cos(th), math.sin(th)
-        return _transform("map", r["prefix"] + "odom",
-                          (xg - (c * xo - s * yo), yg - (s * xo + c * yo), th), stamp)
-
-    def _ground_truth(self, r: dict, v, stamp) -> None:
-        m = _odometry("map", r["prefix"] + "base_footprint", v.pose, v.velocity, stamp)
-        r["gt"].publish(m)
-        ps = PoseStamped()
-        ps.header = m.header
-        ps.pose = m.pose.pose
-        r["pose"].publish(ps)
-
-    def _state(self, i: int, r: dict, v, stamp) -> None:
-        js = JointState()
-        js.header.stamp = stamp
-        js.name = r["wheels"]
-        js.position = list(v.wheel_positions)
-        js.velocity = list(v.wheel_velocities)
-        r["joints"].publish(js)
-        pct, volt, charge = self.world.battery.state(i, self.world.clock.now_ns)
-        b = BatteryState()
-        b.header.stamp = stamp
-        b.voltage, b.percentage, b.charge = volt, pct, charge
-        b.capacity = b.design_capacity = self.world.specs[i].battery.capacity_ah
-        b.current = float("nan")
-        b.power_supply_status = BatteryState.POWER_SUPPLY_STATUS_DISCHARGING
-        b.power_supply_technology = BatteryState.POWER_SUPPLY_TECHNOLOGY_UNKNOWN
-        b.present = True
-        r["battery"].publish(b)
-
-    def _scan(self, r: dict, s) -> None:
-        m = LaserScan()
-        m.header.stamp = _stamp(s.stamp_ns)
-        m.header.frame_id = r["prefix"] + "base_laser_link"
-        m.angle_min, m.angle_max, m.angle_increment = s.angle_min, s.angle_max, s.angle_increment
-        m.scan_time = s.scan_time
-        m.range_min, m.range_max = s.range_min, s.range_max
-        m.ranges = s.ranges.tolist()
-        r["scan"].publish(m)
+    def flush(self) -> None:
+        """Send the queued messages (and the latest /clock if the wall-rate bound held it)."""
+        if self._clock_behind:
+            self._clock_wall = time.perf_counter()
+            self._publish_clock(self.world.clock.now_ns)
+        self.out.flush()
+        self._flush_wall = time.perf_counter()
 
     # ------------------------------------------------------------------------- main loop
     def spin(self, stop: Callable[[], bool] = lambda: False) -> None:
@@ -346,6 +675,7 @@ class SimulatorNode:
         rep_wall, rep_sim = wall0, sim0
         while not (rospy.is_shutdown() or stop()):
             if self.paused:
+                self.flush()
                 time.sleep(0.01)
                 wall0, sim0 = time.perf_counter(), w.clock.now
                 continue
@@ -353,18 +683,31 @@ class SimulatorNode:
                 scans = w.step(1)
                 self.publish(scans)
             now_wall = time.perf_counter()
+            ahead = 0.0
             if self.rtf > 0:
                 ahead = (w.clock.now - sim0) / self.rtf - (now_wall - wall0)
-                if ahead > 0:
-                    time.sleep(min(ahead, 0.05))
-                elif ahead < -1.0:  # far behind: do not try to catch up in a burst
+                if ahead < -1.0:  # far behind: do not try to catch up in a burst
                     wall0, sim0 = now_wall, w.clock.now
+            if ahead > 0 or now_wall - self._flush_wall >= self.flush_period:
+                self.flush()
+            if ahead > 0:
+                time.sleep(min(ahead, 0.05))
             if now_wall >= report_at:
                 achieved = (w.clock.now - rep_sim) / (now_wall - rep_wall)
                 rospy.loginfo("simulator: real-time factor %.2f (asked %s)", achieved,
                               self.rtf if self.rtf > 0 else "as fast as possible")
                 self.rtf_pub.publish(Float64(achieved))
                 report_at, rep_wall, rep_sim = now_wall + 10.0, now_wall, w.clock.now
+
+
+def _map_to_odom(truth, odom) -> Tuple[float, float, float]:
+    """map -> N/odom that makes odom -> base_footprint land on the ground truth (what
+    fake_localization does); only when no localisation node (amcl) publishes it."""
+    xg, yg, thg = truth
+    xo, yo, tho = odom
+    th = thg - tho
+    c, s = math.cos(th), math.sin(th)
+    return xg - (c * xo - s * yo), yg - (s * xo + c * yo), th
 
 
 class RobotStatePublishers:
