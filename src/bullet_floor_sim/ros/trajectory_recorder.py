@@ -20,8 +20,9 @@ stored meta; default the ROIs' map or the world's name), ``~world`` (default the
 simulator's ``/simulator/world``, else office), ``~rois_file``
 (default the world's rois.yaml), ``~rois_service`` /soma/query_rois (used first when it
 answers within ``~rois_wait`` 2 s), ``~rois_config`` (""), ``~frame_id`` map,
-``~path_rate`` 2 Hz, ``~db_timeout`` 1.5 s (an unreachable database counts as down after
-that long), ``~db_retry_interval`` 5 s (how often a database found down is tried again).
+``~path_rate`` 2 Hz (0: no live path), ``~db_timeout`` 1.5 s (an unreachable database
+counts as down after that long), ``~db_retry_interval`` 5 s (how often a database found down
+is tried again).
 """
 from __future__ import annotations
 
@@ -42,8 +43,8 @@ from ..core.paths import worlds_dir
 from ..core.rois import Roi, load_rois
 from ..core.store import StoreError, insert_message, open_store
 from ..core.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_GAP, DEFAULT_MAX_POSES,
-                               DEFAULT_PERIOD, INDEXES, STORED_TYPE, Chunk, Chunker,
-                               RegionLocator, chunk_fields)
+                               DEFAULT_PERIOD, STORED_TYPE, Chunk, Chunker, RegionLocator,
+                               chunk_fields, ensure_indexes)
 from ..msg import Trajectory
 
 __all__ = ["main", "RecorderNode", "RospyLogHandler", "chunk_to_msg", "forward_store_log",
@@ -162,8 +163,7 @@ class RecorderNode:
         self.store = open_store(str(gp("~db", "")) or None,
                                 timeout=float(gp("~db_timeout", 1.5)),
                                 retry_interval=float(gp("~db_retry_interval", 5.0)))
-        for keys in INDEXES:
-            self.store.create_index(DATABASE, COLLECTION, keys)
+        ensure_indexes(self.store)
         self.lock = threading.Lock()
         self.finished = False
         self.live: List[PoseStamped] = []
@@ -264,7 +264,7 @@ class RecorderNode:
                 self._store(ended)
                 self.live = []
                 self.live_dirty = True
-            if not self.live_dirty:
+            if not self.live_dirty or self.path_rate <= 0:
                 return
             self.live_dirty = False
             path = Path(Header(0, now, self.frame_id), list(self.live))

@@ -179,10 +179,10 @@ class ViewerNode:
 
     def _tick(self, event) -> None:
         with self.lock:
-            wall = rospy.get_rostime().to_sec()
-            due = self.refresh_period > 0 and wall >= self.next_refresh
+            now = rospy.get_rostime().to_sec()
+            due = self.refresh_period > 0 and now >= self.next_refresh
             if self.need_reload or due:
-                self.next_refresh = wall + self.refresh_period
+                self.next_refresh = now + self.refresh_period
                 self._reload_or_warn()
 
     def _on_chunk(self, msg: Trajectory) -> None:
