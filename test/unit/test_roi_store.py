@@ -188,7 +188,11 @@ def test_query_most_recent_ids_and_configs(rstore, clock):
     by_id = rstore.query(RoiQuery(query_type=0, roiids=["2", "10"], roiconfigs=["1"],
                                   returnmostrecent=False))
     assert [d["id"] for d in by_id["rois"]] == ["2", "2", "10"]
-    assert json.loads(by_id["queryjson"])["$and"][0] == {"map_name": "office"}
+    assert json.loads(by_id["queryjson"]) == {"map_name": "office", "config": "1",
+                                              "id": {"$in": ["2", "10"]}}
+    two_configs = rstore.query(RoiQuery(query_type=0, returnmostrecent=True, roiids=["1"],
+                                        roiconfigs=["1", "other"]))
+    assert [(d["config"], d["id"]) for d in two_configs["rois"]] == [("1", "1"), ("other", "1")]
     listing = rstore.query(RoiQuery(query_type=1))
     assert listing == {"configs": ["1", "other"], "ids": ["1", "2", "10"], "rois": [],
                        "queryjson": '{"map_name": "office"}'}
