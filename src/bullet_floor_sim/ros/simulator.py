@@ -11,7 +11,8 @@ Parameters: ``~world`` (name under worlds/ or a world.yaml path; default office)
 ``~seed`` (-1 = random), ``~clock_rate`` (100), ``~odom_rate`` (50), ``~pose_rate`` (20),
 ``~state_rate`` (10: battery and joint states), ``~publish_map`` (true),
 ``~ground_truth_tf`` (false: true publishes map -> N/odom from ground truth, for runs without
-amcl),
+amcl; a list of robot names does it for those robots only, e.g. a walker beside an observer
+that amcl localises),
 ``~single_robot`` (false: true keeps only the world's first robot and gives it an empty name,
 i.e. bare topics and frames ``/odom``, ``odom``, ``base_footprint``, as the MORSE tutorial's),
 ``~publish_initialpose`` (false: true publishes each spawn pose, latched, on ``N/initialpose``
@@ -33,7 +34,7 @@ import subprocess
 import sys
 import threading
 import time
-from typing import Callable, Dict, List, Optional, Tuple
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -452,7 +453,8 @@ class SimulatorNode:
         rtf: real-time factor to hold (0 = as fast as possible).
         rates: Hz of "clock", "odom" (and tf), "pose" (ground truth), "state" (battery, joints).
         publish_map: publish the world's map, latched, on /map and /map_metadata.
-        ground_truth_tf: publish map -> N/odom from ground truth.
+        ground_truth_tf: publish map -> N/odom from ground truth: True for every robot, or
+            the names of the robots to do it for.
         initialpose: publish spawn poses, latched, on N/initialpose.
         clock_wall_period: when running faster than real time, /clock is published at most
             once per this many wall seconds (nobody consumes it faster; every message still
@@ -461,11 +463,12 @@ class SimulatorNode:
     """
 
     def __init__(self, world: World, rtf: float, rates: dict, publish_map: bool,
-                 ground_truth_tf: bool = False, initialpose: bool = False,
+                 ground_truth_tf: Union[bool, Sequence[str]] = False,
+                 initialpose: bool = False,
                  clock_wall_period: float = 0.001, flush_period: float = 0.002) -> None:
         _check_wires()
         self.world = world
-        self.ground_truth_tf = ground_truth_tf
+        self.gt_tf = _gt_tf_robots(ground_truth_tf, [s.name for s in world.specs])
         self.own_time = _stop_listening_to_own_clock()
         self.rtf = rtf
         self.lock = threading.Lock()
@@ -501,8 +504,7 @@ class SimulatorNode:
         self.clock_pub = pub("/clock", Clock, 10)
         self.tf_pub = pub("/tf", TFMessage, 100)
         pairs = [(r["prefix"] + "odom", r["prefix"] + "base_footprint") for r in self.robots]
-        if ground_truth_tf:
-            pairs += [("map", r["prefix"] + "odom") for r in self.robots]
+        pairs += [("map", self.robots[i]["prefix"] + "odom") for i in self.gt_tf]
         self.tf_wire = _TfWire(pairs)
         self.rtf_pub = rospy.Publisher("~real_time_factor_achieved", Float64, queue_size=1)
         self._clock_wall = -math.inf      # wall time of the last /clock
@@ -649,8 +651,8 @@ class SimulatorNode:
                                                                  volt, pct, charge))
         if odom_due and wanted(self.tf_pub):
             poses = odom
-            if self.ground_truth_tf:
-                poses = odom + [_map_to_odom(g, o) for g, o in zip(pose, odom)]
+            if self.gt_tf:
+                poses = odom + [_map_to_odom(pose[i], odom[i]) for i in self.gt_tf]
             out.put(self.tf_pub, self.tf_wire.pack(secs, nsecs, poses))
 
     def flush(self) -> None:
@@ -757,6 +759,20 @@ class RobotStatePublishers:
                 p.wait()
 
 
+def _gt_tf_robots(setting: Any, names: List[str]) -> List[int]:
+    """Indices of the robots whose map -> N/odom comes from ground truth (``~ground_truth_tf``:
+    a bool, or a list of robot names)."""
+    if isinstance(setting, (list, tuple)):
+        unknown = sorted(set(map(str, setting)) - set(names))
+        if unknown:
+            raise ConfigError("~ground_truth_tf: no robot named %s (robots: %s)"
+                              % (", ".join(unknown), ", ".join(n or "<empty>" for n in names)))
+        return [i for i, n in enumerate(names) if n in set(map(str, setting))]
+    if isinstance(setting, str):  # a launch-file string such as "true"/"false"
+        setting = setting.strip().lower() in ("true", "1", "yes")
+    return list(range(len(names))) if setting else []
+
+
 def main(argv: Optional[List[str]] = None) -> int:
     """Entry point of ``rosrun bullet_floor_sim simulator``."""
     rospy.init_node("simulator", disable_signals=True)
@@ -777,10 +793,15 @@ def main(argv: Optional[List[str]] = None) -> int:
         return 1
     rates = {k: float(rospy.get_param("~%s_rate" % k, d))
              for k, d in (("clock", 100.0), ("odom", 50.0), ("pose", 20.0), ("state", 10.0))}
-    node = SimulatorNode(world, float(rospy.get_param("~real_time_factor", 1.0)), rates,
-                         bool(rospy.get_param("~publish_map", True)),
-                         bool(rospy.get_param("~ground_truth_tf", False)),
-                         bool(rospy.get_param("~publish_initialpose", False)))
+    try:
+        node = SimulatorNode(world, float(rospy.get_param("~real_time_factor", 1.0)), rates,
+                             bool(rospy.get_param("~publish_map", True)),
+                             rospy.get_param("~ground_truth_tf", False),
+                             bool(rospy.get_param("~publish_initialpose", False)))
+    except BulletFloorSimError as e:
+        rospy.logfatal("simulator: %s", e)
+        world.close()
+        return 1
     rsps = None
     try:
         if rospy.get_param("~robot_state_publishers", True):
