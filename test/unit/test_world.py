@@ -328,7 +328,8 @@ def test_scans_over_the_ray_limit_are_split_and_exact():
 
         w.client.rayTestBatch = counting
         scans = w.step(10)
-        assert calls == [sensors.MAX_RAYS_PER_BATCH, 21600 - sensors.MAX_RAYS_PER_BATCH]
+        assert calls[:2] == [sensors.MAX_RAYS_PER_BATCH, 21600 - sensors.MAX_RAYS_PER_BATCH]
+        assert calls[2:] == [w.rays_at_robots] and 0 < w.rays_at_robots < 21600 / 4
         for scan, (x, y, yaw) in zip(scans, poses):
             ox, oy = x + 0.3 * math.cos(yaw), y + 0.3 * math.sin(yaw)
             angles = yaw + scan.angle_min + scan.angle_increment * np.arange(7200)
@@ -338,5 +339,62 @@ def test_scans_over_the_ray_limit_are_split_and_exact():
             ok = np.abs(got - want) < 0.01
             # beams that end on another robot are the only ones allowed to differ (shorter)
             assert (ok | (got < np.array(want))).all() and ok.mean() > 0.9
+    finally:
+        w.close()
+
+
+def test_own_body_is_never_seen_at_any_heading():
+    # the laser sits inside the base hull; a ray starting inside a convex shape may report a
+    # hit at 0 depending on its direction (half the beams were -inf near +-90 degrees)
+    w = simple_world([RobotSpec(name="r", pose=(2.5, 2.0, 0.0), laser=EXACT, odometry=STILL)])
+    try:
+        for yaw in np.radians(np.arange(-180.0, 180.0, 5.0)):
+            w.pose[0] = (2.5, 2.0, yaw)
+            w.lidar.forget()
+            w._next_scan_ns[:] = w.clock.now_ns
+            scan = w._scan()[0]
+            ox, oy = 2.5 + 0.3 * math.cos(yaw), 2.0 + 0.3 * math.sin(yaw)
+            angles = yaw + scan.angle_min + scan.angle_increment * np.arange(360)
+            np.testing.assert_allclose(scan.ranges, [expected_range(ox, oy, a) for a in angles],
+                                       atol=0.01, err_msg="yaw %.0f deg" % math.degrees(yaw))
+    finally:
+        w.close()
+
+
+def test_scans_equal_every_beam_cast_in_the_full_scene():
+    # the lidar casts at the walls with the robots moved out, then again only the beams that
+    # may meet a robot, and shortens rays from the previous scan: none of it may change a range
+    from bullet_floor_sim.core.sensors import cast_rays as cast
+
+    poses = [(1.0, 1.0, 0.3), (1.0, 3.0, -0.5), (2.5, 2.0, 2.0), (3.5, 3.2, 3.0), (5.2, 1.0, 1.6),
+             (5.2, 3.0, -2.0)]
+    w = simple_world([RobotSpec(name="r%d" % i, pose=p, laser=EXACT, odometry=STILL)
+                      for i, p in enumerate(poses)])
+    rng = np.random.default_rng(2)
+    try:
+        checked = 0
+        for k in range(300):
+            if k % 20 == 0:
+                for i in range(w.n):
+                    w.command(i, float(rng.uniform(0.0, 0.6)), 0.0, float(rng.uniform(-1, 1)))
+            scans = w.step(1)
+            if not scans:
+                continue
+            plan = w.lidar.plan([s.robot for s in scans], w.pose, w._bounds)
+            tos = plan.origins.copy()
+            tos[:, :2] += plan.dirs * plan.full[:, None]
+            frac, ids = cast(w.client, plan.froms, tos)      # every beam, robots in place
+            want = np.where(ids >= 0, plan.start + frac * (plan.full - plan.start), np.inf)
+            want[want < EXACT.range_min] = -np.inf
+            got = np.concatenate([s.ranges for s in scans])
+            np.testing.assert_array_equal(np.isposinf(got), np.isposinf(want))
+            np.testing.assert_array_equal(np.isneginf(got), np.isneginf(want))
+            on_robot = np.isin(ids, w.bodies) & np.isfinite(want)
+            got, want = np.where(np.isfinite(want), got, 0.0), np.where(np.isfinite(want), want, 0.0)
+            # walls: the same float32; robots: Bullet's convex ray cast agrees to a few mm
+            np.testing.assert_allclose(got[~on_robot], want[~on_robot], rtol=0, atol=1e-5)
+            np.testing.assert_allclose(got[on_robot], want[on_robot], rtol=0, atol=5e-3)
+            checked += on_robot.sum()
+        assert checked > 500 and w.rays_at_robots > 0
     finally:
         w.close()

@@ -20,6 +20,7 @@ _FRACTION = operator.itemgetter(2)
 __all__ = [
     "MAX_RAYS_PER_BATCH",
     "Scan",
+    "RayPlan",
     "Lidar",
     "Odometry",
     "Battery",
@@ -55,14 +56,15 @@ class Scan:
     scan_time: float
 
 
-def cast_rays(client, froms: np.ndarray, tos: np.ndarray, threads: int = 0
-              ) -> Tuple[np.ndarray, np.ndarray]:
+def cast_rays(client, froms: np.ndarray, tos: np.ndarray, threads: int = 0,
+              mask: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
     """Cast rays with ``rayTestBatch``, as few calls as the batch limit allows.
 
     Args:
         client: a pybullet BulletClient.
         froms, tos: (M, 3) ray start and end points.
         threads: pybullet numThreads (0 = all cores).
+        mask: collisionFilterMask (only bodies whose collision group shares a bit are hit).
 
     Returns:
         (hit fraction (M,) float64 in [0, 1], hit body id (M,) int, -1 = no hit).
@@ -72,12 +74,46 @@ def cast_rays(client, froms: np.ndarray, tos: np.ndarray, threads: int = 0
     ids = np.empty(m, dtype=np.int64)
     for s in range(0, m, MAX_RAYS_PER_BATCH):
         e = min(m, s + MAX_RAYS_PER_BATCH)
-        res = client.rayTestBatch(froms[s:e], tos[s:e], numThreads=threads)
+        if mask is None:
+            res = client.rayTestBatch(froms[s:e], tos[s:e], numThreads=threads)
+        else:
+            res = client.rayTestBatch(froms[s:e], tos[s:e], numThreads=threads,
+                                      collisionFilterMask=mask)
         if len(res) != e - s:
             raise RuntimeError("rayTestBatch returned %d results for %d rays" % (len(res), e - s))
         frac[s:e] = np.fromiter(map(_FRACTION, res), float, e - s)
         ids[s:e] = np.fromiter(map(_BODY, res), np.int64, e - s)
     return frac, ids
+
+
+#: How far beyond the previous scan's ranges a ray is cast before it is cast again in full.
+_PREDICT_MARGIN = 0.3
+
+
+@dataclass(frozen=True)
+class RayPlan:
+    """The rays of one scan tick (see ``Lidar.plan``); distances are from the laser origin.
+
+    Attributes:
+        robots: the scanning robots, in ray order; counts: beams of each.
+        origins, dirs: (M, 3) laser origin and (M, 2) unit direction of every beam.
+        froms, tos: (M, 3) the segments to cast.
+        start: (M,) where the segment starts (where the beam leaves the robot's own body).
+        length: (M,) segment length, tos - froms.
+        full: (M,) where the beam ends (range_max or the map bounds).
+        cut: (M,) the segment stops short of ``full`` (cast again in full on a miss).
+    """
+
+    robots: np.ndarray
+    counts: List[int]
+    origins: np.ndarray
+    dirs: np.ndarray
+    froms: np.ndarray
+    tos: np.ndarray
+    start: np.ndarray
+    length: np.ndarray
+    full: np.ndarray
+    cut: np.ndarray
 
 
 class Lidar:
@@ -103,42 +139,133 @@ class Lidar:
             amin = -half if c.fov < 360.0 - 1e-9 else -math.pi
             self.angles.append(amin + inc * np.arange(n))
         self.period_ns = np.array([int(round(1e9 / c.rate)) for c in self.cfgs], dtype=np.int64)
+        self.self_exit: List[Optional[np.ndarray]] = [None] * len(self.cfgs)
+        self._range_max = np.array([c.range_max for c in self.cfgs], dtype=float)
+        # where each beam starts (set_self_exit), one row per robot; ragged if geometries differ
+        width = max((len(a) for a in self.angles), default=0)
+        self._exits = np.zeros((len(self.cfgs), width))
+        kinds = {}                       # robots whose beams have the same angles share a kind
+        self._kind = [kinds.setdefault((len(a), float(a[0]) if len(a) else 0.0, c.resolution,
+                                        c.fov >= 360.0 - 1e-9), len(kinds))
+                      for a, c in zip(self.angles, self.cfgs)]
+        self._prev: List[Optional[tuple]] = [None] * len(self.cfgs)
 
-    def rays(self, robots: Sequence[int], poses: np.ndarray, bounds: Tuple[float, float, float, float]
-             ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, List[int]]:
+    def set_self_exit(self, robot: int, exit_dist: np.ndarray) -> None:
+        """Where each beam leaves the robot's own body (m from the laser origin, 0 = never
+        inside it): beams start there, so a lidar never sees its own robot."""
+        self.self_exit[robot] = np.asarray(exit_dist, dtype=float)
+        self._exits[robot, :len(self.self_exit[robot])] = self.self_exit[robot]
+
+    def forget(self, robots: Optional[Sequence[int]] = None) -> None:
+        """Drop the scan history used to shorten rays (after a teleport, e.g. a reset)."""
+        for i in (range(len(self.cfgs)) if robots is None else robots):
+            self._prev[i] = None
+
+    def plan(self, robots: Sequence[int], poses: np.ndarray,
+             bounds: Tuple[float, float, float, float]) -> RayPlan:
         """Ray segments for the given robots' scans.
 
-        Each ray runs from the laser origin toward range_max, clipped to ``bounds`` (nothing
-        beyond them can be hit), which keeps the BVH walk short.
-
-        Returns:
-            (froms (M, 3), tos (M, 3), full length of each ray as cast (M,), beam counts).
+        A beam runs from where it leaves the robot's own body toward range_max, clipped to
+        ``bounds`` (nothing beyond them can be hit). When the robot scanned before, the ray
+        is also cut a margin beyond the farthest of the previous scan's ranges around the
+        same world direction (a long ray walks past many walls and robots it cannot reach);
+        a cut ray that hits nothing is cast again in full (``World`` does), so the result is
+        exactly that of the full ray.
         """
-        froms, dirs, lens, counts = [], [], [], []
-        for i in robots:
-            x, y, yaw = poses[i]
-            c, s = math.cos(yaw), math.sin(yaw)
-            ox, oy, oz = self.offsets[i]
-            origin = (x + c * ox - s * oy, y + s * ox + c * oy, oz)
-            a = yaw + self.yaw[i] + self.angles[i]
-            d = np.column_stack((np.cos(a), np.sin(a)))
-            n = len(a)
-            froms.append(np.broadcast_to(origin, (n, 3)))
-            dirs.append(d)
-            lens.append(np.full(n, self.cfgs[i].range_max))
-            counts.append(n)
-        f = np.concatenate(froms)
-        d = np.concatenate(dirs)
-        length = np.minimum(np.concatenate(lens), _exit_distance(f[:, :2], d, bounds))
-        t = f.copy()
-        t[:, :2] += d * length[:, None]
-        return f, t, length, counts
+        robots = np.asarray(robots, dtype=np.int64).reshape(-1)
+        counts = [len(self.angles[i]) for i in robots.tolist()]
+        groups = {}
+        for q, i in enumerate(robots.tolist()):
+            groups.setdefault(self._kind[i], []).append(q)
+        parts = [self._plan_kind(np.array(qs, dtype=np.int64), robots, poses)
+                 for qs in groups.values()]
+        if len(parts) == 1:      # one lidar geometry (the usual case): already in ray order
+            o, d, start, end, rmax = parts[0][1:]
+        else:
+            m = int(sum(counts))
+            offs = np.concatenate(([0], np.cumsum(counts)))[:-1].astype(np.int64)
+            o, d, start, end, rmax = (np.empty((m, 3)), np.empty((m, 2)), np.empty(m),
+                                      np.empty(m), np.empty(m))
+            for qs, *arrays in parts:
+                n = counts[qs[0]]
+                at = (offs[qs][:, None] + np.arange(n)[None, :]).reshape(-1)
+                for dst, src in zip((o, d, start, end, rmax), arrays):
+                    dst[at] = src
+        full = np.minimum(rmax, _exit_distance(o[:, :2], d, bounds))
+        start = np.minimum(start, full)
+        end = np.clip(end, start, full)
+        short = end - start < 1e-6
+        end[short] = full[short]                 # nothing left to cast: cast it all
+        f = o.copy()
+        f[:, :2] += d * start[:, None]
+        t = o.copy()
+        t[:, :2] += d * end[:, None]
+        return RayPlan(robots=robots, counts=counts, origins=o, dirs=d, froms=f, tos=t,
+                       start=start, length=end - start, full=full, cut=end < full)
 
-    def ranges(self, robot: int, fraction: np.ndarray, hit: np.ndarray,
-               length: np.ndarray) -> np.ndarray:
-        """REP 117 ranges of one scan from hit fractions: noise, -inf below min, +inf no return."""
+    def _plan_kind(self, qs: np.ndarray, robots: np.ndarray, poses: np.ndarray):
+        """Beams of the scanning robots ``robots[qs]``, which share one lidar geometry:
+        (qs, origins, dirs, starts, predicted ends, range_max), robot after robot."""
+        rows = robots[qs]
+        n = len(self.angles[rows[0]])
+        yaw = poses[rows, 2]
+        c, sn = np.cos(yaw), np.sin(yaw)
+        ox, oy, oz = self.offsets[rows, 0], self.offsets[rows, 1], self.offsets[rows, 2]
+        origin = np.column_stack((poses[rows, 0] + c * ox - sn * oy,
+                                  poses[rows, 1] + sn * ox + c * oy, oz))          # (Q, 3)
+        ang = (yaw + self.yaw[rows])[:, None] + self.angles[rows[0]][None, :]      # (Q, n)
+        d = np.empty((len(rows) * n, 2))
+        d[:, 0] = np.cos(ang).reshape(-1)
+        d[:, 1] = np.sin(ang).reshape(-1)
+        start = self._exits[rows, :n].reshape(-1)
+        end = self._predict(rows, origin, yaw).reshape(-1)
+        rmax = np.repeat(self._range_max[rows], n)
+        return qs, np.repeat(origin, n, axis=0), d, start, end, rmax
+
+    def _predict(self, rows: np.ndarray, origin: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+        """(Q, beams) distance along each beam of robots ``rows`` (same lidar geometry)
+        beyond which the previous scan says nothing is hit (+inf when unknown). Only a
+        speed-up: a wrong guess costs a second cast."""
+        n = len(self.angles[rows[0]])
+        out = np.full((len(rows), n), np.inf)
+        known = [k for k, i in enumerate(rows.tolist()) if self._prev[i] is not None]
+        if not known:
+            return out
+        kn = np.array(known, dtype=np.int64)
+        prev = [self._prev[i] for i in rows[kn].tolist()]
+        dist = np.stack([p[0] for p in prev])                                 # (K, n)
+        meta = np.array([p[1:] for p in prev])                                # yaw0, x0, y0
+        inc = math.radians(self.cfgs[rows[0]].resolution)
+        turn = np.remainder(yaw[kn] - meta[:, 0] + np.pi, 2.0 * np.pi) - np.pi
+        shift = np.floor(turn / inc).astype(np.int64)        # new beam k = old k + turn / inc
+        base = np.arange(n)[None, :] + shift[:, None]
+        if self.cfgs[rows[0]].fov >= 360.0 - 1e-9:
+            near = np.maximum.reduce([np.take_along_axis(dist, np.remainder(base + k, n), 1)
+                                      for k in (-1, 0, 1, 2)])
+        else:   # beams beyond the fan: unknown
+            pad = np.pad(dist, ((0, 0), (3, 3)), constant_values=np.inf)
+            near = np.maximum.reduce([np.take_along_axis(pad, np.clip(base + k + 3, 0, n + 5), 1)
+                                      for k in (-1, 0, 1, 2)])
+        moved = np.hypot(origin[kn, 0] - meta[:, 1], origin[kn, 1] - meta[:, 2])
+        out[kn] = near + (_PREDICT_MARGIN + 2.0 * moved)[:, None]
+        return out
+
+    def remember(self, plan: RayPlan, poses: np.ndarray, dist: np.ndarray,
+                 hit: np.ndarray) -> None:
+        """Keep this scan's true ranges (+inf = no return) for the next scan's ``plan``."""
+        s = 0
+        for i, k in zip(plan.robots.tolist(), plan.counts):
+            e = s + k
+            o = plan.origins[s]
+            self._prev[i] = (np.where(hit[s:e], dist[s:e], np.inf), float(poses[i, 2]),
+                             float(o[0]), float(o[1]))
+            s = e
+
+    def ranges(self, robot: int, dist: np.ndarray, hit: np.ndarray) -> np.ndarray:
+        """REP 117 ranges of one scan from true hit distances: noise, -inf below min, +inf no
+        return."""
         cfg = self.cfgs[robot]
-        r = fraction * length
+        r = dist
         if cfg.noise_std > 0.0:
             r = r + self.rng.normal(0.0, cfg.noise_std, size=r.shape)
         out = np.where(hit, r, np.inf)

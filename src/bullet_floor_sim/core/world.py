@@ -35,6 +35,12 @@ __all__ = ["SimClock", "World", "RobotView", "Snapshot"]
 
 #: PyBullet accepts at most this many vertices per mesh shape (B3_MAX_NUM_VERTICES).
 _MAX_MESH_RECTS = 16000
+#: Collision filter group and mask of every robot body (PyBullet's for dynamic bodies, set
+#: explicitly); _SELF_GROUP briefly marks one robot for rays that must see only it.
+_ROBOT_GROUP, _ROBOT_MASK, _SELF_GROUP = 1, -1, 4
+_SELF_EXIT_EPS = 1e-4
+#: Ray batches smaller than this are cast on one thread (threads cost more than they save).
+_THREADED_RAYS = 2000
 _PENETRATION_TOL = 1e-3
 _CLEARANCE_MARGIN = 0.05
 
@@ -226,6 +232,7 @@ class World:
             except p.error as e:
                 raise ConfigError("robot %r: PyBullet cannot load model %r (%s): %s"
                                   % (spec.name, spec.model, model.urdf_path, e)) from None
+            p.setCollisionFilterGroupMask(b, -1, _ROBOT_GROUP, _ROBOT_MASK)
             self.bodies.append(b)
             info = p.getDynamicsInfo(b, -1)  # the base's pose in PyBullet is its inertial frame
             self._inertial.append((tuple(info[3]), tuple(info[4])))
@@ -244,7 +251,17 @@ class World:
         self._odom_every = max(1, int(round(1e9 / max(rates) / self.clock.step_ns)))
         self.battery = Battery([s.battery for s in self.specs], self.clock.now_ns)
         self._bounds = self.fmap.bounds()
+        self.rays_cast = 0          # rays cast so far (statistics)
+        self.rays_recast = 0        # of which cast again in full after a cut ray missed
+        self.rays_at_robots = 0     # of which cast again at other robots (see _scan)
+        self._lift_for_rays = not self._gui   # (robots would flicker in the window)
+        self._body_array = np.array(self.bodies, dtype=np.int64)
+        self._beam_geometry = self._beam_table()
+        self._idle = True           # no robot moves or has a non-zero command
+        self._odom_stale = False    # poses moved since the last odometry update
         self._check_spawns()
+        self._self_exit()
+        self._ray_radius = self._radius_at_lasers()
 
     def _body_radius(self, body: int) -> float:
         """Conservative footprint radius: the body's AABB half-diagonal in xy at its pose."""
@@ -293,6 +310,7 @@ class World:
         spec = self.specs[robot]
         check_command(spec.drive, vx, vy, w, "robot %r" % spec.name)
         self.target[robot] = (vx, vy, w)
+        self._idle = False
         self.last_cmd_ns[robot] = self.clock.now_ns
         self._expiry_ns = min(self._expiry_ns,
                               self.clock.now_ns + int(self.cmd_timeout_ns[robot]) + 1)
@@ -311,13 +329,17 @@ class World:
         self._penetration[rows] = 0.0
         self.odometry.reset(rows)
         self.battery.reset(rows, self.clock.now_ns)
+        self.lidar.forget(rows)
         self._check_due_ns = 0
         self._sync_bodies(rows)
 
     def update_odometry(self) -> None:
         """Bring odometry up to the current ground truth (done at the odometry rate anyway)."""
+        if not self._odom_stale:
+            return
         self.odometry.update(self._odom_ref, self.pose)
         self._odom_ref[:] = self.pose
+        self._odom_stale = False
 
     def view(self, robot: int, refresh: bool = True) -> RobotView:
         """Plain-number snapshot of one robot.
@@ -365,7 +387,7 @@ class World:
         """
         scans: List[Scan] = []
         for _ in range(n):
-            if self.n:
+            if self.n and not self._idle:
                 self._physics_step()
             self.clock.tick()
             if self.clock.steps % self._odom_every == 0:
@@ -396,6 +418,9 @@ class World:
             self._check_due_ns = now + self.clock.step_ns + int(t_safe * 1e9)
         self._travel[:, 0] += self.vel[:, 0] * dt
         self._travel[:, 1] += self.vel[:, 2] * dt
+        self._odom_stale = True
+        if not (self.vel.any() or self.target.any()):   # all at rest, nothing commanded
+            self._idle = True
 
     def _clearance_at(self, poses: np.ndarray) -> np.ndarray:
         col, row = self.fmap.world_to_cell(poses[:, 0], poses[:, 1])
@@ -463,24 +488,39 @@ class World:
             self._set_body(i, self.pose[i])
 
     def _scan(self) -> List[Scan]:
+        """Cast the due lidars.
+
+        PyBullet pays for every robot whose bounding box a ray passes through, even a robot
+        the ray's collision filter excludes, and every beam starts inside its own robot's box.
+        So the beams are first cast at the walls alone, with every robot body moved out of the
+        scene; then the robots are put back and only the beams that can reach another robot
+        before their wall (their line passes that robot's bounding circle nearer than the
+        wall) are cast again. Both steps are exact, so the ranges are those of casting every
+        beam in the full scene.
+        """
         now = self.clock.now_ns
         lasers = self._laser_robots
         due = lasers[self._next_scan_ns[lasers] <= now]
         np.remainder(self.pose[:, 2] + np.pi, 2.0 * np.pi, out=self.pose[:, 2])
         self.pose[:, 2] -= np.pi
-        self._sync_bodies()
         xmin, ymin, xmax, ymax = self._bounds
         lo = self.pose[:, :2].min(axis=0) - 1.0
         hi = self.pose[:, :2].max(axis=0) + 1.0
         bounds = (min(xmin, lo[0]), min(ymin, lo[1]), max(xmax, hi[0]), max(ymax, hi[1]))
-        froms, tos, length, counts = self.lidar.rays(due, self.pose, bounds)
-        frac, ids = cast_rays(self.client, froms, tos, self.ray_threads)
-        hit = ids >= 0
+        plan = self.lidar.plan(due, self.pose, bounds)
+        lift = self._lift_for_rays and self.n > 0
+        if lift:
+            self._lift_bodies()
+        dist, hit = self._cast(plan)
+        self._sync_bodies()
+        self.lidar.remember(plan, self.pose, dist, hit)
+        if lift and self.n > 1:
+            self._cast_at_robots(plan, dist, hit)
         out = []
         s = 0
-        for i, k in zip(due.tolist(), counts):
+        for i, k in zip(due.tolist(), plan.counts):
             e = s + k
-            ranges = self.lidar.ranges(i, frac[s:e], hit[s:e], length[s:e])
+            ranges = self.lidar.ranges(i, dist[s:e], hit[s:e])
             out.append(self.lidar.scan(i, now, ranges))
             s = e
         nxt = self._next_scan_ns[due] + self.lidar.period_ns[due]
@@ -488,6 +528,177 @@ class World:
         self._next_scan_ns[due] = np.where(nxt <= now, now + self.lidar.period_ns[due], nxt)
         self._scan_due_ns = int(self._next_scan_ns[lasers].min())
         return out
+
+    def _threads(self, rays: int) -> int:
+        return self.ray_threads if rays >= _THREADED_RAYS else 1
+
+    def _cast(self, plan) -> Tuple[np.ndarray, np.ndarray]:
+        """Distances (from the laser origin) and hits of a plan's rays; a ray the plan cut
+        short that hits nothing is cast again in full."""
+        frac, ids = cast_rays(self.client, plan.froms, plan.tos, self._threads(len(plan.froms)))
+        dist = plan.start + frac * plan.length
+        hit = ids >= 0
+        again = np.flatnonzero(plan.cut & ~hit)
+        if len(again):
+            rest = plan.full[again] - plan.start[again]
+            tos = plan.froms[again].copy()
+            tos[:, :2] += plan.dirs[again] * rest[:, None]
+            f2, i2 = cast_rays(self.client, plan.froms[again], tos, self._threads(len(again)))
+            dist[again] = plan.start[again] + f2 * rest
+            hit[again] = i2 >= 0
+        self.rays_cast += len(plan.froms) + len(again)
+        self.rays_recast += len(again)
+        return dist, hit
+
+    def _lift_bodies(self) -> None:
+        """Move every robot body far out of the scene, apart (until ``_sync_bodies``)."""
+        p = self.client
+        for i, b in enumerate(self.bodies):
+            p.resetBasePositionAndOrientation(b, (1e4 + 10.0 * i, 1e4, -1e4), (0.0, 0.0, 0.0, 1.0))
+
+    def _cast_at_robots(self, plan, dist: np.ndarray, hit: np.ndarray) -> None:
+        """Cast again, with the robots in place, the beams that may meet another robot before
+        their wall hit (``dist``/``hit`` updated in place). Each such ray only spans the
+        stretch where the beam is inside some other robot's bounding circle (and starts
+        beyond its own robot's body): it usually starts outside its own robot's bounding box."""
+        reach = np.where(hit, dist, plan.full)
+        idx, t_in, t_out = self._robot_candidates(plan, reach)
+        if not len(idx):
+            return
+        t_in = np.maximum(t_in, plan.start[idx])
+        t_out = np.minimum(t_out, reach[idx])
+        ok = t_out - t_in > 1e-9
+        idx, t_in, t_out = idx[ok], t_in[ok], t_out[ok]
+        o, d = plan.origins[idx], plan.dirs[idx]
+        froms = o.copy()
+        froms[:, :2] += d * t_in[:, None]
+        tos = o.copy()
+        tos[:, :2] += d * t_out[:, None]
+        frac, ids = cast_rays(self.client, froms, tos, self._threads(len(idx)))
+        robot = np.isin(ids, self._body_array)
+        at = idx[robot]
+        dist[at] = t_in[robot] + frac[robot] * (t_out[robot] - t_in[robot])
+        hit[at] = True
+        self.rays_cast += len(idx)
+        self.rays_at_robots += len(idx)
+
+    def _robot_candidates(self, plan, reach: np.ndarray
+                          ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The plan's rays whose line passes within another robot's bounding circle nearer
+        than ``reach`` (a robot's body lies inside its circle, so no other ray can hit a robot
+        before ``reach``), with the stretch of each inside those circles.
+
+        Returns:
+            (ray indices, distance where the first circle is entered, distance where the
+            last one is left), distances from the laser origin.
+        """
+        none = np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0)
+        q_robot = plan.robots
+        offs = np.concatenate(([0], np.cumsum(plan.counts)))[:-1]
+        o = plan.origins[offs, :2]                                   # (Q, 2) laser origins
+        rel = self.pose[None, :, :2] - o[:, None, :]                 # (Q, N, 2)
+        d = np.hypot(rel[..., 0], rel[..., 1])
+        r = self._ray_radius[q_robot]                                # (Q, N) at each laser's height
+        entry = d - r
+        far = np.maximum.reduceat(reach, offs)
+        pair = (entry < far[:, None]) & (q_robot[:, None] != np.arange(self.n)[None, :])
+        qs, js = np.nonzero(pair)
+        if not len(qs):
+            return none
+        geo = self._beam_geometry[q_robot[qs]]                       # amin, inc, beams, circle
+        inc = geo[:, 1]
+        dq, rq = d[qs, js], r[qs, js]
+        half = np.where(dq > rq, np.arcsin(np.minimum(1.0, rq / np.maximum(dq, 1e-12))), np.pi)
+        yaw = self.pose[q_robot[qs], 2] + self.lidar.yaw[q_robot[qs]]
+        phi = np.arctan2(rel[qs, js, 1], rel[qs, js, 0]) - yaw - geo[:, 0]
+        vc = np.remainder(phi, 2.0 * np.pi) / inc                     # beam index of the centre
+        w = half / inc + 1.0
+        circle = geo[:, 3].astype(np.int64)
+        lo = np.floor(vc - w).astype(np.int64)
+        n_v = np.minimum(np.ceil(vc + w).astype(np.int64) - lo + 1, circle)
+        whole = circle == 0
+        lo[whole], n_v[whole], circle[whole] = 0, geo[whole, 2].astype(np.int64), 1 << 40
+        total = int(n_v.sum())
+        rep = np.repeat(np.arange(len(qs)), n_v)
+        v = np.repeat(lo - np.concatenate(([0], np.cumsum(n_v)[:-1])), n_v) + np.arange(total)
+        v = np.remainder(v, circle[rep])
+        keep = v < geo[rep, 2]
+        rep, v = rep[keep], v[keep]
+        g = offs[qs[rep]] + v
+        pe = entry[qs, js][rep]
+        keep = reach[g] > pe
+        if not keep.any():
+            return none
+        g, rep, pe = g[keep], rep[keep], pe[keep]
+        px = (dq + rq)[rep]                                         # where the circle is left
+        order = np.argsort(g, kind="stable")
+        g, pe, px = g[order], pe[order], px[order]
+        first = np.flatnonzero(np.concatenate(([True], g[1:] != g[:-1])))
+        return (g[first], np.minimum.reduceat(pe, first), np.maximum.reduceat(px, first))
+
+    def _radius_at_lasers(self) -> np.ndarray:
+        """(N, N): row i, the radius about base_footprint of every robot's cross-section at
+        robot i's laser height, measured with 720 rays from outside toward each robot that
+        only see that robot, plus 2 cm (sampling between rays). Lidar rays are horizontal, so
+        this is the circle that ``_robot_candidates`` may use; far tighter than the robot's
+        bounding box (0.38 m against 0.55 m for the Scitos)."""
+        p = self.client
+        n = self.n
+        heights = sorted({float(self.lidar.offsets[i, 2]) for i in range(n)})
+        a = np.linspace(-np.pi, np.pi, 720, endpoint=False)
+        u = np.column_stack((np.cos(a), np.sin(a), np.zeros_like(a)))
+        table = {}
+        for j in range(n):
+            far = 2.0 * float(self.radius[j]) + 1.0
+            x, y, _ = self.pose[j]
+            p.setCollisionFilterGroupMask(self.bodies[j], -1, _SELF_GROUP, _ROBOT_MASK)
+            try:
+                for z in heights:
+                    c = np.array([x, y, z])
+                    frac, ids = cast_rays(p, c + u * far, np.broadcast_to(c, u.shape), 1,
+                                          mask=_SELF_GROUP)
+                    rho = np.where(ids == self.bodies[j], far * (1.0 - frac), 0.0)
+                    table[j, z] = float(rho.max()) + 0.02
+            finally:
+                p.setCollisionFilterGroupMask(self.bodies[j], -1, _ROBOT_GROUP, _ROBOT_MASK)
+        return np.array([[table[j, float(self.lidar.offsets[i, 2])] for j in range(n)]
+                         for i in range(n)]).reshape(n, n)
+
+    def _beam_table(self) -> np.ndarray:
+        """Per robot: (first beam angle, increment, beams, beams in a full circle); the last is
+        0 when 2 pi is not a whole number of increments (then every beam is a candidate)."""
+        rows = []
+        for i, a in enumerate(self.lidar.angles):
+            inc = math.radians(self.lidar.cfgs[i].resolution)
+            circle = 2.0 * math.pi / inc
+            if len(a) and abs(circle - round(circle)) < 1e-6 and round(circle) >= len(a):
+                rows.append((float(a[0]), inc, len(a), round(circle)))
+            else:   # circle 0: every beam is a candidate (exact, just slower)
+                rows.append((float(a[0]) if len(a) else 0.0, inc, len(a), 0))
+        return np.array(rows, dtype=float).reshape(len(rows), 4)
+
+    def _self_exit(self) -> None:
+        """Where each beam of each lidar leaves its own robot's body (see Lidar.set_self_exit).
+
+        A ray starting inside a convex shape may or may not report a hit at distance 0
+        (Bullet leaves it undefined): with the laser inside the base hull, half of the beams of
+        a robot heading about +-90 degrees came back as -inf. Measured once per robot from
+        outside, with rays that only see that robot (collision filter groups), at the spawn
+        pose: the beams are fixed in the robot frame.
+        """
+        p = self.client
+        for i in self._laser_robots.tolist():
+            plan = self.lidar.plan([i], self.pose, (-np.inf, -np.inf, np.inf, np.inf))
+            reach = 2.0 * float(self.radius[i]) + 1.0
+            outside = plan.origins.copy()
+            outside[:, :2] += plan.dirs * reach
+            p.setCollisionFilterGroupMask(self.bodies[i], -1, _SELF_GROUP, _ROBOT_MASK)
+            try:
+                frac, ids = cast_rays(p, outside, plan.origins, 1, mask=_SELF_GROUP)
+            finally:
+                p.setCollisionFilterGroupMask(self.bodies[i], -1, _ROBOT_GROUP, _ROBOT_MASK)
+            exit_dist = np.where(ids == self.bodies[i], reach * (1.0 - frac) + _SELF_EXIT_EPS, 0.0)
+            self.lidar.set_self_exit(i, exit_dist)
 
     def close(self) -> None:
         """Disconnect the PyBullet client."""
