@@ -57,14 +57,17 @@ class Scan:
 
 
 def cast_rays(client, froms: np.ndarray, tos: np.ndarray, threads: int = 0,
-              mask: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
-    """Cast rays with ``rayTestBatch``, as few calls as the batch limit allows.
+              mask: Optional[int] = None, chunk: int = MAX_RAYS_PER_BATCH
+              ) -> Tuple[np.ndarray, np.ndarray]:
+    """Cast rays with ``rayTestBatch``, ``chunk`` rays per call (at most the batch limit).
 
     Args:
         client: a pybullet BulletClient.
         froms, tos: (M, 3) ray start and end points.
         threads: pybullet numThreads (0 = all cores).
         mask: collisionFilterMask (only bodies whose collision group shares a bit are hit).
+        chunk: rays per call. Measured here, calls of about 1000 rays cost 10-20% less per ray
+            than calls of 16,383 (single- and multi-threaded), so ``World`` uses 1000.
 
     Returns:
         (hit fraction (M,) float64 in [0, 1], hit body id (M,) int, -1 = no hit).
@@ -72,8 +75,9 @@ def cast_rays(client, froms: np.ndarray, tos: np.ndarray, threads: int = 0,
     m = len(froms)
     frac = np.empty(m)
     ids = np.empty(m, dtype=np.int64)
-    for s in range(0, m, MAX_RAYS_PER_BATCH):
-        e = min(m, s + MAX_RAYS_PER_BATCH)
+    step = max(1, min(int(chunk), MAX_RAYS_PER_BATCH))
+    for s in range(0, m, step):
+        e = min(m, s + step)
         if mask is None:
             res = client.rayTestBatch(froms[s:e], tos[s:e], numThreads=threads)
         else:

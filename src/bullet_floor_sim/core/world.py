@@ -39,8 +39,10 @@ _MAX_MESH_RECTS = 16000
 #: explicitly); _SELF_GROUP briefly marks one robot for rays that must see only it.
 _ROBOT_GROUP, _ROBOT_MASK, _SELF_GROUP = 1, -1, 4
 _SELF_EXIT_EPS = 1e-4
-#: Ray batches smaller than this are cast on one thread (threads cost more than they save).
-_THREADED_RAYS = 2000
+#: Rays per rayTestBatch call (see cast_rays), and the batch size from which calls use
+#: ``ray_threads`` (smaller ones run on one thread: threads cost more than they save).
+_RAY_CHUNK = 1000
+_THREADED_RAYS = 1000
 _PENETRATION_TOL = 1e-3
 _CLEARANCE_MARGIN = 0.05
 
@@ -535,7 +537,8 @@ class World:
     def _cast(self, plan) -> Tuple[np.ndarray, np.ndarray]:
         """Distances (from the laser origin) and hits of a plan's rays; a ray the plan cut
         short that hits nothing is cast again in full."""
-        frac, ids = cast_rays(self.client, plan.froms, plan.tos, self._threads(len(plan.froms)))
+        frac, ids = cast_rays(self.client, plan.froms, plan.tos, self._threads(len(plan.froms)),
+                              chunk=_RAY_CHUNK)
         dist = plan.start + frac * plan.length
         hit = ids >= 0
         again = np.flatnonzero(plan.cut & ~hit)
@@ -543,7 +546,8 @@ class World:
             rest = plan.full[again] - plan.start[again]
             tos = plan.froms[again].copy()
             tos[:, :2] += plan.dirs[again] * rest[:, None]
-            f2, i2 = cast_rays(self.client, plan.froms[again], tos, self._threads(len(again)))
+            f2, i2 = cast_rays(self.client, plan.froms[again], tos, self._threads(len(again)),
+                               chunk=_RAY_CHUNK)
             dist[again] = plan.start[again] + f2 * rest
             hit[again] = i2 >= 0
         self.rays_cast += len(plan.froms) + len(again)
@@ -574,7 +578,7 @@ class World:
         froms[:, :2] += d * t_in[:, None]
         tos = o.copy()
         tos[:, :2] += d * t_out[:, None]
-        frac, ids = cast_rays(self.client, froms, tos, self._threads(len(idx)))
+        frac, ids = cast_rays(self.client, froms, tos, self._threads(len(idx)), chunk=_RAY_CHUNK)
         robot = np.isin(ids, self._body_array)
         at = idx[robot]
         dist[at] = t_in[robot] + frac[robot] * (t_out[robot] - t_in[robot])
