@@ -27,6 +27,9 @@ __all__ = [
     "cast_rays",
 ]
 
+#: Up to this many robots, per-robot models step in plain floats instead of numpy arrays.
+SMALL_N = 4
+
 #: pybullet 3.2.7 advertises MAX_RAY_INTERSECTION_BATCH_SIZE = 16384, but a batch of exactly
 #: 16384 rays comes back short (16383 results from lists, none from numpy arrays).
 MAX_RAYS_PER_BATCH = 16383
@@ -152,7 +155,10 @@ class Lidar:
         self._kind = [kinds.setdefault((len(a), float(a[0]) if len(a) else 0.0, c.resolution,
                                         c.fov >= 360.0 - 1e-9), len(kinds))
                       for a, c in zip(self.angles, self.cfgs)]
-        self._prev: List[Optional[tuple]] = [None] * len(self.cfgs)
+        # the previous scan of each robot: true ranges, and (yaw, laser x, laser y)
+        self._prev_dist = np.full((len(self.cfgs), width), np.inf)
+        self._prev_meta = np.zeros((len(self.cfgs), 3))
+        self._prev_ok = np.zeros(len(self.cfgs), dtype=bool)
 
     def set_self_exit(self, robot: int, exit_dist: np.ndarray) -> None:
         """Where each beam leaves the robot's own body (m from the laser origin, 0 = never
@@ -162,8 +168,7 @@ class Lidar:
 
     def forget(self, robots: Optional[Sequence[int]] = None) -> None:
         """Drop the scan history used to shorten rays (after a teleport, e.g. a reset)."""
-        for i in (range(len(self.cfgs)) if robots is None else robots):
-            self._prev[i] = None
+        self._prev_ok[slice(None) if robots is None else list(robots)] = False
 
     def plan(self, robots: Sequence[int], poses: np.ndarray,
              bounds: Tuple[float, float, float, float]) -> RayPlan:
@@ -231,39 +236,49 @@ class Lidar:
         beyond which the previous scan says nothing is hit (+inf when unknown). Only a
         speed-up: a wrong guess costs a second cast."""
         n = len(self.angles[rows[0]])
-        out = np.full((len(rows), n), np.inf)
-        known = [k for k, i in enumerate(rows.tolist()) if self._prev[i] is not None]
-        if not known:
-            return out
-        kn = np.array(known, dtype=np.int64)
-        prev = [self._prev[i] for i in rows[kn].tolist()]
-        dist = np.stack([p[0] for p in prev])                                 # (K, n)
-        meta = np.array([p[1:] for p in prev])                                # yaw0, x0, y0
-        inc = math.radians(self.cfgs[rows[0]].resolution)
-        turn = np.remainder(yaw[kn] - meta[:, 0] + np.pi, 2.0 * np.pi) - np.pi
-        shift = np.floor(turn / inc).astype(np.int64)        # new beam k = old k + turn / inc
-        base = np.arange(n)[None, :] + shift[:, None]
-        if self.cfgs[rows[0]].fov >= 360.0 - 1e-9:
-            near = np.maximum.reduce([np.take_along_axis(dist, np.remainder(base + k, n), 1)
-                                      for k in (-1, 0, 1, 2)])
+        known = self._prev_ok[rows]
+        if not known.any():
+            return np.full((len(rows), n), np.inf)
+        dist = self._prev_dist[rows, :n]                                      # (Q, n)
+        meta = self._prev_meta[rows]                                          # yaw0, x0, y0
+        wrap = self.cfgs[rows[0]].fov >= 360.0 - 1e-9
+        # farthest of beams j-1 .. j+2 of the previous scan, then shifted by the turn: new
+        # beam k looks where old beam k + turn / inc looked
+        if wrap:
+            pad = np.concatenate((dist[:, -1:], dist, dist[:, :2]), axis=1)
         else:   # beams beyond the fan: unknown
-            pad = np.pad(dist, ((0, 0), (3, 3)), constant_values=np.inf)
-            near = np.maximum.reduce([np.take_along_axis(pad, np.clip(base + k + 3, 0, n + 5), 1)
-                                      for k in (-1, 0, 1, 2)])
-        moved = np.hypot(origin[kn, 0] - meta[:, 1], origin[kn, 1] - meta[:, 2])
-        out[kn] = near + (_PREDICT_MARGIN + 2.0 * moved)[:, None]
+            inf = np.full((len(rows), 3), np.inf)
+            pad = np.concatenate((inf, dist, inf), axis=1)
+        m = np.maximum(np.maximum(pad[:, :-3], pad[:, 1:-2]), np.maximum(pad[:, 2:-1], pad[:, 3:]))
+        inc = math.radians(self.cfgs[rows[0]].resolution)
+        turn = np.remainder(yaw - meta[:, 0] + np.pi, 2.0 * np.pi) - np.pi
+        shift = np.floor(turn / inc).astype(np.int64)
+        idx = np.arange(n)[None, :] + shift[:, None]
+        if wrap:
+            idx = np.remainder(idx, n)                                    # m is (Q, n)
+        else:
+            idx = np.clip(idx + 2, 0, n + 2)                              # m is (Q, n + 3)
+        near = m[np.arange(len(rows))[:, None], idx]
+        moved = np.hypot(origin[:, 0] - meta[:, 1], origin[:, 1] - meta[:, 2])
+        out = near + (_PREDICT_MARGIN + 2.0 * moved)[:, None]
+        out[~known] = np.inf
         return out
 
     def remember(self, plan: RayPlan, poses: np.ndarray, dist: np.ndarray,
                  hit: np.ndarray) -> None:
         """Keep this scan's true ranges (+inf = no return) for the next scan's ``plan``."""
-        s = 0
-        for i, k in zip(plan.robots.tolist(), plan.counts):
-            e = s + k
-            o = plan.origins[s]
-            self._prev[i] = (np.where(hit[s:e], dist[s:e], np.inf), float(poses[i, 2]),
-                             float(o[0]), float(o[1]))
-            s = e
+        r = np.where(hit, dist, np.inf)
+        offs = np.concatenate(([0], np.cumsum(plan.counts)))[:-1]
+        rows = plan.robots
+        if len(set(plan.counts)) == 1 and len(rows):
+            n = plan.counts[0]
+            self._prev_dist[rows, :n] = r.reshape(len(rows), n)
+        else:
+            for i, s, k in zip(rows.tolist(), offs.tolist(), plan.counts):
+                self._prev_dist[i, :k] = r[s:s + k]
+        self._prev_meta[rows, 0] = poses[rows, 2]
+        self._prev_meta[rows, 1:] = plan.origins[offs, :2]
+        self._prev_ok[rows] = True
 
     def ranges(self, robot: int, dist: np.ndarray, hit: np.ndarray) -> np.ndarray:
         """REP 117 ranges of one scan from true hit distances: noise, -inf below min, +inf no
@@ -292,10 +307,11 @@ def _exit_distance(origin: np.ndarray, d: np.ndarray,
     """Distance along each ray (origin (M, 2), unit dir (M, 2)) to where it leaves the box."""
     xmin, ymin, xmax, ymax = bounds
     with np.errstate(divide="ignore", invalid="ignore"):
-        tx = np.where(d[:, 0] > 0, (xmax - origin[:, 0]) / d[:, 0],
-                      np.where(d[:, 0] < 0, (xmin - origin[:, 0]) / d[:, 0], np.inf))
-        ty = np.where(d[:, 1] > 0, (ymax - origin[:, 1]) / d[:, 1],
-                      np.where(d[:, 1] < 0, (ymin - origin[:, 1]) / d[:, 1], np.inf))
+        # a zero component gives +-inf or nan, which fmin (nan) and the sign fix (-inf) drop
+        tx = (np.where(d[:, 0] > 0, xmax, xmin) - origin[:, 0]) / d[:, 0]
+        ty = (np.where(d[:, 1] > 0, ymax, ymin) - origin[:, 1]) / d[:, 1]
+        tx[d[:, 0] == 0] = np.inf
+        ty[d[:, 1] == 0] = np.inf
     return np.maximum(np.minimum(tx, ty), 0.0)
 
 
@@ -320,6 +336,9 @@ class Odometry:
 
     def update(self, old: np.ndarray, new: np.ndarray) -> None:
         """Integrate the motion from ground-truth poses ``old`` to ``new`` (N, 3)."""
+        if len(old) <= SMALL_N:
+            self._update_small(old.tolist(), new.tolist())
+            return
         dxw = new[:, 0] - old[:, 0]
         dyw = new[:, 1] - old[:, 1]
         c, s = np.cos(old[:, 2]), np.sin(old[:, 2])
@@ -340,6 +359,29 @@ class Odometry:
         self.pose[:, 0] += c * bx - s * by
         self.pose[:, 1] += s * bx + c * by
         self.pose[:, 2] = _wrap(yaw + dth)
+
+    def _update_small(self, old: list, new: list) -> None:
+        """``update`` in plain floats, robot by robot (for a few robots numpy's per-call cost
+        dominates); the same formulas and the same random draws."""
+        noise = self.rng.standard_normal((len(old), 2)).tolist() if self.noisy else None
+        out = []
+        for i, (o, nw, p) in enumerate(zip(old, new, self.pose.tolist())):
+            dxw, dyw = nw[0] - o[0], nw[1] - o[1]
+            c, s = math.cos(o[2]), math.sin(o[2])
+            bx, by = c * dxw + s * dyw, -s * dxw + c * dyw
+            dth = (nw[2] - o[2] + math.pi) % (2.0 * math.pi) - math.pi
+            if noise is not None:
+                dist = math.hypot(bx, by)
+                if dist > 0:
+                    scale = 1.0 + noise[i][0] * self.k_trans[i] * math.sqrt(dist) / max(dist, 1e-12)
+                    bx, by = bx * scale, by * scale
+                dth = dth + noise[i][1] * math.sqrt(self.k_rot[i] ** 2 * abs(dth)
+                                                    + self.k_rot_m[i] ** 2 * dist) \
+                    + self.drift[i] * dist
+            c, s = math.cos(p[2]), math.sin(p[2])
+            out.append((p[0] + c * bx - s * by, p[1] + s * bx + c * by,
+                        (p[2] + dth + math.pi) % (2.0 * math.pi) - math.pi))
+        self.pose[:] = out
 
     def reset(self, robots: Optional[Sequence[int]] = None) -> None:
         """Odometry back to (0, 0, 0) for the given robots (all by default)."""

@@ -29,7 +29,7 @@ from .errors import ConfigError, MapError
 from .floormap import FloorMap, load_map, wall_mesh
 from .paths import worlds_dir
 from .robot import DRIVES, RobotModel, check_command, load_model
-from .sensors import Battery, Lidar, Odometry, Scan, cast_rays
+from .sensors import SMALL_N, Battery, Lidar, Odometry, Scan, cast_rays
 
 __all__ = ["SimClock", "World", "RobotView", "Snapshot"]
 
@@ -215,6 +215,7 @@ class World:
                                           s.drive.max_lateral if s.drive.type == "omni" else 0.0)
                                for s in self.specs])
         self._check_due_ns = 0              # next step whose poses need a collision check
+        self._limits_small = None           # (dt, vmax, amax * dt) lists for _advance_small
         # one drive object per drive type, each over its own rows
         self._drives = []
         for kind, cls in DRIVES.items():
@@ -407,22 +408,56 @@ class World:
             moving = np.any(self.target != 0.0, axis=1)
             self._expiry_ns = int((self.last_cmd_ns[moving] + self.cmd_timeout_ns[moving]).min()) + 1 \
                 if moving.any() else 2 ** 62
-        for rows, drive in self._drives:
-            self.vel[rows] = drive.apply(self.target[rows], self.vel[rows], dt)
         check = now + self.clock.step_ns >= self._check_due_ns
         old = self.pose.copy() if check else self.pose
-        self.pose = _integrate(self.pose, self.vel, dt)
+        if self.n <= SMALL_N:
+            self._advance_small(dt)
+        else:
+            for rows, drive in self._drives:
+                self.vel[rows] = drive.apply(self.target[rows], self.vel[rows], dt)
+            self.pose = _integrate(self.pose, self.vel, dt)
         if check:
             self.stalled[:] = False
             cand, t_safe = self._collision_window(self.pose)
             if len(cand):
                 self._resolve_collisions(old, self.pose, cand)
             self._check_due_ns = now + self.clock.step_ns + int(t_safe * 1e9)
-        self._travel[:, 0] += self.vel[:, 0] * dt
-        self._travel[:, 1] += self.vel[:, 2] * dt
+        if self.n <= SMALL_N:   # wheels turn with the velocity kept (0 for a refused move)
+            self._travel[:] = [(tr[0] + v[0] * dt, tr[1] + v[2] * dt)
+                               for tr, v in zip(self._travel.tolist(), self.vel.tolist())]
+        else:
+            self._travel[:, 0] += self.vel[:, 0] * dt
+            self._travel[:, 1] += self.vel[:, 2] * dt
         self._odom_stale = True
         if not (self.vel.any() or self.target.any()):   # all at rest, nothing commanded
             self._idle = True
+
+    def _advance_small(self, dt: float) -> None:
+        """Drive limits and pose integration of ``_physics_step`` in plain floats, robot by
+        robot: the same formulas as ``Drive.apply`` and ``_integrate``
+        (for a few robots numpy's per-call cost dominates)."""
+        lim = self._limits_small
+        if lim is None or lim[0] != dt:
+            vmax = np.zeros((self.n, 3))
+            amax = np.zeros((self.n, 3))
+            for rows, drive in self._drives:
+                vmax[rows], amax[rows] = drive.vmax, drive.amax
+            lim = self._limits_small = (dt, vmax.tolist(), (amax * dt).tolist())
+        _, vmax, step = lim
+        vel, pose = [], []
+        for t, v, p, vm, st in zip(self.target.tolist(), self.vel.tolist(), self.pose.tolist(),
+                                   vmax, step):
+            nv = [min(max(min(max(t[k], -vm[k]), vm[k]), v[k] - st[k]), v[k] + st[k])
+                  for k in (0, 1, 2)]
+            half = nv[2] * (0.5 * dt)
+            kk = (1.0 - half * half * (1.0 / 6.0)) * dt
+            a = p[2] + half
+            c, s = math.cos(a), math.sin(a)
+            vx, vy = nv[0] * kk, nv[1] * kk
+            vel.append(nv)
+            pose.append((p[0] + c * vx - s * vy, p[1] + s * vx + c * vy, a + half))
+        self.vel[:] = vel
+        self.pose = np.array(pose)
 
     def _clearance_at(self, poses: np.ndarray) -> np.ndarray:
         col, row = self.fmap.world_to_cell(poses[:, 0], poses[:, 1])
