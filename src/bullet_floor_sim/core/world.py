@@ -151,6 +151,9 @@ class World:
             self.client = bullet_client.BulletClient(
                 connection_mode=pybullet.GUI if gui else pybullet.DIRECT)
         self._gui = gui
+        # bound once: BulletClient builds a new partial on every attribute access
+        self._reset_pose = self.client.resetBasePositionAndOrientation
+        self._closest_points = self.client.getClosestPoints
         if gui:
             self.client.configureDebugVisualizer(pybullet.COV_ENABLE_GUI, 0)
         self.wall_bodies = self._build_walls(config.wall_height)
@@ -484,24 +487,30 @@ class World:
         return np.flatnonzero(near), max(0.0, t_safe)
 
     def _resolve_collisions(self, old: np.ndarray, new: np.ndarray, cand: np.ndarray) -> None:
-        p = self.client
+        """Refuse the move of every candidate robot that would penetrate a wall or another
+        candidate deeper than it already does. Each candidate is tested against the walls
+        and against the candidates near it only (getClosestPoints per pair): a whole-world
+        performCollisionDetection also ran every other robot against the wall mesh."""
         for i in cand:
             self._set_body(i, new[i])
-        p.performCollisionDetection()
-        checked = {self.bodies[i] for i in cand}
+        closest = self._closest_points
         depth = np.zeros(self.n)
-        for c in p.getContactPoints():
-            a, b, dist = c[1], c[2], c[8]
-            if dist >= -_PENETRATION_TOL:
-                continue
-            for body, other in ((a, b), (b, a)):
-                i = self._body_index.get(body)
-                if i is None or body not in checked:
+        cl = cand.tolist()
+        reach = self.radius + _CLEARANCE_MARGIN
+        for k, i in enumerate(cl):
+            bi = self.bodies[i]
+            for wb in self.wall_bodies:
+                for c in closest(bi, wb, 0.0):
+                    if c[8] < -_PENETRATION_TOL:
+                        depth[i] = max(depth[i], -c[8])
+            for j in cl[k + 1:]:
+                if math.hypot(new[i, 0] - new[j, 0], new[i, 1] - new[j, 1]) > reach[i] + reach[j]:
                     continue
-                if other in self._body_index and other not in checked:
-                    continue  # the other robot's body is stale this step; it is far away
-                depth[i] = max(depth[i], -dist)
-        for i in cand:
+                for c in closest(bi, self.bodies[j], 0.0):
+                    if c[8] < -_PENETRATION_TOL:
+                        depth[i] = max(depth[i], -c[8])
+                        depth[j] = max(depth[j], -c[8])
+        for i in cl:
             if depth[i] > self._penetration[i] + _PENETRATION_TOL:
                 new[i] = old[i]
                 self.vel[i] = 0.0
@@ -511,14 +520,16 @@ class World:
             else:
                 self._penetration[i] = depth[i]
 
-    def _set_body(self, i: int, pose: np.ndarray) -> None:
+    def _set_body(self, i: int, pose) -> None:
         """Place a robot's body with its base_footprint at ``pose`` (PyBullet wants the
         pose of the base's inertial frame, so the URDF link pose is composed with it)."""
         x, y, yaw = pose
-        p = self.client
-        pos, orn = p.multiplyTransforms((x, y, 0.0), (0.0, 0.0, math.sin(yaw / 2.0),
-                                                      math.cos(yaw / 2.0)), *self._inertial[i])
-        p.resetBasePositionAndOrientation(self.bodies[i], pos, orn)
+        (px, py, pz), (qx, qy, qz, qw) = self._inertial[i]
+        c, s = math.cos(yaw), math.sin(yaw)
+        sz, cz = math.sin(0.5 * yaw), math.cos(0.5 * yaw)
+        self._reset_pose(self.bodies[i], (x + c * px - s * py, y + s * px + c * py, pz),
+                         (cz * qx - sz * qy, cz * qy + sz * qx, cz * qz + sz * qw,
+                          cz * qw - sz * qz))
 
     def _sync_bodies(self, rows: Optional[Sequence[int]] = None) -> None:
         for i in (range(self.n) if rows is None else rows):
@@ -591,9 +602,8 @@ class World:
 
     def _lift_bodies(self) -> None:
         """Move every robot body far out of the scene, apart (until ``_sync_bodies``)."""
-        p = self.client
         for i, b in enumerate(self.bodies):
-            p.resetBasePositionAndOrientation(b, (1e4 + 10.0 * i, 1e4, -1e4), (0.0, 0.0, 0.0, 1.0))
+            self._reset_pose(b, (1e4 + 10.0 * i, 1e4, -1e4), (0.0, 0.0, 0.0, 1.0))
 
     def _cast_at_robots(self, plan, dist: np.ndarray, hit: np.ndarray) -> None:
         """Cast again, with the robots in place, the beams that may meet another robot before
