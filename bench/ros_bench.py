@@ -5,10 +5,14 @@ For 1, 10 and 50 robots (the sim_bench set-up: office world, 360-beam 10 Hz lida
 free poses) the simulator node runs as fast as it can (``real_time_factor: 0``) under its own
 roscore, and one subscriber (rospy.AnyMsg, so it does not deserialise) is attached to every
 topic it publishes. The real-time factor is sim time gained on /clock over a wall-clock
-window. robot_state_publishers are not started (they publish nothing per step). Robots stand
-still: this measures the node's publishing on top of the core, not driving.
+window. robot_state_publishers are not started (they publish nothing per step).
 
-Prints a table and ``BENCH ros rtf_1=<x> rtf_10=<x> rtf_50=<x>``.
+Two runs per robot count. "still": no command, as this bench has always run (the core then
+skips the physics and the lidars reuse their wall distances, so it is mostly the node's
+publishing); printed as ``BENCH ros rtf_1=<x> rtf_10=<x> rtf_50=<x>``. "turning": every robot
+turns in place at 0.5 rad/s (cmd_vel from this process at 5 Hz of sim time), so every lidar,
+odometry and pose changes every step, as in sim_bench; printed as
+``BENCH ros_turning rtf_1=<x> rtf_10=<x> rtf_50=<x>``.
 """
 from __future__ import annotations
 
@@ -48,10 +52,11 @@ def _world_file(n: int, tmp: str) -> str:
     return path
 
 
-def run_case(n: int, window: float) -> float:
+def run_case(n: int, window: float, turning: bool = True) -> float:
     """Achieved real-time factor of the node with n robots (sim s per wall s)."""
     import rosgraph
     import rospy
+    from geometry_msgs.msg import Twist
     from rosgraph_msgs.msg import Clock
 
     tmp = tempfile.mkdtemp(prefix="bfs_ros_bench_")
@@ -72,9 +77,17 @@ def run_case(n: int, window: float) -> float:
                                env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         rospy.init_node("ros_bench_%d" % n, anonymous=True, disable_signals=True)
         last = {}
+        cmd = [rospy.Publisher("/robot%d/cmd_vel" % (i + 1), Twist, queue_size=1)
+               for i in range(n)] if turning else []
+        turn = Twist()
+        turn.angular.z = 0.5
 
         def on_clock(m):
-            last["t"] = m.clock.to_sec()
+            t = last["t"] = m.clock.to_sec()
+            if cmd and t - last.get("cmd", -1.0) >= 0.2:   # 5 Hz; the watchdog stops after 0.5 s
+                last["cmd"] = t
+                for p in cmd:
+                    p.publish(turn)
 
         rospy.Subscriber("/clock", Clock, on_clock)
         deadline = time.time() + 60
@@ -106,20 +119,25 @@ def run_case(n: int, window: float) -> float:
 
 
 def main() -> int:
-    if len(sys.argv) == 3 and sys.argv[1] == "--case":
-        print(run_case(int(sys.argv[2]), 10.0))
+    if len(sys.argv) == 4 and sys.argv[1] == "--case":
+        print(run_case(int(sys.argv[2]), 10.0, turning=sys.argv[3] == "turning"))
         return 0
     rtf = {}
     for n in (1, 10, 50):   # each case in its own process: rospy.init_node is once per process
-        out = subprocess.run([sys.executable, __file__, "--case", str(n)], stdout=subprocess.PIPE,
-                             stderr=subprocess.DEVNULL, universal_newlines=True)
-        lines = out.stdout.strip().splitlines()
-        rtf[n] = float(lines[-1]) if out.returncode == 0 and lines else float("nan")
-    print("%-7s %10s" % ("robots", "ros_rtf"))
-    for n, v in sorted(rtf.items()):
-        print("%-7d %10.1f" % (n, v))
+        for mode in ("turning", "still"):
+            out = subprocess.run([sys.executable, __file__, "--case", str(n), mode],
+                                 stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                 universal_newlines=True)
+            lines = out.stdout.strip().splitlines()
+            rtf[n, mode] = float(lines[-1]) if out.returncode == 0 and lines else float("nan")
+    print("%-7s %14s %14s" % ("robots", "rtf_turning", "rtf_still"))
+    for n in (1, 10, 50):
+        print("%-7d %14.1f %14.1f" % (n, rtf[n, "turning"], rtf[n, "still"]))
     print("targets: rtf_1 >= 100, rtf_10 >= 20, rtf_50 >= 3")
-    print("BENCH ros rtf_1=%.1f rtf_10=%.1f rtf_50=%.2f" % (rtf[1], rtf[10], rtf[50]))
+    print("BENCH ros rtf_1=%.1f rtf_10=%.1f rtf_50=%.2f"
+          % (rtf[1, "still"], rtf[10, "still"], rtf[50, "still"]))
+    print("BENCH ros_turning rtf_1=%.1f rtf_10=%.1f rtf_50=%.2f"
+          % (rtf[1, "turning"], rtf[10, "turning"], rtf[50, "turning"]))
     return 0
 
 

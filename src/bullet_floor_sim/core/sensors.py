@@ -264,6 +264,25 @@ class Lidar:
         out[~known] = np.inf
         return out
 
+    def unmoved(self, plan: RayPlan, poses: np.ndarray) -> np.ndarray:
+        """Per planned robot: its lidar is exactly where it was at its previous scan."""
+        rows = plan.robots
+        offs = np.concatenate(([0], np.cumsum(plan.counts)))[:-1]
+        meta = self._prev_meta[rows]
+        return (self._prev_ok[rows] & (meta[:, 0] == poses[rows, 2])
+                & (meta[:, 1] == plan.origins[offs, 0]) & (meta[:, 2] == plan.origins[offs, 1]))
+
+    def previous(self, plan: RayPlan) -> Tuple[np.ndarray, np.ndarray]:
+        """The planned robots' previous ranges as (distance, hit) per ray (what
+        ``remember`` kept; meaningless for robots without a previous scan)."""
+        if len(set(plan.counts)) == 1 and len(plan.robots):
+            dist = self._prev_dist[plan.robots, :plan.counts[0]].reshape(-1).copy()
+        else:
+            dist = np.concatenate([self._prev_dist[i, :k]
+                                   for i, k in zip(plan.robots.tolist(), plan.counts)] or
+                                  [np.zeros(0)])
+        return dist, np.isfinite(dist)
+
     def remember(self, plan: RayPlan, poses: np.ndarray, dist: np.ndarray,
                  hit: np.ndarray) -> None:
         """Keep this scan's true ranges (+inf = no return) for the next scan's ``plan``."""

@@ -110,15 +110,15 @@ class Snapshot:
         pose: (N, 3) ground truth (x, y, yaw), yaw in [-pi, pi).
         velocity: (N, 3) applied body velocity (vx, vy, w).
         odom_pose: (N, 3) odometry (x, y, yaw) in each robot's odom frame.
-        wheel_positions: (N, 2) (left, right) wheel angles, radians.
-        wheel_velocities: (N, 2) (left, right) wheel speeds, rad/s.
+        wheel_positions: (N, 2) (left, right) wheel angles, radians (None if not asked for).
+        wheel_velocities: (N, 2) (left, right) wheel speeds, rad/s (None if not asked for).
     """
 
     pose: np.ndarray
     velocity: np.ndarray
     odom_pose: np.ndarray
-    wheel_positions: np.ndarray
-    wheel_velocities: np.ndarray
+    wheel_positions: Optional[np.ndarray]
+    wheel_velocities: Optional[np.ndarray]
 
 
 class World:
@@ -260,6 +260,7 @@ class World:
         self.rays_cast = 0          # rays cast so far (statistics)
         self.rays_recast = 0        # of which cast again in full after a cut ray missed
         self.rays_at_robots = 0     # of which cast again at other robots (see _scan)
+        self.rays_reused = 0        # beams of unmoved lidars: wall distances of the last scan
         self._lift_for_rays = not self._gui   # (robots would flicker in the window)
         self._body_array = np.array(self.bodies, dtype=np.int64)
         self._beam_geometry = self._beam_table()
@@ -369,20 +370,26 @@ class World:
                          wheel_velocities=(float((v - half * w) / r), float((v + half * w) / r)),
                          stalled=bool(self.stalled[robot]))
 
-    def snapshot(self) -> Snapshot:
+    def snapshot(self, wheels: bool = True) -> Snapshot:
         """Every robot at once as arrays (what ``view`` gives one robot at a time); call
-        ``update_odometry()`` first for up-to-date odometry."""
-        v, w = self.vel[:, 0], self.vel[:, 2]
-        half = 0.5 * self.wheel_sep
-        tv, tw = self._travel[:, 0], self._travel[:, 1]
+        ``update_odometry()`` first for up-to-date odometry.
+
+        Args:
+            wheels: also compute the wheel angles and speeds (None otherwise).
+        """
         pose = self.pose.copy()
         pose[:, 2] = (pose[:, 2] + math.pi) % (2.0 * math.pi) - math.pi
-        return Snapshot(pose=pose, velocity=self.vel.copy(),
-                        odom_pose=self.odometry.pose.copy(),
-                        wheel_positions=np.column_stack(((tv - half * tw) / self.wheel_radius,
-                                                         (tv + half * tw) / self.wheel_radius)),
-                        wheel_velocities=np.column_stack(((v - half * w) / self.wheel_radius,
-                                                          (v + half * w) / self.wheel_radius)))
+        positions = speeds = None
+        if wheels:
+            half = 0.5 * self.wheel_sep
+            tv, tw = self._travel[:, 0], self._travel[:, 1]
+            v, w = self.vel[:, 0], self.vel[:, 2]
+            positions = np.column_stack(((tv - half * tw) / self.wheel_radius,
+                                         (tv + half * tw) / self.wheel_radius))
+            speeds = np.column_stack(((v - half * w) / self.wheel_radius,
+                                      (v + half * w) / self.wheel_radius))
+        return Snapshot(pose=pose, velocity=self.vel.copy(), odom_pose=self.odometry.pose.copy(),
+                        wheel_positions=positions, wheel_velocities=speeds)
 
     # ----------------------------------------------------------------------------- stepping
     def step(self, n: int = 1) -> List[Scan]:
@@ -541,16 +548,19 @@ class World:
         PyBullet pays for every robot whose bounding box a ray passes through, even a robot
         the ray's collision filter excludes, and every beam starts inside its own robot's box.
         So the beams are first cast at the walls alone, with every robot body moved out of the
-        scene; then the robots are put back and only the beams that can reach another robot
-        before their wall (their line passes that robot's bounding circle nearer than the
-        wall) are cast again. Both steps are exact, so the ranges are those of casting every
-        beam in the full scene.
+        scene (a lidar that has not moved since its last scan reuses that scan's wall
+        distances); then the robots are put back and only the beams that can reach another
+        robot before their wall (their line passes that robot's cross-section circle nearer
+        than the wall) are cast again. Every step is exact, so the ranges are those of
+        casting every beam in the full scene.
         """
         now = self.clock.now_ns
         lasers = self._laser_robots
         due = lasers[self._next_scan_ns[lasers] <= now]
-        np.remainder(self.pose[:, 2] + np.pi, 2.0 * np.pi, out=self.pose[:, 2])
-        self.pose[:, 2] -= np.pi
+        yaw = self.pose[:, 2]
+        out_of_range = (yaw < -np.pi) | (yaw >= np.pi)   # wrap only those: (y + pi) - pi != y
+        if out_of_range.any():
+            yaw[out_of_range] = np.remainder(yaw[out_of_range] + np.pi, 2.0 * np.pi) - np.pi
         xmin, ymin, xmax, ymax = self._bounds
         lo = self.pose[:, :2].min(axis=0) - 1.0
         hi = self.pose[:, :2].max(axis=0) + 1.0
@@ -558,8 +568,16 @@ class World:
         plan = self.lidar.plan(due, self.pose, bounds)
         lift = self._lift_for_rays and self.n > 0
         if lift:
-            self._lift_bodies()
-        dist, hit = self._cast(plan)
+            # a lidar that has not moved since its last scan sees the same walls
+            same = np.repeat(self.lidar.unmoved(plan, self.pose), plan.counts)
+            dist, hit = self.lidar.previous(plan)
+            cast = np.flatnonzero(~same)
+            if len(cast):
+                self._lift_bodies()
+                dist[cast], hit[cast] = self._cast(plan, cast)
+                self.rays_reused += len(plan.froms) - len(cast)
+        else:
+            dist, hit = self._cast(plan, np.arange(len(plan.froms)))
         self._sync_bodies()
         self.lidar.remember(plan, self.pose, dist, hit)
         if lift and self.n > 1:
@@ -580,23 +598,24 @@ class World:
     def _threads(self, rays: int) -> int:
         return self.ray_threads if rays >= _THREADED_RAYS else 1
 
-    def _cast(self, plan) -> Tuple[np.ndarray, np.ndarray]:
-        """Distances (from the laser origin) and hits of a plan's rays; a ray the plan cut
-        short that hits nothing is cast again in full."""
-        frac, ids = cast_rays(self.client, plan.froms, plan.tos, self._threads(len(plan.froms)),
+    def _cast(self, plan, rays: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+        """Distances (from the laser origin) and hits of the plan's rays ``rays``; a ray the
+        plan cut short that hits nothing is cast again in full."""
+        froms, start, length = plan.froms[rays], plan.start[rays], plan.length[rays]
+        frac, ids = cast_rays(self.client, froms, plan.tos[rays], self._threads(len(rays)),
                               chunk=_RAY_CHUNK)
-        dist = plan.start + frac * plan.length
+        dist = start + frac * length
         hit = ids >= 0
-        again = np.flatnonzero(plan.cut & ~hit)
+        again = np.flatnonzero(plan.cut[rays] & ~hit)
         if len(again):
-            rest = plan.full[again] - plan.start[again]
-            tos = plan.froms[again].copy()
-            tos[:, :2] += plan.dirs[again] * rest[:, None]
-            f2, i2 = cast_rays(self.client, plan.froms[again], tos, self._threads(len(again)),
+            rest = plan.full[rays[again]] - start[again]
+            tos = froms[again].copy()
+            tos[:, :2] += plan.dirs[rays[again]] * rest[:, None]
+            f2, i2 = cast_rays(self.client, froms[again], tos, self._threads(len(again)),
                                chunk=_RAY_CHUNK)
-            dist[again] = plan.start[again] + f2 * rest
+            dist[again] = start[again] + f2 * rest
             hit[again] = i2 >= 0
-        self.rays_cast += len(plan.froms) + len(again)
+        self.rays_cast += len(rays) + len(again)
         self.rays_recast += len(again)
         return dist, hit
 

@@ -623,7 +623,7 @@ class SimulatorNode:
         wanted = out.wanted
         secs, nsecs = divmod(now_ns, 1_000_000_000)
         w.update_odometry()
-        snap = w.snapshot()
+        snap = w.snapshot(wheels=state_due)
         pose, vel, odom = snap.pose.tolist(), snap.velocity.tolist(), snap.odom_pose.tolist()
         if state_due:
             wpos, wvel = snap.wheel_positions.tolist(), snap.wheel_velocities.tolist()
