@@ -576,9 +576,10 @@ class World:
                 self._lift_bodies()
                 dist[cast], hit[cast] = self._cast(plan, cast)
                 self.rays_reused += len(plan.froms) - len(cast)
-        else:
+            self._sync_bodies()
+        else:   # every beam in the full scene (GUI: moving bodies out would show)
+            self._sync_bodies()
             dist, hit = self._cast(plan, np.arange(len(plan.froms)))
-        self._sync_bodies()
         self.lidar.remember(plan, self.pose, dist, hit)
         if lift and self.n > 1:
             self._cast_at_robots(plan, dist, hit)
