@@ -23,6 +23,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from typing import Tuple
 
 import yaml
 
@@ -52,8 +53,9 @@ def _world_file(n: int, tmp: str) -> str:
     return path
 
 
-def run_case(n: int, window: float, turning: bool = True) -> float:
-    """Achieved real-time factor of the node with n robots (sim s per wall s)."""
+def run_case(n: int, window: float, turning: bool = True) -> Tuple[float, float]:
+    """Achieved real-time factor of the node with n robots (sim s per wall s), and the
+    seconds it took to exit on SIGINT."""
     import rosgraph
     import rospy
     from geometry_msgs.msg import Twist
@@ -104,10 +106,19 @@ def run_case(n: int, window: float, turning: bool = True) -> float:
         w0, s0 = time.time(), last["t"]
         time.sleep(window)
         w1, s1 = time.time(), last["t"]
+        # how long the node takes to exit on SIGINT, subscribers still attached (it used to
+        # hang now and then until roslaunch's SIGKILL)
+        t0 = time.monotonic()
+        sim.send_signal(signal.SIGINT)
+        try:
+            sim.wait(30)
+            stop_s = time.monotonic() - t0
+        except subprocess.TimeoutExpired:
+            stop_s = float("inf")
         for s in subs:
             s.unregister()
         rospy.signal_shutdown("done")
-        return (s1 - s0) / (w1 - w0)
+        return (s1 - s0) / (w1 - w0), stop_s
     finally:
         for p in (sim, core):
             if p is not None:
@@ -120,24 +131,29 @@ def run_case(n: int, window: float, turning: bool = True) -> float:
 
 def main() -> int:
     if len(sys.argv) == 4 and sys.argv[1] == "--case":
-        print(run_case(int(sys.argv[2]), 10.0, turning=sys.argv[3] == "turning"))
+        print("%r %r" % run_case(int(sys.argv[2]), 10.0, turning=sys.argv[3] == "turning"))
         return 0
-    rtf = {}
+    rtf, stop = {}, {}
     for n in (1, 10, 50):   # each case in its own process: rospy.init_node is once per process
         for mode in ("turning", "still"):
             out = subprocess.run([sys.executable, __file__, "--case", str(n), mode],
                                  stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
                                  universal_newlines=True)
             lines = out.stdout.strip().splitlines()
-            rtf[n, mode] = float(lines[-1]) if out.returncode == 0 and lines else float("nan")
-    print("%-7s %14s %14s" % ("robots", "rtf_turning", "rtf_still"))
+            rtf[n, mode], stop[n, mode] = (tuple(float(v) for v in lines[-1].split())
+                                           if out.returncode == 0 and lines
+                                           else (float("nan"), float("nan")))
+    print("%-7s %14s %14s %16s" % ("robots", "rtf_turning", "rtf_still", "sigint_exit_s"))
     for n in (1, 10, 50):
-        print("%-7d %14.1f %14.1f" % (n, rtf[n, "turning"], rtf[n, "still"]))
+        print("%-7d %14.1f %14.1f %16s" % (n, rtf[n, "turning"], rtf[n, "still"], "%.2f / %.2f"
+                                           % (stop[n, "turning"], stop[n, "still"])))
+    print("sigint_exit_s: seconds from SIGINT to the node's exit, subscribers attached")
     print("targets: rtf_1 >= 100, rtf_10 >= 20, rtf_50 >= 3")
     print("BENCH ros rtf_1=%.1f rtf_10=%.1f rtf_50=%.2f"
           % (rtf[1, "still"], rtf[10, "still"], rtf[50, "still"]))
     print("BENCH ros_turning rtf_1=%.1f rtf_10=%.1f rtf_50=%.2f"
           % (rtf[1, "turning"], rtf[10, "turning"], rtf[50, "turning"]))
+    print("BENCH ros_shutdown max_s=%.2f" % max(stop.values()))
     return 0
 
 
