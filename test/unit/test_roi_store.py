@@ -16,9 +16,8 @@ from bullet_floor_sim.core.roi_store import (COLLECTION, DATABASE, STORED_TYPE, 
                                               move_vertex, new_roi, next_roi_id,
                                               roi_from_document, roi_to_fields)
 from bullet_floor_sim.core.rois import Roi, RoiError, load_rois
-from bullet_floor_sim.core.store import open_store
 
-from test_store import mongo_launcher, mongo_server  # noqa: F401 (fixtures)
+from test_store import mongo_launcher, mongo_server, store  # noqa: F401 (fixtures)
 
 OFFICE_ROIS = os.path.join(os.path.dirname(__file__), "..", "..", "worlds", "office",
                            "rois.yaml")
@@ -37,17 +36,6 @@ class Clock:
 
     def __call__(self):
         return self.t
-
-
-@pytest.fixture(params=["embedded", "mongodb"])
-def store(request, tmp_path):
-    if request.param == "embedded":
-        uri = str(tmp_path / "db")
-    else:
-        uri = request.getfixturevalue("mongo_server").uri
-    s = open_store(uri, journal_dir=str(tmp_path / "journal"))
-    yield s
-    s.close()
 
 
 @pytest.fixture
