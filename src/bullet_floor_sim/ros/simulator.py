@@ -18,7 +18,9 @@ i.e. bare topics and frames ``/odom``, ``odom``, ``base_footprint``, as the MORS
 ``~publish_initialpose`` (false: true publishes each spawn pose, latched, on ``N/initialpose``
 at start and after ``~reset``, so amcl starts localised whatever the world),
 ``~robot_state_publishers`` (true: one robot_state_publisher per robot, started by this node
-with the robot's prefixed URDF, so any number of robots works from one launch file).
+with the robot's prefixed URDF, so any number of robots works from one launch file),
+``~ray_threads`` (0: PyBullet threads for lidar batches of 1000 rays or more, 0 = all cores;
+1 leaves the other cores to the rest of the ROS graph).
 Services: ``~reset``, ``~pause``, ``~unpause`` (std_srvs/Empty).
 """
 from __future__ import annotations
@@ -106,7 +108,7 @@ _D7 = struct.Struct("<7d")          # Pose: position xyz, orientation xyzw
 _D6 = struct.Struct("<6d")          # Twist: linear xyz, angular xyz
 _D2 = struct.Struct("<2d")
 _F7 = struct.Struct("<7f")
-_SENTINELS = (1234.5678125, 2345.6789125)   # exact in float32 too
+_SENTINELS = (1234.5678125, 2345.6789125)   # unlikely values; each slot must be unique
 
 
 def _wire(msg) -> bytes:
@@ -338,6 +340,14 @@ class _Outbox:
         """Queue ``data`` (from a *Wire ``pack``) for every current subscriber of ``pub``."""
         limit = pub._bfs_queue_size
         for c in pub.impl.connections:
+            if hasattr(c, "_connection"):
+                # a rospy QueuedConnection: someone else in this process made a publisher on
+                # this topic with a queue, and its thread writes to the socket: go through it
+                try:
+                    c.write_data(data)
+                except Exception:  # noqa: BLE001  (rospy drops such connections itself)
+                    pass
+                continue
             q = self._queues.get(c)
             if q is None:
                 q = self._queues[c] = [[], 0]
@@ -787,7 +797,8 @@ def main(argv: Optional[List[str]] = None) -> int:
             config = dataclasses.replace(
                 config, robots=[dataclasses.replace(config.robots[0], name="")])
         world = World(config, physics_rate=float(rospy.get_param("~physics_rate", 100.0)),
-                      gui=bool(rospy.get_param("~gui", False)), seed=None if seed < 0 else seed)
+                      gui=bool(rospy.get_param("~gui", False)), seed=None if seed < 0 else seed,
+                      ray_threads=int(rospy.get_param("~ray_threads", 0)))
     except BulletFloorSimError as e:
         rospy.logfatal("simulator: %s", e)
         return 1
