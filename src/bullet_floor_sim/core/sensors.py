@@ -202,9 +202,10 @@ class Lidar:
                     dst[at] = src
         full = np.minimum(rmax, _exit_distance(o[:, :2], d, bounds))
         start = np.minimum(start, full)
-        end = np.clip(end, start, full)
+        end = np.minimum(np.maximum(end, start), full)
         short = end - start < 1e-6
-        end[short] = full[short]                 # nothing left to cast: cast it all
+        if short.any():
+            end[short] = full[short]             # nothing left to cast: cast it all
         f = o.copy()
         f[:, :2] += d * start[:, None]
         t = o.copy()
@@ -220,8 +221,10 @@ class Lidar:
         yaw = poses[rows, 2]
         c, sn = np.cos(yaw), np.sin(yaw)
         ox, oy, oz = self.offsets[rows, 0], self.offsets[rows, 1], self.offsets[rows, 2]
-        origin = np.column_stack((poses[rows, 0] + c * ox - sn * oy,
-                                  poses[rows, 1] + sn * ox + c * oy, oz))          # (Q, 3)
+        origin = np.empty((len(rows), 3))                                         # (Q, 3)
+        origin[:, 0] = poses[rows, 0] + c * ox - sn * oy
+        origin[:, 1] = poses[rows, 1] + sn * ox + c * oy
+        origin[:, 2] = oz
         ang = (yaw + self.yaw[rows])[:, None] + self.angles[rows[0]][None, :]      # (Q, n)
         d = np.empty((len(rows) * n, 2))
         d[:, 0] = np.cos(ang).reshape(-1)
