@@ -29,23 +29,15 @@ from ..core.errors import BulletFloorSimError
 from ..core.markov import (MODES, ROI_COLLECTION, ROI_DATABASE, MarkovChain, read_rois,
                            usable_rois)
 from ..core.rois import Roi, check_bounds, load_rois, roi_polygon
+from .cli import Parser, UsageError
 
 __all__ = ["main", "plot_chain"]
 
 PROG = "markov_chain"
 
 
-class _UsageError(Exception):
-    """argparse's complaint, turned into one line."""
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # type: ignore[override]
-        raise _UsageError(message)
-
-
 def _parser() -> argparse.ArgumentParser:
-    p = _Parser(prog=PROG, description="Print the Markov chain over the regions of a rois.yaml "
+    p = Parser(prog=PROG, description="Print the Markov chain over the regions of a rois.yaml "
                 "as JSON (transitions: id -> id -> probability).")
     p.add_argument("rois", nargs="?", metavar="ROIS_YAML", help="ROI file (worlds/<name>/rois.yaml)")
     p.add_argument("--tol", type=float, default=0.2,
@@ -99,7 +91,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             _warn("%s: %s" % (source, w))
         if args.plot:
             plot_chain(chain, rois, args.plot, fmap)
-    except (_UsageError, BulletFloorSimError, ValueError) as e:
+    except (UsageError, BulletFloorSimError, ValueError) as e:
         return _fail(str(e))
     sys.stdout.write(json.dumps(chain.to_json(), indent=2) + "\n")
     sys.stdout.flush()
@@ -108,15 +100,15 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 
 def _check_args(args: argparse.Namespace) -> None:
     if args.db is not None and args.rois:
-        raise _UsageError("give a ROIS_YAML file or --db, not both")
+        raise UsageError("give a ROIS_YAML file or --db, not both")
     if args.db is None and (args.map_name is not None or args.config is not None):
-        raise _UsageError("--map and --config select ROIs in the store: add --db URI")
+        raise UsageError("--map and --config select ROIs in the store: add --db URI")
     if args.db is None and not args.rois:
-        raise _UsageError("give a ROIS_YAML file (e.g. worlds/office/rois.yaml) or --db URI")
+        raise UsageError("give a ROIS_YAML file (e.g. worlds/office/rois.yaml) or --db URI")
     if not (math.isfinite(args.tol) and args.tol >= 0.0):
-        raise _UsageError("--tol must be a finite number of metres >= 0, got %s" % args.tol)
+        raise UsageError("--tol must be a finite number of metres >= 0, got %s" % args.tol)
     if not (math.isfinite(args.min_shared) and args.min_shared > 0.0):
-        raise _UsageError("--min-shared must be a finite number of metres > 0, got %s"
+        raise UsageError("--min-shared must be a finite number of metres > 0, got %s"
                           % args.min_shared)
 
 

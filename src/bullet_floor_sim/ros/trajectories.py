@@ -43,25 +43,17 @@ from ..core.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_POSES, STORED_T
                                chunk_fields, chunk_from_document, chunk_from_json,
                                document_to_json, ensure_indexes, iter_documents,
                                join_chunks, parse_time, split_poses)
+from .cli import Parser, UsageError
 
 __all__ = ["main", "export_chunks", "import_lines", "plot_trajectories"]
 
 PROG = "trajectories"
 
 
-class _UsageError(Exception):
-    """argparse's complaint, turned into one line."""
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # type: ignore[override]
-        raise _UsageError(message)
-
-
 def _parser() -> argparse.ArgumentParser:
-    p = _Parser(prog=PROG, description="Stored trajectories (message_store.people_trajectory) "
+    p = Parser(prog=PROG, description="Stored trajectories (message_store.people_trajectory) "
                 "as JSON lines, back into the store, or as a picture.")
-    sub = p.add_subparsers(dest="command", parser_class=_Parser)
+    sub = p.add_subparsers(dest="command", parser_class=Parser)
 
     def common(q: argparse.ArgumentParser, window: bool = True) -> None:
         q.add_argument("--db", default="", help="mongodb://host:port/ or a directory (default "
@@ -102,21 +94,21 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     try:
         args = _parser().parse_args(args_in)
         if not args.command:
-            raise _UsageError("give a command: export, import or plot")
+            raise UsageError("give a command: export, import or plot")
         since = until = None
         if getattr(args, "since", None) is not None:
             since = parse_time(args.since, "--since")
         if getattr(args, "until", None) is not None:
             until = parse_time(args.until, "--until")
         if since is not None and until is not None and since > until:
-            raise _UsageError("--since %s is after --until %s" % (args.since, args.until))
+            raise UsageError("--since %s is after --until %s" % (args.since, args.until))
         if args.command == "import":
             if not args.map_name:
-                raise _UsageError("import needs --map NAME: the map the trajectories belong to")
+                raise UsageError("import needs --map NAME: the map the trajectories belong to")
             if args.max_poses < 2:
-                raise _UsageError("--max-poses must be >= 2, got %d" % args.max_poses)
+                raise UsageError("--max-poses must be >= 2, got %d" % args.max_poses)
         if args.command == "plot" and not args.cell > 0:
-            raise _UsageError("--cell must be a positive number of metres, got %s" % args.cell)
+            raise UsageError("--cell must be a positive number of metres, got %s" % args.cell)
         with open_store(args.db or None) as store:
             if args.command == "export":
                 _export(store, args, since, until)
@@ -124,7 +116,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                 _import(store, args)
             else:
                 _plot(store, args, since, until)
-    except (_UsageError, BulletFloorSimError, ValueError, OSError) as e:
+    except (UsageError, BulletFloorSimError, ValueError, OSError) as e:
         return _fail(str(e))
     return 0
 
