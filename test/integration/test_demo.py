@@ -8,7 +8,6 @@ import math
 import os
 import shutil
 import threading
-import time
 import unittest
 
 import actionlib
@@ -21,15 +20,7 @@ from std_msgs.msg import String
 from bullet_floor_sim.msg import Trajectory
 from bullet_floor_sim.srv import SOMAQueryROIs
 
-
-def wait_for(cond, timeout, what):
-    end = time.time() + timeout
-    while time.time() < end and not rospy.is_shutdown():
-        value = cond()
-        if value:
-            return value
-        time.sleep(0.2)
-    raise AssertionError("timed out after %.0f s waiting for %s" % (timeout, what))
+from helpers import wait_for
 
 
 class Demo(unittest.TestCase):

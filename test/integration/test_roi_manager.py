@@ -31,6 +31,8 @@ from bullet_floor_sim.core.rois import load_rois
 from bullet_floor_sim.core.store import open_store
 from bullet_floor_sim.srv import MapInfo, SOMAQueryROIs
 
+from helpers import wait_for
+
 ROIS_FILE = os.path.join(worlds_dir(), "office", "rois.yaml")
 FEEDBACK = "/soma_roi/1/feedback"
 # menu entry ids as MenuHandler numbers them: Add Point, Delete Point, Add ROI, its types, ...
@@ -45,16 +47,6 @@ def settle():
 
 def vertices(msg):
     return [(p.position.x, p.position.y) for p in msg.posearray.poses]
-
-
-def wait_for(cond, timeout=20.0, what="condition"):
-    end = time.time() + timeout
-    while time.time() < end:
-        value = cond()
-        if value:
-            return value
-        time.sleep(0.1)
-    raise AssertionError("timed out after %.0f s waiting for %s" % (timeout, what))
 
 
 class RoiManagerTest(unittest.TestCase):

@@ -36,19 +36,11 @@ from bullet_floor_sim.core.roi_store import RoiStore
 from bullet_floor_sim.core.rois import load_rois, roi_at
 from bullet_floor_sim.core.store import open_store
 
+from helpers import wait_for
+
 OFFICE_ROIS = os.path.join(worlds_dir(), "office", "rois.yaml")
 LEG_LINE = re.compile(r"^markov_walker: leg (\d+): (.+) -> (.+) in (\d+\.\d) s; dwelling "
                       r"(\d+\.\d) s$")
-
-
-def wait_for(condition, timeout, what):
-    """Poll ``condition`` for up to ``timeout`` wall seconds; fail naming ``what``."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline and not rospy.is_shutdown():
-        if condition():
-            return
-        time.sleep(0.2)
-    raise AssertionError("timed out after %g s waiting for %s" % (timeout, what))
 
 
 class TestMarkovWalker(unittest.TestCase):
