@@ -35,7 +35,7 @@ from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Set, 
 import numpy as np
 
 from .errors import BulletFloorSimError
-from .rois import Roi, RoiError, validate_roi, validate_rois
+from .rois import Roi, RoiError, one_map_and_config, validate_roi, validate_rois
 
 __all__ = [
     "DATABASE",
@@ -342,15 +342,11 @@ class MarkovChain:
         if not rois:
             raise RoiError("no ROIs: the chain needs at least one region")
         validate_rois(rois)
-        maps = sorted({r.map_name for r in rois})
-        configs = sorted({r.config for r in rois})
-        if len(maps) > 1 or len(configs) > 1:
-            raise RoiError("one chain per map and config: got maps %s and configs %s"
-                           % (", ".join(maps), ", ".join(configs)))
+        map_name, config = one_map_and_config(rois, "one chain per map and config:")
         adj = roi_adjacency(rois, tol, mode, min_shared)
         rule = ("no vertex within %g m of another ROI's vertex" % tol if mode == "vertex"
                 else "no wall of %g m shared with another ROI" % min_shared)
-        return cls.from_neighbours([r.id for r in rois], adj, maps[0], rule, configs[0])
+        return cls.from_neighbours([r.id for r in rois], adj, map_name, rule, config)
 
     @classmethod
     def from_neighbours(cls, ids: Sequence[str], neighbours: Mapping[str, Iterable[str]],

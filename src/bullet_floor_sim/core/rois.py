@@ -38,6 +38,7 @@ __all__ = [
     "validate_roi",
     "validate_rois",
     "check_bounds",
+    "one_map_and_config",
     "roi_polygon",
     "roi_at",
     "centroid",
@@ -201,17 +202,27 @@ def rois_to_dict(rois: Sequence[Roi]) -> Dict[str, Any]:
     if not rois:
         raise RoiError("no ROIs to write: a rois.yaml needs at least its map_name and config")
     validate_rois(rois)
-    maps = sorted({r.map_name for r in rois})
-    configs = sorted({r.config for r in rois})
-    if len(maps) > 1 or len(configs) > 1:
-        raise RoiError("a rois.yaml holds one map and one config, got maps %s and configs %s"
-                       % (", ".join(maps), ", ".join(configs)))
+    map_name, config = one_map_and_config(rois, "a rois.yaml holds one map and one config,")
     return {
-        "map_name": maps[0],
-        "config": configs[0],
+        "map_name": map_name,
+        "config": config,
         "rois": [{"id": r.id, "type": r.type, "points": [[x, y] for x, y in r.vertices]}
                  for r in rois],
     }
+
+
+def one_map_and_config(rois: Sequence[Roi], lead: str) -> Tuple[str, str]:
+    """The one map name and config that non-empty ``rois`` share.
+
+    Raises:
+        RoiError: "<lead> got maps ... and configs ...", when they span several.
+    """
+    maps = sorted({r.map_name for r in rois})
+    configs = sorted({r.config for r in rois})
+    if len(maps) > 1 or len(configs) > 1:
+        raise RoiError("%s got maps %s and configs %s"
+                       % (lead, ", ".join(maps), ", ".join(configs)))
+    return maps[0], configs[0]
 
 
 # --------------------------------------------------------------------------------------------
