@@ -65,14 +65,20 @@ class TestMarkovWalker(unittest.TestCase):
 
     @classmethod
     def _on_pose(cls, msg):
+        t = rospy.get_time()
+        if t <= 0.0:  # before this node's first /clock: no time to compare by
+            return
         roi = roi_at(cls.rois, msg.pose.position.x, msg.pose.position.y)
         with cls.lock:
-            cls.poses.append((rospy.get_time(), roi.id if roi else ""))
+            cls.poses.append((t, roi.id if roi else ""))
 
     @classmethod
     def _on_region(cls, msg):
+        t = rospy.get_time()
+        if t <= 0.0:  # before this node's first /clock (the 1 Hz repeat comes again)
+            return
         with cls.lock:
-            cls.regions.append((rospy.get_time(), msg.data))
+            cls.regions.append((t, msg.data))
 
     @classmethod
     def _on_leg(cls, msg):
