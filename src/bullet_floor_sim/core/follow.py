@@ -1,0 +1,232 @@
+"""The observer's behaviour: keep a tracked entity in view at a set distance, search when lost.
+
+:class:`FollowBehaviour` turns (the observer's pose, the target track, the predicted destination)
+into navigation goals, as plain numbers; a ROS node (``bullet_floor_sim.ros.follower``) sends
+them to ``<robot>/move_base`` and the evaluation sends them to the embedded navigator.
+
+* **follow**: the goal is a *stand-off point* ``distance`` metres from the target, on the line
+  from the target back towards the observer (so the observer trails it through doors rather
+  than overtaking it), snapped to the nearest free planning cell on that circle, facing the
+  target. A new goal is sent when the target has moved ``replan_distance`` from where it was
+  when the last goal was sent, or at least every ``goal_period`` seconds while it moves.
+  Within ``distance + slack`` of a target that stands still, the observer only turns to face
+  it (a lidar sees 180 degrees ahead).
+* **search**: when no track has been seen for ``lost_after`` seconds, the observer goes to the
+  predicted destination region (the predictor's arg-max; the point of the region nearest to
+  where the target was last seen), then turns on the spot to look around; a track seen again
+  ends the search.
+* **idle**: nothing tracked and nothing predicted: stay.
+
+Everything is plain numbers in, plain numbers out.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional, Sequence, Tuple
+
+from .errors import BulletFloorSimError
+from .planner import PlanningGrid
+
+__all__ = ["FollowError", "FollowConfig", "FollowDecision", "FollowBehaviour", "standoff_point",
+           "in_view", "pick_target", "search_point"]
+
+
+class FollowError(BulletFloorSimError):
+    """A bad follower parameter."""
+
+
+@dataclass
+class FollowConfig:
+    """Follower parameters (metres, seconds).
+
+    Attributes:
+        distance: stand-off distance kept from the target (the lidar needs it in front, and
+            1.5 m leaves a person room to turn round in a doorway).
+        slack: no new goal while the target stands within ``distance + slack`` and in view.
+        replan_distance: send a new goal when the target moved this far since the last one.
+        goal_period: while the target moves, a new goal at least this often.
+        lost_after: no track for this long -> search.
+        search_turn: after reaching the search point, turn this much (radians) to look round.
+    """
+
+    distance: float = 1.5
+    slack: float = 0.7
+    replan_distance: float = 0.5
+    goal_period: float = 2.0
+    lost_after: float = 2.0
+    search_turn: float = math.pi
+
+    def check(self) -> None:
+        """Raise FollowError naming the first bad parameter."""
+        for name in ("distance", "slack", "replan_distance", "goal_period", "lost_after",
+                     "search_turn"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise FollowError("follower: %s must be a finite number > 0, got %r" % (name, v))
+
+
+@dataclass
+class FollowDecision:
+    """What the observer should do now.
+
+    Attributes:
+        mode: ``follow``, ``search`` or ``idle``.
+        goal: a new navigation goal (x, y, yaw) to send now, or None (keep the current one).
+        reason: one line for the log.
+    """
+
+    mode: str
+    goal: Optional[Tuple[float, float, float]] = None
+    reason: str = ""
+
+
+def standoff_point(grid: PlanningGrid, target: Sequence[float], robot: Sequence[float],
+                   distance: float) -> Optional[Tuple[float, float]]:
+    """A free point ``distance`` from ``target``, as close as possible to the direction of
+    ``robot`` (candidates every 15 degrees on the circle, then on smaller circles). None when
+    no free point lies within ``distance`` of the target."""
+    tx, ty = float(target[0]), float(target[1])
+    base = math.atan2(float(robot[1]) - ty, float(robot[0]) - tx)
+    for radius in (distance, 0.75 * distance, 0.5 * distance):
+        for k in range(13):  # 0, +15, -15, +30, ... +-180 degrees
+            a = base + math.radians(15.0 * ((k + 1) // 2) * (1 if k % 2 else -1))
+            x, y = tx + radius * math.cos(a), ty + radius * math.sin(a)
+            if grid.is_free(x, y):
+                return x, y
+    return None
+
+
+class FollowBehaviour:
+    """Follow / search decisions for one observer and one target.
+
+    Args:
+        grid: the observer's planning grid (free cells are where it can stand).
+        config: parameters.
+    """
+
+    def __init__(self, grid: PlanningGrid, config: Optional[FollowConfig] = None) -> None:
+        self.grid = grid
+        self.config = config or FollowConfig()
+        self.config.check()
+        self.mode = "idle"
+        self.last_seen: Optional[float] = None
+        self.last_target: Optional[Tuple[float, float]] = None
+        self._goal_target: Optional[Tuple[float, float]] = None
+        self._goal_time = -math.inf
+        self._search_goal: Optional[Tuple[float, float, float]] = None
+        self._search_region: Optional[str] = None
+        self._turned = False
+
+    def update(self, t: float, robot: Sequence[float], target: Optional[Sequence[float]],
+               destination: Optional[Tuple[str, Sequence[float]]] = None,
+               goal_done: bool = False) -> FollowDecision:
+        """One decision.
+
+        Args:
+            t: time (s).
+            robot: the observer's (x, y, yaw), map frame.
+            target: the tracked target's (x, y, vx, vy) or None when not tracked now.
+            destination: (region id, search point (x, y)) predicted for the target, or None.
+            goal_done: the navigation finished (reached or gave up) the last goal sent.
+        """
+        cfg = self.config
+        if target is not None:
+            return self._follow(t, robot, target, goal_done)
+        if self.last_seen is not None and t - self.last_seen < cfg.lost_after:
+            return FollowDecision(self.mode, None, "target unseen for %.1f s" % (
+                t - self.last_seen))
+        if destination is None:
+            if self.mode != "idle":
+                self.mode = "idle"
+                return FollowDecision("idle", None, "target lost, no predicted destination")
+            return FollowDecision("idle")
+        region, point = destination
+        if self.mode != "search" or region != self._search_region:
+            self.mode, self._search_region, self._turned = "search", region, False
+            x, y = float(point[0]), float(point[1])
+            yaw = math.atan2(y - float(robot[1]), x - float(robot[0]))
+            self._search_goal = (x, y, yaw)
+            return FollowDecision("search", self._search_goal,
+                                  "target lost: searching predicted region %s" % region)
+        if goal_done and not self._turned and self._search_goal is not None:
+            self._turned = True
+            return FollowDecision("search", (float(robot[0]), float(robot[1]),
+                                             _wrap(float(robot[2]) + cfg.search_turn)),
+                                  "search point reached: looking round")
+        return FollowDecision("search")
+
+    def _follow(self, t: float, robot: Sequence[float], target: Sequence[float],
+                goal_done: bool) -> FollowDecision:
+        cfg = self.config
+        tx, ty, vx, vy = (float(v) for v in target[:4])
+        self.last_seen, self.last_target = t, (tx, ty)
+        first = self.mode != "follow"
+        self.mode = "follow"
+        rx, ry, ryaw = (float(v) for v in robot[:3])
+        dist = math.hypot(tx - rx, ty - ry)
+        facing = math.atan2(ty - ry, tx - rx)
+        moving = math.hypot(vx, vy) > 0.15
+        moved = (math.inf if self._goal_target is None else
+                 math.hypot(tx - self._goal_target[0], ty - self._goal_target[1]))
+        if not first and dist <= cfg.distance + cfg.slack and not moving:
+            if abs(_wrap(facing - ryaw)) > 0.5 and (goal_done or moved > cfg.replan_distance):
+                self._goal_target, self._goal_time = (tx, ty), t
+                return FollowDecision("follow", (rx, ry, facing), "turning to face the target")
+            return FollowDecision("follow")
+        due = (first or goal_done or moved > cfg.replan_distance
+               or (moving and t - self._goal_time >= cfg.goal_period))
+        if not due:
+            return FollowDecision("follow")
+        point = standoff_point(self.grid, (tx, ty), (rx, ry), cfg.distance)
+        self._goal_target, self._goal_time = (tx, ty), t
+        if point is None:
+            return FollowDecision("follow", (rx, ry, facing), "no free stand-off point: turning")
+        gx, gy = point
+        return FollowDecision("follow", (gx, gy, math.atan2(ty - gy, tx - gx)),
+                              "target at (%.2f, %.2f)" % (tx, ty))
+
+
+def pick_target(tracks: Sequence, current: Optional[int],
+                last_xy: Optional[Sequence[float]]):
+    """The track to follow among ``tracks`` (objects with ``id``, ``x``, ``y``): the one being
+    followed (id ``current``) while it lives; else the one nearest to where the target was last
+    seen; else the oldest (lowest id). None when there is no track."""
+    if not tracks:
+        return None
+    for tr in tracks:
+        if tr.id == current:
+            return tr
+    if last_xy is not None:
+        return min(tracks, key=lambda tr: math.hypot(tr.x - last_xy[0], tr.y - last_xy[1]))
+    return min(tracks, key=lambda tr: tr.id)
+
+
+def search_point(points: Sequence[Sequence[float]], xy: Sequence[float]) -> Tuple[float, float]:
+    """Where to look for a lost target heading for a region: of the region's goal points
+    (``points``, e.g. DestinationModel.goals), the one nearest to where it was last seen
+    (``xy`` itself when the region has none)."""
+    best, best_d = (float(xy[0]), float(xy[1])), math.inf
+    for p in points:
+        d = math.hypot(float(p[0]) - float(xy[0]), float(p[1]) - float(xy[1]))
+        if d < best_d:
+            best, best_d = (float(p[0]), float(p[1])), d
+    return best
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def in_view(observer: Sequence[float], laser_offset: Sequence[float], point: Sequence[float],
+            fov: float, max_range: float) -> bool:
+    """Whether ``point`` lies within a laser's field of view (radians, centred ahead) and range
+    (occlusion not checked). ``laser_offset``: (x, y, yaw) of the laser in the base frame."""
+    x, y, yaw = (float(v) for v in observer[:3])
+    lx = x + math.cos(yaw) * laser_offset[0] - math.sin(yaw) * laser_offset[1]
+    ly = y + math.sin(yaw) * laser_offset[0] + math.cos(yaw) * laser_offset[1]
+    dx, dy = float(point[0]) - lx, float(point[1]) - ly
+    if math.hypot(dx, dy) > max_range:
+        return False
+    return abs(_wrap(math.atan2(dy, dx) - yaw - laser_offset[2])) <= 0.5 * fov + 1e-9
+

@@ -1,0 +1,115 @@
+"""core/follow.py: the observer's follow / search decisions, on a hand-made map."""
+import math
+
+import numpy as np
+import pytest
+
+from bullet_floor_sim.core.floormap import map_from_grid
+from bullet_floor_sim.core.follow import (FollowBehaviour, FollowConfig, FollowError,
+                                          in_view, pick_target, search_point, standoff_point)
+from bullet_floor_sim.core.planner import PlanningGrid
+
+RES = 0.05
+
+
+def hall(width=10.0, height=4.0):
+    """An empty walled hall, width x height metres (walls one cell thick at the border)."""
+    g = np.zeros((int(round(height / RES)), int(round(width / RES))), dtype=np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+    return PlanningGrid(map_from_grid(g, RES))
+
+
+class Tr:
+    def __init__(self, id, x, y):
+        self.id, self.x, self.y = id, x, y
+
+
+def test_standoff_point_is_on_the_line_back_to_the_robot_at_the_distance():
+    grid = hall()
+    p = standoff_point(grid, (6.0, 2.0), (2.0, 2.0), 1.5)
+    assert p == pytest.approx((4.5, 2.0), abs=1e-9)
+    # near a wall the circle point towards the robot is blocked: the nearest free direction
+    p = standoff_point(grid, (5.0, 1.0), (5.0, -3.0), 1.5)  # robot "below" the hall
+    assert p is not None and grid.is_free(*p)
+    assert math.hypot(p[0] - 5.0, p[1] - 1.0) == pytest.approx(1.5, abs=1e-9)
+    assert abs(p[0] - 5.0) > 0.5  # rotated away from straight down, which is outside
+
+
+def test_follow_sends_a_standoff_goal_facing_the_target_then_replans_when_it_moves():
+    grid = hall()
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, replan_distance=0.5, goal_period=2.0))
+    d = fb.update(0.0, (2.0, 2.0, 0.0), (6.0, 2.0, 0.5, 0.0))
+    assert d.mode == "follow"
+    gx, gy, gyaw = d.goal
+    assert (gx, gy) == pytest.approx((4.5, 2.0), abs=1e-9)
+    assert gyaw == pytest.approx(0.0, abs=1e-9)  # facing the target
+    # it moved 0.3 m in 0.6 s: no new goal yet (neither replan_distance nor goal_period)
+    assert fb.update(0.6, (2.3, 2.0, 0.0), (6.3, 2.0, 0.5, 0.0)).goal is None
+    # 0.6 m from where it was when the goal was sent: a new goal 1.5 m behind it
+    d = fb.update(1.2, (2.6, 2.0, 0.0), (6.6, 2.0, 0.5, 0.0))
+    assert d.goal[:2] == pytest.approx((5.1, 2.0), abs=1e-9)
+    # moving slowly but steadily: a goal at least every goal_period
+    assert fb.update(1.6, (2.7, 2.0, 0.0), (6.7, 2.0, 0.5, 0.0)).goal is None
+    assert fb.update(3.3, (2.8, 2.0, 0.0), (6.9, 2.0, 0.5, 0.0)).goal is not None
+
+
+def test_a_standing_target_within_reach_only_gets_faced():
+    grid = hall()
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7))
+    fb.update(0.0, (2.0, 2.0, 0.0), (3.8, 2.0, 0.0, 0.0))
+    # still target 1.8 m away (< 2.2) and ahead: nothing to do
+    assert fb.update(1.0, (2.0, 2.0, 0.0), (3.8, 2.0, 0.0, 0.0), goal_done=True).goal is None
+    # it stepped to the robot's left, 1 m: turn on the spot to face it
+    d = fb.update(2.0, (2.0, 2.0, 0.0), (2.6, 3.4, 0.0, 0.0), goal_done=True)
+    assert d.goal[:2] == pytest.approx((2.0, 2.0))
+    assert d.goal[2] == pytest.approx(math.atan2(1.4, 0.6), abs=1e-9)
+
+
+def test_lost_target_waits_lost_after_then_searches_the_predicted_region_and_looks_round():
+    grid = hall()
+    fb = FollowBehaviour(grid, FollowConfig(lost_after=2.0, search_turn=math.pi))
+    fb.update(0.0, (2.0, 2.0, 0.0), (4.0, 2.0, 0.5, 0.0))
+    dest = ("7", (8.0, 3.0))
+    d = fb.update(1.5, (2.5, 2.0, 0.0), None, dest)
+    assert d.mode == "follow" and d.goal is None  # unseen 1.5 s < lost_after
+    d = fb.update(2.5, (2.5, 2.0, 0.0), None, dest)
+    assert d.mode == "search"
+    assert d.goal == pytest.approx((8.0, 3.0, math.atan2(1.0, 5.5)))
+    assert fb.update(3.0, (3.0, 2.0, 0.0), None, dest).goal is None  # on its way
+    d = fb.update(9.0, (8.0, 3.0, 0.2), None, dest, goal_done=True)
+    assert d.goal == pytest.approx((8.0, 3.0, 0.2 - math.pi))  # look round, once
+    assert fb.update(12.0, (8.0, 3.0, 0.2 - math.pi), None, dest, goal_done=True).goal is None
+    # seen again: back to following
+    assert fb.update(13.0, (8.0, 3.0, 0.0), (9.5, 3.0, 0.3, 0.0)).mode == "follow"
+
+
+def test_lost_without_prediction_is_idle():
+    fb = FollowBehaviour(hall())
+    fb.update(0.0, (2.0, 2.0, 0.0), (4.0, 2.0, 0.0, 0.0))
+    assert fb.update(5.0, (2.0, 2.0, 0.0), None, None).mode == "idle"
+
+
+def test_pick_target_keeps_the_followed_id_else_the_nearest_to_last_seen():
+    tracks = [Tr(3, 0.0, 0.0), Tr(5, 4.0, 0.0), Tr(9, 8.0, 0.0)]
+    assert pick_target(tracks, 5, (0.0, 0.0)).id == 5
+    assert pick_target(tracks, 4, (7.0, 0.5)).id == 9
+    assert pick_target(tracks, None, None).id == 3
+    assert pick_target([], 5, None) is None
+
+
+def test_search_point_and_in_view():
+    assert search_point([(0.0, 0.0), (3.0, 4.0), (1.0, 1.0)], (2.5, 3.0)) == (3.0, 4.0)
+    assert search_point([], (2.5, 3.0)) == (2.5, 3.0)
+    laser = (0.3, 0.0, 0.0)
+    assert in_view((0.0, 0.0, 0.0), laser, (3.0, 0.0), math.pi, 30.0)
+    assert in_view((0.0, 0.0, 0.0), laser, (0.3, 2.0), math.pi, 30.0)      # 90 deg: edge
+    assert not in_view((0.0, 0.0, 0.0), laser, (0.2, 2.0), math.pi, 30.0)  # just behind
+    assert not in_view((0.0, 0.0, math.pi), laser, (3.0, 0.0), math.pi, 30.0)
+    assert not in_view((0.0, 0.0, 0.0), laser, (40.0, 0.0), math.pi, 30.0)
+
+
+@pytest.mark.parametrize("field,value", [("distance", 0.0), ("lost_after", float("nan")),
+                                         ("goal_period", -1.0)])
+def test_bad_config_names_the_field(field, value):
+    with pytest.raises(FollowError, match=field):
+        FollowBehaviour(hall(), FollowConfig(**{field: value}))
