@@ -32,12 +32,15 @@ RES = 0.05
 
 def test_scan_points_drop_non_finite_returns_and_rotate_into_the_map_frame():
     ranges = np.array([2.0, np.inf, np.nan, 1.0, -np.inf], dtype=np.float32)
-    pts, beams = scan_points(ranges, 0.0, math.pi / 6, (1.0, 2.0, math.pi / 3))
+    pts, beams = scan_points(ranges, 0.0, math.pi / 6, (1.0, 2.0, math.pi / 3),
+                             return_beams=True)
     assert beams.tolist() == [0, 3]
     # beam 0 looks along 60 degrees in the map, beam 3 along 60 + 90 = 150 degrees
     np.testing.assert_allclose(pts, [[2.0, 2.0 + math.sqrt(3.0)],
                                      [1.0 - math.sqrt(3.0) / 2.0, 2.5]], atol=1e-6)
-    pts, beams = scan_points([np.inf, np.nan], -1.0, 0.1, (0.0, 0.0, 0.0))
+    np.testing.assert_array_equal(scan_points(ranges, 0.0, math.pi / 6,
+                                              (1.0, 2.0, math.pi / 3)), pts)
+    pts, beams = scan_points([np.inf, np.nan], -1.0, 0.1, (0.0, 0.0, 0.0), return_beams=True)
     assert pts.shape == (0, 2) and beams.shape == (0,)
 
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Any, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -169,16 +169,19 @@ class StaticMap:
 
 
 def scan_points(ranges: Sequence[float], angle_min: float, angle_increment: float,
-                laser_pose: Sequence[float]) -> Tuple[np.ndarray, np.ndarray]:
+                laser_pose: Sequence[float], return_beams: bool = False
+                ) -> Union[np.ndarray, Tuple[np.ndarray, np.ndarray]]:
     """Map-frame points of a scan's finite returns.
 
     Args:
         ranges: (B,) REP 117 ranges; +inf (no return), -inf (too close) and NaN are dropped.
         angle_min, angle_increment: beam angles in the laser frame (radians).
         laser_pose: (x, y, yaw) of the laser frame in the map frame.
+        return_beams: also return each point's beam index.
 
     Returns:
-        (points (N, 2) float64, beam indices (N,) int64, increasing).
+        Points (N, 2) float64 in beam order; with ``return_beams``, (points, beam indices
+        (N,) int64, increasing).
 
     Raises:
         TrackingError: ranges is not 1-D, or the angles or the pose are not finite.
@@ -199,7 +202,7 @@ def scan_points(ranges: Sequence[float], angle_min: float, angle_increment: floa
     pts = np.empty((len(beams), 2))
     pts[:, 0] = pose[0] + d * np.cos(a)
     pts[:, 1] = pose[1] + d * np.sin(a)
-    return pts, beams.astype(np.int64)
+    return (pts, beams.astype(np.int64)) if return_beams else pts
 
 
 def cluster(points: np.ndarray, gap: float, wrap: bool = False) -> List[np.ndarray]:
@@ -289,7 +292,7 @@ def detect_scan(ranges: Sequence[float], angle_min: float, angle_increment: floa
                 config: Optional[TrackerConfig] = None) -> List[Detection]:
     """:func:`scan_points` then :func:`detect` for one scan (a ``Scan``'s or a LaserScan's
     fields); a scan whose beams cover a full circle wraps around."""
-    pts, _ = scan_points(ranges, angle_min, angle_increment, laser_pose)
+    pts = scan_points(ranges, angle_min, angle_increment, laser_pose)
     n = len(np.asarray(ranges).reshape(-1))
     wrap = abs(angle_increment) * n >= 2.0 * math.pi - 1e-6
     return detect(pts, static, laser_pose[:2], config, wrap)
