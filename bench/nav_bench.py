@@ -1,7 +1,11 @@
 #!/usr/bin/env python3
-"""Navigation benchmark: room-to-room goals through the move_base action, builtin and stock.
+"""Navigation benchmark: room-to-room goals through the move_base action, builtin and stock,
+for one robot and for two at once.
 
-For each navigation mode, ``navigation.launch world:=office nav:=<mode>`` (one robot with an
+Modes ``builtin`` and ``stock`` run one robot; ``builtin2`` and ``stock2`` run
+``two_robots.launch`` and drive robot1 and robot2 at the same time (robot1's goals from the west
+rooms, robot2's from the east ones: ``TWO_ROBOT_ROOMS``), pooling both robots' goals. For each
+navigation mode, ``navigation.launch world:=office nav:=<mode>`` (one robot with an
 empty name, headless) runs under a roscore of its own on a free port, and an actionlib client
 sends N goals (default 8): room centroids of worlds/office/rois.yaml (offices, lab, kitchen;
 corridors excluded), each checked free on the planning grid, in an order and with goal yaws
@@ -20,7 +24,7 @@ workspace's, which resets the package path); otherwise it is reported as ``na``.
 Real-time factors (``--rtf-builtin``, ``--rtf-stock``): 4 for both. At 4 the stock stack
 (amcl, costmaps, DWA at 10 Hz sim) keeps up on a 2-core machine with no tf or control-loop
 warnings; at 6 move_base logs tf extrapolation errors ("Could not transform the global plan")
-and missed control-loop rates. Builtin 4 is the rostest's. About 3 minutes for both modes.
+and missed control-loop rates. Builtin 4 is the rostest's. About 3 minutes for both one-robot modes, 4 for the two-robot ones.
 
 The stock mode needs config/*.yaml as tuned for this simulator (amcl beam model: the
 likelihood field biases the estimate into the walls by up to a map cell; DWA goal latch at
@@ -29,7 +33,7 @@ move_base level), see the comments there.
 Prints a per-goal table, a summary table and one line::
 
     BENCH nav builtin_success=<x> builtin_mean_s=<x> stock_success=<x|na> stock_mean_s=<x|na> \
-stock_amcl_median_m=<x|na>
+stock_amcl_median_m=<x|na> builtin2_success=... stock2_amcl_median_m=<x|na>
 
 ``--attach NS`` (``-`` for the empty-name robot) drives a robot of an already running launch
 (the current ROS_MASTER_URI) with
@@ -320,9 +324,20 @@ def _kill_leftovers(tag: str) -> int:
     return n
 
 
+#: Two-robot runs: each robot's goals come from its own half of the office (robot1 the west
+#: rooms, robot2 the east ones), so both cross the shared corridor at once but do not have to
+#: pass head-on through the same door (two stock move_bases deadlock there; see the README).
+TWO_ROBOT_ROOMS = {"robot1": ["5", "6", "7", "10", "11", "12"],
+                   "robot2": ["8", "9", "13", "14", "15"]}
+
+
 def run_case(mode: str, n: int, seed: int, rtf: float, timeout: float) -> Dict:
-    """navigation.launch nav:=<mode> under a private roscore; drive the robot; its results."""
+    """navigation.launch (mode ``builtin``/``stock``) or two_robots.launch (``builtin2``/
+    ``stock2``) under a private roscore; drive the robot(s); results (per namespace for two)."""
     import rosgraph
+
+    two = mode.endswith("2")
+    nav = mode[:-1] if two else mode
 
     tmp = tempfile.mkdtemp(prefix="bfs_nav_bench_%s_" % mode)
     uri = "http://127.0.0.1:%d" % _free_port()
@@ -342,8 +357,9 @@ def run_case(mode: str, n: int, seed: int, rtf: float, timeout: float) -> Dict:
         subprocess.call(["rosparam", "set", "/use_sim_time", "true"], env=env)
         with open(log_path, "w") as logf:
             launch = subprocess.Popen(
-                ["roslaunch", "bullet_floor_sim", "navigation.launch", "world:=office",
-                 "nav:=" + mode, "rtf:=%g" % rtf, "seed:=%d" % seed],
+                ["roslaunch", "bullet_floor_sim",
+                 "two_robots.launch" if two else "navigation.launch", "world:=office",
+                 "nav:=" + nav, "rtf:=%g" % rtf, "seed:=%d" % seed],
                 env=env, stdout=logf, stderr=subprocess.STDOUT, start_new_session=True)
         import rospy
         from std_msgs.msg import Float64
@@ -352,8 +368,10 @@ def run_case(mode: str, n: int, seed: int, rtf: float, timeout: float) -> Dict:
         achieved: List[float] = []
         rospy.Subscriber("/simulator/real_time_factor_achieved", Float64,
                          lambda m: achieved.append(m.data))
-        res = drive([""], mode == "stock", n, seed, timeout,
-                    log=lambda s: print(s, file=sys.stderr, flush=True))[""]
+        out = drive(list(TWO_ROBOT_ROOMS) if two else [""], nav == "stock", n, seed, timeout,
+                    log=lambda s: print(s, file=sys.stderr, flush=True),
+                    rooms=TWO_ROBOT_ROOMS if two else None)
+        res = merge(out) if two else out[""]
         res["log"] = log_path
         res["rtf"] = rtf
         res["rtf_achieved"] = min(achieved) if achieved else None
@@ -375,6 +393,17 @@ def _log_problems(path: str) -> int:
             return sum(1 for line in f if "[ WARN]" in line or "[ERROR]" in line)
     except OSError:
         return -1
+
+
+def merge(out: Dict[str, Dict]) -> Dict:
+    """One result from several robots' (goals and amcl samples pooled, goals tagged by robot)."""
+    res: Dict = {"ready": all(r.get("ready") for r in out.values()), "goals": [],
+                 "loc_err": [], "loc_yaw_err": []}
+    for ns, r in out.items():
+        res["goals"] += [dict(g, ns=ns) for g in r.get("goals", [])]
+        res["loc_err"] += r.get("loc_err", [])
+        res["loc_yaw_err"] += r.get("loc_yaw_err", [])
+    return res
 
 
 # -- report -------------------------------------------------------------------------------------
@@ -420,7 +449,9 @@ def main(argv: Optional[List[str]] = None) -> int:
     ap.add_argument("--rtf-builtin", type=float, default=4.0)
     ap.add_argument("--rtf-stock", type=float, default=4.0)
     ap.add_argument("--goal-timeout", type=float, default=150.0, help="sim s per goal")
-    ap.add_argument("--modes", default="builtin,stock")
+    ap.add_argument("--modes", default="builtin,stock,builtin2,stock2",
+                    help="builtin, stock: navigation.launch (one robot); builtin2, stock2: "
+                         "two_robots.launch (both robots at once)")
     ap.add_argument("--case", help=argparse.SUPPRESS)
     ap.add_argument("--rtf", type=float, help=argparse.SUPPRESS)
     ap.add_argument("--attach", action="append", help="drive robot NS of a running launch")
@@ -454,11 +485,11 @@ def main(argv: Optional[List[str]] = None) -> int:
     results: Dict[str, Optional[Dict]] = {}
     notes: Dict[str, str] = {}
     for mode in modes:
-        if mode == "stock" and not stock_available():
+        if mode.startswith("stock") and not stock_available():
             results[mode] = None
             notes[mode] = "move_base not found (rospack): skipped"
             continue
-        rtf = args.rtf_stock if mode == "stock" else args.rtf_builtin
+        rtf = args.rtf_stock if mode.startswith("stock") else args.rtf_builtin
         t0 = time.time()
         out = subprocess.run([sys.executable, __file__, "--case", mode, "--rtf", str(rtf),
                               "--goals", str(args.goals), "--seed", str(args.seed),
@@ -483,7 +514,7 @@ def main(argv: Optional[List[str]] = None) -> int:
         if not res.get("ready"):
             print("   navigation never became ready")
         for k, g in enumerate(res.get("goals", [])):
-            print("   %d %s" % (k, _row_text(g)))
+            print("   %d %s%s" % (k, g["ns"] + " " if g.get("ns") else "", _row_text(g)))
     print("%-8s %5s %8s %10s %12s %12s %11s" % ("mode", "goals", "success", "mean_s",
                                                  "final_err_m", "amcl_med_m", "amcl_max_m"))
     summ = {m: summarise(results.get(m)) for m in modes}
@@ -492,16 +523,19 @@ def main(argv: Optional[List[str]] = None) -> int:
         if not s:
             print("%-8s %s" % (mode, notes[mode]))
             continue
-        amcl = mode == "stock"
+        amcl = mode.startswith("stock")
         print("%-8s %5d %7.0f%% %10s %12s %12s %11s" % (
             mode, s["goals"], 100 * s["success"], _fmt(s["mean_s"], "%.1f"),
             _fmt(s["final_err"], "%.3f"), _fmt(s["amcl_median"], "%.3f") if amcl else "n/a",
             _fmt(s["amcl_worst"], "%.3f") if amcl else "n/a"))
-    b, st = summ.get("builtin") or {}, summ.get("stock") or {}
-    print("BENCH nav builtin_success=%s builtin_mean_s=%s stock_success=%s stock_mean_s=%s "
-          "stock_amcl_median_m=%s" % (
-              _fmt(b.get("success")), _fmt(b.get("mean_s"), "%.1f"), _fmt(st.get("success")),
-              _fmt(st.get("mean_s"), "%.1f"), _fmt(st.get("amcl_median"), "%.3f")))
+    fields = []
+    for mode in modes:
+        s = summ.get(mode) or {}
+        fields += ["%s_success=%s" % (mode, _fmt(s.get("success"))),
+                   "%s_mean_s=%s" % (mode, _fmt(s.get("mean_s"), "%.1f"))]
+        if mode.startswith("stock"):
+            fields.append("%s_amcl_median_m=%s" % (mode, _fmt(s.get("amcl_median"), "%.3f")))
+    print("BENCH nav " + " ".join(fields))
     return 0
 
 
