@@ -1,0 +1,474 @@
+"""Destination prediction: hand-computed posteriors on a corridor with offices, the baselines,
+leg cutting of a pose stream, the office world, and bad input (no ROS)."""
+from __future__ import annotations
+
+import math
+import os
+import time
+
+import numpy as np
+import pytest
+from shapely.geometry import Point
+
+from bullet_floor_sim.core.floormap import load_map, map_from_grid
+from bullet_floor_sim.core.markov import MarkovChain
+from bullet_floor_sim.core.planner import PlanError, PlanningGrid
+from bullet_floor_sim.core.prediction import (DestinationModel, OnlinePredictor, Prediction,
+                                              PredictionConfig, PredictionError, log_loss, top1)
+from bullet_floor_sim.core.rois import Roi, load_rois, roi_polygon
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
+OFFICE = os.path.join(ROOT, "worlds", "office")
+RES = 0.05
+
+# --------------------------------------------------------------------------------------------
+# a corridor with offices
+#
+#   y 11.9 +-----------+------------------+-------------------+
+#          |  A        |  B               |  C                |
+#      7.1 +--[door]---+-------[door]-----+-------[door]------+
+#          |  corridor (y 4.5 .. 7.0, centre line y = 5.75)    |
+#      4.4 +--------------------------------------+--[door]---+
+#          |  solid (a sealed pocket at x 2..5,   |  D        |
+#          |  y 1..3)                             |           |
+#      0.1 +--------------------------------------+-----------+
+#          x 0.1        8.5  8.6          19.5 19.6          27.9
+#
+# Doors are 1.2 m wide, centred on x = 3 (A), 14 (B), 25 (C above, D below). The corridor's
+# centre line keeps 1.25 m from both walls, beyond robot_radius + inflation_radius (0.94 m):
+# its cells cost nothing, so a step of d metres along it costs exactly d.
+# --------------------------------------------------------------------------------------------
+
+IDS = ["corridor", "A", "B", "C", "D"]
+GOALS = {"corridor": [(14.05, 5.75)], "A": [(3.05, 9.55)], "B": [(14.05, 9.55)],
+         "C": [(25.05, 9.55)], "D": [(25.05, 2.25)]}
+# The seed rule by hand. Degrees: corridor 3 (A, B, C), A 1, B 1, C 2 (corridor, D), D 1.
+# From the corridor, candidates {corridor, A, B, C}, S = 3 + 1 + 1 + 2 = 7, |C| - 1 = 3:
+# P = (1 - n_j / 7) / 3: corridor 4/21, A 6/21, B 6/21, C 5/21; D is not a candidate: 0.
+PRIOR = {"corridor": 4 / 21, "A": 6 / 21, "B": 6 / 21, "C": 5 / 21}
+
+
+def cells(x):
+    return int(round(x / RES))
+
+
+def corridor_map():
+    h, w = cells(12.0), cells(28.0)
+    g = np.zeros((h, w), dtype=np.int8)
+    g[:2, :] = g[-2:, :] = 100
+    g[:, :2] = g[:, -2:] = 100
+    g[cells(4.4):cells(4.5), :] = 100                 # corridor's lower wall
+    g[cells(7.0):cells(7.1), :] = 100                 # corridor's upper wall
+    g[:cells(4.4), :cells(19.6)] = 100                # solid below the corridor ...
+    g[cells(1.0):cells(3.0), cells(2.0):cells(5.0)] = 0  # ... but for a sealed pocket
+    for x in (8.5, 19.5):                             # office walls
+        g[cells(7.1):, cells(x):cells(x + 0.1)] = 100
+    for x in (3.0, 14.0, 25.0):                       # doors above
+        g[cells(7.0):cells(7.1), cells(x - 0.6):cells(x + 0.6)] = 0
+    g[cells(4.4):cells(4.5), cells(24.4):cells(25.6)] = 0  # D's door below
+    return map_from_grid(g, RES)
+
+
+def box(x0, y0, x1, y1):
+    return [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+
+
+def corridor_rois():
+    polys = {"corridor": box(0.1, 4.45, 27.9, 7.05), "A": box(0.1, 7.05, 8.55, 11.9),
+             "B": box(8.55, 7.05, 19.55, 11.9), "C": box(19.55, 7.05, 27.9, 11.9),
+             "D": box(19.55, 0.1, 27.9, 4.45)}
+    return [Roi(id=r, config="1", type="corridor" if r == "corridor" else "office",
+                map_name="corridor", vertices=polys[r]) for r in IDS]
+
+
+def corridor_chain():
+    return MarkovChain.from_neighbours(IDS, {"corridor": ["A", "B", "C"], "C": ["D"]},
+                                       "corridor")
+
+
+@pytest.fixture(scope="module")
+def world():
+    grid = PlanningGrid(corridor_map())
+    return grid, corridor_rois(), corridor_chain()
+
+
+@pytest.fixture(scope="module")
+def model(world):
+    return DestinationModel(*world, goal_points=GOALS)
+
+
+def expected(progress, beta):
+    """prior * exp(beta * progress), normalised."""
+    w = {g: PRIOR[g] * math.exp(beta * progress[g]) for g in PRIOR}
+    total = sum(w.values())
+    return {g: v / total for g, v in w.items()}
+
+
+# --------------------------------------------------------------------------------------------
+# hand-computed posteriors
+# --------------------------------------------------------------------------------------------
+
+
+def test_prior_is_the_chain_row_by_hand(model):
+    assert model.prior("corridor") == pytest.approx(PRIOR, abs=1e-12)
+    assert model.markov_baseline("corridor") == model.prior("corridor")
+    assert model.start_region(7.05, 5.75) == "corridor"
+    assert model.start_region(3.0, 7.05) == "A"  # on the shared edge: the smaller ROI
+    assert model.start_region(0.05, 5.75) == "corridor"  # in none: the nearest
+    assert model.region_at(14.0, 9.0) == "B" and model.region_at(30.0, 5.0) == ""
+
+
+def test_cost_to_go_along_the_centre_line_is_the_distance(model):
+    # the corridor's goal lies on the centre line: V is the distance to it, to rounding
+    for x in (7.05, 9.72, 12.05, 16.03, 20.0):
+        assert model.cost_to_go("corridor", x, 5.75)[0] == pytest.approx(abs(14.05 - x),
+                                                                          abs=1e-5)
+
+
+@pytest.mark.parametrize("beta", [1.0, 3.0])
+@pytest.mark.parametrize("q", [(10.05, 5.75), (9.72, 5.75)])
+def test_posterior_along_the_corridor_by_hand(world, beta, q):
+    """Walking east on the centre line from S = (7.05, 5.75) to Q: the optimal path from S to
+    every goal runs along the centre line through Q (A's turns off west of S, the others' east
+    of Q), so the progress V_p(S) - V_p(Q) is +|SQ| for the corridor, B and C goals and -|SQ|
+    for A's. Tolerance: the progress to 1 cm (beta * 0.01 on log ratios); the V fields are
+    float32 and the grid is exact here, the centimetre allows for the cell refinement."""
+    grid, rois, chain = world
+    m = DestinationModel(grid, rois, chain, PredictionConfig(beta=beta), goal_points=GOALS)
+    s = (7.05, 5.75)
+    d = q[0] - s[0]
+    progress = {"corridor": d, "A": -d, "B": d, "C": d}
+    post = m.posterior("corridor", s, q)
+    assert list(post) == ["corridor", "A", "B", "C"]  # D has prior 0 and stays out
+    assert sum(post.values()) == pytest.approx(1.0, abs=1e-12)
+    want = expected(progress, beta)
+    for g in post:
+        got = math.log(post[g] / PRIOR[g]) - math.log(post["corridor"] / PRIOR["corridor"])
+        assert got == pytest.approx(beta * (progress[g] - progress["corridor"]),
+                                    abs=beta * 0.01), g
+        assert post[g] == pytest.approx(want[g], rel=2 * beta * 0.01), g
+    # e.g. beta 1, 3 m: corridor 4/15, A 6/15 e^-6, B 6/15, C 5/15 (before normalising)
+    if beta == 1.0 and q == (10.05, 5.75):
+        assert post["A"] == pytest.approx(0.4 * math.exp(-6) / (1 + 0.4 * math.exp(-6)),
+                                          rel=0.02)
+
+
+def test_nothing_observed_gives_the_prior_exactly(model):
+    post = model.posterior("corridor", (7.05, 5.75), (7.05, 5.75))
+    assert post == pytest.approx(PRIOR, rel=1e-12)
+    post = model.posterior("C", (23.0, 9.0), (23.0, 9.0))
+    assert post == pytest.approx(model.prior("C"), rel=1e-12)
+    assert set(post) == {"corridor", "C", "D"}
+
+
+def test_walking_to_office_a_raises_p_a_monotonically(model):
+    s = (10.05, 5.75)
+    path = [(x, 5.75) for x in np.arange(10.05, 3.0, -0.1)]
+    path += [(3.05, y) for y in np.arange(5.85, 9.5, 0.1)]
+    pa = [model.posterior("corridor", s, q)["A"] for q in path]
+    assert pa[0] == pytest.approx(PRIOR["A"])
+    assert all(b > a for a, b in zip(pa[:30], pa[1:31]))  # strictly, along the centre line
+    assert all(b >= a - 1e-9 for a, b in zip(pa, pa[1:]))  # and never down, through the door
+    assert pa[-1] > 0.999
+
+
+def test_prior_zero_stays_zero_and_sums_to_one(model):
+    s = (7.05, 5.75)
+    path = [(x, 5.75) for x in np.arange(7.05, 25.0, 0.5)]
+    path += [(25.05, y) for y in np.arange(5.75, 2.0, -0.25)]  # into D
+    for q in path:
+        post = model.posterior("corridor", s, q)
+        assert "D" not in post and post.get("D", 0.0) == 0.0
+        assert sum(post.values()) == pytest.approx(1.0, abs=1e-12)
+        assert all(0.0 <= p <= 1.0 for p in post.values())
+    # from C, D is a candidate: walking down into D makes it near certain
+    post = model.posterior("C", (25.05, 9.55), (25.05, 3.05))
+    assert post["D"] > 0.999
+
+
+def test_unreachable_goal_gives_zero_with_a_reason(world):
+    goals = dict(GOALS, B=[(3.5, 2.0)], C=[(21.0, 7.05)])  # B's in the sealed pocket, C's in
+    m = DestinationModel(*world, goal_points=goals)         # the wall
+    assert m.goal_problems == {"C": 'region "C": goal point(s) (21.00, 7.05) not in free space'}
+    assert len(m.goals("B")) == 1 and np.isinf(m.cost_to_go("B", 7.05, 5.75)).all()
+    post, reasons = m.posterior_details("corridor", (7.05, 5.75), (8.05, 5.75))
+    assert post["B"] == 0.0 and post["C"] == 0.0
+    assert reasons == {"B": 'no goal point of region "B" is reachable from (7.05, 5.75)',
+                       "C": m.goal_problems["C"]}
+    assert post["corridor"] + post["A"] == pytest.approx(1.0, abs=1e-12)
+    # from inside the pocket, B's goal is the only one reachable
+    post, reasons = m.posterior_details("corridor", (3.0, 2.0), (3.2, 2.0))
+    assert post == {"corridor": 0.0, "A": 0.0, "B": 1.0, "C": 0.0}
+    assert reasons["A"] == 'no goal point of region "A" is reachable from (3.00, 2.00)'
+    # with the usual goals, nothing of the row is reachable from there
+    with pytest.raises(PredictionError, match='no region of "corridor"\'s row is reachable: '
+                                              'no goal point of region "corridor" is'):
+        DestinationModel(*world, goal_points=GOALS).posterior("corridor", (3.5, 2.0), (3.6, 2.0))
+
+
+def test_mean_over_goal_points_and_unreachable_ones_dropped(world):
+    """Two corridor goals, 7 m east and 6 m west of S: walking 3 m east they make +3 and -3
+    m of progress, so the corridor's likelihood is the mean (e^3b + e^-3b) / 2; B's second goal
+    lies in the sealed pocket and is left out of B's mean."""
+    goals = dict(GOALS, corridor=[(14.05, 5.75), (1.05, 5.75)], B=[(14.05, 9.55), (3.5, 2.0)])
+    beta = 1.0
+    m = DestinationModel(*world, PredictionConfig(beta=beta), goal_points=goals)
+    post = m.posterior("corridor", (7.05, 5.75), (10.05, 5.75))
+    w = {"corridor": PRIOR["corridor"] * (math.exp(3 * beta) + math.exp(-3 * beta)) / 2,
+         "A": PRIOR["A"] * math.exp(-3 * beta), "B": PRIOR["B"] * math.exp(3 * beta),
+         "C": PRIOR["C"] * math.exp(3 * beta)}
+    total = sum(w.values())
+    assert post == pytest.approx({g: v / total for g, v in w.items()}, rel=1e-5)
+
+
+def test_no_corner_cutting_like_the_planner():
+    """A staircase of lethal cells across the corridor: diagonal steps between two lethal
+    cells are not taken (as the planner's A*), so it is a wall."""
+    grid = PlanningGrid(corridor_map())
+    c0, r0 = grid.to_cell(10.05, 4.0)
+    for k in range(40):
+        grid.cost[r0 + k, c0 + k] = np.inf
+    m = DestinationModel(grid, corridor_rois(), corridor_chain(), goal_points=GOALS)
+    assert np.isinf(m.cost_to_go("corridor", 7.05, 5.75)).all()
+    assert np.isfinite(m.cost_to_go("corridor", 13.05, 5.75)).all()
+    with pytest.raises(PlanError, match="unreachable"):
+        grid.plan((7.05, 5.75), (14.05, 5.75))
+    post, reasons = m.posterior_details("corridor", (7.05, 5.75), (8.05, 5.75))
+    assert post["corridor"] == post["B"] == post["C"] == 0.0 and post["A"] == 1.0
+    assert set(reasons) == {"corridor", "B", "C"}
+
+
+def test_cost_to_go_is_the_planners_path_cost(office):
+    """V at a few start points equals the cost of the planner's A* path to the goal point."""
+    m, _ = office
+    grid = m.grid
+    w = grid.config.cost_weight
+    for region, start in (("5", (3.0, 10.0)), ("15", (3.0, 10.0)), ("9", (12.0, 10.0)),
+                          ("10", (27.0, 3.0))):
+        goal = m.goals(region)[0]
+        cells = grid._astar(grid.cost, grid.to_cell(*start), grid.to_cell(*goal))
+        cost = 0.0
+        for (c0, r0), (c1, r1) in zip(cells[:-1], cells[1:]):
+            cost += (math.hypot(c1 - c0, r1 - r0) * grid.resolution
+                     * (1.0 + w * 0.5 * (grid.cost[r0, c0] + grid.cost[r1, c1])))
+        sx, sy = grid.to_world(*grid.to_cell(*start))  # the start cell's centre
+        assert m.cost_to_go(region, sx, sy)[0] == pytest.approx(cost, rel=1e-5), region
+
+
+def test_lattice_goals_are_inside_clear_and_capped(world):
+    grid, rois, chain = world
+    cfg = PredictionConfig(max_goals_per_region=7)
+    m = DestinationModel(grid, rois, chain, cfg)
+    assert m.goal_problems == {}
+    for roi in rois:
+        pts = m.goals(roi.id)
+        assert 1 <= len(pts) <= 7, roi.id
+        poly = roi_polygon(roi)
+        for x, y in pts:
+            assert poly.contains(Point(x, y)) and poly.exterior.distance(Point(x, y)) >= 0.25
+            assert grid.clearance_at(x, y) >= cfg.clearance
+        assert np.isfinite(m.cost_to_go(roi.id, 7.05, 5.75)).all(), roi.id
+    again = DestinationModel(grid, rois, chain, cfg)
+    assert all(np.array_equal(m.goals(r), again.goals(r)) for r in IDS)  # deterministic
+
+
+# --------------------------------------------------------------------------------------------
+# baselines
+# --------------------------------------------------------------------------------------------
+
+
+def test_heading_baseline_picks_the_office_the_ray_enters(model):
+    eps = model.config.heading_epsilon
+    # from (10.05, 5.75) along (2, 1): the ray crosses y = 7.05 at x = 12.65, inside B
+    h = model.heading_baseline("corridor", (10.05, 5.75), (0.4, 0.2))
+    assert h == pytest.approx({"corridor": eps / 3, "A": eps / 3, "B": 1 - eps, "C": eps / 3})
+    h = model.heading_baseline("corridor", (10.05, 5.75), (-0.4, 0.2))  # x = 7.45: A
+    assert top1(h) == "A" and h["A"] == pytest.approx(1 - eps)
+    # along the centre line the ray enters no candidate: the smallest bearing to an anchor
+    # (A at (4.33, 9.48) is 147 deg off, B (14.05, 9.48) 43 deg, C (23.73, 9.48) 15 deg)
+    assert top1(model.heading_baseline("corridor", (10.05, 5.75), (0.5, 0.0))) == "C"
+    # standing still: the prior
+    assert model.heading_baseline("corridor", (10.05, 5.75), (0.05, 0.0)) == model.prior(
+        "corridor")
+    assert sum(h.values()) == pytest.approx(1.0)
+    assert log_loss(h, "B") == pytest.approx(-math.log(eps / 3))
+
+
+def test_log_loss_and_top1():
+    p = {"a": 0.2, "b": 0.5, "c": 0.3}
+    assert top1(p) == "b" and top1({"x": 0.5, "y": 0.5}) == "x"
+    assert log_loss(p, "b") == pytest.approx(math.log(2.0))
+    assert log_loss(p, "zzz") == pytest.approx(-math.log(1e-6))
+    assert log_loss({"a": 0.0}, "a", floor=1e-3) == pytest.approx(-math.log(1e-3))
+
+
+# --------------------------------------------------------------------------------------------
+# online: legs from a stream
+# --------------------------------------------------------------------------------------------
+
+
+def stream(segments, t0=0.0, dt=0.1):
+    """(t, x, y, vx, vy) samples: each segment is ("stand", (x, y), seconds) or
+    ("walk", (x0, y0), (x1, y1), speed)."""
+    t = t0
+    out = []
+    for seg in segments:
+        if seg[0] == "stand":
+            for _ in range(int(round(seg[2] / dt))):
+                t += dt
+                out.append((round(t, 6), seg[1][0], seg[1][1], 0.0, 0.0))
+        else:
+            (x0, y0), (x1, y1), v = seg[1], seg[2], seg[3]
+            length = math.hypot(x1 - x0, y1 - y0)
+            n = int(round(length / (v * dt)))
+            vx, vy = v * (x1 - x0) / length, v * (y1 - y0) / length
+            for k in range(1, n + 1):
+                t += dt
+                out.append((round(t, 6), x0 + (x1 - x0) * k / n, y0 + (y1 - y0) * k / n,
+                            vx, vy))
+    return out
+
+
+def test_online_predictor_cuts_legs_and_predicts_office_b(model):
+    s, door, goal = (7.05, 5.75), (14.05, 7.05), (14.05, 9.55)
+    samples = stream([("stand", s, 2.0), ("walk", s, (12.05, 5.75), 0.5),
+                      ("walk", (12.05, 5.75), (14.05, 5.75), 0.5),
+                      ("walk", (14.05, 5.75), goal, 0.5), ("stand", goal, 5.0),
+                      ("walk", goal, (14.05, 7.55), 0.5)])
+    pred = OnlinePredictor(model)
+    out = [(row, pred.update(*row)) for row in samples]
+    first = [k for k, (_, p) in enumerate(out) if p is not None][0]
+    # standing 2 s, then 0.3 m at 0.5 m/s (0.6 s) before the leg counts as started
+    assert out[first][0][0] == pytest.approx(2.6)
+    p = out[first][1]
+    assert (p.leg, p.start_region, p.start_xy, p.leg_start) == (1, "corridor", s, 2.0)
+    assert p.observed == pytest.approx(0.3)
+    leg1 = [(row, p) for row, p in out if p is not None and p.leg == 1]
+    # along the corridor A falls steadily; B leads (prior) and takes over at its door
+    on_axis = [p for row, p in leg1 if row[2] == 5.75 and row[1] <= 12.05]
+    assert all(b.probabilities["A"] < a.probabilities["A"] for a, b in zip(on_axis, on_axis[1:]))
+    at_door = [p for row, p in leg1 if (row[1], row[2]) == pytest.approx(door)][0]
+    assert at_door.best == "B" and at_door.best_probability > 0.95
+    arrived = [p for row, p in leg1 if (row[1], row[2]) == pytest.approx(goal)]
+    assert arrived[0].best == "B" and arrived[0].observed == pytest.approx(5.0 + 2.0 + 3.8)
+    # standing at the goal: predictions go on for dwell_time (3 s), then the leg has ended
+    standing = [(row, p) for row, p in out if (row[1], row[2]) == goal and row[3:] == (0, 0)]
+    assert len(standing) == 50  # 5 s at 10 Hz; the first at t0, the 31st at t0 + 3 s
+    assert all(p is not None for _, p in standing[:30])
+    assert all(p is None for _, p in standing[30:])
+    # the next leg starts from B, where it stood
+    second = [p for _, p in out if p is not None and p.leg == 2]
+    assert second and second[0].start_region == "B" and second[0].start_xy == goal
+    assert second[0].leg_start == standing[-1][0][0]  # its last standing sample
+    assert pred.legs == 2 and pred.last is second[-1]
+    d = second[-1].to_dict()
+    assert d["leg"] == 2 and d["start_region"] == "B" and d["start_xy"] == [14.05, 9.55]
+    assert sum(d["probabilities"].values()) == pytest.approx(1.0, abs=1e-5)
+    assert d["best"] == second[-1].best and d["note"] == ""
+    pred.reset()
+    assert pred.update(100.0, 7.05, 5.75, 0.5, 0.0) is None and not pred.in_leg
+
+
+def test_online_predictor_falls_back_to_the_prior_off_the_map(model):
+    pred = OnlinePredictor(model)
+    pred.update(0.0, 7.05, 5.75, 0.0, 0.0)
+    p = pred.update(1.0, 40.0, 5.75, 0.5, 0.0)  # a glitch far off the map
+    assert isinstance(p, Prediction) and p.probabilities == model.prior("corridor")
+    assert "current (40.00, 5.75) not within 0.6 m of the map's free space" in p.note
+
+
+# --------------------------------------------------------------------------------------------
+# the office world
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def office():
+    rois = load_rois(os.path.join(OFFICE, "rois.yaml"))
+    grid = PlanningGrid(load_map(os.path.join(OFFICE, "map.yaml")))
+    chain = MarkovChain.from_rois(rois)
+    t0 = time.perf_counter()
+    m = DestinationModel(grid, rois, chain)
+    took = time.perf_counter() - t0
+    print("\noffice world: %d goal points, V fields in %.2f s"
+          % (sum(len(m.goals(r)) for r in chain.ids), took))
+    return m, took
+
+
+def test_office_world_precomputes_and_every_region_has_reachable_goals(office):
+    m, took = office
+    assert took < 30.0
+    assert m.goal_problems == {}
+    for r in m.chain.ids:  # reachable from robot1's start pose
+        assert np.isfinite(m.cost_to_go(r, 3.0, 10.0)).any(), r
+
+
+def test_office_corridor_walk_east_from_office_1s_door(office):
+    m, _ = office
+    s = (2.65, 10.0)  # corridor_west ("1"), in front of office_1's ("5") door
+    r0 = m.start_region(*s)
+    assert r0 == "1"
+    prior = m.prior(r0)
+    post = m.posterior(r0, s, (8.5, 10.0))  # 5.85 m east, near corridor_centre_west ("2")
+    assert post["2"] > post["5"] and post["2"] > prior["2"] and post["5"] < prior["5"]
+    assert post["2"] > 0.5 and post["5"] < 0.01
+    assert top1(m.heading_baseline(r0, (8.5, 10.0), (0.5, 0.0))) != "5"
+
+
+# --------------------------------------------------------------------------------------------
+# bad input
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("beta", -1.0, r"beta must be a finite number >= 0, got -1.0"),
+    ("beta", float("nan"), r"beta must be a finite number >= 0, got nan"),
+    ("goal_spacing", 0.0, r"goal_spacing must be a finite number > 0, got 0.0"),
+    ("max_goals_per_region", 0, r"max_goals_per_region must be an integer >= 1, got 0"),
+    ("max_goals_per_region", 2.5, r"max_goals_per_region must be an integer >= 1, got 2.5"),
+    ("heading_epsilon", 1.0, r"heading_epsilon must be a number in \[0, 1\), got 1.0"),
+    ("dwell_time", "3", r"dwell_time must be a finite number >= 0, got '3'"),
+])
+def test_bad_config_names_the_field(world, field, value, message):
+    cfg = PredictionConfig(**{field: value})
+    with pytest.raises(PredictionError, match=message):
+        cfg.check()
+    with pytest.raises(PredictionError, match=message):
+        DestinationModel(*world, config=cfg)
+
+
+def test_bad_input_names_it(world, model):
+    with pytest.raises(PredictionError, match=r"unknown region 'E' \(regions: corridor, A, B"):
+        model.posterior("E", (7.05, 5.75), (8.0, 5.75))
+    with pytest.raises(PredictionError, match="unknown region 'E'"):
+        model.cost_to_go("E", 7.05, 5.75)
+    with pytest.raises(PredictionError, match="unknown region 'E'"):
+        model.heading_baseline("E", (7.05, 5.75), (0.5, 0.0))
+    with pytest.raises(PredictionError, match=r"start_xy must be a finite \(x, y\), got "
+                                              r"\(nan, 5.75\)"):
+        model.posterior("corridor", (float("nan"), 5.75), (8.0, 5.75))
+    with pytest.raises(PredictionError, match=r"current_xy must be a finite \(x, y\)"):
+        model.posterior("corridor", (7.05, 5.75), (8.0,))
+    with pytest.raises(PredictionError, match=r"velocity must be a finite \(x, y\)"):
+        model.heading_baseline("corridor", (7.05, 5.75), (float("inf"), 0.0))
+    with pytest.raises(PredictionError, match=r"start \(40.00, 5.75\) and current \(41.00, "
+                                              r"5.75\) not within 0.6 m of the map's free space"):
+        model.posterior("corridor", (40.0, 5.75), (41.0, 5.75))
+    with pytest.raises(PredictionError, match="goal_points names unknown region 'E'"):
+        DestinationModel(*world, goal_points={"E": [(1.0, 1.0)]})
+    with pytest.raises(PredictionError, match=r"goal_points\['A'\]\[0\] must be a finite"):
+        DestinationModel(*world, goal_points={"A": [(float("nan"), 1.0)]})
+    grid, rois, chain = world
+    with pytest.raises(PredictionError, match="chain regions without ROI: D"):
+        DestinationModel(grid, rois[:4], chain)
+    pred = OnlinePredictor(model)
+    with pytest.raises(PredictionError, match="update y must be a finite number, got nan"):
+        pred.update(0.0, 1.0, float("nan"), 0.0, 0.0)
+    pred.update(5.0, 7.05, 5.75, 0.0, 0.0)
+    with pytest.raises(PredictionError, match=r"update t 4.000 is before the previous update's "
+                                              r"5.000"):
+        pred.update(4.0, 7.05, 5.75, 0.0, 0.0)
+    with pytest.raises(PredictionError, match=r"floor must be in \(0, 1\]"):
+        log_loss({"a": 1.0}, "a", floor=0.0)
+    with pytest.raises(PredictionError, match="top1: no probabilities"):
+        top1({})
