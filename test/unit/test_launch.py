@@ -38,6 +38,7 @@ def frame_params(params):
     ("trajectories.launch", ()),
     ("markov_walker.launch", ("robot:=robot1",)),
     ("demo.launch", ("nav:=auto",)),
+    ("observer.launch", ()),
 ])
 def test_every_launch_file_parses(name, args):
     nodes, _ = load(name, *args)
@@ -85,12 +86,21 @@ def test_demo_stock_walker_on_ground_truth_observer_on_amcl():
     assert params["/simulator/ground_truth_tf"] == ["robot1"]
     assert params["/trajectory_recorder/pose_topic"] == "/robot1/pose"
     assert "/robot1/pose" in nodes["/demo_record"].args
+    # the observer localises its scans with amcl under stock navigation
+    assert {"/robot2/people_tracker", "/robot2/destination_predictor",
+            "/robot2/follower"} <= set(nodes)
+    assert params["/robot2/people_tracker/pose_source"] == "amcl"
+    assert params["/robot2/follower/base_frame"] == "robot2/base_footprint"
 
 
 def test_demo_builtin_and_auto():
     nodes, params = load("demo.launch", "nav:=builtin")
     assert {"/robot1/path_follower", "/robot2/path_follower", "/rviz"} <= set(nodes)
     assert params["/simulator/ground_truth_tf"] is True
+    assert params["/robot2/people_tracker/pose_source"] == "ground_truth"
+    assert params["/robot2/follower/pose_source"] == "ground_truth"
+    nodes, _ = load("demo.launch", "nav:=builtin", "observe:=false")
+    assert not any("people_tracker" in n or "follower" == n.rsplit("/", 1)[-1] for n in nodes)
     nodes, _ = load("demo.launch")  # nav:=auto: nav_bringup decides at run time
     assert set(nodes) == {"/nav_bringup"}
     assert "demo.launch" in nodes["/nav_bringup"].args

@@ -1,0 +1,465 @@
+"""The destination-prediction study: how much of a leg must be seen before its goal is right.
+
+:func:`run` plays the demo's observer scenario in one process, headless and as fast as the CPU
+allows: the world's first robot walks region to region by the Markov chain (core/walker.py,
+driven by the embedded navigator, as ``markov_walker`` + ``path_follower`` do), the second
+robot detects and tracks it with its own lidar (core/tracking.py, localised from ground truth),
+follows it and searches the predicted region when it loses it (core/follow.py), and the
+predictor (core/prediction.py) estimates the destination of the current leg on every track
+update. The same predictor also runs on the walker's ground-truth trajectory, so that tracking
+error and prediction error can be told apart.
+
+It is the same code the ROS nodes run, without the transport: a run is deterministic for a
+seed and takes minutes instead of the hours that 200 legs would take through roslaunch.
+
+For each leg the walker completes, at 10/25/50/75/90 % of its duration, the latest prediction
+of each pipeline (tracker, ground truth) is scored against the leg's destination region for
+the predictor and two baselines (the Markov prior alone; the nearest region along the current
+heading): top-1 accuracy and log-loss. A leg moment without any prediction of the current leg
+(the target was not tracked since the leg began) counts as a miss, with the uniform
+distribution over the chain's regions for the log-loss.
+
+Tracking is scored on every control tick: recall while the walker is visible to the observer
+(at least ``visible_beams`` beams of the observer's scan end on the walker's body), the share
+of the whole run during which the walker is tracked (a confirmed track within
+``match_distance`` of it), and confirmed tracks matching nothing (false tracks).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .errors import BulletFloorSimError
+from .follow import FollowBehaviour, FollowConfig, pick_target, search_point
+from .markov import MarkovChain, usable_rois
+from .planner import (Navigator, PathFollower, PlanError, PlanningGrid, obstacles_in_base)
+from .prediction import DestinationModel, OnlinePredictor, log_loss, top1
+from .rois import load_rois
+from .tracking import StaticMap, Tracker, TrackerConfig, detect, scan_points
+from .walker import GoalSampler, Walker, WalkerConfig, WalkerError
+
+__all__ = ["EvalConfig", "EvalResult", "LegScore", "run", "FRACTIONS", "METHODS", "PIPELINES",
+           "format_table", "plot"]
+
+FRACTIONS = (0.10, 0.25, 0.50, 0.75, 0.90)
+METHODS = ("predictor", "markov", "heading")
+PIPELINES = ("tracker", "ground_truth")
+
+
+class EvaluationError(BulletFloorSimError):
+    """The evaluation cannot run (bad parameters, a world without two robots or ROIs)."""
+
+
+__all__ += ["EvaluationError"]
+
+
+@dataclass
+class EvalConfig:
+    """Evaluation parameters.
+
+    Attributes:
+        legs: walker legs to complete (successful legs are scored; failed ones are counted).
+        seed: seeds the walker, the sensor noise and everything else.
+        world: world name or path (two robots at least, with ROIs).
+        walker: index of the walking robot; observer: index of the observing robot.
+        control_rate: Hz of the navigation, tracking and prediction loop (the scan rate).
+        max_sim_time: stop after this much sim time (s) even if fewer legs are done
+            (default: 150 s per leg).
+        follow: the observer follows (False: it stays where it is; a baseline for the tracker).
+        match_distance: a track within this distance (m) of the walker tracks it.
+        visible_beams: the walker is visible when this many observer beams end on its body.
+    """
+
+    legs: int = 200
+    seed: int = 1
+    world: str = "office"
+    walker: int = 0
+    observer: int = 1
+    control_rate: float = 10.0
+    max_sim_time: Optional[float] = None
+    follow: bool = True
+    match_distance: float = 0.5
+    visible_beams: int = 3
+
+    def check(self) -> None:
+        if not (isinstance(self.legs, int) and self.legs >= 1):
+            raise EvaluationError("evaluate: legs must be an integer >= 1, got %r" % self.legs)
+        if self.walker == self.observer:
+            raise EvaluationError("evaluate: walker and observer must be different robots")
+        for name in ("control_rate", "match_distance"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise EvaluationError("evaluate: %s must be > 0, got %r" % (name, v))
+
+
+@dataclass
+class LegScore:
+    """One completed leg's predictions at each fraction observed.
+
+    ``scores[pipeline][method]`` = list over FRACTIONS of (correct: bool, log_loss: float,
+    predicted: bool -- whether the pipeline had a prediction of this leg then).
+    """
+
+    number: int
+    start_region: str
+    target_region: str
+    duration: float
+    scores: Dict[str, Dict[str, List[Tuple[bool, float, bool]]]] = field(default_factory=dict)
+
+
+@dataclass
+class EvalResult:
+    """What :func:`run` measured."""
+
+    config: EvalConfig
+    legs: List[LegScore]
+    failed_legs: int
+    sim_time: float
+    wall_time: float
+    ticks: int
+    visible_ticks: int
+    recalled_ticks: int
+    tracked_ticks: int
+    false_track_ticks: int
+    id_switches: int
+    mean_track_error: float
+    follow_modes: Dict[str, int]
+
+    @property
+    def recall(self) -> float:
+        """Tracker recall while the walker is visible to the observer."""
+        return self.recalled_ticks / self.visible_ticks if self.visible_ticks else float("nan")
+
+    @property
+    def tracked_share(self) -> float:
+        """Share of the run during which the walker is tracked."""
+        return self.tracked_ticks / self.ticks if self.ticks else float("nan")
+
+    def table(self) -> Dict[str, Dict[str, List[Tuple[float, float, int]]]]:
+        """``[pipeline][method]`` -> per fraction (accuracy, mean log-loss, legs)."""
+        out: Dict[str, Dict[str, List[Tuple[float, float, int]]]] = {}
+        for p in PIPELINES:
+            out[p] = {}
+            for m in METHODS:
+                row = []
+                for k in range(len(FRACTIONS)):
+                    vals = [leg.scores[p][m][k] for leg in self.legs]
+                    n = len(vals)
+                    acc = sum(1 for c, _, _ in vals if c) / n if n else float("nan")
+                    ll = sum(v for _, v, _ in vals) / n if n else float("nan")
+                    row.append((acc, ll, n))
+                out[p][m] = row
+        return out
+
+    def coverage(self, pipeline: str) -> List[float]:
+        """Per fraction, the share of legs with a prediction of the current leg."""
+        n = len(self.legs)
+        return [sum(1 for leg in self.legs if leg.scores[pipeline]["predictor"][k][2]) / n
+                if n else float("nan") for k in range(len(FRACTIONS))]
+
+
+# -------------------------------------------------------------------------------------------
+# the run
+# -------------------------------------------------------------------------------------------
+
+
+class _Record:
+    """The latest prediction of one pipeline, with the observation it was made from."""
+
+    __slots__ = ("t", "prediction", "xy", "velocity")
+
+    def __init__(self, t, prediction, xy, velocity) -> None:
+        self.t, self.prediction, self.xy, self.velocity = t, prediction, xy, velocity
+
+
+def run(config: Optional[EvalConfig] = None,
+        progress: Optional[Callable[[str], None]] = None) -> EvalResult:
+    """Run the study (see the module docstring).
+
+    Args:
+        config: parameters.
+        progress: called with a line of text after each leg.
+
+    Raises:
+        EvaluationError: the world has fewer than two robots or no usable ROIs.
+    """
+    from .world import World
+
+    cfg = config or EvalConfig()
+    cfg.check()
+    say = progress or (lambda _s: None)
+    t_wall = time.time()
+    world = World.from_name(cfg.world, seed=cfg.seed, physics_rate=100.0)
+    try:
+        return _run(cfg, world, say, t_wall)
+    finally:
+        world.close()
+
+
+def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
+    if world.n < 2 or max(cfg.walker, cfg.observer) >= world.n:
+        raise EvaluationError("evaluate: world %s has %d robot(s); robots %d and %d are needed"
+                              % (cfg.world, world.n, cfg.walker, cfg.observer))
+    if not world.config.rois:
+        raise EvaluationError("evaluate: world %s has no rois file" % cfg.world)
+    rois, warnings = usable_rois(load_rois(world.config.rois))
+    chain = MarkovChain.from_rois(rois)
+    grid = PlanningGrid(world.fmap)
+    wcfg = WalkerConfig()
+    walker = Walker(chain, rois, GoalSampler(grid, wcfg.clearance, wcfg.margin, wcfg.goal_tries),
+                    wcfg, seed=cfg.seed)
+    model = DestinationModel(grid, rois, chain)
+    uniform = {r: 1.0 / len(chain.ids) for r in chain.ids}
+    static = StaticMap(world.fmap)
+    tracker = Tracker(TrackerConfig(centre_offset=0.25))  # measured for the Scitos body
+    follow = FollowBehaviour(grid, FollowConfig())
+    nav_walker, nav_observer = Navigator(grid, PathFollower()), Navigator(grid, PathFollower())
+    pred_gt = OnlinePredictor(model)
+    pred_trk: Dict[int, OnlinePredictor] = {}
+    laser = [world.models[i].laser_pose for i in range(world.n)]  # (x, y, z, yaw) in base
+    W, O = cfg.walker, cfg.observer
+    steps = max(1, int(round(1.0 / (world.clock.dt * cfg.control_rate))))
+    max_t = cfg.max_sim_time if cfg.max_sim_time is not None else 150.0 * cfg.legs
+    body = float(world.radius[W])  # the walker's footprint radius
+
+    scans_by_robot: Dict[int, object] = {}
+    leg = None
+    dwell_until = 0.0
+    leg_history: List[Tuple[object, List[_Record], List[_Record]]] = []
+    gt_records: List[_Record] = []
+    trk_records: List[_Record] = []
+    target_id: Optional[int] = None
+    obs_goal_active = False
+    obs_goal_done = False
+    last_best: Optional[Tuple[str, Tuple[float, float]]] = None
+    n_ticks = visible = recalled = tracked = false_ticks = switches = 0
+    err_sum = 0.0
+    modes: Dict[str, int] = {}
+    t0 = world.clock.now
+    failed = 0
+    completed: List[LegScore] = []
+
+    while len(completed) < cfg.legs and world.clock.now - t0 < max_t:
+        for s in world.step(steps):
+            scans_by_robot[s.robot] = s
+        t = world.clock.now
+        world.update_odometry()
+        pose_w = world.view(W, refresh=False)
+        pose_o = world.view(O, refresh=False)
+        scan_w, scan_o = scans_by_robot.get(W), scans_by_robot.get(O)
+
+        # -- the walker (markov_walker + path_follower) ------------------------------------
+        obst_w = _obstacles(scan_w, laser[W])
+        if leg is None and t >= dwell_until:
+            try:
+                leg = walker.next_leg(pose_w.pose, t)
+            except WalkerError as e:
+                raise EvaluationError("evaluate: the walker cannot go on: %s" % e)
+            try:
+                nav_walker.start(pose_w.pose, leg.goal, t)
+                gt_records, trk_records = [], []
+            except PlanError as e:
+                say(walker.finish(leg, "rejected", t, walker.region_at(*pose_w.pose[:2]),
+                                  str(e)))
+                failed += 1
+                leg, dwell_until = None, t + walker.retry_delay()
+        if leg is not None:
+            st = nav_walker.update(pose_w.pose, obst_w, t)
+            timed_out = t - leg.started > walker.config.goal_timeout
+            if st.state == "active" and not timed_out:
+                world.command(W, st.v, 0.0, st.w)
+            else:
+                world.command(W, 0.0, 0.0, 0.0)
+                outcome = "succeeded" if st.state == "succeeded" else (
+                    "timeout" if timed_out else "aborted")
+                if timed_out:
+                    nav_walker.cancel()
+                line = walker.finish(leg, outcome, t, walker.region_at(*pose_w.pose[:2]),
+                                     st.message if outcome == "aborted" else "")
+                if outcome == "succeeded":
+                    completed.append(_score(leg, gt_records, trk_records, model, uniform))
+                    dwell_until = t + walker.dwell()
+                else:
+                    failed += 1
+                    dwell_until = t + walker.retry_delay()
+                say("%s  [%d/%d scored, %.0f s sim, %.0f s wall]" % (
+                    line, len(completed), cfg.legs, t - t0, time.time() - t_wall))
+                leg = None
+
+        # -- ground-truth pipeline ----------------------------------------------------------
+        x, y, yaw = pose_w.pose
+        v = pose_w.velocity[0]
+        vel = (v * math.cos(yaw), v * math.sin(yaw))
+        p = pred_gt.update(t, x, y, vel[0], vel[1])
+        if p is not None:
+            gt_records.append(_Record(t, p, (x, y), vel))
+
+        # -- the observer: detect, track, predict, follow ------------------------------------
+        ox, oy, oyaw = pose_o.pose
+        lx, ly, lyaw = _laser_in_map(pose_o.pose, laser[O])
+        tracks = []
+        if scan_o is not None:
+            pts = scan_points(scan_o.ranges, scan_o.angle_min, scan_o.angle_increment,
+                              (lx, ly, lyaw))
+            dets = detect(pts, static, (lx, ly), tracker.config)
+            tracks = tracker.update(dets, t)
+            near = np.hypot(pts[:, 0] - x, pts[:, 1] - y) < body + 0.1 if len(pts) else []
+            is_visible = int(np.count_nonzero(near)) >= cfg.visible_beams
+        else:
+            is_visible = False
+        target = pick_target(tracks, target_id, follow.last_target)
+        if target is not None and target_id is not None and target.id != target_id:
+            switches += 1
+        if target is not None:
+            target_id = target.id
+            pr = pred_trk.setdefault(target.id, OnlinePredictor(model))
+            p = pr.update(t, target.x, target.y, target.vx, target.vy)
+            if p is not None:
+                trk_records.append(_Record(t, p, (target.x, target.y), (target.vx, target.vy)))
+                last_best = (p.best, search_point(model.goals(p.best), (target.x, target.y)))
+
+        # -- scores of the tick ----------------------------------------------------------------
+        n_ticks += 1
+        match = [tr for tr in tracks if math.hypot(tr.x - x, tr.y - y) < cfg.match_distance]
+        if is_visible:
+            visible += 1
+            recalled += 1 if match else 0
+        if target is not None and math.hypot(target.x - x, target.y - y) < cfg.match_distance:
+            tracked += 1
+            err_sum += math.hypot(target.x - x, target.y - y)
+        if len(tracks) > len(match):
+            false_ticks += 1
+
+        # -- the follower ----------------------------------------------------------------------
+        obst_o = _obstacles(scan_o, laser[O])
+        if cfg.follow:
+            tgt = None if target is None else (target.x, target.y, target.vx, target.vy)
+            dec = follow.update(t, pose_o.pose, tgt, last_best, obs_goal_done)
+            modes[dec.mode] = modes.get(dec.mode, 0) + 1
+            obs_goal_done = False
+            if dec.goal is not None:
+                try:
+                    nav_observer.start(pose_o.pose, dec.goal, t)
+                    obs_goal_active = True
+                except PlanError:
+                    obs_goal_active, obs_goal_done = False, True
+        if obs_goal_active:
+            st = nav_observer.update(pose_o.pose, obst_o, t)
+            if st.state == "active":
+                world.command(O, st.v, 0.0, st.w)
+            else:
+                world.command(O, 0.0, 0.0, 0.0)
+                obs_goal_active, obs_goal_done = False, True
+        else:
+            world.command(O, 0.0, 0.0, 0.0)
+
+    return EvalResult(config=cfg, legs=completed, failed_legs=failed,
+                      sim_time=world.clock.now - t0, wall_time=time.time() - t_wall,
+                      ticks=n_ticks, visible_ticks=visible, recalled_ticks=recalled,
+                      tracked_ticks=tracked, false_track_ticks=false_ticks,
+                      id_switches=switches,
+                      mean_track_error=err_sum / tracked if tracked else float("nan"),
+                      follow_modes=modes)
+
+
+def _laser_in_map(pose: Sequence[float], laser: Sequence[float]) -> Tuple[float, float, float]:
+    x, y, yaw = pose[:3]
+    c, s = math.cos(yaw), math.sin(yaw)
+    return x + c * laser[0] - s * laser[1], y + s * laser[0] + c * laser[1], yaw + laser[3]
+
+
+def _obstacles(scan, laser) -> Optional[np.ndarray]:
+    if scan is None:
+        return None
+    return obstacles_in_base(scan.ranges, scan.angle_min, scan.angle_increment, scan.range_max,
+                             (laser[0], laser[1], laser[3]))
+
+
+def _score(leg, gt: List[_Record], trk: List[_Record], model: DestinationModel,
+           uniform: Dict[str, float]) -> LegScore:
+    out = LegScore(leg.number, leg.start_region, leg.target_region, leg.duration)
+    truth = leg.target_region
+    for name, records in (("ground_truth", gt), ("tracker", trk)):
+        per = {m: [] for m in METHODS}
+        times = [r.t for r in records]
+        for f in FRACTIONS:
+            tf = leg.started + f * leg.duration
+            k = int(np.searchsorted(times, tf, side="right")) - 1
+            rec = records[k] if k >= 0 else None
+            if rec is None:
+                for m in METHODS:
+                    per[m].append((False, log_loss(uniform, truth), False))
+                continue
+            p = rec.prediction
+            dists = {"predictor": p.probabilities,
+                     "markov": model.markov_baseline(p.start_region),
+                     "heading": model.heading_baseline(p.start_region, rec.xy, rec.velocity)}
+            for m in METHODS:
+                per[m].append((top1(dists[m]) == truth, log_loss(dists[m], truth), True))
+        out.scores[name] = per
+    return out
+
+
+# -------------------------------------------------------------------------------------------
+# reporting
+# -------------------------------------------------------------------------------------------
+
+
+def format_table(result: EvalResult) -> str:
+    """The result as text: one block per pipeline, accuracy and log-loss per fraction."""
+    tab = result.table()
+    lines = []
+    head = "%-12s" % "method" + "".join("   %3d%% acc  logloss" % round(100 * f)
+                                        for f in FRACTIONS)
+    for p in PIPELINES:
+        cov = result.coverage(p)
+        lines.append("== %s tracks (%d legs; legs with a prediction: %s)" % (
+            p.replace("_", "-"), len(result.legs),
+            " ".join("%.0f%%" % (100 * c) for c in cov)))
+        lines.append(head)
+        for m in METHODS:
+            lines.append("%-12s" % m + "".join("   %7.1f%% %8.3f" % (100 * a, ll)
+                                              for a, ll, _ in tab[p][m]))
+    r = result
+    lines.append("tracking: recall while visible %.1f%% (%d of %d ticks), walker tracked %.1f%% "
+                 "of the run, mean track error %.3f m, target id switches %d, ticks with a "
+                 "false track %d" % (100 * r.recall, r.recalled_ticks, r.visible_ticks,
+                                     100 * r.tracked_share, r.mean_track_error, r.id_switches,
+                                     r.false_track_ticks))
+    lines.append("run: %d legs scored, %d failed, %.0f s sim in %.0f s wall (%.1fx real time); "
+                 "follower modes %s" % (len(r.legs), r.failed_legs, r.sim_time, r.wall_time,
+                                        r.sim_time / max(r.wall_time, 1e-9),
+                                        ", ".join("%s %.0f%%" % (k, 100.0 * v / max(1, r.ticks))
+                                                  for k, v in sorted(r.follow_modes.items()))))
+    return "\n".join(lines)
+
+
+def plot(result: EvalResult, path: str) -> None:
+    """Accuracy vs fraction observed, one line per method and pipeline, as a PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tab = result.table()
+    fig, ax = plt.subplots(figsize=(7, 4.5), dpi=100)
+    xs = [100 * f for f in FRACTIONS]
+    colours = {"predictor": "tab:blue", "markov": "tab:grey", "heading": "tab:orange"}
+    for p, style in (("tracker", "-"), ("ground_truth", "--")):
+        for m in METHODS:
+            ax.plot(xs, [100 * a for a, _, _ in tab[p][m]], style, marker="o",
+                    color=colours[m], label="%s (%s tracks)" % (m, p.replace("_", "-")))
+    ax.set_xlabel("% of the leg observed")
+    ax.set_ylabel("top-1 destination accuracy (%)")
+    ax.set_ylim(0, 100)
+    ax.set_title("Destination prediction, %s world, %d legs, seed %d" % (
+        result.config.world, len(result.legs), result.config.seed))
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)

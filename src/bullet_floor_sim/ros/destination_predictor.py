@@ -1,0 +1,222 @@
+"""The destination predictor node: where is the tracked entity heading?
+
+On every track update (``tracks``, bullet_floor_sim/TrackArray from people_tracker) it feeds
+each track's position and velocity to an online predictor (core/prediction.py): the track's
+legs are segmented by its dwells, and for the current leg a posterior over destination regions
+is computed: the Markov chain row of the region the leg started in (prior) times how well the
+observed motion agrees with an efficient path to each region (cost-to-go on the inflated map).
+It publishes ``~destination`` (bullet_floor_sim/Destination: the distribution, most likely
+first, and the arg-max with its probability) for every track with a current leg, and
+``~markers`` (a label over each track: best region and probability).
+
+The regions and the chain are the walker's: the ROIs of ``~config`` from the ROI manager
+(``/soma/query_rois``; re-queried when ``/soma/rois_changed`` says so), or from ``~rois_yaml``
+when set; the chain by the same rules (``~tol``, ``~mode`` as markov_walker's). The map comes
+from ``~map_topic`` (``/map``, latched).
+
+Parameters: ``~config`` ("1"), ``~rois_yaml`` (""), ``~tol`` (0.2), ``~mode`` (vertex),
+``~robot_radius`` (0.34, planning grid inflation), ``~beta`` and the other core
+PredictionConfig fields as ``~<field>``, ``~query_service``, ``~rois_changed_topic``,
+``~map_topic``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import sys
+import threading
+from typing import Dict, List, Optional, Sequence
+
+import rospy
+from geometry_msgs.msg import Point
+from nav_msgs.msg import OccupancyGrid
+from std_msgs.msg import ColorRGBA, String
+from visualization_msgs.msg import Marker, MarkerArray
+
+from ..core.errors import BulletFloorSimError
+from ..core.follow import search_point
+from ..core.markov import MarkovChain, usable_rois
+from ..core.planner import PlannerConfig, PlanningGrid
+from ..core.prediction import DestinationModel, OnlinePredictor, PredictionConfig
+from ..core.rois import Roi, load_rois
+from ..msg import Destination, TrackArray
+from .markov_walker import roi_from_msg
+from .path_follower import grid_from_msg
+
+__all__ = ["main", "DestinationPredictorNode", "destination_msg"]
+
+
+def prediction_config_from_params(prefix: str = "~") -> PredictionConfig:
+    """PredictionConfig with every field overridable as a private parameter."""
+    cfg = PredictionConfig()
+    for f in dataclasses.fields(cfg):
+        name = prefix + f.name
+        if rospy.has_param(name):
+            setattr(cfg, f.name, type(getattr(cfg, f.name))(rospy.get_param(name)))
+    cfg.check()
+    return cfg
+
+
+def destination_msg(track_id: int, prediction, header, best_point=(0.0, 0.0)) -> Destination:
+    """A Destination message of a core Prediction (regions most likely first); ``best_point``:
+    where to look for the entity in the best region."""
+    m = Destination()
+    m.header = header
+    m.track_id = track_id
+    m.leg_start = rospy.Time.from_sec(prediction.leg_start)
+    m.start_region = prediction.start_region
+    m.start = Point(prediction.start_xy[0], prediction.start_xy[1], 0.0)
+    m.observed = float(prediction.observed)
+    ranked = sorted(prediction.probabilities.items(), key=lambda kv: (-kv[1], kv[0]))
+    m.regions = [r for r, _ in ranked]
+    m.probabilities = [float(p) for _, p in ranked]
+    m.best, m.best_probability = prediction.best, float(prediction.best_probability)
+    m.best_point = Point(float(best_point[0]), float(best_point[1]), 0.0)
+    return m
+
+
+class DestinationPredictorNode:
+    """Tracks in, destination distributions out; the model lives in core/prediction.py."""
+
+    def __init__(self) -> None:
+        gp = rospy.get_param
+        self.roi_config = str(gp("~config", "1"))
+        self.rois_yaml = str(gp("~rois_yaml", ""))
+        self.tol = float(gp("~tol", 0.2))
+        self.mode = str(gp("~mode", "vertex"))
+        self.query_service = str(gp("~query_service", "/soma/query_rois"))
+        self.planner_cfg = PlannerConfig(robot_radius=float(gp("~robot_radius", 0.34)))
+        self.config = prediction_config_from_params()
+        self.lock = threading.Lock()
+        self.grid: Optional[PlanningGrid] = None
+        self.rois: Optional[List[Roi]] = None
+        self.model: Optional[DestinationModel] = None
+        self.predictors: Dict[int, OnlinePredictor] = {}
+        self.seen: Dict[int, float] = {}   # track id -> last update (s)
+        self.rebuild = threading.Event()
+        self.pub = rospy.Publisher("~destination", Destination, queue_size=10)
+        self.marker_pub = rospy.Publisher("~markers", MarkerArray, queue_size=2)
+        rospy.Subscriber(str(gp("~map_topic", "/map")), OccupancyGrid, self._on_map,
+                         queue_size=1)
+        rospy.Subscriber(str(gp("~rois_changed_topic", "/soma/rois_changed")), String,
+                         lambda _m: self.rebuild.set(), queue_size=1)
+        rospy.Subscriber("tracks", TrackArray, self._on_tracks, queue_size=5)
+        threading.Thread(target=self._model_loop, daemon=True).start()
+
+    def _on_map(self, msg: OccupancyGrid) -> None:
+        try:
+            self.grid = PlanningGrid(grid_from_msg(msg), self.planner_cfg)
+        except BulletFloorSimError as e:
+            rospy.logerr("destination_predictor: cannot use the map: %s", e)
+            return
+        self.rebuild.set()
+
+    def _fetch_rois(self) -> Optional[List[Roi]]:
+        if self.rois_yaml:
+            return load_rois(self.rois_yaml)
+        from ..srv import SOMAQueryROIs
+
+        try:
+            rospy.wait_for_service(self.query_service, timeout=2.0)
+            answer = rospy.ServiceProxy(self.query_service, SOMAQueryROIs)(
+                query_type=0, returnmostrecent=True, roiconfigs=[self.roi_config])
+        except (rospy.ROSException, rospy.ServiceException) as e:
+            rospy.logwarn_throttle(30.0, "destination_predictor: no ROIs from %s (%s): start "
+                                   "the ROI manager or set ~rois_yaml; retrying",
+                                   self.query_service, " ".join(str(e).split()))
+            return None
+        return [roi_from_msg(m) for m in answer.rois if m.config == self.roi_config]
+
+    def _model_loop(self) -> None:
+        """(Re)build the model when the map or the ROIs change (the cost-to-go fields take a
+        moment: never in a callback)."""
+        self.rebuild.set()
+        while not rospy.is_shutdown():
+            if not self.rebuild.wait(2.0) and self.model is not None:
+                continue
+            self.rebuild.clear()
+            if self.grid is None:
+                continue
+            try:
+                rois = self._fetch_rois()
+            except BulletFloorSimError as e:
+                rospy.logerr_throttle(30.0, "destination_predictor: %s", e)
+                continue
+            if not rois:
+                continue
+            good, warnings = usable_rois(rois)
+            for w in warnings:
+                rospy.logwarn("destination_predictor: %s", w)
+            if not good or (good == self.rois and self.model is not None):
+                continue
+            try:
+                t0 = rospy.get_time()
+                chain = MarkovChain.from_rois(good, tol=self.tol, mode=self.mode)
+                model = DestinationModel(self.grid, good, chain, self.config)
+            except BulletFloorSimError as e:
+                rospy.logerr("destination_predictor: cannot build the model: %s", e)
+                continue
+            with self.lock:
+                self.rois, self.model, self.predictors, self.seen = good, model, {}, {}
+            rospy.loginfo("destination_predictor: %d regions, model built (%.1f s)", len(good),
+                          rospy.get_time() - t0)
+
+    def _on_tracks(self, msg: TrackArray) -> None:
+        with self.lock:
+            model = self.model
+            if model is None:
+                return
+            t = msg.header.stamp.to_sec()
+            markers = MarkerArray()
+            live = []
+            for tr in msg.tracks:
+                live.append(tr.id)
+                pred = self.predictors.get(tr.id)
+                if pred is None:
+                    pred = self.predictors[tr.id] = OnlinePredictor(model)
+                try:
+                    p = pred.update(t, tr.position.x, tr.position.y, tr.velocity.x,
+                                    tr.velocity.y)
+                except BulletFloorSimError as e:
+                    rospy.logwarn_throttle(10.0, "destination_predictor: track %d: %s", tr.id, e)
+                    continue
+                if p is None:
+                    continue
+                where = search_point(model.goals(p.best), (tr.position.x, tr.position.y))
+                self.pub.publish(destination_msg(tr.id, p, msg.header, where))
+                markers.markers.append(self._label(tr, p, msg.header))
+            for k in live:
+                self.seen[k] = t
+            for dead in [k for k, last in self.seen.items() if t - last > 30.0]:
+                self.predictors.pop(dead, None)
+                del self.seen[dead]
+        if markers.markers:
+            self.marker_pub.publish(markers)
+
+    def _label(self, tr, p, header) -> Marker:
+        m = Marker()
+        m.header = header
+        m.ns, m.id, m.type, m.action = "destination", tr.id, Marker.TEXT_VIEW_FACING, Marker.ADD
+        m.pose.position = Point(tr.position.x, tr.position.y, 1.7)
+        m.pose.orientation.w = 1.0
+        m.scale.z = 0.35
+        m.color = ColorRGBA(0.2, 0.9, 1.0, 1.0)
+        m.lifetime = rospy.Duration(1.0)
+        label = self.model.label(p.best) if hasattr(self.model, "label") else p.best
+        m.text = "-> %s %.0f%%" % (label, 100.0 * p.best_probability)
+        return m
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Entry point of ``rosrun bullet_floor_sim destination_predictor``."""
+    rospy.init_node("destination_predictor")
+    try:
+        DestinationPredictorNode()
+    except BulletFloorSimError as e:
+        rospy.logfatal(str(e))
+        return 2
+    rospy.spin()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

@@ -1,0 +1,201 @@
+"""The follower node: the observer robot keeps the tracked entity in view at a set distance.
+
+Run it in the observing robot's namespace. It picks one track of ``tracks`` (people_tracker's
+``track_list``) and keeps following that id while it lives, sends goals to the robot's
+``move_base`` action (stock move_base or the embedded path_follower: the same interface) at a
+stand-off point ``~distance`` metres from the target, facing it, re-planned as the track moves;
+when the track is lost for ``~lost_after`` seconds it goes to where the predictor says the
+target is heading (``destination``: the best region's point nearest the track) and looks
+round there. core/follow.py makes the decisions.
+
+Topics: ``tracks`` (in, bullet_floor_sim/TrackArray), ``destination`` (in,
+bullet_floor_sim/Destination), ``base_pose_ground_truth`` (in, with ``~pose_source``
+ground_truth), ``~mode`` (std_msgs/String, latched: follow | search | idle, on change),
+``~target`` (geometry_msgs/PointStamped: the followed track's position).
+
+Parameters: ``~pose_source`` (amcl: tf ``<global_frame> -> <base_frame>``; ground_truth),
+``~global_frame`` (map), ``~base_frame`` (base_footprint, prefixed by the tf_prefix of the
+namespace's robot, e.g. ``robot2/base_footprint``), ``~action`` (move_base), ``~rate`` (5 Hz),
+``~map_topic`` (/map), ``~robot_radius`` (0.34) and the FollowConfig fields as ``~<field>``
+(``~distance`` 1.5, ``~lost_after`` 2.0, ...).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+import threading
+from collections import namedtuple
+from typing import Optional, Sequence
+
+import actionlib
+import rospy
+import tf2_ros
+from actionlib_msgs.msg import GoalStatus
+from geometry_msgs.msg import PointStamped
+from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
+from nav_msgs.msg import OccupancyGrid, Odometry
+from std_msgs.msg import String
+
+from ..core.errors import BulletFloorSimError
+from ..core.follow import FollowBehaviour, FollowConfig, pick_target
+from ..core.planner import PlannerConfig, PlanningGrid
+from ..msg import Destination, TrackArray
+from .path_follower import grid_from_msg
+
+__all__ = ["main", "FollowerNode"]
+
+_Tr = namedtuple("_Tr", "id x y vx vy")
+_TERMINAL = (GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.REJECTED,
+             GoalStatus.PREEMPTED, GoalStatus.RECALLED, GoalStatus.LOST)
+
+
+def _yaw(q) -> float:
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+class FollowerNode:
+    """Tracks and destinations in, move_base goals out."""
+
+    def __init__(self) -> None:
+        gp = rospy.get_param
+        self.source = str(gp("~pose_source", "amcl"))
+        if self.source not in ("amcl", "ground_truth"):
+            raise BulletFloorSimError("follower: ~pose_source must be amcl or ground_truth, "
+                                      "got %r" % self.source)
+        self.frame = str(gp("~global_frame", "map"))
+        self.base_frame = str(gp("~base_frame", "base_footprint"))
+        cfg = FollowConfig()
+        for f in dataclasses.fields(cfg):
+            if rospy.has_param("~" + f.name):
+                setattr(cfg, f.name, float(gp("~" + f.name)))
+        cfg.check()
+        self.config = cfg
+        self.planner_cfg = PlannerConfig(robot_radius=float(gp("~robot_radius", 0.34)))
+        self.rate = float(gp("~rate", 5.0))
+        self.lock = threading.Lock()
+        self.behaviour: Optional[FollowBehaviour] = None
+        self.tracks = []
+        self.tracks_t = -math.inf
+        self.target_id: Optional[int] = None
+        self.destination = None     # (region, (x, y)) for the followed track
+        self.gt = None
+        self.mode = ""
+        self.goal_sent = False
+        self.tf_buffer = tf2_ros.Buffer()
+        self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
+        self.mode_pub = rospy.Publisher("~mode", String, queue_size=1, latch=True)
+        self.target_pub = rospy.Publisher("~target", PointStamped, queue_size=2)
+        self.client = actionlib.SimpleActionClient(str(gp("~action", "move_base")),
+                                                   MoveBaseAction)
+        rospy.Subscriber(str(gp("~map_topic", "/map")), OccupancyGrid, self._on_map,
+                         queue_size=1)
+        rospy.Subscriber("tracks", TrackArray, self._on_tracks, queue_size=2)
+        rospy.Subscriber("destination", Destination, self._on_destination, queue_size=5)
+        if self.source == "ground_truth":
+            rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_gt, queue_size=1)
+
+    def _on_map(self, msg: OccupancyGrid) -> None:
+        try:
+            grid = PlanningGrid(grid_from_msg(msg), self.planner_cfg)
+        except BulletFloorSimError as e:
+            rospy.logerr("follower: cannot use the map: %s", e)
+            return
+        with self.lock:
+            self.behaviour = FollowBehaviour(grid, self.config)
+
+    def _on_gt(self, msg: Odometry) -> None:
+        p = msg.pose.pose
+        self.gt = (p.position.x, p.position.y, _yaw(p.orientation))
+
+    def _on_tracks(self, msg: TrackArray) -> None:
+        with self.lock:
+            self.tracks = [_Tr(t.id, t.position.x, t.position.y, t.velocity.x, t.velocity.y)
+                           for t in msg.tracks]
+            self.tracks_t = msg.header.stamp.to_sec()
+
+    def _on_destination(self, msg: Destination) -> None:
+        with self.lock:
+            if msg.track_id == self.target_id and msg.best:
+                self.destination = (msg.best, (msg.best_point.x, msg.best_point.y))
+
+    def _pose(self):
+        if self.source == "ground_truth":
+            return self.gt
+        try:
+            t = self.tf_buffer.lookup_transform(self.frame, self.base_frame, rospy.Time(0),
+                                                rospy.Duration(0.1))
+        except tf2_ros.TransformException as e:
+            rospy.logwarn_throttle(10.0, "follower: no pose (tf %s -> %s): %s", self.frame,
+                                   self.base_frame, e)
+            return None
+        tr = t.transform
+        return tr.translation.x, tr.translation.y, _yaw(tr.rotation)
+
+    def step(self) -> None:
+        pose = self._pose()
+        with self.lock:
+            if self.behaviour is None or pose is None:
+                return
+            now = rospy.get_time()
+            fresh = now - self.tracks_t < 1.0
+            last = self.behaviour.last_target
+            target = pick_target(self.tracks, self.target_id, last) if fresh else None
+            if target is not None:
+                if target.id != self.target_id:
+                    rospy.loginfo("follower: following track %d", target.id)
+                self.target_id = target.id
+            done = self.goal_sent and self.client.get_state() in _TERMINAL
+            dec = self.behaviour.update(
+                now, pose, None if target is None else (target.x, target.y, target.vx,
+                                                        target.vy),
+                self.destination, done)
+        if dec.mode != self.mode:
+            self.mode = dec.mode
+            self.mode_pub.publish(String(dec.mode))
+            rospy.loginfo("follower: %s%s", dec.mode, ": " + dec.reason if dec.reason else "")
+        if target is not None:
+            pt = PointStamped()
+            pt.header.stamp, pt.header.frame_id = rospy.Time.now(), self.frame
+            pt.point.x, pt.point.y = target.x, target.y
+            self.target_pub.publish(pt)
+        if dec.goal is not None:
+            g = MoveBaseGoal()
+            g.target_pose.header.stamp, g.target_pose.header.frame_id = rospy.Time.now(), self.frame
+            g.target_pose.pose.position.x, g.target_pose.pose.position.y = dec.goal[:2]
+            g.target_pose.pose.orientation.z = math.sin(dec.goal[2] / 2.0)
+            g.target_pose.pose.orientation.w = math.cos(dec.goal[2] / 2.0)
+            self.client.send_goal(g)
+            self.goal_sent = True
+
+    def run(self) -> None:
+        while not rospy.is_shutdown() and not self.client.wait_for_server(rospy.Duration(5.0)):
+            rospy.logwarn("follower: waiting for the %s action server",
+                          rospy.resolve_name("move_base"))
+        rate = rospy.Rate(self.rate)
+        while not rospy.is_shutdown():
+            self.step()
+            try:
+                rate.sleep()
+            except rospy.ROSInterruptException:
+                break
+            except rospy.ROSTimeMovedBackwardsException:
+                pass
+        if self.goal_sent:
+            self.client.cancel_all_goals()
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Entry point of ``rosrun bullet_floor_sim follower``."""
+    rospy.init_node("follower")
+    try:
+        node = FollowerNode()
+    except BulletFloorSimError as e:
+        rospy.logfatal(str(e))
+        return 2
+    node.run()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

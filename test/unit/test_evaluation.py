@@ -1,0 +1,98 @@
+"""The prediction study: scoring by hand, and the evaluate_prediction CLI on a short real run."""
+import math
+import os
+import re
+
+import pytest
+
+from bullet_floor_sim.core import evaluation as ev
+from bullet_floor_sim.core.prediction import Prediction
+from bullet_floor_sim.core.walker import Leg
+from bullet_floor_sim.ros import evaluate_prediction
+
+
+class FakeModel:
+    """Only the two baselines are asked of the model when scoring: fixed answers."""
+
+    def markov_baseline(self, r0):
+        return {"A": 0.5, "B": 0.3, "C": 0.2}
+
+    def heading_baseline(self, r0, xy, velocity):
+        return {"A": 0.1, "B": 0.8, "C": 0.1} if velocity[0] > 0 else {"A": 0.8, "B": 0.1,
+                                                                      "C": 0.1}
+
+
+def record(t, probs, v=(1.0, 0.0)):
+    best = max(probs, key=probs.get)
+    p = Prediction(t=t, leg_start=10.0, start_region="A", start_xy=(0.0, 0.0),
+                   probabilities=probs, best=best, best_probability=probs[best], observed=1.0)
+    return ev._Record(t, p, (0.0, 0.0), v)
+
+
+def test_scoring_picks_the_latest_prediction_at_each_fraction_and_counts_gaps_as_misses():
+    leg = Leg(1, "A", "B", (5.0, 0.0, 0.0), started=10.0, ended=20.0, outcome="succeeded")
+    uniform = {"A": 1 / 3, "B": 1 / 3, "C": 1 / 3}
+    # 10 % (t=11) and 25 % (t=12.5): nothing yet; then a wrong guess at 13, a right one at 16
+    recs = [record(13.0, {"A": 0.6, "B": 0.3, "C": 0.1}),
+            record(16.0, {"A": 0.2, "B": 0.7, "C": 0.1}, v=(-1.0, 0.0))]
+    s = ev._score(leg, recs, recs[:1], FakeModel(), uniform)
+    gt = s.scores["ground_truth"]
+    # fractions 10 25 50 75 90 -> t = 11, 12.5, 15, 17.5, 19
+    assert [c for c, _, _ in gt["predictor"]] == [False, False, False, True, True]
+    assert [h for _, _, h in gt["predictor"]] == [False, False, True, True, True]
+    lls = [ll for _, ll, _ in gt["predictor"]]
+    assert lls[0] == pytest.approx(math.log(3)) and lls[1] == pytest.approx(math.log(3))
+    assert lls[2] == pytest.approx(-math.log(0.3))
+    assert lls[3] == pytest.approx(-math.log(0.7))
+    # the baselines answer from the same record: markov never says B, heading does while v > 0
+    assert [c for c, _, _ in gt["markov"]] == [False] * 5
+    assert [c for c, _, _ in gt["heading"]] == [False, False, True, False, False]
+    assert gt["heading"][2][1] == pytest.approx(-math.log(0.8))
+    # the tracker pipeline only ever had the first, wrong record
+    assert [c for c, _, _ in s.scores["tracker"]["predictor"]] == [False] * 5
+
+
+def test_result_table_averages_over_legs():
+    legs = []
+    for k, correct in enumerate((True, False, True, True)):
+        s = ev.LegScore(k + 1, "A", "B", 10.0)
+        row = [(correct, 0.5 if correct else 2.0, True)] * len(ev.FRACTIONS)
+        s.scores = {p: {m: row for m in ev.METHODS} for p in ev.PIPELINES}
+        legs.append(s)
+    r = ev.EvalResult(config=ev.EvalConfig(legs=4), legs=legs, failed_legs=0, sim_time=1.0,
+                      wall_time=1.0, ticks=10, visible_ticks=8, recalled_ticks=6,
+                      tracked_ticks=5, false_track_ticks=0, id_switches=0,
+                      mean_track_error=0.1, follow_modes={})
+    acc, ll, n = r.table()["tracker"]["predictor"][2]
+    assert (acc, n) == (0.75, 4) and ll == pytest.approx((3 * 0.5 + 2.0) / 4)
+    assert r.recall == 0.75 and r.tracked_share == 0.5
+
+
+def test_cli_short_run_prints_the_table_and_writes_the_plot(tmp_path, capsys):
+    png = str(tmp_path / "acc.png")
+    assert evaluate_prediction.main(["--legs", "3", "--seed", "2", "--plot", png,
+                                     "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "== tracker tracks (3 legs" in out and "== ground-truth tracks (3 legs" in out
+    for m in ("predictor", "markov", "heading"):
+        assert len(re.findall(r"^%s\s+\d" % m, out, re.M)) == 2
+    line = [x for x in out.splitlines() if x.startswith("EVAL ")][-1]
+    vals = dict(kv.split("=") for kv in line.split()[1:])
+    assert int(vals["legs"]) == 3
+    for k in ("acc50", "acc50_gt", "markov50", "heading50", "recall", "tracked"):
+        assert 0.0 <= float(vals[k]) <= 1.0, line
+    # the observer does see and track the walker on this run (it starts 9 m away, facing it)
+    assert float(vals["recall"]) > 0.8, line
+    with open(png, "rb") as f:
+        assert f.read(8) == b"\x89PNG\r\n\x1a\n"
+    assert os.path.getsize(png) > 10000
+
+
+def test_cli_bad_arguments_are_one_line(capsys):
+    assert evaluate_prediction.main(["--legs", "0"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == "evaluate_prediction: --legs must be >= 1, got 0"
+    assert evaluate_prediction.main(["--world", "/nonexistent/world.yaml", "--legs", "1",
+                                     "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "/nonexistent/world.yaml" in err[0]
