@@ -21,7 +21,6 @@ PredictionConfig fields as ``~<field>``, ``~query_service``, ``~rois_changed_top
 """
 from __future__ import annotations
 
-import dataclasses
 import sys
 import threading
 from typing import Dict, List, Optional, Sequence
@@ -40,20 +39,10 @@ from ..core.prediction import DestinationModel, OnlinePredictor, PredictionConfi
 from ..core.rois import Roi, load_rois
 from ..msg import Destination, TrackArray
 from .markov_walker import roi_from_msg
+from .params import config_from_params
 from .path_follower import grid_from_msg
 
 __all__ = ["main", "DestinationPredictorNode", "destination_msg"]
-
-
-def prediction_config_from_params(prefix: str = "~") -> PredictionConfig:
-    """PredictionConfig with every field overridable as a private parameter."""
-    cfg = PredictionConfig()
-    for f in dataclasses.fields(cfg):
-        name = prefix + f.name
-        if rospy.has_param(name):
-            setattr(cfg, f.name, type(getattr(cfg, f.name))(rospy.get_param(name)))
-    cfg.check()
-    return cfg
 
 
 def destination_msg(track_id: int, prediction, header, best_point=(0.0, 0.0)) -> Destination:
@@ -85,7 +74,7 @@ class DestinationPredictorNode:
         self.mode = str(gp("~mode", "vertex"))
         self.query_service = str(gp("~query_service", "/soma/query_rois"))
         self.planner_cfg = PlannerConfig(robot_radius=float(gp("~robot_radius", 0.34)))
-        self.config = prediction_config_from_params()
+        self.config = config_from_params(PredictionConfig())
         self.lock = threading.Lock()
         self.grid: Optional[PlanningGrid] = None
         self.rois: Optional[List[Roi]] = None

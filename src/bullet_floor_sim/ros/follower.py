@@ -21,7 +21,6 @@ namespace's robot, e.g. ``robot2/base_footprint``), ``~action`` (move_base), ``~
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 import sys
 import threading
@@ -41,6 +40,7 @@ from ..core.errors import BulletFloorSimError
 from ..core.follow import FollowBehaviour, FollowConfig, pick_target
 from ..core.planner import PlannerConfig, PlanningGrid
 from ..msg import Destination, TrackArray
+from .params import config_from_params
 from .path_follower import grid_from_msg
 
 __all__ = ["main", "FollowerNode"]
@@ -65,12 +65,7 @@ class FollowerNode:
                                       "got %r" % self.source)
         self.frame = str(gp("~global_frame", "map"))
         self.base_frame = str(gp("~base_frame", "base_footprint"))
-        cfg = FollowConfig()
-        for f in dataclasses.fields(cfg):
-            if rospy.has_param("~" + f.name):
-                setattr(cfg, f.name, float(gp("~" + f.name)))
-        cfg.check()
-        self.config = cfg
+        self.config = config_from_params(FollowConfig())
         self.planner_cfg = PlannerConfig(robot_radius=float(gp("~robot_radius", 0.34)))
         self.rate = float(gp("~rate", 5.0))
         self.lock = threading.Lock()

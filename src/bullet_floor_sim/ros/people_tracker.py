@@ -25,7 +25,6 @@ and the core/tracking.py TrackerConfig fields as ``~<field>`` (e.g. ``~max_age``
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 import sys
 import threading
@@ -43,6 +42,7 @@ from ..core.errors import BulletFloorSimError
 from ..core.tracking import StaticMap, Tracker, TrackerConfig, detect, scan_points
 from ..msg import Track as TrackMsg
 from ..msg import TrackArray
+from .params import config_from_params
 from .path_follower import grid_from_msg
 
 __all__ = ["main", "PeopleTrackerNode", "POSE_SOURCES"]
@@ -52,17 +52,6 @@ POSE_SOURCES = ("amcl", "ground_truth")
 
 def _yaw(q) -> float:
     return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-
-
-def tracker_config_from_params(prefix: str = "~") -> TrackerConfig:
-    """TrackerConfig with every field overridable as a private parameter."""
-    cfg = TrackerConfig()
-    for f in dataclasses.fields(cfg):
-        name = prefix + f.name
-        if rospy.has_param(name):
-            setattr(cfg, f.name, type(getattr(cfg, f.name))(rospy.get_param(name)))
-    cfg.check()
-    return cfg
 
 
 class PeopleTrackerNode:
@@ -75,7 +64,7 @@ class PeopleTrackerNode:
             raise BulletFloorSimError("people_tracker: ~pose_source must be one of %s, got %r"
                                       % (" | ".join(POSE_SOURCES), self.source))
         self.frame = str(gp("~global_frame", "map"))
-        self.config = tracker_config_from_params()
+        self.config = config_from_params(TrackerConfig())
         self.tracker = Tracker(self.config)
         self.static: Optional[StaticMap] = None
         self.gt = None            # (x, y, yaw) of base_footprint in the map, and its frame
