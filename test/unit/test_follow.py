@@ -113,3 +113,18 @@ def test_search_point_and_in_view():
 def test_bad_config_names_the_field(field, value):
     with pytest.raises(FollowError, match=field):
         FollowBehaviour(hall(), FollowConfig(**{field: value}))
+
+
+def test_a_target_coming_at_the_observer_gets_room_to_the_side_not_a_retreat():
+    grid = hall(10.0, 6.0)
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7))
+    # target 1.6 m ahead coming straight at the observer at 0.5 m/s
+    d = fb.update(0.0, (2.0, 3.0, 0.0), (3.6, 3.0, -0.5, 0.0))
+    gx, gy, gyaw = d.goal
+    assert math.hypot(gx - 3.6, gy - 3.0) == pytest.approx(1.5, abs=1e-9)
+    assert abs(gy - 3.0) > 1.0          # beside its path, not on it
+    assert gyaw == pytest.approx(math.atan2(3.0 - gy, 3.6 - gx))
+    # going away from the observer: trail it on the line as usual
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5))
+    d = fb.update(0.0, (2.0, 3.0, 0.0), (3.6, 3.0, 0.5, 0.0))
+    assert d.goal[:2] == pytest.approx((2.1, 3.0), abs=1e-9)

@@ -7,7 +7,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
 * **follow**: the goal is a *stand-off point* ``distance`` metres from the target, on the line
   from the target back towards the observer (so the observer trails it through doors rather
   than overtaking it), snapped to the nearest free planning cell on that circle, facing the
-  target. A new goal is sent when the target has moved ``replan_distance`` from where it was
+  target. A target coming towards the observer gets room: the stand-off point goes to the side
+  of its path (the side nearer the observer), not backwards in front of it into a dead end. A new goal is sent when the target has moved ``replan_distance`` from where it was
   when the last goal was sent, or at least every ``goal_period`` seconds while it moves.
   Within ``distance + slack`` of a target that stands still, the observer only turns to face
   it (a lidar sees 180 degrees ahead).
@@ -82,12 +83,15 @@ class FollowDecision:
 
 
 def standoff_point(grid: PlanningGrid, target: Sequence[float], robot: Sequence[float],
-                   distance: float) -> Optional[Tuple[float, float]]:
+                   distance: float, direction: Optional[float] = None
+                   ) -> Optional[Tuple[float, float]]:
     """A free point ``distance`` from ``target``, as close as possible to the direction of
-    ``robot`` (candidates every 15 degrees on the circle, then on smaller circles). None when
-    no free point lies within ``distance`` of the target."""
+    ``robot`` (or to the bearing ``direction`` from the target, when given; candidates every 15
+    degrees on the circle, then on smaller circles). None when no free point lies within
+    ``distance`` of the target."""
     tx, ty = float(target[0]), float(target[1])
-    base = math.atan2(float(robot[1]) - ty, float(robot[0]) - tx)
+    base = (math.atan2(float(robot[1]) - ty, float(robot[0]) - tx) if direction is None
+            else float(direction))
     for radius in (distance, 0.75 * distance, 0.5 * distance):
         for k in range(13):  # 0, +15, -15, +30, ... +-180 degrees
             a = base + math.radians(15.0 * ((k + 1) // 2) * (1 if k % 2 else -1))
@@ -174,11 +178,19 @@ class FollowBehaviour:
                 self._goal_target, self._goal_time = (tx, ty), t
                 return FollowDecision("follow", (rx, ry, facing), "turning to face the target")
             return FollowDecision("follow")
+        # coming towards the observer: step aside (to the side of its heading nearer the
+        # observer) instead of backing away in front of it into a dead end
+        approaching = moving and (vx * (rx - tx) + vy * (ry - ty)) > 0.1 * dist
         due = (first or goal_done or moved > cfg.replan_distance
                or (moving and t - self._goal_time >= cfg.goal_period))
         if not due:
             return FollowDecision("follow")
-        point = standoff_point(self.grid, (tx, ty), (rx, ry), cfg.distance)
+        direction = None
+        if approaching and dist < cfg.distance + cfg.slack:
+            heading = math.atan2(vy, vx)
+            side = 1.0 if _wrap(facing + math.pi - heading) >= 0 else -1.0
+            direction = heading + side * math.pi / 2
+        point = standoff_point(self.grid, (tx, ty), (rx, ry), cfg.distance, direction)
         self._goal_target, self._goal_time = (tx, ty), t
         if point is None:
             return FollowDecision("follow", (rx, ry, facing), "no free stand-off point: turning")
