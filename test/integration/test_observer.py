@@ -73,7 +73,7 @@ class Observer(unittest.TestCase):
         wait_for(lambda: len(self.tracks) > 400, 200, "400 track lists (40 s sim)")
         with self.lock:
             lists = list(self.tracks)
-        errors, with_robot1, false_tracks = [], 0, 0
+        errors, with_robot1, false_tracks, where = [], 0, 0, []
         for msg in lists:
             gt = self.gt_at(msg.header.stamp.to_sec())
             if gt is None:
@@ -84,13 +84,17 @@ class Observer(unittest.TestCase):
                 with_robot1 += 1
                 errors.append(min(near))
             false_tracks += sum(1 for d in near if d >= 1.0)
+            where += ["t=%.1f id %d (%.2f, %.2f) hits %d, robot1 (%.2f, %.2f)" % (
+                msg.header.stamp.to_sec(), t.id, t.position.x, t.position.y, t.hits, gt[0],
+                gt[1]) for t, d in zip(msg.tracks, near) if d >= 1.0]
         self.assertGreater(len(errors), 100, "robot1 tracked in only %d track lists of %d"
                            % (len(errors), len(lists)))
         errors.sort()
         median = errors[len(errors) // 2]
         self.assertLess(median, 0.15, "median track error %.3f m" % median)
         # no (or hardly any) tracks on the static walls
-        self.assertLess(false_tracks, 0.05 * len(lists), "%d false tracks" % false_tracks)
+        self.assertLess(false_tracks, 0.05 * len(lists), "%d false tracks, e.g. %s" % (
+            false_tracks, "; ".join(where[::max(1, len(where) // 8)])))
 
     def test_2_destinations_are_distributions_over_the_rois(self):
         wait_for(lambda: len(self.dests) > 20, 120, "20 destination messages")

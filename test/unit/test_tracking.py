@@ -399,3 +399,25 @@ def test_no_tracks_from_walls_and_pillar_seen_by_a_moving_lidar():
         assert detections == 0 and born == set(), (detections, born)
     finally:
         world.close()
+
+
+def test_min_travel_keeps_standing_clutter_out_but_reports_a_mover():
+    cfg = TrackerConfig(min_travel=0.5)
+    tr = Tracker(cfg)
+    out = []
+    for k in range(40):  # 4 s: a post standing at (1, 1); a body walking from (3, 1) at 0.5 m/s
+        t = 0.1 * k
+        out.append(tr.update([Detection(1.0, 1.0, 0.3, 6), Detection(3.0 + 0.05 * k, 1.0, 0.4, 8)],
+                             t))
+    ids = {t.id for tracks in out for t in tracks}
+    assert len(ids) == 1
+    final = out[-1][0]
+    assert final.x == pytest.approx(3.0 + 0.05 * 39, abs=0.1)
+    # confirmed only after 0.5 m of travel: not before 1 s (10 scans) into the run
+    first = next(k for k, tracks in enumerate(out) if tracks)
+    assert 9 <= first <= 14
+    # with min_travel 0 the post is reported too
+    tr = Tracker(TrackerConfig())
+    assert len(tr.update([Detection(1.0, 1.0, 0.3, 6)], 0.0) or
+               tr.update([Detection(1.0, 1.0, 0.3, 6)], 0.1) or
+               tr.update([Detection(1.0, 1.0, 0.3, 6)], 0.2)) == 1

@@ -80,6 +80,11 @@ class TrackerConfig:
         tentative_max_age: the same for a tentative track; shorter, so that clutter dies fast.
         max_speed: the fastest entity to track (m/s): a new track's velocity prior is zero
             with standard deviation ``max_speed / 2`` per axis.
+        min_travel: a track is confirmed only once its estimate has also moved this far (m)
+            from where it was born: 0 reports standing bodies too; > 0 keeps out static
+            clutter that the map does not explain (furniture, or door jambs smeared by a pose
+            that lags the scan while the robot turns), at the price of not reporting an
+            entity until it has moved.
     """
 
     static_tolerance: float = 0.2
@@ -95,10 +100,11 @@ class TrackerConfig:
     max_age: float = 1.0
     tentative_max_age: float = 0.25
     max_speed: float = 2.0
+    min_travel: float = 0.0
 
     def check(self) -> None:
         """Raise TrackingError naming the first bad parameter."""
-        for name in ("static_tolerance", "min_size", "centre_offset"):
+        for name in ("static_tolerance", "min_size", "centre_offset", "min_travel"):
             _number(self, name, 0.0, strict=False)
         for name in ("cluster_gap", "max_size", "process_noise", "measurement_noise", "gate",
                      "max_age", "tentative_max_age", "max_speed"):
@@ -325,6 +331,7 @@ class Track:
         last_seen: time of the last hit (s).
         confirmed: ``hits`` reached ``confirm_hits`` (it stays confirmed).
         born: time of the birth (s).
+        travel: farthest the estimate has been from ``birth_xy``, the birth position (m).
     """
 
     id: int
@@ -338,6 +345,8 @@ class Track:
     last_seen: float = 0.0
     confirmed: bool = False
     born: float = 0.0
+    travel: float = 0.0
+    birth_xy: Tuple[float, float] = (0.0, 0.0)
 
     @property
     def speed(self) -> float:
@@ -496,7 +505,8 @@ class Tracker:
         tr.hits += 1
         tr.misses = 0
         tr.last_seen = t
-        if tr.hits >= self.config.confirm_hits:
+        tr.travel = max(tr.travel, math.hypot(tr.x - tr.birth_xy[0], tr.y - tr.birth_xy[1]))
+        if tr.hits >= self.config.confirm_hits and tr.travel >= self.config.min_travel:
             tr.confirmed = True
 
     def _birth(self, z: np.ndarray, t: float) -> None:
@@ -505,7 +515,8 @@ class Tracker:
         v2 = (cfg.max_speed / 2.0) ** 2
         tr = Track(id=self._next_id, x=float(z[0]), y=float(z[1]), vx=0.0, vy=0.0,
                    cov=np.diag([r2, r2, v2, v2]), hits=1, misses=0, last_seen=t,
-                   confirmed=cfg.confirm_hits <= 1, born=t)
+                   confirmed=cfg.confirm_hits <= 1 and cfg.min_travel <= 0, born=t)
+        tr.birth_xy = (tr.x, tr.y)
         self._next_id += 1
         self._tracks.append(tr)
 

@@ -55,7 +55,9 @@ def destination_msg(track_id: int, prediction, header, best_point=(0.0, 0.0)) ->
     m.start_region = prediction.start_region
     m.start = Point(prediction.start_xy[0], prediction.start_xy[1], 0.0)
     m.observed = float(prediction.observed)
-    ranked = sorted(prediction.probabilities.items(), key=lambda kv: (-kv[1], kv[0]))
+    # most likely first; of equal ones the predictor's best first (regions[0] == best)
+    ranked = sorted(prediction.probabilities.items(),
+                    key=lambda kv: (-kv[1], kv[0] != prediction.best, kv[0]))
     m.regions = [r for r, _ in ranked]
     m.probabilities = [float(p) for _, p in ranked]
     m.best, m.best_probability = prediction.best, float(prediction.best_probability)
