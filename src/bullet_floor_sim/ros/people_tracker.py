@@ -25,12 +25,10 @@ and the core/tracking.py TrackerConfig fields as ``~<field>`` (e.g. ``~max_age``
 """
 from __future__ import annotations
 
-import bisect
-import collections
 import math
 import sys
 import threading
-from typing import List, Optional, Sequence, Tuple
+from typing import List, Optional, Sequence
 
 import rospy
 import tf2_ros
@@ -47,35 +45,13 @@ from ..msg import TrackArray
 from .params import config_from_params
 from .path_follower import grid_from_msg
 
-__all__ = ["main", "PeopleTrackerNode", "POSE_SOURCES", "pose_at"]
+__all__ = ["main", "PeopleTrackerNode", "POSE_SOURCES"]
 
 POSE_SOURCES = ("amcl", "ground_truth")
 
 
 def _yaw(q) -> float:
     return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-
-
-def pose_at(samples: Sequence[Tuple[float, float, float, float]], t: float,
-            tolerance: float = 0.2) -> Optional[Tuple[float, float, float]]:
-    """(x, y, yaw) at time ``t``, linearly interpolated between the time-ordered samples
-    (t, x, y, yaw) around it (the nearest one within ``tolerance`` s at either end). A scan
-    placed with the latest pose instead of the pose at its stamp smears walls into tracks
-    while the robot turns."""
-    if not samples:
-        return None
-    times = [s[0] for s in samples]
-    k = bisect.bisect_left(times, t)
-    if k == 0 or k == len(samples):
-        near = samples[0] if k == 0 else samples[-1]
-        return tuple(near[1:]) if abs(near[0] - t) <= tolerance else None
-    a, b = samples[k - 1], samples[k]
-    if b[0] - a[0] > tolerance:
-        near = a if t - a[0] <= b[0] - t else b
-        return tuple(near[1:]) if abs(near[0] - t) <= tolerance else None
-    f = (t - a[0]) / (b[0] - a[0]) if b[0] > a[0] else 0.0
-    dyaw = math.atan2(math.sin(b[3] - a[3]), math.cos(b[3] - a[3]))
-    return a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]), a[3] + f * dyaw
 
 
 class PeopleTrackerNode:
@@ -91,7 +67,7 @@ class PeopleTrackerNode:
         self.config = config_from_params(TrackerConfig())
         self.tracker = Tracker(self.config)
         self.static: Optional[StaticMap] = None
-        self.gt = collections.deque(maxlen=400)  # (t, x, y, yaw) of base_footprint in the map
+        self.gt = None            # (x, y, yaw) of base_footprint in the map, and its frame
         self.base_frame = ""
         self.laser_in_base = {}   # laser frame -> (x, y, yaw)
         self.lock = threading.Lock()
@@ -103,7 +79,7 @@ class PeopleTrackerNode:
         rospy.Subscriber(str(gp("~map_topic", "/map")), OccupancyGrid, self._on_map,
                          queue_size=1)
         if self.source == "ground_truth":
-            rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_gt, queue_size=50)
+            rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_gt, queue_size=1)
         rospy.Subscriber("base_scan", LaserScan, self._on_scan, queue_size=1)
 
     def _on_map(self, msg: OccupancyGrid) -> None:
@@ -119,8 +95,7 @@ class PeopleTrackerNode:
     def _on_gt(self, msg: Odometry) -> None:
         p = msg.pose.pose
         self.base_frame = msg.child_frame_id
-        self.gt.append((msg.header.stamp.to_sec(), p.position.x, p.position.y,
-                        _yaw(p.orientation)))
+        self.gt = (p.position.x, p.position.y, _yaw(p.orientation))
 
     def _laser_pose(self, msg: LaserScan):
         """(x, y, yaw) of the scan's frame in the global frame, or None (logged)."""
@@ -131,10 +106,8 @@ class PeopleTrackerNode:
                                                     rospy.Duration(0.2))
                 tr = t.transform
                 return tr.translation.x, tr.translation.y, _yaw(tr.rotation)
-            base = pose_at(list(self.gt), msg.header.stamp.to_sec())
-            if base is None:
-                rospy.logwarn_throttle(10.0, "people_tracker: no base_pose_ground_truth within "
-                                       "0.2 s of the scan at %.3f", msg.header.stamp.to_sec())
+            if self.gt is None:
+                rospy.logwarn_throttle(10.0, "people_tracker: no base_pose_ground_truth yet")
                 return None
             off = self.laser_in_base.get(frame)
             if off is None:
@@ -148,7 +121,7 @@ class PeopleTrackerNode:
                                    self.frame if self.source == "amcl" else self.base_frame,
                                    frame, e)
             return None
-        x, y, yaw = base
+        x, y, yaw = self.gt
         c, s = math.cos(yaw), math.sin(yaw)
         return x + c * off[0] - s * off[1], y + s * off[0] + c * off[1], yaw + off[2]
 
