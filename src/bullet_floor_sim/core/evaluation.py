@@ -229,7 +229,6 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
     scans_by_robot: Dict[int, object] = {}
     leg = None
     dwell_until = 0.0
-    leg_history: List[Tuple[object, List[_Record], List[_Record]]] = []
     gt_records: List[_Record] = []
     trk_records: List[_Record] = []
     target_id: Optional[int] = None

@@ -40,7 +40,7 @@ from ..core.rois import Roi, load_rois
 from ..msg import Destination, TrackArray
 from .markov_walker import roi_from_msg
 from .params import config_from_params
-from .path_follower import grid_from_msg
+from .convert import grid_from_msg
 
 __all__ = ["main", "DestinationPredictorNode", "destination_msg"]
 

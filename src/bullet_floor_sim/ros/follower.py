@@ -41,7 +41,7 @@ from ..core.follow import FollowBehaviour, FollowConfig, pick_target
 from ..core.planner import PlannerConfig, PlanningGrid
 from ..msg import Destination, TrackArray
 from .params import config_from_params
-from .path_follower import grid_from_msg
+from .convert import grid_from_msg, yaw as yaw_of
 
 __all__ = ["main", "FollowerNode"]
 
@@ -49,9 +49,6 @@ _Tr = namedtuple("_Tr", "id x y vx vy")
 _TERMINAL = (GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.REJECTED,
              GoalStatus.PREEMPTED, GoalStatus.RECALLED, GoalStatus.LOST)
 
-
-def _yaw(q) -> float:
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
 class FollowerNode:
@@ -101,7 +98,7 @@ class FollowerNode:
 
     def _on_gt(self, msg: Odometry) -> None:
         p = msg.pose.pose
-        self.gt = (p.position.x, p.position.y, _yaw(p.orientation))
+        self.gt = (p.position.x, p.position.y, yaw_of(p.orientation))
 
     def _on_tracks(self, msg: TrackArray) -> None:
         with self.lock:
@@ -125,7 +122,7 @@ class FollowerNode:
                                    self.base_frame, e)
             return None
         tr = t.transform
-        return tr.translation.x, tr.translation.y, _yaw(tr.rotation)
+        return tr.translation.x, tr.translation.y, yaw_of(tr.rotation)
 
     def step(self) -> None:
         pose = self._pose()

@@ -59,6 +59,7 @@ from ..core.planner import PlannerConfig, PlanningGrid
 from ..core.rois import Roi
 from ..core.walker import (GoalSampler, Leg, RegionIndex, Walker, WalkerConfig, WalkerError,
                            anchor, region_label)
+from .convert import yaw as yaw_of
 
 __all__ = ["main", "MarkovWalkerNode", "roi_from_msg", "chain_markers"]
 
@@ -76,9 +77,6 @@ def roi_from_msg(msg: Any) -> Roi:
     return Roi(id=str(msg.id), config=str(msg.config), type=str(msg.type),
                map_name=str(msg.map_name), vertices=vertices)
 
-
-def _yaw(q: Any) -> float:
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
 def chain_markers(chain: MarkovChain, rois: Sequence[Roi], frame_id: str, stamp: Any,
@@ -231,7 +229,7 @@ class MarkovWalkerNode:
         self._set_grid(PlanningGrid(load_map(path), self._planner_config()), path)
 
     def _on_map(self, msg: OccupancyGrid) -> None:
-        from .path_follower import grid_from_msg
+        from .convert import grid_from_msg
 
         try:
             grid = PlanningGrid(grid_from_msg(msg), self._planner_config())
@@ -364,7 +362,7 @@ class MarkovWalkerNode:
 
     def _on_pose(self, msg: PoseStamped) -> None:
         p = msg.pose.position
-        pose = (p.x, p.y, _yaw(msg.pose.orientation))
+        pose = (p.x, p.y, yaw_of(msg.pose.orientation))
         with self.lock:
             self.pose = pose
             index = self.index

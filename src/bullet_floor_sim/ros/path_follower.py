@@ -32,25 +32,13 @@ from move_base_msgs.msg import (MoveBaseAction, MoveBaseActionGoal, MoveBaseFeed
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
 from sensor_msgs.msg import LaserScan
 
-from ..core.floormap import map_from_grid
 from ..core.planner import (FollowerConfig, Navigator, NavigatorConfig, PlanError,
                             PlannerConfig, PlanningGrid, PathFollower, obstacles_in_base,
                             path_length)
+from .convert import grid_from_msg, yaw as yaw_of
 
 __all__ = ["main", "PathFollowerNode"]
 
-
-def _yaw(q) -> float:
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-
-
-def grid_from_msg(msg: OccupancyGrid):
-    """FloorMap of a nav_msgs/OccupancyGrid (row 0 = bottom, as map_server publishes)."""
-    info = msg.info
-    grid = np.asarray(msg.data, dtype=np.int8).reshape(info.height, info.width)
-    return map_from_grid(grid, info.resolution,
-                         (info.origin.position.x, info.origin.position.y,
-                          _yaw(info.origin.orientation)))
 
 
 class PathFollowerNode:
@@ -109,7 +97,7 @@ class PathFollowerNode:
     def _on_pose(self, msg: Odometry) -> None:
         p = msg.pose.pose
         self.base_frame = msg.child_frame_id
-        self.pose = (p.position.x, p.position.y, _yaw(p.orientation))
+        self.pose = (p.position.x, p.position.y, yaw_of(p.orientation))
 
     def _on_scan(self, msg: LaserScan) -> None:
         laser = self.laser.get(msg.header.frame_id)
@@ -125,7 +113,7 @@ class PathFollowerNode:
                                        self.base_frame, msg.header.frame_id, e)
                 return
             tr = t.transform
-            laser = (tr.translation.x, tr.translation.y, _yaw(tr.rotation))
+            laser = (tr.translation.x, tr.translation.y, yaw_of(tr.rotation))
             self.laser[msg.header.frame_id] = laser
         self.obstacles = obstacles_in_base(msg.ranges, msg.angle_min, msg.angle_increment,
                                            msg.range_max, laser)
@@ -156,7 +144,7 @@ class PathFollowerNode:
                 raise PlanError("cannot transform the goal from %r to %r: %s"
                                 % (frame, self.global_frame, e))
         p = target.pose
-        return p.position.x, p.position.y, _yaw(p.orientation)
+        return p.position.x, p.position.y, yaw_of(p.orientation)
 
     def _execute(self, goal) -> None:
         stop = Twist()

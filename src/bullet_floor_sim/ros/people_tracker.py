@@ -43,15 +43,12 @@ from ..core.tracking import StaticMap, Tracker, TrackerConfig, detect, scan_poin
 from ..msg import Track as TrackMsg
 from ..msg import TrackArray
 from .params import config_from_params
-from .path_follower import grid_from_msg
+from .convert import grid_from_msg, yaw as yaw_of
 
 __all__ = ["main", "PeopleTrackerNode", "POSE_SOURCES"]
 
 POSE_SOURCES = ("amcl", "ground_truth")
 
-
-def _yaw(q) -> float:
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
 class PeopleTrackerNode:
@@ -95,7 +92,7 @@ class PeopleTrackerNode:
     def _on_gt(self, msg: Odometry) -> None:
         p = msg.pose.pose
         self.base_frame = msg.child_frame_id
-        self.gt = (p.position.x, p.position.y, _yaw(p.orientation))
+        self.gt = (p.position.x, p.position.y, yaw_of(p.orientation))
 
     def _laser_pose(self, msg: LaserScan):
         """(x, y, yaw) of the scan's frame in the global frame, or None (logged)."""
@@ -105,7 +102,7 @@ class PeopleTrackerNode:
                 t = self.tf_buffer.lookup_transform(self.frame, frame, msg.header.stamp,
                                                     rospy.Duration(0.2))
                 tr = t.transform
-                return tr.translation.x, tr.translation.y, _yaw(tr.rotation)
+                return tr.translation.x, tr.translation.y, yaw_of(tr.rotation)
             if self.gt is None:
                 rospy.logwarn_throttle(10.0, "people_tracker: no base_pose_ground_truth yet")
                 return None
@@ -114,7 +111,7 @@ class PeopleTrackerNode:
                 t = self.tf_buffer.lookup_transform(self.base_frame, frame, rospy.Time(0),
                                                     rospy.Duration(0.5))
                 tr = t.transform
-                off = (tr.translation.x, tr.translation.y, _yaw(tr.rotation))
+                off = (tr.translation.x, tr.translation.y, yaw_of(tr.rotation))
                 self.laser_in_base[frame] = off
         except tf2_ros.TransformException as e:
             rospy.logwarn_throttle(10.0, "people_tracker: no transform %s -> %s: %s",
