@@ -14,7 +14,7 @@ import pytest
 from bullet_floor_sim.core.config import load_world_config, resolve_world
 from bullet_floor_sim.core.floormap import map_from_grid
 from bullet_floor_sim.core.paths import worlds_dir
-from bullet_floor_sim.core.tracking import (Detection, StaticMap, Tracker, TrackerConfig,
+from bullet_floor_sim.core.tracking import (Detection, PoseHistory, StaticMap, Tracker, TrackerConfig,
                                             TrackingError, cluster, detect, detect_scan,
                                             scan_points)
 from bullet_floor_sim.core.world import World
@@ -421,3 +421,31 @@ def test_min_travel_keeps_standing_clutter_out_but_reports_a_mover():
     assert len(tr.update([Detection(1.0, 1.0, 0.3, 6)], 0.0) or
                tr.update([Detection(1.0, 1.0, 0.3, 6)], 0.1) or
                tr.update([Detection(1.0, 1.0, 0.3, 6)], 0.2)) == 1
+
+
+def test_pose_history_gives_the_pose_at_a_stamp_and_never_extrapolates():
+    h = PoseHistory(horizon=5.0, max_gap=0.2)
+    assert h.at(1.0) is None and h.latest is None
+    h.add(1.0, 0.0, 0.0, 3.0)
+    h.add(1.1, 1.0, 2.0, -3.0)          # yaw crosses +-pi: interpolate the short way
+    assert h.at(1.0) == (0.0, 0.0, 3.0)
+    assert h.at(1.1) == (1.0, 2.0, -3.0)
+    x, y, a = h.at(1.05)
+    assert (x, y) == pytest.approx((0.5, 1.0))
+    short = 2.0 * math.pi - 6.0          # the short way from 3.0 to -3.0 is +0.283 rad
+    assert a == pytest.approx(3.0 + short / 2.0)
+    assert h.at(0.99) is None and h.at(1.11) is None     # outside: no extrapolation
+    h.add(1.5, 5.0, 5.0, 0.0)            # a 0.4 s gap is not interpolated across
+    assert h.at(1.3) is None and h.at(1.5) == (5.0, 5.0, 0.0)
+    assert h.latest == 1.5 and len(h) == 3
+    h.add(0.5, 9.0, 9.0, 0.0)            # time went back (bag loop): afresh
+    assert len(h) == 1 and h.at(1.0) is None and h.at(0.5) == (9.0, 9.0, 0.0)
+
+
+def test_pose_history_keeps_only_its_horizon():
+    h = PoseHistory(horizon=1.0)
+    for k in range(1000):
+        h.add(k * 0.01, float(k), 0.0, 0.0)
+    assert len(h) <= 100 + 65
+    assert h.at(9.99) == (999.0, 0.0, 0.0)
+    assert h.at(0.0) is None

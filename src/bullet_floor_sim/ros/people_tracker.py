@@ -12,7 +12,10 @@ Pose source (``~pose_source``):
 * ``amcl`` (default with stock navigation): tf ``<global_frame> -> <laser frame>`` at the scan's
   stamp (amcl's map -> odom composed with the simulator's odom -> base_footprint).
 * ``ground_truth``: the robot's ``base_pose_ground_truth`` (nav_msgs/Odometry in the map frame)
-  composed with the static base -> laser transform (tf, looked up once).
+  at the scan's stamp (the simulator stamps both from the same step; between two poses it is
+  interpolated, and a scan newer than the newest pose waits up to 0.5 s for it), composed with
+  the static base -> laser transform (tf, looked up once). A scan with no pose at its stamp is
+  skipped, never placed with another pose: that smears walls into false tracks.
 
 Topics (``~`` = ``people_tracker/``): ``base_scan`` (in), ``base_pose_ground_truth`` (in, for
 ``ground_truth``), ``~tracks`` (geometry_msgs/PoseArray, map frame, orientation = heading),
@@ -39,7 +42,8 @@ from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
 from ..core.errors import BulletFloorSimError
-from ..core.tracking import StaticMap, Tracker, TrackerConfig, detect, scan_points
+from ..core.tracking import (PoseHistory, StaticMap, Tracker, TrackerConfig, detect,
+                             scan_points)
 from ..msg import Track as TrackMsg
 from ..msg import TrackArray
 from .params import config_from_params
@@ -64,7 +68,8 @@ class PeopleTrackerNode:
         self.config = config_from_params(TrackerConfig())
         self.tracker = Tracker(self.config)
         self.static: Optional[StaticMap] = None
-        self.gt = None            # (x, y, yaw) of base_footprint in the map, and its frame
+        self.gt = PoseHistory()   # base_footprint in the map, by stamp
+        self.gt_cond = threading.Condition()
         self.base_frame = ""
         self.laser_in_base = {}   # laser frame -> (x, y, yaw)
         self.lock = threading.Lock()
@@ -76,7 +81,7 @@ class PeopleTrackerNode:
         rospy.Subscriber(str(gp("~map_topic", "/map")), OccupancyGrid, self._on_map,
                          queue_size=1)
         if self.source == "ground_truth":
-            rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_gt, queue_size=1)
+            rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_gt, queue_size=20)
         rospy.Subscriber("base_scan", LaserScan, self._on_scan, queue_size=1)
 
     def _on_map(self, msg: OccupancyGrid) -> None:
@@ -91,8 +96,19 @@ class PeopleTrackerNode:
 
     def _on_gt(self, msg: Odometry) -> None:
         p = msg.pose.pose
-        self.base_frame = msg.child_frame_id
-        self.gt = (p.position.x, p.position.y, yaw_of(p.orientation))
+        with self.gt_cond:
+            self.base_frame = msg.child_frame_id
+            self.gt.add(msg.header.stamp.to_sec(), p.position.x, p.position.y,
+                        yaw_of(p.orientation))
+            self.gt_cond.notify_all()
+
+    def _gt_at(self, stamp) -> Optional[tuple]:
+        """The ground-truth pose at ``stamp`` (waiting up to 0.5 s wall for it), or None."""
+        t = stamp.to_sec()
+        with self.gt_cond:
+            self.gt_cond.wait_for(lambda: (self.gt.latest is not None and self.gt.latest >= t)
+                                  or rospy.is_shutdown(), timeout=0.5)
+            return self.gt.at(t)
 
     def _laser_pose(self, msg: LaserScan):
         """(x, y, yaw) of the scan's frame in the global frame, or None (logged)."""
@@ -103,8 +119,11 @@ class PeopleTrackerNode:
                                                     rospy.Duration(0.2))
                 tr = t.transform
                 return tr.translation.x, tr.translation.y, yaw_of(tr.rotation)
-            if self.gt is None:
-                rospy.logwarn_throttle(10.0, "people_tracker: no base_pose_ground_truth yet")
+            base = self._gt_at(msg.header.stamp)
+            if base is None:
+                rospy.logwarn_throttle(10.0, "people_tracker: no base_pose_ground_truth at the "
+                                       "scan's stamp %.3f (newest %s); scan skipped",
+                                       msg.header.stamp.to_sec(), self.gt.latest)
                 return None
             off = self.laser_in_base.get(frame)
             if off is None:
@@ -118,7 +137,7 @@ class PeopleTrackerNode:
                                    self.frame if self.source == "amcl" else self.base_frame,
                                    frame, e)
             return None
-        x, y, yaw = self.gt
+        x, y, yaw = base
         c, s = math.cos(yaw), math.sin(yaw)
         return x + c * off[0] - s * off[1], y + s * off[0] + c * off[1], yaw + off[2]
 
