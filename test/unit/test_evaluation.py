@@ -54,8 +54,8 @@ def test_scoring_picks_the_latest_prediction_at_each_fraction_and_counts_gaps_as
 
 def test_result_table_averages_over_legs():
     legs = []
-    for k, correct in enumerate((True, False, True, True)):
-        s = ev.LegScore(k + 1, "A", "B", 10.0)
+    for k, (correct, to) in enumerate(((True, "B"), (False, "A"), (True, "A"), (True, "B"))):
+        s = ev.LegScore(k + 1, "A", to, 10.0)
         row = [(correct, 0.5 if correct else 2.0, True)] * len(ev.FRACTIONS)
         s.scores = {p: {m: row for m in ev.METHODS} for p in ev.PIPELINES}
         legs.append(s)
@@ -66,6 +66,16 @@ def test_result_table_averages_over_legs():
     acc, ll, n = r.table()["tracker"]["predictor"][2]
     assert (acc, n) == (0.75, 4) and ll == pytest.approx((3 * 0.5 + 2.0) / 4)
     assert r.recall == 0.75 and r.tracked_share == 0.5
+    # by kind: legs 1 and 4 go A -> B (both right), legs 2 and 3 stay in A (one right)
+    assert [s.number for s in r.legs_of("change")] == [1, 4]
+    assert r.table("change")["tracker"]["markov"][0][:2] == (1.0, 0.5)
+    acc, ll, n = r.table("stay")["ground_truth"]["predictor"][4]
+    assert (acc, n) == (0.5, 2) and ll == pytest.approx((0.5 + 2.0) / 2)
+    with pytest.raises(ev.EvaluationError, match="leg kind must be one of all"):
+        r.legs_of("moving")
+    text = ev.format_table(r)
+    assert "-- legs to another region (2 legs)" in text
+    assert "-- legs within the start region (2 legs)" in text
 
 
 def test_cli_short_run_prints_the_table_and_writes_the_plot(tmp_path, capsys):
@@ -74,11 +84,12 @@ def test_cli_short_run_prints_the_table_and_writes_the_plot(tmp_path, capsys):
                                      "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "== tracker tracks (3 legs" in out and "== ground-truth tracks (3 legs" in out
-    for m in ("predictor", "markov", "heading"):
-        assert len(re.findall(r"^%s\s+\d" % m, out, re.M)) == 2
+    for m in ("predictor", "markov", "heading"):   # all, change, stay for both pipelines
+        assert len(re.findall(r"^%s\s+(\d|nan)" % m, out, re.M)) == 6
     line = [x for x in out.splitlines() if x.startswith("EVAL ")][-1]
     vals = dict(kv.split("=") for kv in line.split()[1:])
     assert int(vals["legs"]) == 3
+    assert 0 <= int(vals["change_legs"]) <= 3
     for k in ("acc50", "acc50_gt", "markov50", "heading50", "recall", "tracked"):
         assert 0.0 <= float(vals[k]) <= 1.0, line
     # the observer does see and track the walker on this run (it starts 9 m away, facing it)

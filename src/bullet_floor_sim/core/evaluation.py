@@ -43,11 +43,12 @@ from .tracking import StaticMap, Tracker, TrackerConfig, detect, scan_points
 from .walker import GoalSampler, Walker, WalkerConfig, WalkerError
 
 __all__ = ["EvalConfig", "EvalResult", "LegScore", "run", "FRACTIONS", "METHODS", "PIPELINES",
-           "format_table", "plot"]
+           "LEG_KINDS", "format_table", "plot"]
 
 FRACTIONS = (0.10, 0.25, 0.50, 0.75, 0.90)
 METHODS = ("predictor", "markov", "heading")
 PIPELINES = ("tracker", "ground_truth")
+LEG_KINDS = ("all", "change", "stay")
 
 
 class EvaluationError(BulletFloorSimError):
@@ -139,15 +140,31 @@ class EvalResult:
         """Share of the run during which the walker is tracked."""
         return self.tracked_ticks / self.ticks if self.ticks else float("nan")
 
-    def table(self) -> Dict[str, Dict[str, List[Tuple[float, float, int]]]]:
-        """``[pipeline][method]`` -> per fraction (accuracy, mean log-loss, legs)."""
+    def legs_of(self, kind: str = "all") -> List[LegScore]:
+        """The scored legs of a kind: ``all``, ``change`` (to another region) or ``stay``
+        (to another point of the region the leg started in). Under the seed's transition rule
+        offices are sticky (P(stay) 0.67-0.86 in the office world), so the Markov prior is
+        right on most ``stay`` legs and wrong on nearly every ``change`` leg out of an office:
+        the two kinds say different things about a predictor."""
+        if kind not in LEG_KINDS:
+            raise EvaluationError("evaluate: leg kind must be one of %s, got %r"
+                                  % (" | ".join(LEG_KINDS), kind))
+        if kind == "all":
+            return list(self.legs)
+        change = kind == "change"
+        return [leg for leg in self.legs if (leg.start_region != leg.target_region) == change]
+
+    def table(self, kind: str = "all") -> Dict[str, Dict[str, List[Tuple[float, float, int]]]]:
+        """``[pipeline][method]`` -> per fraction (accuracy, mean log-loss, legs), over the
+        legs of ``kind`` (see :meth:`legs_of`)."""
+        legs = self.legs_of(kind)
         out: Dict[str, Dict[str, List[Tuple[float, float, int]]]] = {}
         for p in PIPELINES:
             out[p] = {}
             for m in METHODS:
                 row = []
                 for k in range(len(FRACTIONS)):
-                    vals = [leg.scores[p][m][k] for leg in self.legs]
+                    vals = [leg.scores[p][m][k] for leg in legs]
                     n = len(vals)
                     acc = sum(1 for c, _, _ in vals if c) / n if n else float("nan")
                     ll = sum(v for _, v, _ in vals) / n if n else float("nan")
@@ -410,19 +427,23 @@ def _score(leg, gt: List[_Record], trk: List[_Record], model: DestinationModel,
 
 def format_table(result: EvalResult) -> str:
     """The result as text: one block per pipeline, accuracy and log-loss per fraction."""
-    tab = result.table()
     lines = []
     head = "%-12s" % "method" + "".join("   %3d%% acc  logloss" % round(100 * f)
                                         for f in FRACTIONS)
+    what = {"change": "legs to another region", "stay": "legs within the start region"}
     for p in PIPELINES:
         cov = result.coverage(p)
         lines.append("== %s tracks (%d legs; legs with a prediction: %s)" % (
             p.replace("_", "-"), len(result.legs),
             " ".join("%.0f%%" % (100 * c) for c in cov)))
         lines.append(head)
-        for m in METHODS:
-            lines.append("%-12s" % m + "".join("   %7.1f%% %8.3f" % (100 * a, ll)
-                                              for a, ll, _ in tab[p][m]))
+        for kind in LEG_KINDS:
+            tab = result.table(kind)
+            if kind != "all":
+                lines.append("-- %s (%d legs)" % (what[kind], len(result.legs_of(kind))))
+            for m in METHODS:
+                lines.append("%-12s" % m + "".join("   %7.1f%% %8.3f" % (100 * a, ll)
+                                                  for a, ll, _ in tab[p][m]))
     r = result
     lines.append("tracking: recall while visible %.1f%% (%d of %d ticks), walker tracked %.1f%% "
                  "of the run, mean track error %.3f m, target id switches %d, ticks with a "

@@ -65,13 +65,16 @@ def main(argv: Optional[List[str]] = None) -> int:
         os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
         plot(result, path)
         print("plot: %s" % path)
-    tab = result.table()
+    tab, change = result.table(), result.table("change")
     k = FRACTIONS.index(0.50)
-    print("EVAL legs=%d acc50=%.3f acc50_gt=%.3f markov50=%.3f heading50=%.3f recall=%.3f "
-          "tracked=%.3f" % (len(result.legs), tab["tracker"]["predictor"][k][0],
-                            tab["ground_truth"]["predictor"][k][0],
-                            tab["tracker"]["markov"][k][0], tab["tracker"]["heading"][k][0],
-                            result.recall, result.tracked_share))
+    print("EVAL legs=%d acc50=%.3f acc50_gt=%.3f markov50=%.3f heading50=%.3f "
+          "change_legs=%d change_acc50=%.3f change_markov50=%.3f change_heading50=%.3f "
+          "recall=%.3f tracked=%.3f" % (
+              len(result.legs), tab["tracker"]["predictor"][k][0],
+              tab["ground_truth"]["predictor"][k][0], tab["tracker"]["markov"][k][0],
+              tab["tracker"]["heading"][k][0], len(result.legs_of("change")),
+              change["tracker"]["predictor"][k][0], change["tracker"]["markov"][k][0],
+              change["tracker"]["heading"][k][0], result.recall, result.tracked_share))
     return 0
 
 
