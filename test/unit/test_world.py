@@ -240,8 +240,39 @@ def test_robots_do_not_drive_through_each_other():
             w.step(1)
         xa, xb = w.view(0).pose[0], w.view(1).pose[0]
         assert w.stall_count.sum() > 0
-        assert xb - xa >= 0.64 - 0.012                  # two 0.32 m vertices meet, no overlap
+        # two 0.32 m vertices meet; the bumpers give 3 cm between robots (world._ROBOT_CONTACT_SLACK)
+        assert xb - xa >= 0.64 - 0.03 - 0.012
         assert xb - xa < 0.64 + 0.03
+    finally:
+        w.close()
+
+
+def test_a_robot_pushed_by_another_can_still_turn_and_back_away():
+    """Two robots in contact, one pushing: the other must not be frozen by the push (the
+    walker and the observer stayed locked together for good in a 200-leg evaluation)."""
+    w = simple_world([RobotSpec(name="a", pose=(1.5, 2.0, 0.0), laser=EXACT, odometry=STILL),
+                      RobotSpec(name="b", pose=(2.6, 2.0, math.pi), laser=EXACT, odometry=STILL)])
+    try:
+        def run(steps, cmd_a, cmd_b):
+            for k in range(steps):
+                if k % 10 == 0:
+                    w.command(0, *cmd_a)
+                    w.command(1, *cmd_b)
+                w.step(1)
+        run(200, (0.5, 0.0, 0.0), (0.0, 0.0, 0.0))          # a drives into b and pushes
+        xa, xb = w.view(0).pose[0], w.view(1).pose[0]
+        assert w.stall_count[0] > 0 and 0.64 - 0.03 - 0.012 <= xb - xa < 0.64 + 0.012
+        yaw0 = w.view(1).pose[2]
+        run(200, (0.5, 0.0, 0.0), (0.0, 0.0, 1.0))          # b turns while a pushes
+        turned = abs(math.atan2(math.sin(w.view(1).pose[2] - yaw0),
+                                math.cos(w.view(1).pose[2] - yaw0)))
+        assert turned > 0.3, "b turned only %.2f rad" % turned
+        b0 = w.view(1).pose[:2]
+        run(200, (0.5, 0.0, 0.0), (0.0, 0.0, 0.0))          # a keeps pushing
+        yaw = w.view(1).pose[2]
+        run(200, (0.5, 0.0, 0.0), (-0.3, 0.0, 0.0))         # b backs away (its -x is away)
+        moved = math.hypot(*(np.asarray(w.view(1).pose[:2]) - np.asarray(b0)))
+        assert moved > 0.2, "b moved only %.2f m (yaw %.2f)" % (moved, yaw)
     finally:
         w.close()
 

@@ -44,6 +44,9 @@ _SELF_EXIT_EPS = 1e-4
 _RAY_CHUNK = 1000
 _THREADED_RAYS = 1000
 _PENETRATION_TOL = 1e-3
+#: How deep two robots may press into each other (their bumpers give): with none, two
+#: octagonal bases touching corner to corner could neither turn nor slide past each other.
+_ROBOT_CONTACT_SLACK = 0.03
 _CLEARANCE_MARGIN = 0.05
 
 
@@ -213,7 +216,8 @@ class World:
         self.wheel_sep = np.array([m.wheel_separation for m in self.models])
         self.stalled = np.zeros(n, dtype=bool)
         self.stall_count = np.zeros(n, dtype=np.int64)
-        self._penetration = np.zeros(n)
+        self._penetration = np.zeros(n)        # deepest into a wall
+        self._robot_penetration = np.zeros(n)  # deepest into another robot
         self._vmax = np.array([math.hypot(s.drive.max_linear,
                                           s.drive.max_lateral if s.drive.type == "omni" else 0.0)
                                for s in self.specs])
@@ -367,6 +371,7 @@ class World:
         self._travel[rows] = 0.0
         self.stalled[rows] = False
         self._penetration[rows] = 0.0
+        self._robot_penetration[rows] = 0.0
         self.odometry.reset(rows)
         self.battery.reset(rows, self.clock.now_ns)
         self.lidar.forget(rows)
@@ -527,38 +532,55 @@ class World:
         return np.flatnonzero(near), max(0.0, t_safe)
 
     def _resolve_collisions(self, old: np.ndarray, new: np.ndarray, cand: np.ndarray) -> None:
-        """Refuse the move of every candidate robot that would penetrate a wall or another
-        candidate deeper than it already does. Each candidate is tested against the walls
-        and against the candidates near it only (getClosestPoints per pair): a whole-world
-        performCollisionDetection also ran every other robot against the wall mesh."""
-        for i in cand:
-            self._set_body(i, new[i])
+        """Refuse the move of every candidate robot that would penetrate a wall deeper than
+        it already does, or another robot deeper than that and than the bumpers' give
+        (``_ROBOT_CONTACT_SLACK``).
+
+        The candidates are taken in turn: each one's move is tested against the walls and
+        against the robots near it where they stand at that moment (the candidates already
+        taken at their final pose, the others at their old one), so a penetration is charged
+        to the robot whose move makes it. Charged to both robots of a pair, one robot pushing
+        into another froze the other too, even while it only tried to back away or turn: two
+        robots in contact stayed locked for good. Pairs and walls are queried with
+        getClosestPoints (a whole-world performCollisionDetection also ran every robot
+        against the wall mesh)."""
         closest = self._closest_points
-        depth = np.zeros(self.n)
         cl = cand.tolist()
+        for i in cl:
+            self._set_body(i, old[i])
         reach = self.radius + _CLEARANCE_MARGIN
-        for k, i in enumerate(cl):
+        taken = set()
+        for i in cl:
+            taken.add(i)
             bi = self.bodies[i]
+            self._set_body(i, new[i])
+            depth = robot_depth = 0.0
             for wb in self.wall_bodies:
                 for c in closest(bi, wb, 0.0):
                     if c[8] < -_PENETRATION_TOL:
-                        depth[i] = max(depth[i], -c[8])
-            for j in cl[k + 1:]:
-                if math.hypot(new[i, 0] - new[j, 0], new[i, 1] - new[j, 1]) > reach[i] + reach[j]:
+                        depth = max(depth, -c[8])
+            for j in cl:
+                if j == i:
+                    continue
+                at = new[j] if j in taken else old[j]   # where its body stands now
+                if math.hypot(new[i, 0] - at[0], new[i, 1] - at[1]) > reach[i] + reach[j]:
                     continue
                 for c in closest(bi, self.bodies[j], 0.0):
                     if c[8] < -_PENETRATION_TOL:
-                        depth[i] = max(depth[i], -c[8])
-                        depth[j] = max(depth[j], -c[8])
-        for i in cl:
-            if depth[i] > self._penetration[i] + _PENETRATION_TOL:
+                        robot_depth = max(robot_depth, -c[8])
+            if (depth > self._penetration[i] + _PENETRATION_TOL
+                    or robot_depth > max(self._robot_penetration[i] + _PENETRATION_TOL,
+                                         _ROBOT_CONTACT_SLACK)):
                 new[i] = old[i]
                 self.vel[i] = 0.0
                 self.stalled[i] = True
                 self.stall_count[i] += 1
                 self._set_body(i, old[i])
             else:
-                self._penetration[i] = depth[i]
+                # the reference depths only ever go down with the robot's own moves: set to
+                # each accepted depth, moves of less than the tolerance a step crept in
+                self._penetration[i] = min(self._penetration[i], depth)
+                self._robot_penetration[i] = min(self._robot_penetration[i], robot_depth)
 
     def _set_body(self, i: int, pose) -> None:
         """Place a robot's body with its base_footprint at ``pose`` (PyBullet wants the
