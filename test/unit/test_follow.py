@@ -128,3 +128,39 @@ def test_a_target_coming_at_the_observer_gets_room_to_the_side_not_a_retreat():
     fb = FollowBehaviour(grid, FollowConfig(distance=1.5))
     d = fb.update(0.0, (2.0, 3.0, 0.0), (3.6, 3.0, 0.5, 0.0))
     assert d.goal[:2] == pytest.approx((2.1, 3.0), abs=1e-9)
+
+
+def two_rooms(door=1.0):
+    """A 10 x 6 m hall split by a wall at x = 5 m with a ``door`` metres wide centred at y = 3."""
+    g = np.zeros((int(round(6.0 / RES)), int(round(10.0 / RES))), dtype=np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+    col = int(round(5.0 / RES))
+    lo, hi = int(round((3.0 - door / 2) / RES)), int(round((3.0 + door / 2) / RES))
+    g[:lo, col] = g[hi:, col] = 100
+    return PlanningGrid(map_from_grid(g, RES))
+
+
+def test_standoff_points_keep_out_of_doorways_when_they_can():
+    grid = two_rooms()
+    assert grid.clearance_at(5.0, 3.0) < 0.6 <= grid.clearance_at(4.0, 3.0)
+    # straight back towards the robot is the doorway itself
+    assert standoff_point(grid, (6.5, 3.0), (2.0, 3.0), 1.5) == pytest.approx((5.0, 3.0))
+    p = standoff_point(grid, (6.5, 3.0), (2.0, 3.0), 1.5, roomy=0.6)
+    assert grid.is_free(*p) and grid.clearance_at(*p) >= 0.6
+    assert math.hypot(p[0] - 6.5, p[1] - 3.0) == pytest.approx(1.5, abs=1e-9)
+
+
+def test_an_observer_waiting_in_a_doorway_moves_out_of_it():
+    grid = two_rooms()
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, roomy=0.6))
+    fb.update(0.0, (5.0, 3.0, 0.0), (6.3, 3.0, 0.0, 0.0))          # first sight: a goal
+    # the target stands still 1.3 m away; while the goal runs, nothing new
+    assert fb.update(1.0, (5.0, 3.0, 0.0), (6.3, 3.0, 0.0, 0.0)).goal is None
+    # the goal ended with the observer still in the door: it steps out to a roomy point
+    d = fb.update(2.0, (5.0, 3.0, 0.0), (6.3, 3.0, 0.0, 0.0), goal_done=True)
+    assert d.goal is not None and "narrow passage" in d.reason
+    gx, gy, gyaw = d.goal
+    assert grid.clearance_at(gx, gy) >= 0.6
+    assert gyaw == pytest.approx(math.atan2(3.0 - gy, 6.3 - gx))
+    # waiting in a roomy place, it stays put
+    assert fb.update(9.0, (gx, gy, gyaw), (6.3, 3.0, 0.0, 0.0), goal_done=True).goal is None

@@ -167,3 +167,28 @@ def test_navigator_aborts_when_blocked_for_good():
         assert state == "aborted" and t < 30.0
     finally:
         world.close()
+
+
+def test_navigator_notices_a_stall_and_plans_again():
+    """Commanded to move but not moving (pressed against a robot its scan stop does not see
+    ahead): after stall_time the navigator stops, counts a stall and plans again."""
+    g = np.zeros((80, 200), dtype=np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+    from bullet_floor_sim.core.planner import NavigatorConfig
+    nav = Navigator(PlanningGrid(map_from_grid(g, 0.05)), config=NavigatorConfig(stall_time=1.5))
+    nav.start((1.0, 2.0, 0.0), (8.0, 2.0, 0.0), 0.0)
+    states = []
+    for k in range(25):                          # the pose never changes
+        st = nav.update((1.0, 2.0, 0.0), None, 0.1 * k)
+        states.append((round(0.1 * k, 1), st.message, st.v))
+    stalled = [t for t, m, _ in states if m == "stalled"]
+    assert stalled and 1.5 <= stalled[0] <= 1.7, states
+    assert nav.stalls == 1 and states[0][2] > 0.0
+    # moving as commanded is no stall
+    nav.start((1.0, 2.0, 0.0), (8.0, 2.0, 0.0), 0.0)
+    x = 1.0
+    for k in range(30):
+        st = nav.update((x, 2.0, 0.0), None, 0.1 * k)
+        x += st.v * 0.1
+        assert st.message != "stalled"
+    assert nav.stalls == 1

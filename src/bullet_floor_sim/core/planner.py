@@ -523,6 +523,9 @@ class NavigatorConfig:
         progress_timeout: no 0.1 m of progress towards the goal for this long -> abort.
         obstacle_range: scan points farther than this (m) are ignored when replanning.
         sidestep: how far (m) to step aside when no path passes an obstacle.
+        stall_time: commanded to move but moved less than 2 cm and turned less than 0.05 rad
+            for this long -> stalled (pressed against another robot the scan does not show
+            ahead): plan again at once, around the obstacles in the scan.
     """
 
     replan_after: float = 2.0
@@ -530,6 +533,7 @@ class NavigatorConfig:
     progress_timeout: float = 60.0
     obstacle_range: float = 3.0
     sidestep: float = 0.45
+    stall_time: float = 1.5
 
 
 @dataclass
@@ -567,6 +571,9 @@ class Navigator:
         self._best = math.inf
         self._best_t = 0.0
         self._last_t: Optional[float] = None
+        self._last_cmd = (0.0, 0.0)
+        self._still_since: Optional[Tuple[float, float, float, float]] = None  # t, x, y, yaw
+        self.stalls = 0
 
     @property
     def path(self) -> np.ndarray:
@@ -589,6 +596,8 @@ class Navigator:
         self._best = math.inf
         self._best_t = now
         self._last_t = now
+        self._last_cmd = (0.0, 0.0)
+        self._still_since = None
         return path
 
     def cancel(self) -> None:
@@ -610,6 +619,28 @@ class Navigator:
         """
         if self.goal is None:
             return NavStatus(0.0, 0.0, "aborted", "no goal")
+        st = self._update(pose, obstacles, now)
+        self._last_cmd = (st.v, st.w)
+        return st
+
+    def _stalled(self, pose: Sequence[float], now: float) -> bool:
+        """True when the last commands asked for motion and the robot has not moved for
+        ``stall_time`` (then the watch starts afresh)."""
+        v, w = self._last_cmd
+        ref = self._still_since
+        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+        if ((abs(v) < 0.02 and abs(w) < 0.1) or ref is None
+                or math.hypot(x - ref[1], y - ref[2]) > 0.02
+                or abs(math.atan2(math.sin(yaw - ref[3]), math.cos(yaw - ref[3]))) > 0.05):
+            self._still_since = (now, x, y, yaw)
+            return False
+        if now - ref[0] >= self.config.stall_time:
+            self._still_since = (now, x, y, yaw)
+            return True
+        return False
+
+    def _update(self, pose: Sequence[float], obstacles: Optional[np.ndarray],
+                now: float) -> NavStatus:
         cfg = self.config
         dt = 0.0 if self._last_t is None else max(0.0, now - self._last_t)
         self._last_t = now
@@ -632,6 +663,10 @@ class Navigator:
                 self._replan_around(pose, obstacles)
             return NavStatus(0.0, 0.0, "active", "blocked", cmd.distance_to_goal)
         self._blocked_since = None
+        if self._stalled(pose, now):
+            self.stalls += 1
+            self._replan_around(pose, obstacles)
+            return NavStatus(0.0, 0.0, "active", "stalled", cmd.distance_to_goal)
         if cmd.state not in ("aligning",) and now - self._best_t > cfg.progress_timeout:
             return self._abort("no progress for %.0f s, %.2f m from the goal"
                                % (now - self._best_t, cmd.distance_to_goal), cmd)
