@@ -431,6 +431,7 @@ def format_table(result: EvalResult) -> str:
     head = "%-12s" % "method" + "".join("   %3d%% acc  logloss" % round(100 * f)
                                         for f in FRACTIONS)
     what = {"change": "legs to another region", "stay": "legs within the start region"}
+    tables = {kind: result.table(kind) for kind in LEG_KINDS}
     for p in PIPELINES:
         cov = result.coverage(p)
         lines.append("== %s tracks (%d legs; legs with a prediction: %s)" % (
@@ -438,7 +439,7 @@ def format_table(result: EvalResult) -> str:
             " ".join("%.0f%%" % (100 * c) for c in cov)))
         lines.append(head)
         for kind in LEG_KINDS:
-            tab = result.table(kind)
+            tab = tables[kind]
             if kind != "all":
                 lines.append("-- %s (%d legs)" % (what[kind], len(result.legs_of(kind))))
             for m in METHODS:

@@ -631,7 +631,7 @@ class Navigator:
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
         if ((abs(v) < 0.02 and abs(w) < 0.1) or ref is None
                 or math.hypot(x - ref[1], y - ref[2]) > 0.02
-                or abs(math.atan2(math.sin(yaw - ref[3]), math.cos(yaw - ref[3]))) > 0.05):
+                or abs(_wrap(yaw - ref[3])) > 0.05):
             self._still_since = (now, x, y, yaw)
             return False
         if now - ref[0] >= self.config.stall_time:
