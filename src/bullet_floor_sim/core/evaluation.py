@@ -37,6 +37,7 @@ from .errors import BulletFloorSimError
 from .follow import FollowBehaviour, FollowConfig, pick_target, search_point
 from .markov import MarkovChain, usable_rois
 from .planner import (Navigator, PathFollower, PlanError, PlanningGrid, obstacles_in_base)
+from .plotting import pyplot
 from .prediction import DestinationModel, OnlinePredictor, log_loss, top1
 from .rois import load_rois
 from .tracking import StaticMap, Tracker, TrackerConfig, detect, scan_points
@@ -461,10 +462,7 @@ def format_table(result: EvalResult) -> str:
 
 def plot(result: EvalResult, path: str) -> None:
     """Accuracy vs fraction observed, one line per method and pipeline, as a PNG."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot("evaluate_prediction --plot")
 
     tab = result.table()
     fig, ax = plt.subplots(figsize=(7, 4.5), dpi=100)

@@ -28,6 +28,7 @@ from typing import Optional, Sequence
 from ..core.errors import BulletFloorSimError
 from ..core.markov import (MODES, ROI_COLLECTION, ROI_DATABASE, MarkovChain, read_rois,
                            usable_rois)
+from ..core.plotting import pyplot
 from ..core.rois import Roi, check_bounds, load_rois, roi_polygon
 from .cli import Parser, UsageError
 
@@ -169,13 +170,7 @@ def plot_chain(chain: MarkovChain, rois: Sequence[Roi], path: str, fmap=None) ->
     Raises:
         BulletFloorSimError: matplotlib is missing or the file cannot be written.
     """
-    try:
-        import matplotlib
-    except ImportError:
-        raise BulletFloorSimError("--plot needs matplotlib, which is not installed "
-                                  "(apt install python3-matplotlib)") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot("--plot")
     from matplotlib.patches import FancyArrowPatch
     from matplotlib.patches import Polygon as PolygonPatch
     from matplotlib.transforms import Affine2D

@@ -38,6 +38,7 @@ from dataclasses import replace
 from typing import Dict, IO, Iterable, List, Optional, Sequence, Tuple
 
 from ..core.errors import BulletFloorSimError
+from ..core.plotting import pyplot
 from ..core.store import Store, insert_message, open_store
 from ..core.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_POSES, STORED_TYPE, Chunk,
                                chunk_fields, chunk_from_document, chunk_from_json,
@@ -296,13 +297,7 @@ def plot_trajectories(chunks: Sequence[Chunk], path: str, fmap=None, cell: float
     Raises:
         BulletFloorSimError: matplotlib is missing or the file cannot be written.
     """
-    try:
-        import matplotlib
-    except ImportError:
-        raise BulletFloorSimError("plot needs matplotlib, which is not installed "
-                                  "(apt install python3-matplotlib)") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot("plot")
     import numpy as np
     from matplotlib.transforms import Affine2D
 
