@@ -6,7 +6,8 @@ import pytest
 
 from bullet_floor_sim.core.floormap import map_from_grid
 from bullet_floor_sim.core.follow import (FollowBehaviour, FollowConfig, FollowError,
-                                          in_view, pick_target, search_point, standoff_point)
+                                          in_view, pick_target, search_plan, search_point,
+                                          standoff_point)
 from bullet_floor_sim.core.planner import PlanningGrid
 
 RES = 0.05
@@ -83,6 +84,38 @@ def test_lost_target_waits_lost_after_then_searches_the_predicted_region_and_loo
     assert fb.update(13.0, (8.0, 3.0, 0.0), (9.5, 3.0, 0.3, 0.0)).mode == "follow"
 
 
+def test_a_search_goes_on_to_the_next_likely_region_and_round_again():
+    grid = hall()
+    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, search_turn=math.pi, search_wait=3.0))
+    fb.update(0.0, (2.0, 2.0, 0.0), (4.0, 2.0, 0.5, 0.0))
+    plan = [("7", (8.0, 3.0)), ("4", (1.0, 1.0))]
+    assert fb.update(2.0, (2.5, 2.0, 0.0), None, plan).goal[:2] == pytest.approx((8.0, 3.0))
+    d = fb.update(9.0, (8.0, 3.0, 0.0), None, plan, goal_done=True)
+    assert d.goal == pytest.approx((8.0, 3.0, -math.pi))  # looks round at region 7
+    assert fb.update(12.0, (8.0, 3.0, math.pi), None, plan, goal_done=True).goal is None
+    assert fb.update(14.9, (8.0, 3.0, math.pi), None, plan).goal is None  # waits 3 s
+    d = fb.update(15.0, (8.0, 3.0, math.pi), None, plan)
+    assert d.mode == "search" and "region 4 (2 of 2)" in d.reason
+    assert d.goal == pytest.approx((1.0, 1.0, math.atan2(-2.0, -7.0)))
+    fb.update(25.0, (1.0, 1.0, 0.0), None, plan, goal_done=True)            # look round
+    fb.update(28.0, (1.0, 1.0, math.pi), None, plan, goal_done=True)        # wait
+    d = fb.update(31.0, (1.0, 1.0, math.pi), None, plan)
+    assert d.goal[:2] == pytest.approx((8.0, 3.0)) and "(1 of 2)" in d.reason  # round again
+    # a new prediction (another list) starts over at its most likely region
+    d = fb.update(32.0, (2.0, 1.5, 0.0), None, [("5", (3.0, 3.0))])
+    assert d.goal[:2] == pytest.approx((3.0, 3.0))
+
+
+def test_search_plan_takes_the_likely_regions_most_likely_first():
+    probs = {"1": 0.02, "2": 0.5, "3": 0.3, "4": 0.1, "5": 0.08}
+    goals = {"2": [(0.0, 0.0), (5.0, 5.0)], "3": [(1.0, 1.0)], "4": [], "5": [(9.0, 9.0)]}
+    plan = search_plan(probs, lambda r: goals.get(r, []), (4.0, 4.0), count=3, min_probability=0.05)
+    assert plan == [("2", (5.0, 5.0)), ("3", (1.0, 1.0)), ("4", (4.0, 4.0))]
+    assert [r for r, _ in search_plan(probs, lambda r: goals.get(r, []), (0, 0), 5, 0.09)] == ["2", "3", "4"]
+    # the most likely region always, however unlikely
+    assert search_plan({"1": 0.01, "2": 0.01}, lambda r: goals.get(r, []), (0, 0), 3, 0.5) == [("1", (0.0, 0.0))]
+
+
 def test_lost_without_prediction_is_idle():
     fb = FollowBehaviour(hall())
     fb.update(0.0, (2.0, 2.0, 0.0), (4.0, 2.0, 0.0, 0.0))
@@ -109,7 +142,9 @@ def test_search_point_and_in_view():
 
 
 @pytest.mark.parametrize("field,value", [("distance", 0.0), ("lost_after", float("nan")),
-                                         ("goal_period", -1.0)])
+                                         ("goal_period", -1.0), ("search_wait", 0.0),
+                                         ("search_regions", 0),
+                                         ("search_min_probability", 1.5)])
 def test_bad_config_names_the_field(field, value):
     with pytest.raises(FollowError, match=field):
         FollowBehaviour(hall(), FollowConfig(**{field: value}))

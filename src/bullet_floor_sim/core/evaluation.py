@@ -34,7 +34,7 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from .errors import BulletFloorSimError
-from .follow import FollowBehaviour, FollowConfig, pick_target, search_point
+from .follow import FollowBehaviour, FollowConfig, pick_target, search_plan
 from .markov import MarkovChain, usable_rois
 from .planner import (Navigator, PathFollower, PlanError, PlanningGrid, obstacles_in_base)
 from .plotting import pyplot
@@ -252,7 +252,7 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
     target_id: Optional[int] = None
     obs_goal_active = False
     obs_goal_done = False
-    last_best: Optional[Tuple[str, Tuple[float, float]]] = None
+    search: List[Tuple[str, Tuple[float, float]]] = []   # where to look if it is lost
     n_ticks = visible = recalled = tracked = false_ticks = switches = 0
     err_sum = 0.0
     modes: Dict[str, int] = {}
@@ -337,7 +337,9 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
             p = pr.update(t, target.x, target.y, target.vx, target.vy)
             if p is not None:
                 trk_records.append(_Record(t, p, (target.x, target.y), (target.vx, target.vy)))
-                last_best = (p.best, search_point(model.goals(p.best), (target.x, target.y)))
+                fc = follow.config
+                search = search_plan(p.probabilities, model.goals, (target.x, target.y),
+                                     fc.search_regions, fc.search_min_probability)
 
         # -- scores of the tick ----------------------------------------------------------------
         n_ticks += 1
@@ -355,7 +357,7 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
         obst_o = _obstacles(scan_o, laser[O])
         if cfg.follow:
             tgt = None if target is None else (target.x, target.y, target.vx, target.vy)
-            dec = follow.update(t, pose_o.pose, tgt, last_best, obs_goal_done)
+            dec = follow.update(t, pose_o.pose, tgt, search or None, obs_goal_done)
             modes[dec.mode] = modes.get(dec.mode, 0) + 1
             obs_goal_done = False
             if dec.goal is not None:

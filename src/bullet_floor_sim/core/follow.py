@@ -14,8 +14,11 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   it (a lidar sees 180 degrees ahead).
 * **search**: when no track has been seen for ``lost_after`` seconds, the observer goes to the
   predicted destination region (the predictor's arg-max; the point of the region nearest to
-  where the target was last seen), then turns on the spot to look around; a track seen again
-  ends the search.
+  where the target was last seen), turns on the spot to look around, waits ``search_wait``
+  seconds, then goes on to the next most likely region (up to ``search_regions`` of them, each
+  at least ``search_min_probability``: :func:`search_plan`) and round the list again; a track
+  seen again ends the search. (Looking in one region only, the observer sat for good where
+  the walker was not: a fifth of a 200-leg evaluation.)
 * **idle**: nothing tracked and nothing predicted: stay.
 
 Everything is plain numbers in, plain numbers out.
@@ -24,13 +27,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Optional, Sequence, Tuple
+from typing import Callable, List, Mapping, Optional, Sequence, Tuple
 
 from .errors import BulletFloorSimError
 from .planner import PlanningGrid
 
 __all__ = ["FollowError", "FollowConfig", "FollowDecision", "FollowBehaviour", "standoff_point",
-           "in_view", "pick_target", "search_point"]
+           "in_view", "pick_target", "search_point", "search_plan"]
 
 
 class FollowError(BulletFloorSimError):
@@ -49,6 +52,9 @@ class FollowConfig:
         goal_period: while the target moves, a new goal at least this often.
         lost_after: no track for this long -> search.
         search_turn: after reaching the search point, turn this much (radians) to look round.
+        search_wait: after looking round, wait this long before going on to the next region.
+        search_regions: search at most this many of the most likely regions, in turn.
+        search_min_probability: ... each at least this likely (the most likely one always).
         roomy: the wall clearance (m) of a place the observer waits at: a stand-off point is
             chosen with at least this much when one exists, and an observer standing still
             with less (in a doorway: 0.47-0.51 m in the office world, its corridor 0.89 m)
@@ -61,15 +67,24 @@ class FollowConfig:
     goal_period: float = 2.0
     lost_after: float = 2.0
     search_turn: float = math.pi
+    search_wait: float = 3.0
+    search_regions: int = 3
+    search_min_probability: float = 0.05
     roomy: float = 0.6
 
     def check(self) -> None:
         """Raise FollowError naming the first bad parameter."""
         for name in ("distance", "slack", "replan_distance", "goal_period", "lost_after",
-                     "search_turn", "roomy"):
+                     "search_turn", "search_wait", "roomy"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise FollowError("follower: %s must be a finite number > 0, got %r" % (name, v))
+        if not (isinstance(self.search_regions, int) and self.search_regions >= 1):
+            raise FollowError("follower: search_regions must be an integer >= 1, got %r"
+                              % (self.search_regions,))
+        v = self.search_min_probability
+        if not (isinstance(v, (int, float)) and 0.0 <= v <= 1.0):
+            raise FollowError("follower: search_min_probability must be in [0, 1], got %r" % (v,))
 
 
 @dataclass
@@ -132,20 +147,22 @@ class FollowBehaviour:
         self.last_target: Optional[Tuple[float, float]] = None
         self._goal_target: Optional[Tuple[float, float]] = None
         self._goal_time = -math.inf
-        self._search_goal: Optional[Tuple[float, float, float]] = None
-        self._search_region: Optional[str] = None
-        self._turned = False
+        self._search: List[Tuple[str, Tuple[float, float]]] = []
+        self._search_index = 0
+        self._search_phase = ""          # go | look | wait
+        self._search_since = -math.inf
 
     def update(self, t: float, robot: Sequence[float], target: Optional[Sequence[float]],
-               destination: Optional[Tuple[str, Sequence[float]]] = None,
-               goal_done: bool = False) -> FollowDecision:
+               destination=None, goal_done: bool = False) -> FollowDecision:
         """One decision.
 
         Args:
             t: time (s).
             robot: the observer's (x, y, yaw), map frame.
             target: the tracked target's (x, y, vx, vy) or None when not tracked now.
-            destination: (region id, search point (x, y)) predicted for the target, or None.
+            destination: where the target is predicted to head: a list of (region id, search
+                point (x, y)), most likely first (:func:`search_plan`), or one such pair, or
+                None.
             goal_done: the navigation finished (reached or gave up) the last goal sent.
         """
         cfg = self.config
@@ -154,25 +171,34 @@ class FollowBehaviour:
         if self.last_seen is not None and t - self.last_seen < cfg.lost_after:
             return FollowDecision(self.mode, None, "target unseen for %.1f s" % (
                 t - self.last_seen))
-        if destination is None:
+        plan = _as_plan(destination)
+        if not plan:
             if self.mode != "idle":
                 self.mode = "idle"
                 return FollowDecision("idle", None, "target lost, no predicted destination")
             return FollowDecision("idle")
-        region, point = destination
-        if self.mode != "search" or region != self._search_region:
-            self.mode, self._search_region, self._turned = "search", region, False
-            x, y = float(point[0]), float(point[1])
-            yaw = math.atan2(y - float(robot[1]), x - float(robot[0]))
-            self._search_goal = (x, y, yaw)
-            return FollowDecision("search", self._search_goal,
-                                  "target lost: searching predicted region %s" % region)
-        if goal_done and not self._turned and self._search_goal is not None:
-            self._turned = True
-            return FollowDecision("search", (float(robot[0]), float(robot[1]),
-                                             _wrap(float(robot[2]) + cfg.search_turn)),
-                                  "search point reached: looking round")
+        rx, ry, ryaw = (float(v) for v in robot[:3])
+        if self.mode != "search" or [r for r, _ in plan] != [r for r, _ in self._search]:
+            self.mode, self._search, self._search_index = "search", plan, 0
+            return self._search_go(rx, ry, "target lost: searching predicted region")
+        if self._search_phase == "go" and goal_done:
+            self._search_phase = "look"
+            return FollowDecision("search", (rx, ry, _wrap(ryaw + cfg.search_turn)),
+                                  "at region %s's search point: looking round"
+                                  % self._search[self._search_index][0])
+        if self._search_phase == "look" and goal_done:
+            self._search_phase, self._search_since = "wait", t
+        if self._search_phase == "wait" and t - self._search_since >= cfg.search_wait:
+            self._search_index = (self._search_index + 1) % len(self._search)
+            return self._search_go(rx, ry, "not found: searching region")
         return FollowDecision("search")
+
+    def _search_go(self, rx: float, ry: float, why: str) -> FollowDecision:
+        region, (x, y) = self._search[self._search_index]
+        self._search_phase = "go"
+        yaw = math.atan2(y - ry, x - rx) if math.hypot(x - rx, y - ry) > 1e-6 else 0.0
+        return FollowDecision("search", (x, y, yaw), "%s %s (%d of %d)" % (
+            why, region, self._search_index + 1, len(self._search)))
 
     def _follow(self, t: float, robot: Sequence[float], target: Sequence[float],
                 goal_done: bool) -> FollowDecision:
@@ -248,6 +274,31 @@ def search_point(points: Sequence[Sequence[float]], xy: Sequence[float]) -> Tupl
         if d < best_d:
             best, best_d = (float(p[0]), float(p[1])), d
     return best
+
+
+def search_plan(probabilities: Mapping[str, float], goals: Callable[[str], Sequence],
+                xy: Sequence[float], count: int = 3, min_probability: float = 0.05
+                ) -> List[Tuple[str, Tuple[float, float]]]:
+    """Where to search for a lost target: the ``count`` most likely destination regions with
+    probability at least ``min_probability`` (the most likely one always), most likely first
+    (ties by region id), each with its :func:`search_point` (``goals(region)``: the region's
+    goal points) nearest to ``xy``, where the target was last seen."""
+    ranked = sorted(probabilities.items(), key=lambda kv: (-float(kv[1]), kv[0]))
+    out = []
+    for k, (region, p) in enumerate(ranked[:max(1, int(count))]):
+        if k > 0 and float(p) < min_probability:
+            break
+        out.append((region, search_point(goals(region), xy)))
+    return out
+
+
+def _as_plan(destination) -> List[Tuple[str, Tuple[float, float]]]:
+    """``destination`` (None, one (region, (x, y)) pair, or a list of them) as a list."""
+    if destination is None:
+        return []
+    if len(destination) == 2 and isinstance(destination[0], str):
+        destination = [destination]
+    return [(str(r), (float(p[0]), float(p[1]))) for r, p in destination]
 
 
 def _wrap(a: float) -> float:

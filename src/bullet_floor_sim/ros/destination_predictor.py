@@ -17,7 +17,8 @@ from ``~map_topic`` (``/map``, latched).
 Parameters: ``~config`` ("1"), ``~rois_yaml`` (""), ``~tol`` (0.2), ``~mode`` (vertex),
 ``~robot_radius`` (0.34, planning grid inflation), ``~beta`` and the other core
 PredictionConfig fields as ``~<field>``, ``~query_service``, ``~rois_changed_topic``,
-``~map_topic``.
+``~map_topic``, ``~search_regions`` (3) and ``~search_min_probability`` (0.05): which regions
+get a search point in ``points`` (core/follow.search_plan).
 """
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ from std_msgs.msg import ColorRGBA, String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from ..core.errors import BulletFloorSimError
-from ..core.follow import search_point
+from ..core.follow import FollowConfig, search_plan
 from ..core.markov import MarkovChain, usable_rois
 from ..core.planner import PlannerConfig, PlanningGrid
 from ..core.prediction import DestinationModel, OnlinePredictor, PredictionConfig
@@ -45,9 +46,11 @@ from .convert import grid_from_msg
 __all__ = ["main", "DestinationPredictorNode", "destination_msg"]
 
 
-def destination_msg(track_id: int, prediction, header, best_point=(0.0, 0.0)) -> Destination:
+def destination_msg(track_id: int, prediction, header, best_point=(0.0, 0.0),
+                    search=()) -> Destination:
     """A Destination message of a core Prediction (regions most likely first); ``best_point``:
-    where to look for the entity in the best region."""
+    where to look for the entity in the best region; ``search``: core/follow.search_plan's
+    (region, point) pairs, most likely first (``points``)."""
     m = Destination()
     m.header = header
     m.track_id = track_id
@@ -62,6 +65,10 @@ def destination_msg(track_id: int, prediction, header, best_point=(0.0, 0.0)) ->
     m.probabilities = [float(p) for _, p in ranked]
     m.best, m.best_probability = prediction.best, float(prediction.best_probability)
     m.best_point = Point(float(best_point[0]), float(best_point[1]), 0.0)
+    for k, (region, (x, y)) in enumerate(search):
+        if k >= len(m.regions) or m.regions[k] != region:
+            break   # points[i] belongs to regions[i]
+        m.points.append(Point(float(x), float(y), 0.0))
     return m
 
 
@@ -77,6 +84,12 @@ class DestinationPredictorNode:
         self.query_service = str(gp("~query_service", "/soma/query_rois"))
         self.planner_cfg = PlannerConfig(robot_radius=float(gp("~robot_radius", 0.34)))
         self.config = config_from_params(PredictionConfig())
+        defaults = FollowConfig()
+        self.search_regions = int(gp("~search_regions", defaults.search_regions))
+        self.search_min_probability = float(gp("~search_min_probability",
+                                               defaults.search_min_probability))
+        FollowConfig(search_regions=self.search_regions,
+                     search_min_probability=self.search_min_probability).check()
         self.lock = threading.Lock()
         self.grid: Optional[PlanningGrid] = None
         self.rois: Optional[List[Roi]] = None
@@ -172,8 +185,10 @@ class DestinationPredictorNode:
                     continue
                 if p is None:
                     continue
-                where = search_point(model.goals(p.best), (tr.position.x, tr.position.y))
-                self.pub.publish(destination_msg(tr.id, p, msg.header, where))
+                xy = (tr.position.x, tr.position.y)
+                search = search_plan(p.probabilities, model.goals, xy, self.search_regions,
+                                     self.search_min_probability)
+                self.pub.publish(destination_msg(tr.id, p, msg.header, search[0][1], search))
                 markers.markers.append(self._label(tr, p, msg.header))
             for k in live:
                 self.seen[k] = t

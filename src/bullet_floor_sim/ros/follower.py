@@ -5,8 +5,9 @@ Run it in the observing robot's namespace. It picks one track of ``tracks`` (peo
 ``move_base`` action (stock move_base or the embedded path_follower: the same interface) at a
 stand-off point ``~distance`` metres from the target, facing it, re-planned as the track moves;
 when the track is lost for ``~lost_after`` seconds it goes to where the predictor says the
-target is heading (``destination``: the best region's point nearest the track) and looks
-round there. core/follow.py makes the decisions.
+target is heading (``destination``: the best region's point nearest the track), looks round
+there, and goes on to the next likely regions of ``destination``'s ``points`` in turn.
+core/follow.py makes the decisions.
 
 Topics: ``tracks`` (in, bullet_floor_sim/TrackArray), ``destination`` (in,
 bullet_floor_sim/Destination), ``base_pose_ground_truth`` (in, with ``~pose_source``
@@ -70,7 +71,7 @@ class FollowerNode:
         self.tracks = []
         self.tracks_t = -math.inf
         self.target_id: Optional[int] = None
-        self.destination = None     # (region, (x, y)) for the followed track
+        self.destination = None     # [(region, (x, y))], most likely first, for the followed track
         self.gt = None
         self.mode = ""
         self.goal_sent = False
@@ -109,7 +110,8 @@ class FollowerNode:
     def _on_destination(self, msg: Destination) -> None:
         with self.lock:
             if msg.track_id == self.target_id and msg.best:
-                self.destination = (msg.best, (msg.best_point.x, msg.best_point.y))
+                self.destination = ([(r, (pt.x, pt.y)) for r, pt in zip(msg.regions, msg.points)]
+                                    or [(msg.best, (msg.best_point.x, msg.best_point.y))])
 
     def _pose(self):
         if self.source == "ground_truth":
