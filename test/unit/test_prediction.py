@@ -14,6 +14,7 @@ from bullet_floor_sim.core.floormap import load_map, map_from_grid
 from bullet_floor_sim.core.markov import MarkovChain
 from bullet_floor_sim.core.planner import PlanError, PlanningGrid
 from bullet_floor_sim.core.prediction import (DestinationModel, OnlinePredictor, Prediction,
+                                              PredictorPool,
                                               PredictionConfig, PredictionError, log_loss, top1)
 from bullet_floor_sim.core.rois import Roi, load_rois, roi_polygon
 
@@ -367,6 +368,68 @@ def test_online_predictor_cuts_legs_and_predicts_office_b(model):
     assert d["best"] == second[-1].best and d["note"] == ""
     pred.reset()
     assert pred.update(100.0, 7.05, 5.75, 0.5, 0.0) is None and not pred.in_leg
+
+
+def test_predictor_pool_hands_a_leg_over_to_the_track_seen_again(model):
+    s, goal = (7.05, 5.75), (14.05, 9.55)
+    samples = stream([("stand", s, 2.0), ("walk", s, (12.05, 5.75), 0.5),
+                      ("walk", (12.05, 5.75), (14.05, 5.75), 0.5),
+                      ("walk", (14.05, 5.75), goal, 0.5)])
+    whole = OnlinePredictor(model)
+    truth = [whole.update(*row) for row in samples]
+    # the tracker loses the entity for 2 s (track 1 dies) and then calls it track 2; a clutter
+    # track 9 stands 3 m away meanwhile, and track 5 appears far away (another person)
+    lost = [k for k, row in enumerate(samples) if 6.0 < row[0] <= 8.0]
+    pool = PredictorPool(model)
+    out = []
+    for k, (t, x, y, vx, vy) in enumerate(samples):
+        tracks = [] if k in lost else [(1 if k < lost[0] else 2, x, y, vx, vy)]
+        tracks.append((9, 8.0, 8.5, 0.0, 0.0))
+        if k > lost[-1]:
+            tracks.append((5, 25.0, 5.75, -0.5, 0.0))
+        res = pool.update(t, tracks)
+        if k not in lost:
+            out.append((k, res[tracks[0][0]]))
+    assert pool.handovers == 1 and set(pool.predictors) == {2, 5, 9}
+    after = [(k, p) for k, p in out if k > lost[-1]]
+    # track 2 goes on with track 1's leg: same start region and start, same leg number,
+    # the same posterior as one unbroken stream (to the float) once it is in view again
+    for k, p in after:
+        assert (p.leg, p.start_region, p.start_xy) == (1, "corridor", s)
+        assert p.probabilities == pytest.approx(truth[k].probabilities, abs=1e-12)
+    assert after[-1][1].best == "B"
+    # without the hand-over the new track's leg would start in the corridor at (10.05, 5.75)
+    fresh = OnlinePredictor(model)
+    again = [fresh.update(*row) for row in samples[lost[-1] + 1:]]
+    assert [p for p in again if p is not None][0].start_xy != s
+
+
+def test_predictor_pool_hands_over_only_to_a_near_new_track_soon_enough(model):
+    cfg = model.config   # handover_time 4 s, handover_speed 1.5 m/s, plus 0.5 m
+    pool = PredictorPool(model, forget_after=10.0)
+    pool.update(0.0, [(1, 5.0, 5.75, 0.5, 0.0)])
+    pool.update(0.1, [(1, 5.05, 5.75, 0.5, 0.0)])
+    first = pool.predictors[1]
+    # 1 s later, 2.5 m away: farther than 0.5 + 1.5 x 1 = 2.0 m: a new entity
+    pool.update(1.1, [(2, 7.55, 5.75, 0.5, 0.0)])
+    assert pool.handovers == 0 and pool.predictors[2] is not first
+    # 2 s after track 1's last update, 1.9 m from it: within 3.5 m, and track 1 is gone
+    pool.update(2.1, [(2, 7.6, 5.75, 0.5, 0.0), (3, 6.95, 5.75, 0.5, 0.0)])
+    assert pool.handovers == 1 and pool.predictors[3] is first and 1 not in pool.predictors
+    # a track alive in the same update is never taken over
+    pool.update(2.2, [(2, 7.65, 5.75, 0.5, 0.0), (3, 7.0, 5.75, 0.5, 0.0),
+                      (4, 7.65, 5.8, 0.5, 0.0)])
+    assert pool.handovers == 1
+    # gone for longer than handover_time: no take-over; gone for forget_after: dropped
+    gap = cfg.handover_time + 0.1
+    pool.update(2.2 + gap, [(6, 7.0, 5.75, 0.5, 0.0)])
+    assert pool.handovers == 1
+    pool.update(2.2 + 10.5, [(6, 7.0, 5.75, 0.5, 0.0)])
+    assert set(pool.predictors) == {6}
+    # bad input: a one-line reason for that track, the others go on
+    res = pool.update(13.0, [(6, 7.0, 5.75, 0.5, 0.0), (7, float("nan"), 1.0, 0.0, 0.0)])
+    assert 6 in res and 7 not in res and 7 not in pool.predictors
+    assert "track 7" in pool.errors[7] and "x" in pool.errors[7]
 
 
 def test_online_predictor_falls_back_to_the_prior_off_the_map(model):

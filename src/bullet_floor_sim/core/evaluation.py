@@ -38,7 +38,7 @@ from .follow import FollowBehaviour, FollowConfig, pick_target, search_plan
 from .markov import MarkovChain, usable_rois
 from .planner import (Navigator, PathFollower, PlanError, PlanningGrid, obstacles_in_base)
 from .plotting import pyplot
-from .prediction import DestinationModel, OnlinePredictor, log_loss, top1
+from .prediction import DestinationModel, OnlinePredictor, PredictorPool, log_loss, top1
 from .rois import load_rois
 from .tracking import StaticMap, Tracker, TrackerConfig, detect, scan_points
 from .walker import GoalSampler, Walker, WalkerConfig, WalkerError
@@ -130,6 +130,7 @@ class EvalResult:
     id_switches: int
     mean_track_error: float
     follow_modes: Dict[str, int]
+    handovers: int = 0
 
     @property
     def recall(self) -> float:
@@ -237,7 +238,7 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
     follow = FollowBehaviour(grid, FollowConfig())
     nav_walker, nav_observer = Navigator(grid, PathFollower()), Navigator(grid, PathFollower())
     pred_gt = OnlinePredictor(model)
-    pred_trk: Dict[int, OnlinePredictor] = {}
+    pred_trk = PredictorPool(model)
     laser = [world.models[i].laser_pose for i in range(world.n)]  # (x, y, z, yaw) in base
     W, O = cfg.walker, cfg.observer
     steps = max(1, int(round(1.0 / (world.clock.dt * cfg.control_rate))))
@@ -331,10 +332,10 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
         target = pick_target(tracks, target_id, follow.last_target)
         if target is not None and target_id is not None and target.id != target_id:
             switches += 1
+        preds = pred_trk.update(t, [(tr.id, tr.x, tr.y, tr.vx, tr.vy) for tr in tracks])
         if target is not None:
             target_id = target.id
-            pr = pred_trk.setdefault(target.id, OnlinePredictor(model))
-            p = pr.update(t, target.x, target.y, target.vx, target.vy)
+            p = preds.get(target.id)
             if p is not None:
                 trk_records.append(_Record(t, p, (target.x, target.y), (target.vx, target.vy)))
                 fc = follow.config
@@ -380,7 +381,7 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
                       sim_time=world.clock.now - t0, wall_time=time.time() - t_wall,
                       ticks=n_ticks, visible_ticks=visible, recalled_ticks=recalled,
                       tracked_ticks=tracked, false_track_ticks=false_ticks,
-                      id_switches=switches,
+                      id_switches=switches, handovers=pred_trk.handovers,
                       mean_track_error=err_sum / tracked if tracked else float("nan"),
                       follow_modes=modes)
 
@@ -450,10 +451,10 @@ def format_table(result: EvalResult) -> str:
                                                   for a, ll, _ in tab[p][m]))
     r = result
     lines.append("tracking: recall while visible %.1f%% (%d of %d ticks), walker tracked %.1f%% "
-                 "of the run, mean track error %.3f m, target id switches %d, ticks with a "
-                 "false track %d" % (100 * r.recall, r.recalled_ticks, r.visible_ticks,
-                                     100 * r.tracked_share, r.mean_track_error, r.id_switches,
-                                     r.false_track_ticks))
+                 "of the run, mean track error %.3f m, target id switches %d (predictor "
+                 "hand-overs %d), ticks with a false track %d"
+                 % (100 * r.recall, r.recalled_ticks, r.visible_ticks, 100 * r.tracked_share,
+                    r.mean_track_error, r.id_switches, r.handovers, r.false_track_ticks))
     lines.append("run: %d legs scored, %d failed, %.0f s sim in %.0f s wall (%.1fx real time); "
                  "follower modes %s" % (len(r.legs), r.failed_legs, r.sim_time, r.wall_time,
                                         r.sim_time / max(r.wall_time, 1e-9),

@@ -58,6 +58,7 @@ __all__ = [
     "DestinationModel",
     "Prediction",
     "OnlinePredictor",
+    "PredictorPool",
     "log_loss",
     "top1",
 ]
@@ -106,6 +107,12 @@ class PredictionConfig:
             did not choose (so its log-loss stays finite).
         snap_distance: a position in a lethal cell uses the nearest free cell within this
             distance; farther away, the position is not on the map's free space.
+        handover_time: a new track that appears within this many seconds of another track's
+            last update, near enough (``handover_speed``), is the same entity seen again
+            after an occlusion: it takes over that track's leg (:class:`PredictorPool`).
+            4 s: shorter than the walker's shortest dwell (5 s), so the leg taken over is
+            the one under way.
+        handover_speed: ... near enough: within 0.5 m + this speed (m/s) x the gap.
     """
 
     beta: float = 3.0
@@ -118,6 +125,8 @@ class PredictionConfig:
     min_progress: float = 0.3
     heading_epsilon: float = 0.1
     snap_distance: float = 0.6
+    handover_time: float = 4.0
+    handover_speed: float = 1.5
 
     def check(self) -> None:
         """Raise PredictionError naming the first bad parameter."""
@@ -127,7 +136,7 @@ class PredictionConfig:
                 raise PredictionError("prediction: %s must be a finite number > 0, got %r"
                                       % (name, v))
         for name in ("beta", "clearance", "margin", "stop_speed", "dwell_time",
-                     "snap_distance"):
+                     "snap_distance", "handover_time", "handover_speed"):
             v = getattr(self, name)
             if not (_is_number(v) and math.isfinite(v) and v >= 0):
                 raise PredictionError("prediction: %s must be a finite number >= 0, got %r"
@@ -716,3 +725,77 @@ def _wrap(a: float) -> float:
 
 def _quote(s: Any) -> str:
     return '"%s"' % s
+
+
+class PredictorPool:
+    """One :class:`OnlinePredictor` per track, with hand-over across occlusions.
+
+    A tracker gives an entity a new id when it loses it for longer than its ``max_age`` (the
+    walker goes behind a door jamb, or the observer turns): without hand-over the new id's
+    leg would start where it was seen again, in the wrong region (the prior's row) and with
+    the walked part of the leg missing. A track id seen for the first time takes over the
+    predictor of a track that is gone (not in this update), last updated at most
+    ``handover_time`` seconds ago within 0.5 m + ``handover_speed`` x the gap (the nearest
+    such). Predictors of tracks gone for ``forget_after`` seconds are dropped.
+
+    Args:
+        model: the destination model.
+        forget_after: seconds.
+    """
+
+    _NEAR = 0.5
+
+    def __init__(self, model: DestinationModel, forget_after: float = 30.0) -> None:
+        self.model = model
+        self.forget_after = float(forget_after)
+        self.predictors = {}  # type: Dict[int, OnlinePredictor]
+        self._last = {}  # type: Dict[int, Tuple[float, float, float]]
+        self.handovers = 0
+        self.errors = {}  # type: Dict[int, str]
+
+    def update(self, t: float, tracks: Sequence[Sequence[float]]
+               ) -> Dict[int, Optional[Prediction]]:
+        """One track update: ``tracks`` as (id, x, y, vx, vy). Returns each track's
+        prediction (None while it has no leg under way). A track whose input
+        :meth:`OnlinePredictor.update` refuses (non-finite, time going back) is left out of
+        the result, with the one-line reason in ``errors[id]``; the others are updated.
+        """
+        cfg = self.model.config
+        t = float(t)
+        ids = {int(tr[0]) for tr in tracks}
+        out = {}  # type: Dict[int, Optional[Prediction]]
+        self.errors = {}  # type: Dict[int, str]
+        for tr in tracks:
+            k, x, y, vx, vy = int(tr[0]), float(tr[1]), float(tr[2]), tr[3], tr[4]
+            pred = self.predictors.get(k)
+            if pred is None:
+                pred = self._take_over(t, x, y, ids, cfg) or OnlinePredictor(self.model)
+                self.predictors[k] = pred
+            try:
+                out[k] = pred.update(t, x, y, vx, vy)
+            except PredictionError as e:
+                self.errors[k] = "track %d: %s" % (k, e)
+                if k not in self._last:   # never updated: nothing to keep
+                    del self.predictors[k]
+                continue
+            self._last[k] = (t, x, y)
+        for k in [k for k, (tl, _, _) in self._last.items() if t - tl > self.forget_after]:
+            self.predictors.pop(k, None)
+            del self._last[k]
+        return out
+
+    def _take_over(self, t: float, x: float, y: float, alive: set,
+                   cfg: PredictionConfig) -> Optional[OnlinePredictor]:
+        best, best_d = None, math.inf
+        for k, (tl, xl, yl) in self._last.items():
+            gap = t - tl
+            if k in alive or gap < 0.0 or gap > cfg.handover_time:
+                continue
+            d = math.hypot(x - xl, y - yl)
+            if d <= self._NEAR + cfg.handover_speed * gap and d < best_d:
+                best, best_d = k, d
+        if best is None:
+            return None
+        del self._last[best]
+        self.handovers += 1
+        return self.predictors.pop(best)

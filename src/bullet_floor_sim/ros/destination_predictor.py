@@ -1,8 +1,10 @@
 """The destination predictor node: where is the tracked entity heading?
 
 On every track update (``tracks``, bullet_floor_sim/TrackArray from people_tracker) it feeds
-each track's position and velocity to an online predictor (core/prediction.py): the track's
-legs are segmented by its dwells, and for the current leg a posterior over destination regions
+each track's position and velocity to an online predictor (core/prediction.py; a new track
+that appears soon after and near where another was lost takes over that track's leg:
+PredictorPool, ``~handover_time``, ``~handover_speed``): the track's legs are segmented by
+its dwells, and for the current leg a posterior over destination regions
 is computed: the Markov chain row of the region the leg started in (prior) times how well the
 observed motion agrees with an efficient path to each region (cost-to-go on the inflated map).
 It publishes ``~destination`` (bullet_floor_sim/Destination: the distribution, most likely
@@ -24,7 +26,7 @@ from __future__ import annotations
 
 import sys
 import threading
-from typing import Dict, List, Optional, Sequence
+from typing import List, Optional, Sequence
 
 import rospy
 from geometry_msgs.msg import Point
@@ -36,7 +38,7 @@ from ..core.errors import BulletFloorSimError
 from ..core.follow import FollowConfig, search_plan
 from ..core.markov import MarkovChain, usable_rois
 from ..core.planner import PlannerConfig, PlanningGrid
-from ..core.prediction import DestinationModel, OnlinePredictor, PredictionConfig
+from ..core.prediction import DestinationModel, PredictionConfig, PredictorPool
 from ..core.rois import Roi, load_rois
 from ..msg import Destination, TrackArray
 from .markov_walker import roi_from_msg
@@ -94,8 +96,8 @@ class DestinationPredictorNode:
         self.grid: Optional[PlanningGrid] = None
         self.rois: Optional[List[Roi]] = None
         self.model: Optional[DestinationModel] = None
-        self.predictors: Dict[int, OnlinePredictor] = {}
-        self.seen: Dict[int, float] = {}   # track id -> last update (s)
+        self.pool: Optional[PredictorPool] = None   # per-track predictors of the model
+        self.last_t = -float("inf")
         self.rebuild = threading.Event()
         self.pub = rospy.Publisher("~destination", Destination, queue_size=10)
         self.marker_pub = rospy.Publisher("~markers", MarkerArray, queue_size=2)
@@ -160,29 +162,28 @@ class DestinationPredictorNode:
                 rospy.logerr("destination_predictor: cannot build the model: %s", e)
                 continue
             with self.lock:
-                self.rois, self.model, self.predictors, self.seen = good, model, {}, {}
+                self.rois, self.model, self.pool = good, model, PredictorPool(model)
             rospy.loginfo("destination_predictor: %d regions, model built (%.1f s)", len(good),
                           rospy.get_time() - t0)
 
     def _on_tracks(self, msg: TrackArray) -> None:
         with self.lock:
-            model = self.model
-            if model is None:
+            model, pool = self.model, self.pool
+            if model is None or pool is None:
                 return
             t = msg.header.stamp.to_sec()
+            if t < self.last_t:   # a bag looped or the simulation was reset
+                rospy.loginfo("destination_predictor: time went back %.1f s: legs forgotten",
+                              self.last_t - t)
+                pool = self.pool = PredictorPool(model)
+            self.last_t = t
             markers = MarkerArray()
-            live = []
+            preds = pool.update(t, [(tr.id, tr.position.x, tr.position.y, tr.velocity.x,
+                                     tr.velocity.y) for tr in msg.tracks])
+            for why in pool.errors.values():
+                rospy.logwarn_throttle(10.0, "destination_predictor: %s", why)
             for tr in msg.tracks:
-                live.append(tr.id)
-                pred = self.predictors.get(tr.id)
-                if pred is None:
-                    pred = self.predictors[tr.id] = OnlinePredictor(model)
-                try:
-                    p = pred.update(t, tr.position.x, tr.position.y, tr.velocity.x,
-                                    tr.velocity.y)
-                except BulletFloorSimError as e:
-                    rospy.logwarn_throttle(10.0, "destination_predictor: track %d: %s", tr.id, e)
-                    continue
+                p = preds.get(tr.id)
                 if p is None:
                     continue
                 xy = (tr.position.x, tr.position.y)
@@ -190,11 +191,6 @@ class DestinationPredictorNode:
                                      self.search_min_probability)
                 self.pub.publish(destination_msg(tr.id, p, msg.header, search[0][1], search))
                 markers.markers.append(self._label(tr, p, msg.header))
-            for k in live:
-                self.seen[k] = t
-            for dead in [k for k, last in self.seen.items() if t - last > 30.0]:
-                self.predictors.pop(dead, None)
-                del self.seen[dead]
         if markers.markers:
             self.marker_pub.publish(markers)
 
