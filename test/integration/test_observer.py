@@ -108,6 +108,14 @@ class Observer(unittest.TestCase):
             self.assertLessEqual(set(d.regions), ROI_IDS)
             self.assertIn(d.start_region, ROI_IDS)
             self.assertGreaterEqual(d.observed, 0.0)
+            # search points for the likely regions (the most likely always): the first at
+            # best_point, every one on the map
+            self.assertTrue(1 <= len(d.points) <= 3, len(d.points))
+            self.assertEqual((d.points[0].x, d.points[0].y), (d.best_point.x, d.best_point.y))
+            for k, pt in enumerate(d.points):
+                self.assertTrue(0.0 < pt.x < 30.0 and 0.0 < pt.y < 20.0, pt)
+                if k:
+                    self.assertGreaterEqual(d.probabilities[k], 0.05)
 
     def test_3_a_leg_is_predicted_right_before_it_ends(self):
         """Of the walker's completed legs seen by the predictor, the last prediction made
