@@ -112,6 +112,11 @@ def test_search_plan_takes_the_likely_regions_most_likely_first():
     plan = search_plan(probs, lambda r: goals.get(r, []), (4.0, 4.0), count=3, min_probability=0.05)
     assert plan == [("2", (5.0, 5.0)), ("3", (1.0, 1.0)), ("4", (4.0, 4.0))]
     assert [r for r, _ in search_plan(probs, lambda r: goals.get(r, []), (0, 0), 5, 0.09)] == ["2", "3", "4"]
+    # of equal ones the given best first (the predictor's arg-max), then by id
+    even = {"1": 0.4, "2": 0.4, "3": 0.2}
+    assert [r for r, _ in search_plan(even, lambda r: [], (0, 0), 3, 0.05)] == ["1", "2", "3"]
+    assert [r for r, _ in search_plan(even, lambda r: [], (0, 0), 3, 0.05, "2")] == [
+        "2", "1", "3"]
     # the most likely region always, however unlikely
     assert search_plan({"1": 0.01, "2": 0.01}, lambda r: goals.get(r, []), (0, 0), 3, 0.5) == [("1", (0.0, 0.0))]
 

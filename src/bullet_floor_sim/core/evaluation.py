@@ -340,7 +340,7 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
                 trk_records.append(_Record(t, p, (target.x, target.y), (target.vx, target.vy)))
                 fc = follow.config
                 search = search_plan(p.probabilities, model.goals, (target.x, target.y),
-                                     fc.search_regions, fc.search_min_probability)
+                                     fc.search_regions, fc.search_min_probability, p.best)
 
         # -- scores of the tick ----------------------------------------------------------------
         n_ticks += 1

@@ -277,13 +277,15 @@ def search_point(points: Sequence[Sequence[float]], xy: Sequence[float]) -> Tupl
 
 
 def search_plan(probabilities: Mapping[str, float], goals: Callable[[str], Sequence],
-                xy: Sequence[float], count: int = 3, min_probability: float = 0.05
-                ) -> List[Tuple[str, Tuple[float, float]]]:
+                xy: Sequence[float], count: int = 3, min_probability: float = 0.05,
+                best: Optional[str] = None) -> List[Tuple[str, Tuple[float, float]]]:
     """Where to search for a lost target: the ``count`` most likely destination regions with
     probability at least ``min_probability`` (the most likely one always), most likely first
-    (ties by region id), each with its :func:`search_point` (``goals(region)``: the region's
-    goal points) nearest to ``xy``, where the target was last seen."""
-    ranked = sorted(probabilities.items(), key=lambda kv: (-float(kv[1]), kv[0]))
+    (of equal ones ``best`` first, e.g. the predictor's arg-max, then by region id), each with
+    its :func:`search_point` (``goals(region)``: the region's goal points) nearest to ``xy``,
+    where the target was last seen."""
+    ranked = sorted(probabilities.items(),
+                    key=lambda kv: (-float(kv[1]), kv[0] != best, kv[0]))
     out = []
     for k, (region, p) in enumerate(ranked[:max(1, int(count))]):
         if k > 0 and float(p) < min_probability:

@@ -67,10 +67,11 @@ def destination_msg(track_id: int, prediction, header, best_point=(0.0, 0.0),
     m.probabilities = [float(p) for _, p in ranked]
     m.best, m.best_probability = prediction.best, float(prediction.best_probability)
     m.best_point = Point(float(best_point[0]), float(best_point[1]), 0.0)
-    for k, (region, (x, y)) in enumerate(search):
-        if k >= len(m.regions) or m.regions[k] != region:
-            break   # points[i] belongs to regions[i]
-        m.points.append(Point(float(x), float(y), 0.0))
+    where = dict(search)
+    for region in m.regions:   # points[i] belongs to regions[i]
+        if region not in where:
+            break
+        m.points.append(Point(float(where[region][0]), float(where[region][1]), 0.0))
     return m
 
 
@@ -188,7 +189,7 @@ class DestinationPredictorNode:
                     continue
                 xy = (tr.position.x, tr.position.y)
                 search = search_plan(p.probabilities, model.goals, xy, self.search_regions,
-                                     self.search_min_probability)
+                                     self.search_min_probability, p.best)
                 self.pub.publish(destination_msg(tr.id, p, msg.header, search[0][1], search))
                 markers.markers.append(self._label(tr, p, msg.header))
         if markers.markers:
