@@ -1,11 +1,11 @@
 """matplotlib for the PNG writers (headless Agg backend), with a one-line error when missing."""
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Tuple
 
 from .errors import BulletFloorSimError
 
-__all__ = ["pyplot"]
+__all__ = ["pyplot", "draw_map"]
 
 
 def pyplot(what: str) -> Any:
@@ -25,3 +25,19 @@ def pyplot(what: str) -> Any:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt
+
+
+def draw_map(ax: Any, fmap: Any) -> Tuple[float, float, float, float]:
+    """Draw a floor map on matplotlib axes in map coordinates (walls black, free white,
+    unknown grey, rotated by the origin's yaw) and return its unrotated extent
+    (x0, x1, y0, y1)."""
+    import numpy as np
+    from matplotlib.transforms import Affine2D
+
+    shade = np.where(fmap.grid == 100, 0.0, np.where(fmap.grid == 0, 1.0, 0.8))
+    ox, oy, yaw = fmap.origin
+    w, h = fmap.width * fmap.resolution, fmap.height * fmap.resolution
+    ax.imshow(shade, cmap="gray", vmin=0.0, vmax=1.0, origin="lower",
+              extent=(ox, ox + w, oy, oy + h), interpolation="nearest",
+              transform=Affine2D().rotate_around(ox, oy, yaw) + ax.transData)
+    return ox, ox + w, oy, oy + h

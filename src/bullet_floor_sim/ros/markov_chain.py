@@ -28,7 +28,7 @@ from typing import Optional, Sequence
 from ..core.errors import BulletFloorSimError
 from ..core.markov import (MODES, ROI_COLLECTION, ROI_DATABASE, MarkovChain, read_rois,
                            usable_rois)
-from ..core.plotting import pyplot
+from ..core.plotting import draw_map, pyplot
 from ..core.rois import Roi, check_bounds, load_rois, roi_polygon
 from .cli import Parser, UsageError
 
@@ -173,19 +173,11 @@ def plot_chain(chain: MarkovChain, rois: Sequence[Roi], path: str, fmap=None) ->
     plt = pyplot("--plot")
     from matplotlib.patches import FancyArrowPatch
     from matplotlib.patches import Polygon as PolygonPatch
-    from matplotlib.transforms import Affine2D
 
     fig, ax = plt.subplots(figsize=(12, 9))
     try:
         if fmap is not None:
-            import numpy as np
-
-            shade = np.where(fmap.grid == 100, 0.0, np.where(fmap.grid == 0, 1.0, 0.8))
-            ox, oy, yaw = fmap.origin
-            w, h = fmap.width * fmap.resolution, fmap.height * fmap.resolution
-            ax.imshow(shade, cmap="gray", vmin=0.0, vmax=1.0, origin="lower",
-                      extent=(ox, ox + w, oy, oy + h), interpolation="nearest",
-                      transform=Affine2D().rotate_around(ox, oy, yaw) + ax.transData)
+            draw_map(ax, fmap)
         colours = {}  # type: dict
         palette = plt.get_cmap("tab10")
         anchors = {}

@@ -38,7 +38,7 @@ from dataclasses import replace
 from typing import Dict, IO, Iterable, List, Optional, Sequence, Tuple
 
 from ..core.errors import BulletFloorSimError
-from ..core.plotting import pyplot
+from ..core.plotting import draw_map, pyplot
 from ..core.store import Store, insert_message, open_store
 from ..core.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_POSES, STORED_TYPE, Chunk,
                                chunk_fields, chunk_from_document, chunk_from_json,
@@ -299,20 +299,11 @@ def plot_trajectories(chunks: Sequence[Chunk], path: str, fmap=None, cell: float
     """
     plt = pyplot("plot")
     import numpy as np
-    from matplotlib.transforms import Affine2D
 
     joined = join_chunks(chunks)
     fig, ax = plt.subplots(figsize=(12, 9))
     try:
-        bounds = None
-        if fmap is not None:
-            shade = np.where(fmap.grid == 100, 0.0, np.where(fmap.grid == 0, 1.0, 0.8))
-            ox, oy, yaw = fmap.origin
-            w, h = fmap.width * fmap.resolution, fmap.height * fmap.resolution
-            ax.imshow(shade, cmap="gray", vmin=0.0, vmax=1.0, origin="lower",
-                      extent=(ox, ox + w, oy, oy + h), interpolation="nearest",
-                      transform=Affine2D().rotate_around(ox, oy, yaw) + ax.transData)
-            bounds = (ox, ox + w, oy, oy + h)
+        bounds = draw_map(ax, fmap) if fmap is not None else None
         xy = np.array([(p[1], p[2]) for j in joined for p in j.poses], dtype=float)
         if len(xy):
             x0, x1, y0, y1 = bounds or (xy[:, 0].min(), xy[:, 0].max(), xy[:, 1].min(),
