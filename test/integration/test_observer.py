@@ -108,6 +108,8 @@ class Observer(unittest.TestCase):
             self.assertLessEqual(set(d.regions), ROI_IDS)
             self.assertIn(d.start_region, ROI_IDS)
             self.assertGreaterEqual(d.observed, 0.0)
+            if not d.under_way:   # standing: the next leg, nothing of it seen (< 0.3 m)
+                self.assertLess(d.observed, 0.35)
             # search points for the likely regions (the most likely always): the first at
             # best_point, every one on the map
             self.assertTrue(1 <= len(d.points) <= 3, len(d.points))

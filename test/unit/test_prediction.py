@@ -338,13 +338,18 @@ def test_online_predictor_cuts_legs_and_predicts_office_b(model):
                       ("walk", goal, (14.05, 7.55), 0.5)])
     pred = OnlinePredictor(model)
     out = [(row, pred.update(*row)) for row in samples]
-    first = [k for k, (_, p) in enumerate(out) if p is not None][0]
+    assert all(p is not None for _, p in out)
+    first = [k for k, (_, p) in enumerate(out) if p.under_way][0]
     # standing 2 s, then 0.3 m at 0.5 m/s (0.6 s) before the leg counts as started
     assert out[first][0][0] == pytest.approx(2.6)
+    # until then, the next leg's prediction from where it stands: the corridor's row
+    for row, p in out[:first]:
+        assert (p.under_way, p.leg, p.start_region, p.start_xy) == (False, 1, "corridor", s)
+    assert out[0][1].probabilities == pytest.approx(model.prior("corridor"), abs=1e-12)
     p = out[first][1]
     assert (p.leg, p.start_region, p.start_xy, p.leg_start) == (1, "corridor", s, 2.0)
     assert p.observed == pytest.approx(0.3)
-    leg1 = [(row, p) for row, p in out if p is not None and p.leg == 1]
+    leg1 = [(row, p) for row, p in out if p.under_way and p.leg == 1]
     # along the corridor A falls steadily; B leads (prior) and takes over at its door
     on_axis = [p for row, p in leg1 if row[2] == 5.75 and row[1] <= 12.05]
     assert all(b.probabilities["A"] < a.probabilities["A"] for a, b in zip(on_axis, on_axis[1:]))
@@ -355,19 +360,24 @@ def test_online_predictor_cuts_legs_and_predicts_office_b(model):
     # standing at the goal: predictions go on for dwell_time (3 s), then the leg has ended
     standing = [(row, p) for row, p in out if (row[1], row[2]) == goal and row[3:] == (0, 0)]
     assert len(standing) == 50  # 5 s at 10 Hz; the first at t0, the 31st at t0 + 3 s
-    assert all(p is not None for _, p in standing[:30])
-    assert all(p is None for _, p in standing[30:])
+    assert all(p.under_way and p.leg == 1 for _, p in standing[:30])
+    # ... then it predicts leg 2 from B, where it stands: B's row of the chain
+    waiting = [p for _, p in standing[30:]]
+    assert all((p.under_way, p.leg, p.start_region) == (False, 2, "B") for p in waiting)
+    assert waiting[0].probabilities == pytest.approx(model.prior("B"), abs=1e-12)
+    assert waiting[0].best == max(model.prior("B").items(), key=lambda kv: kv[1])[0]
     # the next leg starts from B, where it stood
-    second = [p for _, p in out if p is not None and p.leg == 2]
+    second = [p for _, p in out if p.under_way and p.leg == 2]
     assert second and second[0].start_region == "B" and second[0].start_xy == goal
     assert second[0].leg_start == standing[-1][0][0]  # its last standing sample
     assert pred.legs == 2 and pred.last is second[-1]
     d = second[-1].to_dict()
     assert d["leg"] == 2 and d["start_region"] == "B" and d["start_xy"] == [14.05, 9.55]
     assert sum(d["probabilities"].values()) == pytest.approx(1.0, abs=1e-5)
-    assert d["best"] == second[-1].best and d["note"] == ""
+    assert d["best"] == second[-1].best and d["note"] == "" and d["under_way"] is True
     pred.reset()
-    assert pred.update(100.0, 7.05, 5.75, 0.5, 0.0) is None and not pred.in_leg
+    again = pred.update(100.0, 7.05, 5.75, 0.5, 0.0)
+    assert not pred.in_leg and (again.under_way, again.leg) == (False, 3)
 
 
 def test_predictor_pool_hands_a_leg_over_to_the_track_seen_again(model):

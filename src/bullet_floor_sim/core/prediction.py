@@ -542,6 +542,10 @@ class Prediction:
         leg: leg number of this track (1, 2, ...).
         note: why the probabilities are only the prior ("" normally): the position was off
             the map's free space.
+        under_way: False when no leg is under way: the entity stands (or has not yet moved
+            ``min_progress`` from where it stood), and this is the prediction of the leg it
+            will start next, from where it stands (``start_xy``): the chain's row of its
+            region, the posterior once it moves. ``leg`` is then that next leg's number.
     """
 
     t: float
@@ -554,10 +558,12 @@ class Prediction:
     observed: float
     leg: int = 1
     note: str = ""
+    under_way: bool = True
 
     def to_dict(self) -> Dict[str, Any]:
         """The prediction as plain data (for a JSON topic or a log)."""
-        return {"t": self.t, "leg": self.leg, "leg_start": self.leg_start,
+        return {"t": self.t, "leg": self.leg, "under_way": self.under_way,
+                "leg_start": self.leg_start,
                 "start_region": self.start_region,
                 "start_xy": [round(v, 3) for v in self.start_xy],
                 "probabilities": {g: round(p, 6) for g, p in self.probabilities.items()},
@@ -584,6 +590,12 @@ class OnlinePredictor:
     start_region`) and leg_start the last time it stood at S; the leg ends when it has stood
     for ``dwell_time``. Moving slower than stop_speed counts as standing.
 
+    With no leg under way, :meth:`update` predicts the next leg from where the entity stands
+    (``under_way`` False): the chain's row of its region, since nothing of that leg has been
+    seen. A walker leg of 3-8 s inside one office is half over before a tracker's velocity
+    and 0.3 m of progress make it a leg; saying nothing there (None) was a miss on 8 % of
+    200 evaluation legs, the prior is right on most of them (offices are sticky).
+
     Args:
         model: the destination model (shared by all tracks of one map).
     """
@@ -598,6 +610,7 @@ class OnlinePredictor:
         """Forget the track's state (a new entity, or a jump in time); leg numbers go on."""
         self._leg = None  # type: Optional[_Leg]
         self._anchor = None  # type: Optional[Tuple[float, float, float]]
+        self._anchor_region = None  # type: Optional[Tuple[XY, str]]
         self._prev = None  # type: Optional[Tuple[float, float, float]]
         self._walked = 0.0
 
@@ -615,8 +628,8 @@ class OnlinePredictor:
             vx, vy: velocity (m/s, map frame).
 
         Returns:
-            The current leg's prediction; None while the entity stands with no leg under way
-            (before its first move, and once a leg has ended).
+            The current leg's prediction, or with no leg under way (before its first move,
+            and once a leg has ended) the next leg's (``under_way`` False).
 
         Raises:
             PredictionError: a non-finite input, or time going backwards.
@@ -637,11 +650,11 @@ class OnlinePredictor:
         if leg is None:
             if self._anchor is None or standing:
                 self._anchor, self._walked = (t, x, y), 0.0
-                return None
+                return self._next_leg(t, x, y)
             self._walked += step
             at, ax, ay = self._anchor
             if math.hypot(x - ax, y - ay) < cfg.min_progress - _SLACK:
-                return None
+                return self._next_leg(t, x, y)
             self.legs += 1
             leg = self._leg = _Leg(self.legs, at, self.model.start_region(ax, ay), (ax, ay),
                                    self._walked)
@@ -653,9 +666,20 @@ class OnlinePredictor:
                 if t - leg.slow_since >= cfg.dwell_time:
                     self._leg = None
                     self._anchor, self._walked = (t, x, y), 0.0
-                    return None
+                    return self._next_leg(t, x, y)
             else:
                 leg.slow_since = None
+        return self._predict(t, leg, x, y, True)
+
+    def _next_leg(self, t: float, x: float, y: float) -> Prediction:
+        """The prediction of the leg that starts from the anchor (no leg under way)."""
+        at, ax, ay = self._anchor
+        if self._anchor_region is None or self._anchor_region[0] != (ax, ay):
+            self._anchor_region = ((ax, ay), self.model.start_region(ax, ay))
+        leg = _Leg(self.legs + 1, at, self._anchor_region[1], (ax, ay), self._walked)
+        return self._predict(t, leg, x, y, False)
+
+    def _predict(self, t: float, leg: _Leg, x: float, y: float, under_way: bool) -> Prediction:
         note = ""
         try:
             probs = self.model.posterior(leg.region, leg.xy, (x, y))
@@ -663,7 +687,7 @@ class OnlinePredictor:
             probs, note = self.model.prior(leg.region), str(e)
         best = top1(probs)
         self.last = Prediction(t, leg.start, leg.region, leg.xy, probs, best, probs[best],
-                               leg.observed, leg.number, note)
+                               leg.observed, leg.number, note, under_way)
         return self.last
 
 

@@ -8,8 +8,9 @@ its dwells, and for the current leg a posterior over destination regions
 is computed: the Markov chain row of the region the leg started in (prior) times how well the
 observed motion agrees with an efficient path to each region (cost-to-go on the inflated map).
 It publishes ``~destination`` (bullet_floor_sim/Destination: the distribution, most likely
-first, and the arg-max with its probability) for every track with a current leg, and
-``~markers`` (a label over each track: best region and probability).
+first, and the arg-max with its probability) for every track, and ``~markers`` (a label over
+each track: best region and probability). For a track that stands with no leg under way it
+predicts the leg it will start next, from where it stands (``under_way`` false).
 
 The regions and the chain are the walker's: the ROIs of ``~config`` from the ROI manager
 (``/soma/query_rois``; re-queried when ``/soma/rois_changed`` says so), or from ``~rois_yaml``
@@ -56,6 +57,7 @@ def destination_msg(track_id: int, prediction, header, best_point=(0.0, 0.0),
     m = Destination()
     m.header = header
     m.track_id = track_id
+    m.under_way = bool(prediction.under_way)
     m.leg_start = rospy.Time.from_sec(prediction.leg_start)
     m.start_region = prediction.start_region
     m.start = Point(prediction.start_xy[0], prediction.start_xy[1], 0.0)
@@ -205,7 +207,8 @@ class DestinationPredictorNode:
         m.color = ColorRGBA(0.2, 0.9, 1.0, 1.0)
         m.lifetime = rospy.Duration(1.0)
         label = self.model.label(p.best) if hasattr(self.model, "label") else p.best
-        m.text = "-> %s %.0f%%" % (label, 100.0 * p.best_probability)
+        m.text = "%s %s %.0f%%" % ("->" if p.under_way else "next ->", label,
+                                   100.0 * p.best_probability)
         return m
 
 
