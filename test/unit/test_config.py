@@ -95,6 +95,48 @@ def test_xacro_prefix_names_every_link_and_joint():
     assert all(p.startswith("robot1/") for p in parents)
 
 
+def test_expanded_models_are_cached_by_content(tmp_path, monkeypatch):
+    import bullet_floor_sim.core.robot as robot
+
+    urdf = tmp_path / "urdf"
+    shutil.copytree(os.path.join(ROOT, "urdf"), str(urdf))
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("BULLET_FLOOR_SIM_CACHE", str(cache))
+    load_model.cache_clear()
+    cold = load_model("scitos_a5", str(urdf))
+    assert os.path.dirname(cold.urdf_path) == str(cache)
+    assert sorted(f.rsplit(".", 1)[1] for f in os.listdir(str(cache))) == ["json", "urdf"]
+
+    def no_xacro(*args, **kwargs):
+        raise AssertionError("xacro ran on a cache hit")
+
+    # a new process (lru cache cleared) reads the same model without running xacro
+    monkeypatch.setattr(robot, "expand_xacro", no_xacro)
+    load_model.cache_clear()
+    assert load_model("scitos_a5", str(urdf)) == cold
+    # an edit of the model's files is a new key: expanded again, the old version removed
+    monkeypatch.undo()
+    monkeypatch.setenv("BULLET_FLOOR_SIM_CACHE", str(cache))
+    path = urdf / "scitos_a5.urdf.xacro"
+    path.write_text(path.read_text().replace('xyz="0.3 0 0.386"', 'xyz="0.25 0 0.386"'))
+    load_model.cache_clear()
+    edited = load_model("scitos_a5", str(urdf))
+    assert edited.laser_pose == pytest.approx((0.25, 0.0, 0.437, 0.0))
+    assert edited.urdf_path != cold.urdf_path and not os.path.exists(cold.urdf_path)
+    assert len(os.listdir(str(cache))) == 2
+    # a corrupt cache entry is expanded again; an empty BULLET_FLOOR_SIM_CACHE turns it off
+    json_file = edited.urdf_path[:-len("urdf")] + "json"
+    with open(json_file, "w") as f:
+        f.write("{not json")
+    load_model.cache_clear()
+    assert load_model("scitos_a5", str(urdf)) == edited
+    monkeypatch.setenv("BULLET_FLOOR_SIM_CACHE", "")
+    load_model.cache_clear()
+    off = load_model("scitos_a5", str(urdf))
+    assert os.path.dirname(off.urdf_path) != str(cache) and off.laser_pose == edited.laser_pose
+    load_model.cache_clear()
+
+
 def test_model_frames_and_sizes_from_urdf():
     m = load_model("scitos_a5")
     assert m.laser_pose == pytest.approx((0.3, 0.0, 0.051 + 0.386, 0.0))

@@ -2,15 +2,23 @@
 
 A model is expanded once through the xacro Python API, its frames and sizes are read with
 yourdfpy, and the URDF (with ``package://bullet_floor_sim/`` made absolute) is what PyBullet
-loads. Drives are small plugins in the ``DRIVES`` registry; each turns a commanded body
+loads. The expanded URDF and what was read from it are cached on disk
+(``$ROS_HOME/bullet_floor_sim/models``, or ``$BULLET_FLOOR_SIM_CACHE``; set it empty to turn
+the cache off), keyed by the content of every file in the model's directory, the package path
+and the xacro and yourdfpy versions: importing xacro (which imports all of roslaunch) and
+yourdfpy (trimesh) is 0.4 of the 0.5 s a cold world load takes, so every load after the first
+skips both. Drives are small plugins in the ``DRIVES`` registry; each turns a commanded body
 velocity into the velocity actually applied this step, honouring velocity and acceleration
 limits. They work on arrays of robots at once.
 """
 from __future__ import annotations
 
 import functools
+import hashlib
+import json
 import math
 import os
+import re
 import tempfile
 from dataclasses import dataclass
 from typing import Dict, List, Tuple, Type
@@ -86,21 +94,101 @@ def expand_xacro(model: str, prefix: str = "", urdf_dir: str = "") -> str:
     return doc.toprettyxml(indent="  ")
 
 
+def model_cache_dir() -> str:
+    """Where expanded models are cached ("" = no cache): ``$BULLET_FLOOR_SIM_CACHE`` when
+    set, else ``$ROS_HOME/bullet_floor_sim/models`` (``~/.ros`` without ROS_HOME)."""
+    env = os.environ.get("BULLET_FLOOR_SIM_CACHE")
+    if env is not None:
+        return env
+    home = os.environ.get("ROS_HOME") or os.path.join(os.path.expanduser("~"), ".ros")
+    return os.path.join(home, "bullet_floor_sim", "models")
+
+
+def _model_key(model: str, urdf_dir: str) -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    h = hashlib.sha1()
+    for dist in ("xacro", "yourdfpy"):
+        try:
+            h.update(("%s %s\n" % (dist, version(dist))).encode())
+        except PackageNotFoundError:
+            h.update(("%s -\n" % dist).encode())
+    h.update(("%s\n%s\n%s\n" % (model, os.path.abspath(urdf_dir), package_root())).encode())
+    for name in sorted(os.listdir(urdf_dir)):
+        path = os.path.join(urdf_dir, name)
+        if os.path.isfile(path):
+            with open(path, "rb") as f:
+                h.update(name.encode() + b"\0" + f.read() + b"\0")
+    return h.hexdigest()[:20]
+
+
+def _cached_model(cache: str, model: str, key: str):
+    try:
+        with open(os.path.join(cache, "%s-%s.json" % (model, key))) as f:
+            d = json.load(f)
+        urdf = os.path.join(cache, "%s-%s.urdf" % (model, key))
+        if not os.path.isfile(urdf):
+            return None
+        return RobotModel(name=model, urdf_path=urdf,
+                          laser_pose=tuple(float(v) for v in d["laser_pose"]),
+                          wheel_radius=float(d["wheel_radius"]),
+                          wheel_separation=float(d["wheel_separation"]),
+                          wheel_joints=(str(d["wheel_joints"][0]), str(d["wheel_joints"][1])))
+    except (OSError, ValueError, KeyError, TypeError, IndexError):
+        return None  # absent or unreadable: expand again
+
+
+def _write_atomic(path: str, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), prefix=".tmp-")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _store_urdf(cache: str, stem: str, xml: str) -> str:
+    """Write an expanded URDF to the cache as ``<stem>.urdf`` and return its path; "" when
+    the cache cannot be written."""
+    try:
+        os.makedirs(cache, exist_ok=True)
+        path = os.path.join(cache, stem + ".urdf")
+        _write_atomic(path, xml)
+        return path
+    except OSError:
+        return ""
+
+
 @functools.lru_cache(maxsize=None)
 def load_model(model: str, urdf_dir: str = "") -> RobotModel:
-    """Expand, parse and prepare a robot model once per process.
+    """Expand, parse and prepare a robot model once per process (and once per content of
+    its directory while the disk cache, :func:`model_cache_dir`, is writable).
 
     Raises:
         RobotModelError: the model is missing, invalid or lacks base_footprint,
             base_laser_link or a pair of wheel joints.
     """
+    urdf_dir = urdf_dir or os.path.join(package_root(), "urdf")
+    cache = model_cache_dir()
+    key = ""
+    if cache and os.path.isfile(os.path.join(urdf_dir, model + ".urdf.xacro")):
+        key = _model_key(model, urdf_dir)
+        hit = _cached_model(cache, model, key)
+        if hit is not None:
+            return hit
     import yourdfpy  # local: heavy import
 
     xml = expand_xacro(model, "", urdf_dir)
     xml = xml.replace(_PKG_URL, package_root().rstrip("/") + "/")
-    fd, path = tempfile.mkstemp(prefix="bfs_%s_" % model, suffix=".urdf")
-    with os.fdopen(fd, "w") as f:
-        f.write(xml)
+    path = _store_urdf(cache, "%s-%s" % (model, key), xml) if key else ""
+    if not path:
+        fd, path = tempfile.mkstemp(prefix="bfs_%s_" % model, suffix=".urdf")
+        with os.fdopen(fd, "w") as f:
+            f.write(xml)
     try:
         urdf = yourdfpy.URDF.load(path, load_meshes=False, build_collision_scene_graph=False,
                                   load_collision_meshes=False)
@@ -124,9 +212,22 @@ def load_model(model: str, urdf_dir: str = "") -> RobotModel:
         raise RobotModelError("robot model %r: needs exactly two continuous *wheel* joints with "
                               "cylinder visuals, found %d" % (model, len(wheels)))
     wheels.sort(reverse=True)  # left (+y) first
-    return RobotModel(name=model, urdf_path=path, laser_pose=laser_pose,
-                      wheel_radius=wheels[0][2], wheel_separation=wheels[0][0] - wheels[1][0],
-                      wheel_joints=(wheels[0][1], wheels[1][1]))
+    out = RobotModel(name=model, urdf_path=path, laser_pose=laser_pose,
+                     wheel_radius=wheels[0][2], wheel_separation=wheels[0][0] - wheels[1][0],
+                     wheel_joints=(wheels[0][1], wheels[1][1]))
+    if key and os.path.dirname(path) == cache:
+        fields = {"laser_pose": list(out.laser_pose), "wheel_radius": out.wheel_radius,
+                  "wheel_separation": out.wheel_separation,
+                  "wheel_joints": list(out.wheel_joints)}
+        try:   # the JSON last: its presence means the URDF beside it is whole
+            _write_atomic(os.path.join(cache, "%s-%s.json" % (model, key)), json.dumps(fields))
+            old = re.compile(r"%s-[0-9a-f]{20}\.(urdf|json)$" % re.escape(model))
+            for name in os.listdir(cache):   # older versions of this model
+                if old.match(name) and not name.startswith("%s-%s." % (model, key)):
+                    os.unlink(os.path.join(cache, name))
+        except OSError:
+            pass
+    return out
 
 
 def check_command(cfg: DriveConfig, vx: float, vy: float, w: float, who: str) -> None:
