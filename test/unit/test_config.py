@@ -101,7 +101,7 @@ def test_expanded_models_are_cached_by_content(tmp_path, monkeypatch):
     urdf = tmp_path / "urdf"
     shutil.copytree(os.path.join(ROOT, "urdf"), str(urdf))
     cache = tmp_path / "cache"
-    monkeypatch.setenv("BULLET_FLOOR_SIM_CACHE", str(cache))
+    monkeypatch.setenv("BULLET_FLOOR_SIM_CACHE", str(cache) + "/")   # a trailing / is the same
     load_model.cache_clear()
     cold = load_model("scitos_a5", str(urdf))
     assert os.path.dirname(cold.urdf_path) == str(cache)

@@ -99,7 +99,7 @@ def model_cache_dir() -> str:
     set, else ``$ROS_HOME/bullet_floor_sim/models`` (``~/.ros`` without ROS_HOME)."""
     env = os.environ.get("BULLET_FLOOR_SIM_CACHE")
     if env is not None:
-        return env
+        return os.path.normpath(os.path.abspath(env)) if env else ""
     home = os.environ.get("ROS_HOME") or os.path.join(os.path.expanduser("~"), ".ros")
     return os.path.join(home, "bullet_floor_sim", "models")
 
