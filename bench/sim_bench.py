@@ -131,6 +131,14 @@ def _ray_overhead(world, reps: int = 20) -> dict:
             "rays_cast_per_beam": (world.rays_cast - cast0) / (n_rays * reps)}
 
 
+def _case(n_robots: int, sim_seconds: float, env: dict) -> dict:
+    """One case in a process of its own (its peak RSS is its own)."""
+    proc = subprocess.run([sys.executable, __file__, "--case", str(n_robots), "--sim-seconds",
+                           str(sim_seconds)], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                          universal_newlines=True, check=True, env=env)
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--case", type=int, help="(internal) run one case with N robots")
@@ -146,17 +154,9 @@ def main() -> int:
     # cases load it from the cache (warm, as every launch after that)
     with tempfile.TemporaryDirectory(prefix="bfs-bench-") as cache:
         env = dict(os.environ, BULLET_FLOOR_SIM_CACHE=cache)
-        for n, sim_s in [(1, 0.1)] + cases:
-            proc = subprocess.run([sys.executable, __file__, "--case", str(n), "--sim-seconds",
-                                   str(args.sim_seconds or sim_s)], stdout=subprocess.PIPE,
-                                  stderr=subprocess.DEVNULL, universal_newlines=True,
-                                  check=True, env=env)
-            r = json.loads(proc.stdout.strip().splitlines()[-1])
-            if "load_cold_s" not in results:
-                results["load_cold_s"] = r["load_s"]
-            else:
-                results[n] = r
-    load_cold = results.pop("load_cold_s")
+        load_cold = _case(1, 0.1, env)["load_s"]
+        for n, sim_s in cases:
+            results[n] = _case(n, args.sim_seconds or sim_s, env)
     print("%-7s %8s %8s %9s %10s %12s %12s %9s %8s %7s" % (
         "robots", "sim_s", "wall_s", "rtf", "load_s", "raw_rays/s", "lidar_rays/s", "ray_ovh",
         "rss_mb", "stalls"))

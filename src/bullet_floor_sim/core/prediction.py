@@ -610,7 +610,6 @@ class OnlinePredictor:
         """Forget the track's state (a new entity, or a jump in time); leg numbers go on."""
         self._leg = None  # type: Optional[_Leg]
         self._anchor = None  # type: Optional[Tuple[float, float, float]]
-        self._anchor_region = None  # type: Optional[Tuple[XY, str]]
         self._prev = None  # type: Optional[Tuple[float, float, float]]
         self._walked = 0.0
 
@@ -619,7 +618,7 @@ class OnlinePredictor:
         """Whether a leg is under way."""
         return self._leg is not None
 
-    def update(self, t: float, x: float, y: float, vx: float, vy: float) -> Optional[Prediction]:
+    def update(self, t: float, x: float, y: float, vx: float, vy: float) -> Prediction:
         """One observation of the entity.
 
         Args:
@@ -674,9 +673,7 @@ class OnlinePredictor:
     def _next_leg(self, t: float, x: float, y: float) -> Prediction:
         """The prediction of the leg that starts from the anchor (no leg under way)."""
         at, ax, ay = self._anchor
-        if self._anchor_region is None or self._anchor_region[0] != (ax, ay):
-            self._anchor_region = ((ax, ay), self.model.start_region(ax, ay))
-        leg = _Leg(self.legs + 1, at, self._anchor_region[1], (ax, ay), self._walked)
+        leg = _Leg(self.legs + 1, at, self.model.start_region(ax, ay), (ax, ay), self._walked)
         return self._predict(t, leg, x, y, False)
 
     def _predict(self, t: float, leg: _Leg, x: float, y: float, under_way: bool) -> Prediction:
@@ -778,16 +775,16 @@ class PredictorPool:
         self.errors = {}  # type: Dict[int, str]
 
     def update(self, t: float, tracks: Sequence[Sequence[float]]
-               ) -> Dict[int, Optional[Prediction]]:
+               ) -> Dict[int, Prediction]:
         """One track update: ``tracks`` as (id, x, y, vx, vy). Returns each track's
-        prediction (None while it has no leg under way). A track whose input
+        prediction (of the next leg while it has none under way). A track whose input
         :meth:`OnlinePredictor.update` refuses (non-finite, time going back) is left out of
         the result, with the one-line reason in ``errors[id]``; the others are updated.
         """
         cfg = self.model.config
         t = float(t)
         ids = {int(tr[0]) for tr in tracks}
-        out = {}  # type: Dict[int, Optional[Prediction]]
+        out = {}  # type: Dict[int, Prediction]
         self.errors = {}  # type: Dict[int, str]
         for tr in tracks:
             k, x, y, vx, vy = int(tr[0]), float(tr[1]), float(tr[2]), tr[3], tr[4]

@@ -184,8 +184,8 @@ def load_model(model: str, urdf_dir: str = "") -> RobotModel:
 
     xml = expand_xacro(model, "", urdf_dir)
     xml = xml.replace(_PKG_URL, package_root().rstrip("/") + "/")
-    path = _store_urdf(cache, "%s-%s" % (model, key), xml) if key else ""
-    if not path:
+    path = stored = _store_urdf(cache, "%s-%s" % (model, key), xml) if key else ""
+    if not stored:
         fd, path = tempfile.mkstemp(prefix="bfs_%s_" % model, suffix=".urdf")
         with os.fdopen(fd, "w") as f:
             f.write(xml)
@@ -215,7 +215,7 @@ def load_model(model: str, urdf_dir: str = "") -> RobotModel:
     out = RobotModel(name=model, urdf_path=path, laser_pose=laser_pose,
                      wheel_radius=wheels[0][2], wheel_separation=wheels[0][0] - wheels[1][0],
                      wheel_joints=(wheels[0][1], wheels[1][1]))
-    if key and os.path.dirname(path) == cache:
+    if stored:
         fields = {"laser_pose": list(out.laser_pose), "wheel_radius": out.wheel_radius,
                   "wheel_separation": out.wheel_separation,
                   "wheel_joints": list(out.wheel_joints)}
