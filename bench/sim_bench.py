@@ -87,6 +87,8 @@ def run_case(n_robots: int, sim_seconds: float) -> dict:
            "stalls": int(world.stall_count.sum()),
            "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
     out.update(_ray_overhead(world))
+    from bullet_floor_sim.core import bullet_capi
+    out["ray_path"] = bullet_capi.status()
     return out
 
 
@@ -166,6 +168,7 @@ def main() -> int:
             r["lidar_rays_per_s"], r["ray_overhead"], r["rss_mb"], r["stalls"]))
     print("load_s: office world, model from the cache; the first load (xacro expanded, "
           "xacro and yourdfpy imported): load_cold_s=%.3f" % load_cold)
+    print("lidar ray tests through: %s; raw = pybullet.rayTestBatch" % results[10]["ray_path"])
     print("ray_overhead in the BENCH line is the worst of the three cases")
     print("targets: rtf_1 >= 150, rtf_10 >= 30, rtf_50 >= 4, ray_overhead <= 1.3, "
           "load_s < 0.5 (office, 2 robots' worth of model loading included), rss_mb_10 < 250")

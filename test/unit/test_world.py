@@ -344,21 +344,24 @@ def test_scans_at_laser_rate(one_robot):
 def test_scans_over_the_ray_limit_are_split_and_exact():
     from bullet_floor_sim.core import sensors
 
-    # 3 robots x 7200 beams = 21,600 rays: two rayTestBatch calls; every scan still exact
+    # 3 robots x 7200 beams = 21,600 rays: 22 ray-test calls; every scan still exact
     fine = LaserConfig(fov=360.0, resolution=0.05, noise_std=0.0)
     poses = [(1.0, 1.0, 0.0), (2.5, 3.0, 1.0), (5.0, 2.5, -2.0)]
     w = simple_world([RobotSpec(name="r%d" % i, pose=p, laser=fine, odometry=STILL)
                       for i, p in enumerate(poses)])
     try:
         calls = []
-        orig = w.client.rayTestBatch
+        orig = sensors._cast_batch
 
-        def counting(*a, **k):
-            calls.append(len(a[0]))
-            return orig(*a, **k)
+        def counting(client, froms, *a):
+            calls.append(len(froms))
+            return orig(client, froms, *a)
 
-        w.client.rayTestBatch = counting
-        scans = w.step(10)
+        sensors._cast_batch = counting
+        try:
+            scans = w.step(10)
+        finally:
+            sensors._cast_batch = orig
         assert calls[:22] == [1000] * 21 + [600]
         assert sum(calls[22:]) == w.rays_at_robots and 0 < w.rays_at_robots < 21600 / 4
         assert max(calls) <= sensors.MAX_RAYS_PER_BATCH

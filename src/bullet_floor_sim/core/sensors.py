@@ -12,6 +12,7 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from . import bullet_capi
 from .config import BatteryConfig, LaserConfig, OdometryConfig
 
 _BODY = operator.itemgetter(0)
@@ -62,7 +63,9 @@ class Scan:
 def cast_rays(client, froms: np.ndarray, tos: np.ndarray, threads: int = 0,
               mask: Optional[int] = None, chunk: int = MAX_RAYS_PER_BATCH
               ) -> Tuple[np.ndarray, np.ndarray]:
-    """Cast rays with ``rayTestBatch``, ``chunk`` rays per call (at most the batch limit).
+    """Cast rays with ``rayTestBatch``, ``chunk`` rays per call (at most the batch limit);
+    through PyBullet's C API when ``bullet_capi`` can reach it (the same ray test, without a
+    Python tuple per ray).
 
     Args:
         client: a pybullet BulletClient.
@@ -81,16 +84,25 @@ def cast_rays(client, froms: np.ndarray, tos: np.ndarray, threads: int = 0,
     step = max(1, min(int(chunk), MAX_RAYS_PER_BATCH))
     for s in range(0, m, step):
         e = min(m, s + step)
-        if mask is None:
-            res = client.rayTestBatch(froms[s:e], tos[s:e], numThreads=threads)
-        else:
-            res = client.rayTestBatch(froms[s:e], tos[s:e], numThreads=threads,
-                                      collisionFilterMask=mask)
-        if len(res) != e - s:
-            raise RuntimeError("rayTestBatch returned %d results for %d rays" % (len(res), e - s))
-        frac[s:e] = np.fromiter(map(_FRACTION, res), float, e - s)
-        ids[s:e] = np.fromiter(map(_BODY, res), np.int64, e - s)
+        frac[s:e], ids[s:e] = _cast_batch(client, froms[s:e], tos[s:e], threads, mask)
     return frac, ids
+
+
+def _cast_batch(client, froms: np.ndarray, tos: np.ndarray, threads: int,
+                mask: Optional[int]) -> Tuple[np.ndarray, np.ndarray]:
+    """One call of at most MAX_RAYS_PER_BATCH rays: (hit fractions, hit body ids)."""
+    fast = bullet_capi.cast_batch(client, froms, tos, threads, mask)
+    if fast is not None:
+        return fast
+    m = len(froms)
+    if mask is None:
+        res = client.rayTestBatch(froms, tos, numThreads=threads)
+    else:
+        res = client.rayTestBatch(froms, tos, numThreads=threads, collisionFilterMask=mask)
+    if len(res) != m:
+        raise RuntimeError("rayTestBatch returned %d results for %d rays" % (len(res), m))
+    return (np.fromiter(map(_FRACTION, res), float, m),
+            np.fromiter(map(_BODY, res), np.int64, m))
 
 
 #: How far beyond the previous scan's ranges a ray is cast before it is cast again in full.

@@ -48,6 +48,8 @@ _PENETRATION_TOL = 1e-3
 #: octagonal bases touching corner to corner could neither turn nor slide past each other.
 _ROBOT_CONTACT_SLACK = 0.03
 _CLEARANCE_MARGIN = 0.05
+#: Collision windows of up to this many (robot, other robot) pairs are computed in plain floats.
+_SMALL_PAIRS = 64
 
 
 class SimClock:
@@ -222,6 +224,8 @@ class World:
                                           s.drive.max_lateral if s.drive.type == "omni" else 0.0)
                                for s in self.specs])
         self._check_due_ns = 0              # next step whose poses need a collision check
+        self._safe_until_ns = np.zeros(n, dtype=np.int64)   # per robot: no contact before
+        self._window_consts = None          # for _collision_window_small
         self._limits_small = None           # (dt, vmax, amax * dt) lists for _advance_small
         # one drive object per drive type, each over its own rows
         self._drives = []
@@ -375,6 +379,7 @@ class World:
         self.odometry.reset(rows)
         self.battery.reset(rows, self.clock.now_ns)
         self.lidar.forget(rows)
+        self._safe_until_ns[:] = 0
         self._check_due_ns = 0
         self._sync_bodies(rows)
 
@@ -456,7 +461,8 @@ class World:
             moving = np.any(self.target != 0.0, axis=1)
             self._expiry_ns = int((self.last_cmd_ns[moving] + self.cmd_timeout_ns[moving]).min()) + 1 \
                 if moving.any() else 2 ** 62
-        check = now + self.clock.step_ns >= self._check_due_ns
+        after = now + self.clock.step_ns    # the poses this step computes are those of then
+        check = after >= self._check_due_ns
         old = self.pose.copy() if check else self.pose
         if self.n <= SMALL_N:
             self._advance_small(dt)
@@ -465,11 +471,13 @@ class World:
                 self.vel[rows] = drive.apply(self.target[rows], self.vel[rows], dt)
             self.pose = _integrate(self.pose, self.vel, dt)
         if check:
-            self.stalled[:] = False
-            cand, t_safe = self._collision_window(self.pose)
+            due = np.flatnonzero(self._safe_until_ns <= after)
+            self.stalled[due] = False
+            cand, t_safe = self._collision_window(self.pose, due)
             if len(cand):
                 self._resolve_collisions(old, self.pose, cand)
-            self._check_due_ns = now + self.clock.step_ns + int(t_safe * 1e9)
+            self._safe_until_ns[due] = after + (t_safe * 1e9).astype(np.int64)
+            self._check_due_ns = int(self._safe_until_ns.min())
         if self.n <= SMALL_N:   # wheels turn with the velocity kept (0 for a refused move)
             self._travel[:] = [(tr[0] + v[0] * dt, tr[1] + v[2] * dt)
                                for tr, v in zip(self._travel.tolist(), self.vel.tolist())]
@@ -514,22 +522,71 @@ class World:
         out[inside] = self._clearance[row[inside], col[inside]]
         return out
 
-    def _collision_window(self, pose: np.ndarray) -> Tuple[np.ndarray, float]:
-        """Robots that may touch a wall or a robot now, and how long until any other could.
+    def _collision_window(self, pose: np.ndarray, rows: np.ndarray
+                          ) -> Tuple[np.ndarray, np.ndarray]:
+        """For the robots ``rows``: which may touch a wall or a robot now, and how long each
+        cannot reach contact (its gap to the nearest wall at its top speed, to every other
+        robot at both top speeds). A robot in contact with another has a window of 0, so
+        both robots of a pair in contact are always checked together.
 
         Returns:
-            (candidate robot indices, seconds during which no robot can reach contact).
+            (candidate robot indices, seconds per robot of ``rows`` without contact).
         """
-        gap = self._clearance_at(pose) - self.radius - _CLEARANCE_MARGIN
+        if len(rows) * self.n <= _SMALL_PAIRS:
+            return self._collision_window_small(pose, rows)
+        p = pose[rows]
+        r = self.radius[rows]
+        gap = self._clearance_at(p) - r - _CLEARANCE_MARGIN
         near = gap < 0.0
-        t_safe = float(np.min(gap / self._vmax)) if self.n else np.inf
-        if self.n > 1:
-            d = np.hypot(pose[:, None, 0] - pose[None, :, 0], pose[:, None, 1] - pose[None, :, 1])
-            pair_gap = d - self.radius[:, None] - self.radius[None, :] - _CLEARANCE_MARGIN
-            np.fill_diagonal(pair_gap, np.inf)
-            near |= (pair_gap < 0.0).any(axis=1)
-            t_safe = min(t_safe, float(np.min(pair_gap / (self._vmax[:, None] + self._vmax[None, :]))))
-        return np.flatnonzero(near), max(0.0, t_safe)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t_safe = gap / self._vmax[rows]
+            if self.n > 1:
+                d = np.hypot(p[:, None, 0] - pose[None, :, 0], p[:, None, 1] - pose[None, :, 1])
+                pair_gap = d - r[:, None] - self.radius[None, :] - _CLEARANCE_MARGIN
+                pair_gap[np.arange(len(rows)), rows] = np.inf
+                near |= (pair_gap < 0.0).any(axis=1)
+                t_safe = np.minimum(t_safe, np.min(
+                    pair_gap / (self._vmax[rows, None] + self._vmax[None, :]), axis=1))
+        t_safe = np.where(near | np.isnan(t_safe), 0.0, np.minimum(t_safe, 1e6))
+        return rows[near], t_safe
+
+    def _collision_window_small(self, pose: np.ndarray, rows: np.ndarray
+                                ) -> Tuple[np.ndarray, np.ndarray]:
+        """``_collision_window`` in plain floats: the same formulas, for a few rows (most
+        steps check one or two robots, where numpy's per-call cost was 80 us a step)."""
+        if self._window_consts is None:
+            m = self.fmap
+            ox, oy, yaw = m.origin
+            self._window_consts = (float(ox), float(oy), math.cos(yaw), math.sin(yaw),
+                                   1.0 / m.resolution, m.width, m.height,
+                                   self.radius.tolist(), self._vmax.tolist())
+        ox, oy, c, s, inv_res, width, height, radius, vmax = self._window_consts
+        clear = self._clearance
+        xy = pose[:, :2].tolist()
+        cand, out = [], []
+        hypot, floor, inf = math.hypot, math.floor, math.inf
+        for i in rows.tolist():
+            x, y = xy[i]
+            dx, dy = x - ox, y - oy
+            col, row = int(floor((c * dx + s * dy) * inv_res)), int(floor((c * dy - s * dx) * inv_res))
+            wall = float(clear[row, col]) if 0 <= col < width and 0 <= row < height else inf
+            ri, vi = radius[i], vmax[i]
+            gap = wall - ri - _CLEARANCE_MARGIN
+            near = gap < 0.0
+            t = gap / vi if vi > 0.0 else (inf if gap >= 0.0 else 0.0)
+            for j, (xj, yj) in enumerate(xy):
+                if j == i:
+                    continue
+                g = hypot(x - xj, y - yj) - ri - radius[j] - _CLEARANCE_MARGIN
+                if g < 0.0:
+                    near = True
+                v = vi + vmax[j]
+                if v > 0.0:
+                    t = min(t, g / v)
+            if near:
+                cand.append(i)
+            out.append(0.0 if near else min(max(t, 0.0), 1e6))
+        return np.array(cand, dtype=np.int64), np.array(out)
 
     def _resolve_collisions(self, old: np.ndarray, new: np.ndarray, cand: np.ndarray) -> None:
         """Refuse the move of every candidate robot that would penetrate a wall deeper than

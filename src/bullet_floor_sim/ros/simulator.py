@@ -50,6 +50,7 @@ from std_msgs.msg import Float64
 from std_srvs.srv import Empty, EmptyResponse
 from tf2_msgs.msg import TFMessage
 
+from ..core import bullet_capi
 from ..core.config import load_world_config, resolve_world
 from ..core.errors import BulletFloorSimError, CommandError, ConfigError
 from ..core.paths import worlds_dir
@@ -817,8 +818,9 @@ def main(argv: Optional[List[str]] = None) -> int:
     try:
         if rospy.get_param("~robot_state_publishers", True):
             rsps = RobotStatePublishers(world)
-        rospy.loginfo("simulator: world %s with robots %s", world.config.path,
-                      ", ".join(s.name or "<empty>" for s in world.specs))
+        rospy.loginfo("simulator: world %s with robots %s; ray tests through %s",
+                      world.config.path, ", ".join(s.name or "<empty>" for s in world.specs),
+                      bullet_capi.status())
         node.spin(stop)
     except BulletFloorSimError as e:
         rospy.logfatal("simulator: %s", e)
