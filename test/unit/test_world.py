@@ -22,7 +22,8 @@ from bullet_floor_sim.core.sensors import cast_rays
 from bullet_floor_sim.core.world import SimClock, World
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from simple_room import expected_range  # noqa: E402
+from simple_room import (SCITOS_R, expected_range, near_corner, octagon_offset,  # noqa: E402
+                         octagon_range)
 
 EXACT = LaserConfig(fov=360.0, resolution=1.0, noise_std=0.0)
 STILL = OdometryConfig(noise_trans=0.0, noise_rot=0.0, noise_rot_per_m=0.0)
@@ -363,7 +364,8 @@ def test_scans_over_the_ray_limit_are_split_and_exact():
         finally:
             sensors._cast_batch = orig
         assert calls[:22] == [1000] * 21 + [600]
-        assert sum(calls[22:]) == w.rays_at_robots and 0 < w.rays_at_robots < 21600 / 4
+        # beams at the other robots are clipped to their sections, not cast
+        assert sum(calls) == w.rays_cast == 21600 and 0 < w.rays_at_robots < 21600 / 4
         assert max(calls) <= sensors.MAX_RAYS_PER_BATCH
         for scan, (x, y, yaw) in zip(scans, poses):
             ox, oy = x + 0.3 * math.cos(yaw), y + 0.3 * math.sin(yaw)
@@ -412,7 +414,7 @@ def test_scans_equal_every_beam_cast_in_the_full_scene(lift):
     w._lift_for_rays = lift
     rng = np.random.default_rng(2)
     try:
-        checked = 0
+        checked = grazing = pressed = 0
         for k in range(300):
             if k % 20 == 0:
                 for i in range(1, w.n):                      # robot 0 stands still
@@ -432,11 +434,27 @@ def test_scans_equal_every_beam_cast_in_the_full_scene(lift):
             np.testing.assert_array_equal(np.isneginf(got), np.isneginf(want))
             on_robot = np.isin(ids, w.bodies) & np.isfinite(want)
             got, want = np.where(np.isfinite(want), got, 0.0), np.where(np.isfinite(want), want, 0.0)
-            # walls: the same float32; robots: Bullet's convex ray cast agrees to a few mm
-            np.testing.assert_allclose(got[~on_robot], want[~on_robot], rtol=0, atol=1e-5)
-            np.testing.assert_allclose(got[on_robot], want[on_robot], rtol=0, atol=5e-3)
+            # walls: the same float32; robots: Bullet's convex ray cast agrees to a few mm,
+            # except where a beam grazes a corner: Bullet rounds corners up to 0.5 mm wider
+            # than the hull and its margin, which moves a beam almost along an edge by cm
+            # corner (or, for robots pressed together, a beam leaving its own robot inside
+            # the other: Bullet's ray starting inside a convex shape passes through, the
+            # lidar sees the other robot at once)
+            off = np.abs(got - want) > np.where(on_robot, 5e-3, 1e-5)
+            for k in np.flatnonzero(off):
+                ox, oy = plan.origins[k, :2]
+                dx, dy = plan.dirs[k]
+                gx, gy = ox + dx * got[k], oy + dy * got[k]
+                if (min(octagon_offset(gx, gy, p) for p in w.pose) < 1e-3
+                        and got[k] == np.float32(plan.start[k])):
+                    pressed += 1
+                    continue
+                assert (near_corner(ox + dx * want[k], oy + dy * want[k], w.pose)
+                        or near_corner(gx, gy, w.pose)), \
+                    "beam %d: %.4f, full scene %.4f" % (k, got[k], want[k])
+                grazing += 1
             checked += on_robot.sum()
-        assert checked > 500
+        assert checked > 500 and grazing <= 0.005 * checked, (grazing, pressed, checked)
         if lift:
             assert w.rays_at_robots > 0 and w.rays_reused >= 28 * 361
     finally:
@@ -476,3 +494,38 @@ def test_small_worlds_step_in_floats_exactly_as_numpy_does(monkeypatch):
     for a, b in zip(floats, arrays):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)
     assert floats[0][:, :2].std() > 0.1     # they did move
+
+
+def test_other_robots_are_seen_at_their_octagons():
+    # beams at another robot are clipped to its measured cross-section: every range must be
+    # that of the octagon (or of the wall before it), beams grazing a corner aside
+    poses = [(1.0, 2.0, 0.0), (2.2, 2.3, 0.4), (1.4, 3.1, -2.0), (2.0, 1.0, 1.0)]
+    fine = LaserConfig(fov=360.0, resolution=0.25, noise_std=0.0)
+    w = simple_world([RobotSpec(name="r%d" % i, pose=p, laser=fine, odometry=STILL)
+                      for i, p in enumerate(poses)])
+    try:
+        assert (w._section_index[~np.eye(4, dtype=bool)] >= 0).all(), w.sections_report
+        scans = w.step(10)
+        assert len(scans) == 4
+        on_robots = 0
+        for scan in scans:
+            x, y, yaw = poses[scan.robot]
+            ox, oy = x + 0.3 * math.cos(yaw), y + 0.3 * math.sin(yaw)
+            others = [p for k, p in enumerate(poses) if k != scan.robot]
+            angles = yaw + scan.angle_min + scan.angle_increment * np.arange(len(scan.ranges))
+            for a, got in zip(angles.tolist(), scan.ranges.tolist()):
+                robot = min(octagon_range(ox, oy, a, p) for p in others)
+                wall = expected_range(ox, oy, a)
+                px, py = ox + got * math.cos(a), oy + got * math.sin(a)
+                if robot < wall - 1e-3:
+                    # the beam ends on that octagon: 1 mm across its surface (along a beam
+                    # almost parallel to an edge, 0.1 mm across is centimetres along)
+                    assert min(abs(octagon_offset(px, py, p)) for p in others) < 1e-3, \
+                        (scan.robot, math.degrees(a), got, robot)
+                    on_robots += 1
+                elif min(octagon_range(ox, oy, a, p, SCITOS_R + 2e-3) for p in others) > wall:
+                    assert abs(got - wall) < 1e-3, (scan.robot, math.degrees(a), got, wall)
+        assert on_robots > 300
+        assert w.rays_at_robots > 0
+    finally:
+        w.close()

@@ -29,7 +29,8 @@ from .errors import ConfigError, MapError
 from .floormap import FloorMap, load_map, wall_mesh
 from .paths import worlds_dir
 from .robot import DRIVES, RobotModel, check_command, load_model
-from .sensors import SMALL_N, Battery, Lidar, Odometry, Scan, cast_rays
+from .sections import Section, check_section, clip_beams, measure_section, pad_sections
+from .sensors import MAX_RAYS_PER_BATCH, SMALL_N, Battery, Lidar, Odometry, Scan, cast_rays
 
 __all__ = ["SimClock", "World", "RobotView", "Snapshot"]
 
@@ -278,6 +279,7 @@ class World:
         self._check_spawns()
         self._self_exit()
         self._ray_radius = self._radius_at_lasers()
+        self._measure_sections()
 
     def _section_radius(self, i: int, heights: Sequence[float], far: float,
                         directions: int = 720) -> List[float]:
@@ -738,18 +740,68 @@ class World:
             self._reset_pose(b, (1e4 + 10.0 * i, 1e4, -1e4), (0.0, 0.0, 0.0, 1.0))
 
     def _cast_at_robots(self, plan, dist: np.ndarray, hit: np.ndarray) -> None:
-        """Cast again, with the robots in place, the beams that may meet another robot before
-        their wall hit (``dist``/``hit`` updated in place). Each such ray only spans the
-        stretch where the beam is inside some other robot's bounding circle (and starts
-        beyond its own robot's body): it usually starts outside its own robot's bounding box."""
+        """The beams that may meet another robot before their wall hit, against those robots
+        (``dist``/``hit`` updated in place).
+
+        A beam against a robot whose cross-section at the beam's height was measured and
+        checked (``_measure_sections``) is clipped to that polygon in numpy. Any other is cast
+        again in Bullet, with the robots in place, over the stretch where it is inside some
+        other robot's bounding circle (and beyond its own robot's body), so the ray usually
+        starts outside its own robot's bounding box."""
         reach = np.where(hit, dist, plan.full)
-        idx, t_in, t_out = self._robot_candidates(plan, reach)
-        if not len(idx):
+        g, j, t_in, t_out = self._robot_candidates(plan, reach)
+        if not len(g):
             return
-        t_in = np.maximum(t_in, plan.start[idx])
-        t_out = np.minimum(t_out, reach[idx])
+        beams = len(np.unique(g))
+        sec = self._section_index[plan.robots[self._ray_owner(plan, g)], j]
+        flat = sec >= 0
+        if flat.any():
+            self._clip_at_robots(plan, reach, g[flat], j[flat], sec[flat], dist, hit)
+        if not flat.all():
+            self._cast_bullet_at_robots(plan, reach, g[~flat], t_in[~flat], t_out[~flat],
+                                        dist, hit)
+        self.rays_at_robots += beams
+
+    @staticmethod
+    def _ray_owner(plan, g: np.ndarray) -> np.ndarray:
+        """Index into ``plan.robots`` of the scan each ray ``g`` belongs to."""
+        return np.searchsorted(np.cumsum(plan.counts), g, side="right")
+
+    def _clip_at_robots(self, plan, reach: np.ndarray, g: np.ndarray, j: np.ndarray,
+                        sec: np.ndarray, dist: np.ndarray, hit: np.ndarray) -> None:
+        """Beams ``g`` against robots ``j``'s measured sections ``sec`` (see sections.py)."""
+        tyaw = self.pose[j, 2]
+        c, s = np.cos(tyaw), np.sin(tyaw)
+        o, d = plan.origins[g, :2], plan.dirs[g]
+        ox, oy = o[:, 0] - self.pose[j, 0], o[:, 1] - self.pose[j, 1]
+        lo = np.column_stack((c * ox + s * oy, c * oy - s * ox))          # in robot j's frame
+        ld = np.column_stack((c * d[:, 0] + s * d[:, 1], c * d[:, 1] - s * d[:, 0]))
+        t_in, t_out = clip_beams(lo, ld, self._section_normals[sec], self._section_offsets[sec])
+        start = plan.start[g]
+        t = np.maximum(t_in, start)     # a beam that starts inside another robot meets it at once
+        meet = (t_in <= t_out) & (t_out > start) & (t < reach[g])
+        if not meet.any():
+            return
+        g, t = g[meet], t[meet]
+        best = np.full(len(dist), np.inf)
+        np.minimum.at(best, g, t)
+        at = np.flatnonzero(best < np.where(hit, dist, np.inf))
+        dist[at] = best[at]
+        hit[at] = True
+
+    def _cast_bullet_at_robots(self, plan, reach: np.ndarray, g: np.ndarray, t_in: np.ndarray,
+                               t_out: np.ndarray, dist: np.ndarray, hit: np.ndarray) -> None:
+        """Beams ``g`` cast in Bullet over the union of their stretches (t_in, t_out)."""
+        order = np.argsort(g, kind="stable")
+        g, t_in, t_out = g[order], t_in[order], t_out[order]
+        first = np.flatnonzero(np.concatenate(([True], g[1:] != g[:-1])))
+        idx = g[first]
+        t_in = np.maximum(np.minimum.reduceat(t_in, first), plan.start[idx])
+        t_out = np.minimum(np.maximum.reduceat(t_out, first), reach[idx])
         ok = t_out - t_in > 1e-9
         idx, t_in, t_out = idx[ok], t_in[ok], t_out[ok]
+        if not len(idx):
+            return
         o, d = plan.origins[idx], plan.dirs[idx]
         froms = o.copy()
         froms[:, :2] += d * t_in[:, None]
@@ -758,22 +810,24 @@ class World:
         frac, ids = cast_rays(self.client, froms, tos, self._threads(len(idx)), chunk=_RAY_CHUNK)
         robot = np.isin(ids, self._body_array)
         at = idx[robot]
-        dist[at] = t_in[robot] + frac[robot] * (t_out[robot] - t_in[robot])
-        hit[at] = True
+        new = t_in[robot] + frac[robot] * (t_out[robot] - t_in[robot])
+        closer = new < np.where(hit[at], dist[at], np.inf)
+        dist[at[closer]] = new[closer]
+        hit[at[closer]] = True
         self.rays_cast += len(idx)
-        self.rays_at_robots += len(idx)
 
     def _robot_candidates(self, plan, reach: np.ndarray
-                          ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The plan's rays whose line passes within another robot's bounding circle nearer
-        than ``reach`` (a robot's body lies inside its circle, so no other ray can hit a robot
-        before ``reach``), with the stretch of each inside those circles.
+                          ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The (ray, robot) pairs where the ray's line passes within the other robot's
+        bounding circle nearer than ``reach`` (a robot's body lies inside its circle, so no
+        other ray can hit a robot before ``reach``), with the stretch inside the circle.
 
         Returns:
-            (ray indices, distance where the first circle is entered, distance where the
-            last one is left), distances from the laser origin.
+            (ray indices, robot indices, distance where the circle is entered, where it is
+            left), distances from the laser origin; a ray may appear with several robots.
         """
-        none = np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0)
+        none = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0),
+                np.zeros(0))
         q_robot = plan.robots
         offs = np.concatenate(([0], np.cumsum(plan.counts)))[:-1]
         o = plan.origins[offs, :2]                                   # (Q, 2) laser origins
@@ -812,10 +866,84 @@ class World:
             return none
         g, rep, pe = g[keep], rep[keep], pe[keep]
         px = (dq + rq)[rep]                                         # where the circle is left
-        order = np.argsort(g, kind="stable")
-        g, pe, px = g[order], pe[order], px[order]
-        first = np.flatnonzero(np.concatenate(([True], g[1:] != g[:-1])))
-        return (g[first], np.minimum.reduceat(pe, first), np.maximum.reduceat(px, first))
+        return g, js[rep], pe, px
+
+    def _measure_sections(self) -> None:
+        """For every (lidar robot, other robot) pair, the other's cross-section at the
+        lidar's height as a checked convex polygon (sections.py), or -1 where there is none
+        (its beams at that robot are cast in Bullet). Once per (model, laser height).
+
+        Sets ``_section_index`` (N, N), the padded half-planes ``_section_normals`` /
+        ``_section_offsets``, and ``sections_report``: one line per (model, height) saying
+        what was measured and how it compared with Bullet."""
+        n = self.n
+        self._section_index = np.full((n, n), -1, dtype=np.int64)
+        found: list = []
+        keys: dict = {}
+        self.sections_report: List[str] = []
+        for i in self._laser_robots.tolist():
+            z = float(self.lidar.offsets[i, 2])
+            for j in range(n):
+                if j == i:
+                    continue
+                key = (self.specs[j].model, z)
+                if key not in keys:
+                    sec, line = self._section_of(j, z)
+                    keys[key] = -1 if sec is None else len(found)
+                    if sec is not None:
+                        found.append(sec)
+                    self.sections_report.append("model %r at %.3f m: %s"
+                                                % (self.specs[j].model, z, line))
+                self._section_index[i, j] = keys[key]
+        self._section_normals, self._section_offsets = pad_sections(found)
+
+    def _section_of(self, j: int, z: float) -> Tuple[Optional[Section], str]:
+        """Robot j's cross-section at height z, measured with rays that see only robot j
+        (all its links), at its pose now; None when it is not a convex polygon Bullet agrees
+        with. Returns (section, a line for ``sections_report``)."""
+        p = self.client
+        b = self.bodies[j]
+        x, y, yaw = (float(v) for v in self.pose[j])
+        c, s = math.cos(yaw), math.sin(yaw)
+        self._set_body(j, self.pose[j])
+
+        def probe(starts: np.ndarray, dirs: np.ndarray, length: float):
+            m = len(starts)
+            froms = np.column_stack((x + c * starts[:, 0] - s * starts[:, 1],
+                                     y + s * starts[:, 0] + c * starts[:, 1], np.full(m, z)))
+            wd = np.column_stack((c * dirs[:, 0] - s * dirs[:, 1], s * dirs[:, 0] + c * dirs[:, 1]))
+            tos = froms.copy()
+            tos[:, :2] += wd * length
+            dist = np.full(m, np.inf)
+            normal = np.zeros((m, 2))
+            for a in range(0, m, MAX_RAYS_PER_BATCH):
+                e = min(m, a + MAX_RAYS_PER_BATCH)
+                res = p.rayTestBatch(froms[a:e], tos[a:e], numThreads=1,
+                                     collisionFilterMask=_SELF_GROUP)
+                for k, r in enumerate(res, a):
+                    if r[0] == b:
+                        nx, ny = r[4][0], r[4][1]
+                        h = math.hypot(nx, ny)
+                        if h > 1e-9:
+                            dist[k] = r[2] * length
+                            normal[k] = ((c * nx + s * ny) / h, (c * ny - s * nx) / h)
+            return dist, normal
+
+        links = range(-1, p.getNumJoints(b))
+        for link in links:
+            p.setCollisionFilterGroupMask(b, link, _SELF_GROUP, _ROBOT_MASK)
+        try:
+            reach = float(self.radius[j])
+            sec = measure_section(probe, reach)
+            if sec is None:
+                return None, "no convex section found: beams cast in Bullet"
+            ok, summary = check_section(sec, probe, reach)
+        finally:
+            for link in links:
+                p.setCollisionFilterGroupMask(b, link, _ROBOT_GROUP, _ROBOT_MASK)
+        if not ok:
+            return None, "section disagrees with Bullet (%s): beams cast in Bullet" % summary
+        return sec, "convex section, %s" % summary
 
     def _radius_at_lasers(self) -> np.ndarray:
         """(N, N): row i, the radius about base_footprint of every robot's cross-section at

@@ -821,6 +821,8 @@ def main(argv: Optional[List[str]] = None) -> int:
         rospy.loginfo("simulator: world %s with robots %s; ray tests through %s",
                       world.config.path, ", ".join(s.name or "<empty>" for s in world.specs),
                       bullet_capi.status())
+        for line in world.sections_report:
+            rospy.loginfo("simulator: lidar beams at robots of %s", line)
         node.spin(stop)
     except BulletFloorSimError as e:
         rospy.logfatal("simulator: %s", e)
