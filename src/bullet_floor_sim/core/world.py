@@ -237,6 +237,7 @@ class World:
                 self._drives.append((sel, cls([self.specs[i].drive for i in rows])))
         self.bodies = []
         self._inertial = []
+        self._body_at: List[Optional[Tuple[float, float, float]]] = [None] * n   # see _set_body
         for i, (spec, model) in enumerate(zip(self.specs, self.models)):
             x, y, yaw = self.pose[i]
             try:
@@ -644,7 +645,10 @@ class World:
     def _set_body(self, i: int, pose) -> None:
         """Place a robot's body with its base_footprint at ``pose`` (PyBullet wants the
         pose of the base's inertial frame, so the URDF link pose is composed with it)."""
-        x, y, yaw = pose
+        x, y, yaw = pose = (float(pose[0]), float(pose[1]), float(pose[2]))
+        if self._body_at[i] == pose:     # already there (collision checks set it back and forth)
+            return
+        self._body_at[i] = pose
         (px, py, pz), (qx, qy, qz, qw) = self._inertial[i]
         c, s = math.cos(yaw), math.sin(yaw)
         sz, cz = math.sin(0.5 * yaw), math.cos(0.5 * yaw)
@@ -738,6 +742,7 @@ class World:
         """Move every robot body far out of the scene, apart (until ``_sync_bodies``)."""
         for i, b in enumerate(self.bodies):
             self._reset_pose(b, (1e4 + 10.0 * i, 1e4, -1e4), (0.0, 0.0, 0.0, 1.0))
+        self._body_at = [None] * self.n
 
     def _cast_at_robots(self, plan, dist: np.ndarray, hit: np.ndarray) -> None:
         """The beams that may meet another robot before their wall hit, against those robots
