@@ -7,12 +7,19 @@ roscore, and one subscriber (rospy.AnyMsg, so it does not deserialise) is attach
 topic it publishes. The real-time factor is sim time gained on /clock over a wall-clock
 window. robot_state_publishers are not started (they publish nothing per step).
 
-Two runs per robot count. "still": no command, as this bench has always run (the core then
-skips the physics and the lidars reuse their wall distances, so it is mostly the node's
-publishing); printed as ``BENCH ros rtf_1=<x> rtf_10=<x> rtf_50=<x>``. "turning": every robot
-turns in place at 0.5 rad/s (cmd_vel from this process at 5 Hz of sim time), so every lidar,
-odometry and pose changes every step, as in sim_bench; printed as
-``BENCH ros_turning rtf_1=<x> rtf_10=<x> rtf_50=<x>``.
+Per robot count, three runs, each in its own process:
+
+* "moving": every robot turns in place at 0.5 rad/s (cmd_vel from this process at 5 Hz of
+  sim time), so every lidar, odometry and pose changes every step, as in sim_bench; printed
+  as ``BENCH ros rtf_1=<x> rtf_10=<x> rtf_50=<x>``. The node's own publishing overhead (wall
+  time building and sending messages over wall time stepping the world, which the node
+  measures and publishes on ``~publishing_share``, averaged over the window) is printed as
+  ``BENCH ros_publishing share_1=<x> share_10=<x> share_50=<x>`` (target <= 0.30).
+* "core": the same robots and commands on the bare core World in this process, no ROS:
+  ``core_rtf`` in the table, and ``core_rtf / rtf`` the node's total slow-down, which also
+  holds what the subscribers' process and the kernel's sockets take from the two cores.
+* "still": no command (the core then skips the physics and the lidars reuse their wall
+  distances, so it is mostly the node's publishing); ``BENCH ros_still ...``.
 """
 from __future__ import annotations
 
@@ -53,13 +60,14 @@ def _world_file(n: int, tmp: str) -> str:
     return path
 
 
-def run_case(n: int, window: float, turning: bool = True) -> Tuple[float, float]:
-    """Achieved real-time factor of the node with n robots (sim s per wall s), and the
-    seconds it took to exit on SIGINT."""
+def run_case(n: int, window: float, turning: bool = True) -> Tuple[float, float, float]:
+    """Achieved real-time factor of the node with n robots (sim s per wall s), the seconds
+    it took to exit on SIGINT, and its mean publishing share over the window."""
     import rosgraph
     import rospy
     from geometry_msgs.msg import Twist
     from rosgraph_msgs.msg import Clock
+    from std_msgs.msg import Float64
 
     tmp = tempfile.mkdtemp(prefix="bfs_ros_bench_")
     world = _world_file(n, tmp)
@@ -75,8 +83,10 @@ def run_case(n: int, window: float, turning: bool = True) -> Tuple[float, float]
             time.sleep(0.1)
         subprocess.call(["rosparam", "set", "/use_sim_time", "true"], env=env)
         sim = subprocess.Popen(["rosrun", "bullet_floor_sim", "simulator", "_world:=" + world,
-                                "_real_time_factor:=0", "_robot_state_publishers:=false"],
-                               env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                                "_real_time_factor:=0", "_robot_state_publishers:=false",
+                                "_report_period:=1.0"],
+                               env=env, stdout=open(os.path.join(tmp, "sim.log"), "w"),
+                               stderr=subprocess.STDOUT)
         rospy.init_node("ros_bench_%d" % n, anonymous=True, disable_signals=True)
         last = {}
         cmd = [rospy.Publisher("/robot%d/cmd_vel" % (i + 1), Twist, queue_size=1)
@@ -102,10 +112,15 @@ def run_case(n: int, window: float, turning: bool = True) -> Tuple[float, float]
                 subs.append(rospy.Subscriber("/robot%d/%s" % (i + 1, name), rospy.AnyMsg,
                                              lambda m: None))
         subs.append(rospy.Subscriber("/tf", rospy.AnyMsg, lambda m: None))
+        shares = []
+        subs.append(rospy.Subscriber("/simulator/publishing_share", Float64,
+                                     lambda m: shares.append(m.data)))
         time.sleep(3.0)                        # connections up
         w0, s0 = time.time(), last["t"]
+        k0 = len(shares)
         time.sleep(window)
         w1, s1 = time.time(), last["t"]
+        in_window = shares[k0 + 1:len(shares)] or shares[k0:] or [float("nan")]
         # how long the node takes to exit on SIGINT, subscribers still attached (it used to
         # hang now and then until roslaunch's SIGKILL)
         t0 = time.monotonic()
@@ -118,7 +133,7 @@ def run_case(n: int, window: float, turning: bool = True) -> Tuple[float, float]
         for s in subs:
             s.unregister()
         rospy.signal_shutdown("done")
-        return (s1 - s0) / (w1 - w0), stop_s
+        return (s1 - s0) / (w1 - w0), stop_s, sum(in_window) / len(in_window)
     finally:
         for p in (sim, core):
             if p is not None:
@@ -129,30 +144,65 @@ def run_case(n: int, window: float, turning: bool = True) -> Tuple[float, float]
                     p.kill()
 
 
+def run_core(n: int, sim_seconds: float) -> float:
+    """Real-time factor of the bare core World with the "moving" commands: every robot turns
+    at 0.5 rad/s, commanded every 0.2 s of sim time."""
+    import sim_bench
+
+    world, _ = sim_bench._world(n)
+    steps = int(round(sim_seconds / world.clock.dt))
+    every = int(round(0.2 / world.clock.dt))
+    t0 = time.perf_counter()
+    for k in range(steps):
+        if k % every == 0:
+            for i in range(n):
+                world.command(i, 0.0, 0.0, 0.5)
+        world.step()
+    rtf = steps * world.clock.dt / (time.perf_counter() - t0)
+    world.close()
+    return rtf
+
+
+def _sub(*args: str) -> list:
+    out = subprocess.run([sys.executable, __file__] + list(args), stdout=subprocess.PIPE,
+                         stderr=subprocess.DEVNULL, universal_newlines=True)
+    lines = out.stdout.strip().splitlines()
+    return ([float(v) for v in lines[-1].split()] if out.returncode == 0 and lines
+            else [float("nan")] * 3)
+
+
 def main() -> int:
     if len(sys.argv) == 4 and sys.argv[1] == "--case":
-        print("%r %r" % run_case(int(sys.argv[2]), 10.0, turning=sys.argv[3] == "turning"))
+        print("%r %r %r" % run_case(int(sys.argv[2]), 10.0, turning=sys.argv[3] == "moving"))
         return 0
-    rtf, stop = {}, {}
-    for n in (1, 10, 50):   # each case in its own process: rospy.init_node is once per process
-        for mode in ("turning", "still"):
-            out = subprocess.run([sys.executable, __file__, "--case", str(n), mode],
-                                 stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                                 universal_newlines=True)
-            lines = out.stdout.strip().splitlines()
-            rtf[n, mode], stop[n, mode] = (tuple(float(v) for v in lines[-1].split())
-                                           if out.returncode == 0 and lines
-                                           else (float("nan"), float("nan")))
-    print("%-7s %14s %14s %16s" % ("robots", "rtf_turning", "rtf_still", "sigint_exit_s"))
-    for n in (1, 10, 50):
-        print("%-7d %14.1f %14.1f %16s" % (n, rtf[n, "turning"], rtf[n, "still"], "%.2f / %.2f"
-                                           % (stop[n, "turning"], stop[n, "still"])))
+    if len(sys.argv) == 3 and sys.argv[1] == "--core":
+        n = int(sys.argv[2])
+        print("%r" % run_core(n, {1: 60.0, 10: 15.0}.get(n, 3.0)))
+        return 0
+    sizes = (1, 10, 50)
+    rtf, stop, share, core = {}, {}, {}, {}
+    for n in sizes:   # each case in its own process: rospy.init_node is once per process
+        core[n] = _sub("--core", str(n))[0]
+        for mode in ("moving", "still"):
+            rtf[n, mode], stop[n, mode], share[n, mode] = _sub("--case", str(n), mode)
+    print("%-7s %10s %10s %14s %10s %10s %16s" % ("robots", "rtf", "core_rtf", "core_rtf/rtf",
+                                                  "pub_share", "rtf_still", "sigint_exit_s"))
+    for n in sizes:
+        print("%-7d %10.1f %10.1f %14.2f %10.2f %10.1f %16s" % (
+            n, rtf[n, "moving"], core[n], core[n] / rtf[n, "moving"], share[n, "moving"],
+            rtf[n, "still"], "%.2f / %.2f" % (stop[n, "moving"], stop[n, "still"])))
+    print("rtf, pub_share: the node with every robot moving, a subscriber on every topic; "
+          "core_rtf: the same motion on the bare core World")
+    print("pub_share: the node's wall time building and sending messages / its wall time "
+          "stepping the world")
     print("sigint_exit_s: seconds from SIGINT to the node's exit, subscribers attached")
-    print("targets: rtf_1 >= 100, rtf_10 >= 20, rtf_50 >= 3")
+    print("targets: rtf_1 >= 100, rtf_10 >= 20, rtf_50 >= 3, pub_share <= 0.30")
     print("BENCH ros rtf_1=%.1f rtf_10=%.1f rtf_50=%.2f"
-          % (rtf[1, "still"], rtf[10, "still"], rtf[50, "still"]))
-    print("BENCH ros_turning rtf_1=%.1f rtf_10=%.1f rtf_50=%.2f"
-          % (rtf[1, "turning"], rtf[10, "turning"], rtf[50, "turning"]))
+          % tuple(rtf[n, "moving"] for n in sizes))
+    print("BENCH ros_publishing share_1=%.2f share_10=%.2f share_50=%.2f"
+          % tuple(share[n, "moving"] for n in sizes))
+    print("BENCH ros_still rtf_1=%.1f rtf_10=%.1f rtf_50=%.2f"
+          % tuple(rtf[n, "still"] for n in sizes))
     print("BENCH ros_shutdown max_s=%.2f" % max(stop.values()))
     return 0
 
