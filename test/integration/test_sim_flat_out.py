@@ -1,0 +1,82 @@
+#!/usr/bin/env python3
+"""rostest node: the simulator at rtf 0 (as fast as it can) in worlds/simple.
+
+Flat out, the node queues messages per connection and sends them in batches (see _Outbox in
+ros/simulator.py). A subscriber that keeps up must still get every message, in order: the
+header seq of each topic goes up by exactly one, the stamps by exactly the topic's period.
+Messages are taken as rospy.AnyMsg (the header read from the raw bytes) so this process keeps
+up easily.
+"""
+from __future__ import annotations
+
+import os
+import struct
+import sys
+import time
+import unittest
+
+import rospy
+import rostest
+from rosgraph_msgs.msg import Clock
+from std_msgs.msg import Float64
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from helpers import wait_for  # noqa: E402
+
+#: topic -> sim-time period of its messages (sim.launch's default rates)
+TOPICS = {"/robot1/base_scan": 0.1, "/robot1/battery_state": 0.1, "/robot2/joint_states": 0.1,
+          "/robot2/base_pose_ground_truth": 0.05, "/robot1/odom": 0.02}
+_HEADER = struct.Struct("<III")
+
+
+class SimFlatOut(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("test_sim_flat_out")
+        cls.seen = {t: [] for t in TOPICS}
+        cls.rtf, cls.share = [], []
+        rospy.Subscriber("/simulator/real_time_factor_achieved", Float64,
+                         lambda m: cls.rtf.append(m.data))
+        rospy.Subscriber("/simulator/publishing_share", Float64,
+                         lambda m: cls.share.append(m.data))
+        rospy.wait_for_message("/clock", Clock, timeout=30.0)
+        subs = [rospy.Subscriber(t, rospy.AnyMsg, cls._keep, callback_args=t, queue_size=None)
+                for t in TOPICS]
+        wait_for(lambda: all(len(v) > 10 for v in cls.seen.values()), 30.0, "every topic")
+        time.sleep(4.0)
+        for s in subs:
+            s.unregister()
+        wait_for(lambda: len(cls.share) >= 3, 20.0, "three reports of the publishing share")
+
+    @classmethod
+    def _keep(cls, msg, topic):
+        seq, secs, nsecs = _HEADER.unpack_from(msg._buff, 0)
+        cls.seen[topic].append((seq, secs * 10 ** 9 + nsecs))
+
+    def test_runs_flat_out(self):
+        """Far faster than real time (the simple world with two robots runs above 50x)."""
+        self.assertGreater(max(self.rtf), 20.0, self.rtf)
+
+    def test_no_message_lost_or_reordered(self):
+        for topic, period in TOPICS.items():
+            got = self.seen[topic]
+            # from the second message: the first may have been queued before we connected
+            seqs = [s for s, _ in got[1:]]
+            stamps = [t for _, t in got[1:]]
+            with self.subTest(topic=topic):
+                sim_s = (stamps[-1] - stamps[0]) * 1e-9
+                self.assertGreater(sim_s, 20.0, "%s: only %.1f sim s seen" % (topic, sim_s))
+                gaps = [b - a for a, b in zip(seqs, seqs[1:]) if b - a != 1]
+                self.assertEqual(gaps, [], "%s: seq jumps %s" % (topic, gaps[:10]))
+                steps = {b - a for a, b in zip(stamps, stamps[1:])}
+                self.assertEqual(steps, {int(round(period * 1e9))}, topic)
+
+    def test_publishing_share_is_reported(self):
+        """The node's publishing time over its stepping time: a share, not zero."""
+        for v in self.share:
+            self.assertGreater(v, 0.0)
+            self.assertLess(v, 1.0)
+
+
+if __name__ == "__main__":
+    rostest.rosrun("bullet_floor_sim", "sim_flat_out", SimFlatOut)
