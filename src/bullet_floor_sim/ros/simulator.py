@@ -766,10 +766,13 @@ class SimulatorNode:
             if now_wall >= report_at:
                 achieved = (w.clock.now - rep_sim) / (now_wall - rep_wall)
                 stepping = self.time_stepping - rep_step
-                share = (self.time_publishing - rep_pub) / stepping if stepping > 0 else 0.0
-                rospy.loginfo("simulator: real-time factor %.2f (asked %s); publishing took "
-                              "%.0f%% of the stepping time", achieved,
-                              self.rtf if self.rtf > 0 else "as fast as possible", 100.0 * share)
+                publishing = self.time_publishing - rep_pub
+                share = publishing / stepping if stepping > 0 else 0.0
+                wall = max(now_wall - rep_wall, 1e-9)
+                rospy.loginfo("simulator: real-time factor %.2f (asked %s); of the wall time "
+                              "%.0f%% stepping, %.0f%% publishing", achieved,
+                              self.rtf if self.rtf > 0 else "as fast as possible",
+                              100.0 * stepping / wall, 100.0 * publishing / wall)
                 self.rtf_pub.publish(Float64(achieved))
                 self.share_pub.publish(Float64(share))
                 report_at = now_wall + self.report_period
