@@ -345,7 +345,9 @@ def test_scans_at_laser_rate(one_robot):
 def test_scans_over_the_ray_limit_are_split_and_exact():
     from bullet_floor_sim.core import sensors
 
-    # 3 robots x 7200 beams = 21,600 rays: 22 ray-test calls; every scan still exact
+    # 3 robots x 7200 beams = 21,600 rays: split into calls of the world's chunk size (4000
+    # through the C API, 1000 through rayTestBatch); every scan still exact
+    from bullet_floor_sim.core import world as world_mod
     fine = LaserConfig(fov=360.0, resolution=0.05, noise_std=0.0)
     poses = [(1.0, 1.0, 0.0), (2.5, 3.0, 1.0), (5.0, 2.5, -2.0)]
     w = simple_world([RobotSpec(name="r%d" % i, pose=p, laser=fine, odometry=STILL)
@@ -363,7 +365,9 @@ def test_scans_over_the_ray_limit_are_split_and_exact():
             scans = w.step(10)
         finally:
             sensors._cast_batch = orig
-        assert calls[:22] == [1000] * 21 + [600]
+        k = world_mod._ray_chunk()
+        assert k in (1000, 4000)
+        assert calls[:21600 // k + 1] == [k] * (21600 // k) + [21600 % k]
         # beams at the other robots are clipped to their sections, not cast
         assert sum(calls) == w.rays_cast == 21600 and 0 < w.rays_at_robots < 21600 / 4
         assert max(calls) <= sensors.MAX_RAYS_PER_BATCH

@@ -24,6 +24,7 @@ from typing import Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from . import bullet_capi
 from .config import RobotSpec, WorldConfig, load_world_config, resolve_world
 from .errors import ConfigError, MapError
 from .floormap import FloorMap, load_map, wall_mesh
@@ -40,11 +41,12 @@ _MAX_MESH_RECTS = 16000
 #: explicitly); _SELF_GROUP briefly marks one robot for rays that must see only it.
 _ROBOT_GROUP, _ROBOT_MASK, _SELF_GROUP = 1, -1, 4
 _SELF_EXIT_EPS = 1e-4
-#: Rays per rayTestBatch call (see cast_rays), and the batch size from which calls use
+#: Rays per call through the C API and through rayTestBatch (see cast_rays), and the batch
+#: size from which calls use
 #: ``ray_threads`` (smaller ones run on one thread: threads cost more than they save; measured
 #: on two cores through the C API, 100 rays took 57 us on one thread and 65 on two, 200 rays
 #: 108 and 97, a 360-beam scan 186 and 144).
-_RAY_CHUNK = 1000
+_RAY_CHUNK_CAPI, _RAY_CHUNK_TUPLES = 4000, 1000
 _THREADED_RAYS = 160
 _PENETRATION_TOL = 1e-3
 #: How deep two robots may press into each other (their bumpers give): with none, two
@@ -726,7 +728,7 @@ class World:
         plan cut short that hits nothing is cast again in full."""
         froms, start, length = plan.froms[rays], plan.start[rays], plan.length[rays]
         frac, ids = cast_rays(self.client, froms, plan.tos[rays], self._threads(len(rays)),
-                              chunk=_RAY_CHUNK)
+                              chunk=_ray_chunk())
         dist = start + frac * length
         hit = ids >= 0
         again = np.flatnonzero(plan.cut[rays] & ~hit)
@@ -735,7 +737,7 @@ class World:
             tos = froms[again].copy()
             tos[:, :2] += plan.dirs[rays[again]] * rest[:, None]
             f2, i2 = cast_rays(self.client, froms[again], tos, self._threads(len(again)),
-                               chunk=_RAY_CHUNK)
+                               chunk=_ray_chunk())
             dist[again] = start[again] + f2 * rest
             hit[again] = i2 >= 0
         self.rays_cast += len(rays) + len(again)
@@ -816,7 +818,7 @@ class World:
         froms[:, :2] += d * t_in[:, None]
         tos = o.copy()
         tos[:, :2] += d * t_out[:, None]
-        frac, ids = cast_rays(self.client, froms, tos, self._threads(len(idx)), chunk=_RAY_CHUNK)
+        frac, ids = cast_rays(self.client, froms, tos, self._threads(len(idx)), chunk=_ray_chunk())
         robot = np.isin(ids, self._body_array)
         at = idx[robot]
         new = t_in[robot] + frac[robot] * (t_out[robot] - t_in[robot])
@@ -1060,6 +1062,10 @@ def _integrate(pose: np.ndarray, vel: np.ndarray, dt: float) -> np.ndarray:
     out[:, 1] = pose[:, 1] + s * vx + c * vy
     out[:, 2] = a + half
     return out
+
+
+def _ray_chunk() -> int:
+    return _RAY_CHUNK_CAPI if bullet_capi.available() else _RAY_CHUNK_TUPLES
 
 
 def _wrap_angle(a: float) -> float:
