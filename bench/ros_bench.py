@@ -60,7 +60,7 @@ def _world_file(n: int, tmp: str) -> str:
     return path
 
 
-def run_case(n: int, window: float, turning: bool = True) -> Tuple[float, float, float]:
+def run_case(n: int, window: float, moving: bool = True) -> Tuple[float, float, float]:
     """Achieved real-time factor of the node with n robots (sim s per wall s), the seconds
     it took to exit on SIGINT, and its mean publishing share over the window."""
     import rosgraph
@@ -90,7 +90,7 @@ def run_case(n: int, window: float, turning: bool = True) -> Tuple[float, float,
         rospy.init_node("ros_bench_%d" % n, anonymous=True, disable_signals=True)
         last = {}
         cmd = [rospy.Publisher("/robot%d/cmd_vel" % (i + 1), Twist, queue_size=1)
-               for i in range(n)] if turning else []
+               for i in range(n)] if moving else []
         turn = Twist()
         turn.angular.z = 0.5
 
@@ -173,7 +173,7 @@ def _sub(*args: str) -> list:
 
 def main() -> int:
     if len(sys.argv) == 4 and sys.argv[1] == "--case":
-        print("%r %r %r" % run_case(int(sys.argv[2]), 10.0, turning=sys.argv[3] == "moving"))
+        print("%r %r %r" % run_case(int(sys.argv[2]), 10.0, moving=sys.argv[3] == "moving"))
         return 0
     if len(sys.argv) == 3 and sys.argv[1] == "--core":
         n = int(sys.argv[2])

@@ -42,10 +42,9 @@ _MAX_MESH_RECTS = 16000
 _ROBOT_GROUP, _ROBOT_MASK, _SELF_GROUP = 1, -1, 4
 _SELF_EXIT_EPS = 1e-4
 #: Rays per call through the C API and through rayTestBatch (see cast_rays), and the batch
-#: size from which calls use
-#: ``ray_threads`` (smaller ones run on one thread: threads cost more than they save; measured
-#: on two cores through the C API, 100 rays took 57 us on one thread and 65 on two, 200 rays
-#: 108 and 97, a 360-beam scan 186 and 144).
+#: size from which calls use ``ray_threads`` (smaller ones run on one thread: threads cost
+#: more than they save; measured on two cores through the C API, 100 rays took 57 us on one
+#: thread and 65 on two, 200 rays 108 and 97, a 360-beam scan 186 and 144).
 _RAY_CHUNK_CAPI, _RAY_CHUNK_TUPLES = 4000, 1000
 _THREADED_RAYS = 160
 _PENETRATION_TOL = 1e-3
