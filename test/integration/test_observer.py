@@ -100,6 +100,8 @@ class Observer(unittest.TestCase):
         wait_for(lambda: len(self.dests) > 20, 120, "20 destination messages")
         with self.lock:
             dests = list(self.dests)
+            tracks = {m.header.stamp: m for m in self.tracks}
+        standing = 0
         for d in dests:
             self.assertAlmostEqual(sum(d.probabilities), 1.0, places=6)
             self.assertEqual(list(d.probabilities), sorted(d.probabilities, reverse=True))
@@ -108,8 +110,17 @@ class Observer(unittest.TestCase):
             self.assertLessEqual(set(d.regions), ROI_IDS)
             self.assertIn(d.start_region, ROI_IDS)
             self.assertGreaterEqual(d.observed, 0.0)
-            if not d.under_way:   # standing: the next leg, nothing of it seen (< 0.3 m)
-                self.assertLess(d.observed, 0.35)
+            at = [t.position for t in getattr(tracks.get(d.header.stamp), "tracks", ())
+                  if t.id == d.track_id]
+            if not d.under_way and at:
+                # standing: the next leg from where it stands; it is under way once the track
+                # is min_progress (0.3 m) from there. ``observed`` is the path walked since it
+                # stood, jitter included, so at least that distance (0.354 m was seen while
+                # the track stayed within 0.3 m)
+                away = math.hypot(at[0].x - d.start.x, at[0].y - d.start.y)
+                self.assertLess(away, 0.3, d)
+                self.assertGreaterEqual(d.observed, away - 1e-6, d)
+                standing += 1
             # search points for the likely regions (the most likely always): the first at
             # best_point, every one on the map
             self.assertTrue(1 <= len(d.points) <= 3, len(d.points))
@@ -118,6 +129,7 @@ class Observer(unittest.TestCase):
                 self.assertTrue(0.0 < pt.x < 30.0 and 0.0 < pt.y < 20.0, pt)
                 if k:
                     self.assertGreaterEqual(d.probabilities[k], 0.05)
+        self.assertGreater(standing, 0, "no prediction made while robot1 stood")
 
     def test_3_a_leg_is_predicted_right_before_it_ends(self):
         """Of the walker's completed legs seen by the predictor, the last prediction made
