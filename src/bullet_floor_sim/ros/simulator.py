@@ -409,6 +409,12 @@ class _Outbox:
         return not msgs
 
 
+try:   # rospy internals: the setter of rospy's time, used when this node owns the clock
+    from rospy.rostime import _set_rostime
+except ImportError:
+    _set_rostime = None
+
+
 def _stop_listening_to_own_clock() -> bool:
     """Under /use_sim_time, rospy subscribes every node to /clock, the simulator included:
     each /clock message would cross a TCP connection back into this process (a thread hand-off
@@ -420,26 +426,14 @@ def _stop_listening_to_own_clock() -> bool:
     """
     try:
         from rospy.impl import simtime
-        from rospy.rostime import _set_rostime  # noqa: F401  (the setter used in publish)
     except ImportError:
         return False
     sub = getattr(simtime, "_clock_sub", None)
-    if sub is None:
+    if sub is None or _set_rostime is None:
         return False
     sub.unregister()
     simtime._clock_sub = None
     return True
-
-
-def _set_rostime(stamp: rospy.Time) -> None:
-    global _set_rostime_impl
-    if _set_rostime_impl is None:
-        from rospy.rostime import _set_rostime as setter
-        _set_rostime_impl = setter
-    _set_rostime_impl(stamp)
-
-
-_set_rostime_impl = None
 
 
 class StopSignals:
@@ -563,7 +557,7 @@ class SimulatorNode:
         self.share_pub = rospy.Publisher("~publishing_share", Float64, queue_size=1)
         self._clock_wall = -math.inf      # wall time of the last /clock
         self._clock_behind = False        # a due /clock was skipped (wall-rate bound)
-        self._flush_wall = self._flush_next = time.perf_counter()
+        self._flush_next = time.perf_counter()   # when not pacing, no flush before this
         # wall seconds spent in World.step, and in building and sending messages (the
         # publishing overhead the log and bench/ros_bench.py report)
         self.time_stepping = self.time_publishing = 0.0
@@ -718,7 +712,6 @@ class SimulatorNode:
             self._clock_wall = time.perf_counter()
             self._publish_clock(self.world.clock.now_ns)
         self.out.flush()
-        self._flush_wall = time.perf_counter()
 
     # ------------------------------------------------------------------------- main loop
     def spin(self, stop: Callable[[], bool] = lambda: False) -> None:
@@ -755,12 +748,12 @@ class SimulatorNode:
                     wall0, sim0 = now_wall, w.clock.now
             if ahead > 0 or now_wall >= self._flush_next:
                 self.flush()
-                self.time_publishing += self._flush_wall - now_wall
+                flushed = time.perf_counter()
+                self.time_publishing += flushed - now_wall
                 # a send costs per connection more than per byte: when not pacing, sending
                 # takes at most send_share of the wall time (the next flush waits for it)
-                self._flush_next = self._flush_wall + min(max(
-                    self.flush_period, (self._flush_wall - now_wall) / self.send_share),
-                    _MAX_FLUSH_WAIT)
+                self._flush_next = flushed + min(max(
+                    self.flush_period, (flushed - now_wall) / self.send_share), _MAX_FLUSH_WAIT)
             if ahead > 0:
                 time.sleep(min(ahead, 0.05))
             if now_wall >= report_at:
