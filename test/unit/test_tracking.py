@@ -14,6 +14,7 @@ import pytest
 from bullet_floor_sim.core.config import load_world_config, resolve_world
 from bullet_floor_sim.core.floormap import map_from_grid
 from bullet_floor_sim.core.paths import worlds_dir
+from bullet_floor_sim.core.solidmap import MapHandling
 from bullet_floor_sim.core.tracking import (Detection, PoseHistory, StaticMap, Tracker, TrackerConfig,
                                             TrackingError, cluster, detect, detect_scan,
                                             scan_points)
@@ -61,7 +62,7 @@ def synthetic_map():
 
 
 def test_static_map_explains_points_near_occupied_and_unknown_cells_and_outside():
-    static = StaticMap(synthetic_map(), tolerance=0.2)
+    static = StaticMap(synthetic_map(), tolerance=0.2, handling=MapHandling(unknown_slivers=0.0))
     pts = np.array([
         (10.74, -4.0),   # cell 7: 0.2 m from the wall column's cell 5 -> explained
         (10.86, -4.0),   # cell 8: 0.3 m -> not
@@ -74,6 +75,10 @@ def test_static_map_explains_points_near_occupied_and_unknown_cells_and_outside(
     np.testing.assert_allclose(static.distance(pts), [0.2, 0.3, 0.2, 0.2, 0.3, 0.0, 0.0],
                                atol=1e-9)
     assert static.explained(pts).tolist() == [True, False, True, True, False, True, True]
+    # by default a lone unknown cell amid free cells is an unseen sliver of floor, not a wall:
+    # the two points near it are 1.0 m from the wall column (cell 5 vs cell 15)
+    default = StaticMap(synthetic_map(), tolerance=0.2)
+    np.testing.assert_allclose(default.distance(pts[3:5]), [1.0, 1.0], atol=1e-9)
     assert StaticMap(synthetic_map(), tolerance=0.25).explained(pts[[1]]).tolist() == [False]
     with pytest.raises(TrackingError, match=r"static map: tolerance must be a finite number "
                                             r">= 0, got -0.1"):

@@ -6,6 +6,8 @@ names the file, the section and the key (as flatland's EnsureAccessedAllKeys doe
     map: map.yaml            # map_server map, relative to world.yaml
     wall_height: 2.0
     rois: rois.yaml
+    unknown: wall            # wall | free: what unknown map cells are (core/solidmap.py)
+    clean: {close_gaps: 0.15, speckle: 0.0, unknown_slivers: 0.3}   # core/solidmap.py
     robots:
       - name: robot1
         model: scitos_a5     # urdf/<model>.urdf.xacro
@@ -26,6 +28,7 @@ from typing import Any, Dict, List, Optional, Tuple, Type, TypeVar
 
 from .errors import ConfigError
 from .yamlio import read_yaml
+from .solidmap import MapHandling
 
 __all__ = [
     "DriveConfig",
@@ -181,6 +184,7 @@ class WorldConfig:
     wall_height: float = 2.0
     rois: Optional[str] = None
     robots: List[RobotSpec] = field(default_factory=list)
+    map_handling: MapHandling = MapHandling()
 
     @property
     def name(self) -> str:
@@ -188,7 +192,8 @@ class WorldConfig:
         return os.path.basename(os.path.dirname(self.path))
 
 
-_WORLD_KEYS = ("map", "wall_height", "rois", "robots")
+_WORLD_KEYS = ("map", "wall_height", "rois", "robots", "unknown", "clean")
+_CLEAN_KEYS = ("close_gaps", "speckle", "unknown_slivers")
 _ROBOT_KEYS = ("name", "model", "pose", "drive", "laser", "odometry", "battery")
 
 
@@ -247,7 +252,25 @@ def load_world_config(path: str) -> WorldConfig:
     if dup:
         raise ConfigError("%s: duplicate robot name(s): %s" % (path, ", ".join(repr(d) for d in dup)))
     return WorldConfig(path=os.path.abspath(path), map_yaml=map_yaml, wall_height=float(wall_height),
-                       rois=_rel(base, rois) if rois else None, robots=robots)
+                       rois=_rel(base, rois) if rois else None, robots=robots,
+                       map_handling=_parse_map_handling(doc, path))
+
+
+def _parse_map_handling(doc: Dict[str, Any], path: str) -> MapHandling:
+    """The ``unknown`` key and the ``clean`` section (core/solidmap.py says what they do)."""
+    default = MapHandling()
+    clean = doc.get("clean", {}) or {}
+    if not isinstance(clean, dict):
+        raise ConfigError("%s: clean must be a mapping with keys %s, got %r"
+                          % (path, ", ".join(_CLEAN_KEYS), clean))
+    _reject_unknown(clean, _CLEAN_KEYS, "%s: clean" % path)
+    handling = MapHandling(unknown=doc.get("unknown", default.unknown),
+                           close_gaps=clean.get("close_gaps", default.close_gaps),
+                           speckle=clean.get("speckle", default.speckle),
+                           unknown_slivers=clean.get("unknown_slivers",
+                                                     default.unknown_slivers))
+    handling.check(path)
+    return handling
 
 
 def _parse_robot(doc: Any, where: str) -> RobotSpec:

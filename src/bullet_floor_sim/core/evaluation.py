@@ -227,13 +227,14 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
         raise EvaluationError("evaluate: world %s has no rois file" % cfg.world)
     rois, warnings = usable_rois(load_rois(world.config.rois))
     chain = MarkovChain.from_rois(rois)
-    grid = PlanningGrid(world.fmap)
+    handling = world.config.map_handling
+    grid = PlanningGrid(world.fmap, handling=handling)
     wcfg = WalkerConfig()
     walker = Walker(chain, rois, GoalSampler(grid, wcfg.clearance, wcfg.margin, wcfg.goal_tries),
                     wcfg, seed=cfg.seed)
     model = DestinationModel(grid, rois, chain)
     uniform = {r: 1.0 / len(chain.ids) for r in chain.ids}
-    static = StaticMap(world.fmap)
+    static = StaticMap(world.fmap, handling=handling)
     tracker = Tracker(TrackerConfig(centre_offset=0.25))  # measured for the Scitos body
     follow = FollowBehaviour(grid, FollowConfig())
     nav_walker, nav_observer = Navigator(grid, PathFollower()), Navigator(grid, PathFollower())

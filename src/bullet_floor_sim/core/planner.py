@@ -29,6 +29,7 @@ import numpy as np
 
 from .errors import BulletFloorSimError
 from .floormap import FloorMap
+from .solidmap import MapHandling, solid_map
 
 __all__ = [
     "PlanError",
@@ -58,7 +59,8 @@ class PlannerConfig:
         cost_scaling: exponential decay rate of the wall cost (1/m), as costmap_2d's.
         cost_weight: how much a fully inflated cell adds to the length of a step (x1 + w).
         resolution: planning cell size (m); rounded to a multiple of the map resolution.
-        unknown_is_obstacle: unknown (-1) cells are walls for planning (move_base's default).
+        unknown_is_obstacle: unknown (-1) areas are walls for planning (``unknown: wall`` of
+            core/solidmap.py: unseen slivers inside an open hall are floor); False: floor.
         path_spacing: spacing (m) of the resampled output path.
     """
 
@@ -79,7 +81,8 @@ class PlanningGrid:
         config: planning parameters.
     """
 
-    def __init__(self, fmap: FloorMap, config: Optional[PlannerConfig] = None) -> None:
+    def __init__(self, fmap: FloorMap, config: Optional[PlannerConfig] = None,
+                 handling: Optional[MapHandling] = None) -> None:
         from scipy.ndimage import distance_transform_edt
 
         self.fmap = fmap
@@ -89,9 +92,12 @@ class PlanningGrid:
         k = max(1, int(round(cfg.resolution / fmap.resolution)))
         self.factor = k
         self.resolution = fmap.resolution * k
-        blocked = fmap.grid == 100
-        if cfg.unknown_is_obstacle:
-            blocked = blocked | (fmap.grid < 0)
+        # what is solid is decided as the simulator decides it (core/solidmap.py): occupied
+        # cells, unknown areas but not the unseen slivers of an open hall, slits closed
+        if handling is None:
+            handling = MapHandling(unknown="wall" if cfg.unknown_is_obstacle else "free")
+        self.handling = handling
+        blocked = solid_map(fmap, handling).fmap.occupied
         # Distance from each fine cell centre to the nearest blocked cell centre, minus half a
         # fine cell (the wall cell's extent); then the worst fine cell of each coarse block, minus
         # the coarse cell's half-diagonal: a footprint centred anywhere in the coarse cell keeps
@@ -175,7 +181,7 @@ class PlanningGrid:
             clear = max(0.0, float(self._fine[int(fr), int(fc)]))
             if self.fmap.value_at(gx, gy) == 100:
                 why = "inside a wall"
-            elif self.fmap.value_at(gx, gy) < 0 and self.config.unknown_is_obstacle:
+            elif self.fmap.value_at(gx, gy) < 0 and self.handling.unknown == "wall":
                 why = "in unknown space"
             elif not math.isfinite(self.cost[gr, gc]):
                 why = "too close to a wall (clearance %.2f m < robot radius %.2f m)" % (

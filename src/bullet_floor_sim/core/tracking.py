@@ -28,6 +28,7 @@ import numpy as np
 
 from .errors import BulletFloorSimError
 from .floormap import FloorMap
+from .solidmap import MapHandling, solid_map
 
 __all__ = [
     "TrackingError",
@@ -135,18 +136,21 @@ def _number(cfg: TrackerConfig, name: str, low: float, strict: bool) -> None:
 
 
 class StaticMap:
-    """What the floor map explains: the distance from every cell to the nearest occupied or
-    unknown (-1) cell, centre to centre.
+    """What the floor map explains: the distance from every cell to the nearest solid cell
+    (occupied, or unknown under ``unknown: wall``; core/solidmap.py), centre to centre.
 
     Args:
         fmap: the floor map.
         tolerance: points whose cell is within this distance of such a cell are explained.
+        handling: how the map's unknown cells and gaps are read (the world's; default:
+            MapHandling()).
 
     Raises:
         TrackingError: tolerance is negative or not finite.
     """
 
-    def __init__(self, fmap: FloorMap, tolerance: float = 0.2) -> None:
+    def __init__(self, fmap: FloorMap, tolerance: float = 0.2,
+                 handling: Optional[MapHandling] = None) -> None:
         from scipy.ndimage import distance_transform_edt
 
         if not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance)
@@ -155,7 +159,9 @@ class StaticMap:
                                 % (tolerance,))
         self.fmap = fmap
         self.tolerance = float(tolerance)
-        static = (fmap.grid == 100) | (fmap.grid < 0)
+        # solid as the simulator makes it (core/solidmap.py): an unseen sliver of an open hall
+        # is floor where a person can stand, not a wall that explains scan points
+        static = solid_map(fmap, handling or MapHandling()).fmap.occupied
         if static.any():
             self.distance_field = distance_transform_edt(~static) * fmap.resolution
         else:

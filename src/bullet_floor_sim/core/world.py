@@ -11,7 +11,8 @@ as arrays (one row per robot). A step, at ``physics_rate`` (100 Hz by default):
    that would penetrate deeper is refused and the robot stops (as Stage does);
 5. odometry and wheel angles are integrated; lidars that are due are cast in one batch.
 
-The walls are ONE static concave triangle mesh extruded from the map's merged wall rectangles.
+The walls are ONE static concave triangle mesh extruded from the merged rectangles of the
+map's solid cells (core/solidmap.py: occupied, and unknown unless the world says otherwise).
 """
 from __future__ import annotations
 
@@ -28,6 +29,7 @@ from . import bullet_capi
 from .config import RobotSpec, WorldConfig, load_world_config, resolve_world
 from .errors import ConfigError, MapError
 from .floormap import FloorMap, load_map, wall_mesh
+from .solidmap import SolidMap, solid_map
 from .paths import worlds_dir
 from .robot import DRIVES, RobotModel, check_command, load_model
 from .sections import Section, check_section, clip_beams, measure_section, pad_sections
@@ -155,7 +157,8 @@ class World:
         self.clock = SimClock(physics_rate, start_time)
         self.rng = np.random.default_rng(seed)
         self.ray_threads = int(ray_threads)
-        self.fmap: FloorMap = load_map(config.map_yaml)
+        self.fmap: FloorMap = load_map(config.map_yaml)  # the user's map, as map_server serves it
+        self.solid: SolidMap = solid_map(self.fmap, config.map_handling)  # what is extruded
         with _quiet_stdout():
             self.client = bullet_client.BulletClient(
                 connection_mode=pybullet.GUI if gui else pybullet.DIRECT)
@@ -179,10 +182,11 @@ class World:
     # ----------------------------------------------------------------------------- set-up
     def _build_walls(self, height: float) -> List[int]:
         p = self.client
-        rects = self.fmap.rectangles()
+        solid = self.solid.fmap
+        rects = solid.rectangles()
         bodies = []
         for s in range(0, len(rects), _MAX_MESH_RECTS):
-            verts, idx = wall_mesh(self.fmap, height, rects[s:s + _MAX_MESH_RECTS])
+            verts, idx = wall_mesh(solid, height, rects[s:s + _MAX_MESH_RECTS])
             try:
                 col = p.createCollisionShape(p.GEOM_MESH, vertices=verts, indices=idx,
                                              flags=p.GEOM_FORCE_CONCAVE_TRIMESH)
@@ -199,7 +203,7 @@ class World:
         """Lower bound of the distance (m) from each cell's points to the nearest wall."""
         from scipy.ndimage import distance_transform_edt
 
-        occ = self.fmap.occupied
+        occ = self.solid.fmap.occupied
         if not occ.any():
             return np.full(occ.shape, np.inf)
         dist = distance_transform_edt(~occ) * self.fmap.resolution
@@ -330,9 +334,10 @@ class World:
         """Refuse a robot whose spawn pose is in a wall cell or overlaps a wall or a robot."""
         for i, spec in enumerate(self.specs):
             x, y, _ = self.pose[i]
-            if self.fmap.value_at(x, y) == 100:
-                raise ConfigError("%s: robot %r spawns inside a wall at (%.3f, %.3f)"
-                                  % (self.config.path, spec.name, x, y))
+            if self.solid.fmap.value_at(x, y) == 100:
+                what = "a wall" if self.fmap.value_at(x, y) == 100 else "unknown space"
+                raise ConfigError("%s: robot %r spawns inside %s at (%.3f, %.3f)"
+                                  % (self.config.path, spec.name, what, x, y))
         self._sync_bodies()
         self.client.performCollisionDetection()
         for c in self.client.getContactPoints():

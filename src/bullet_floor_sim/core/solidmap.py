@@ -1,0 +1,176 @@
+"""What the simulated building is made of: the solid cells of a SLAM-built map.
+
+A map made with gmapping or slam_toolbox has three kinds of cell: occupied (walls, furniture),
+free, and unknown (never seen: outside the building, behind furniture, beyond a window). Its
+walls are a cell or two thick and have one-cell gaps where a beam slipped through during
+mapping; ray fans of "free" cells reach out through windows and open doors into unknown space.
+:func:`solid_map` decides which cells the simulator extrudes into walls, so that no beam and no
+robot leaves the building through such a gap:
+
+* ``unknown: wall`` (the default): unknown areas are solid. What the robot never saw is
+  outside the building or inside furniture; treating it as wall keeps every beam and robot
+  inside, as the map's own free space says. Unknown *slivers* are the exception: unknown
+  cells in parts no wider than ``clean.unknown_slivers`` (metres, default 0.3; a
+  morphological opening of the unknown mask) where at least half of the surrounding 0.6 m is
+  free are floor: the unseen strips between a laser's diverging rays across an open hall, not
+  walls. (Ray fans out through a window are as much unseen as seen, and stay solid.) ``unknown: free``: every unknown
+  cell is empty (for maps whose unknown cells are known to be open floor).
+* ``close_gaps`` (metres, default 0.15): slits in the solid cells up to this wide are closed
+  (a morphological closing of the solid mask by a square of that size). Nothing a person or
+  a robot passes is that narrow, so only beams are stopped: one-cell gaps in walls, and the
+  one- or two-cell "free" rays a laser left in unknown space.
+* ``speckle`` (square metres, default 0): occupied blobs (8-connected) of at most this area
+  that touch no other solid cell are removed. 0 keeps them: a blob in a SLAM map is as often
+  a table leg as a person who walked by during mapping, and only the user knows which.
+
+Everything it changes is counted in :attr:`SolidMap.report` (the simulator logs it); the
+user's map file is never rewritten, and map_server still serves it as it is.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import List
+
+import numpy as np
+
+from .errors import ConfigError
+from .floormap import FloorMap
+
+__all__ = ["MapHandling", "SolidMap", "solid_map", "UNKNOWN_MODES"]
+
+UNKNOWN_MODES = ("wall", "free")
+_SLIVER_WINDOW = 0.6  # metres: the neighbourhood whose free share tells floor from a ray fan
+
+
+@dataclass(frozen=True)
+class MapHandling:
+    """How a world treats its map (the world.yaml keys ``unknown`` and ``clean``)."""
+
+    unknown: str = "wall"
+    close_gaps: float = 0.15
+    speckle: float = 0.0
+    unknown_slivers: float = 0.3
+
+    def check(self, where: str) -> None:
+        """Raise ConfigError naming ``where`` and the first bad value."""
+        if self.unknown not in UNKNOWN_MODES:
+            raise ConfigError("%s: unknown must be one of %s, got %r"
+                              % (where, " | ".join(UNKNOWN_MODES), self.unknown))
+        for key, what in (("close_gaps", "metres"), ("speckle", "square metres"),
+                          ("unknown_slivers", "metres")):
+            v = getattr(self, key)
+            if not (isinstance(v, (int, float)) and not isinstance(v, bool)
+                    and math.isfinite(v) and v >= 0):
+                raise ConfigError("%s: clean.%s must be a number of %s >= 0, got %r"
+                                  % (where, key, what, v))
+
+
+@dataclass
+class SolidMap:
+    """The solid cells, as a FloorMap (100 solid, 0 empty) on the user's grid, and what was
+    changed to get them."""
+
+    fmap: FloorMap
+    unknown_solid: int = 0
+    sliver_cells: int = 0
+    gap_cells: int = 0
+    speckle_cells: int = 0
+    speckle_blobs: int = 0
+    report: List[str] = field(default_factory=list)
+
+
+def solid_map(fmap: FloorMap, handling: MapHandling = MapHandling()) -> SolidMap:
+    """The cells the simulator makes solid (see the module docstring).
+
+    Args:
+        fmap: the user's map, as map_server reads it.
+        handling: unknown mode and cleaning.
+
+    Returns:
+        The SolidMap; its ``report`` has one line per change (empty when nothing changed).
+    """
+    from scipy import ndimage
+
+    grid = fmap.grid
+    occupied = grid == 100
+    unknown = grid < 0
+    res = fmap.resolution
+    out = SolidMap(fmap=fmap)
+    solid = occupied.copy()
+    if handling.unknown == "wall" and unknown.any():
+        walls = _without_slivers(unknown, grid == 0, res, handling.unknown_slivers)
+        out.unknown_solid = int(walls.sum())
+        out.sliver_cells = int(unknown.sum()) - out.unknown_solid
+        out.report.append("%d unknown cells (%.0f m2) are solid (unknown: wall)"
+                          % (out.unknown_solid, out.unknown_solid * res * res))
+        if out.sliver_cells:
+            out.report.append("%d unknown cells in slivers up to %.2f m wide are floor "
+                              "(clean.unknown_slivers)" % (out.sliver_cells,
+                                                           handling.unknown_slivers))
+        solid |= walls
+    if handling.speckle > 0:
+        solid = _drop_speckle(solid, occupied, handling.speckle, res, out)
+    k = int(math.floor(handling.close_gaps / res + 1e-9))
+    if k >= 1 and solid.any():
+        # a square of k + 1 cells closes every slit up to k cells wide; the grid is padded
+        # with solid cells so that the closing does not eat the border
+        pad = k + 1
+        padded = np.pad(solid, pad, constant_values=True)
+        closed = ndimage.binary_closing(padded, structure=np.ones((k + 1, k + 1), dtype=bool))
+        closed = closed[pad:-pad, pad:-pad]
+        added = closed & ~solid
+        out.gap_cells = int(added.sum())
+        if out.gap_cells:
+            out.report.append("%d cells of gaps up to %.2f m closed (clean.close_gaps)"
+                              % (out.gap_cells, handling.close_gaps))
+        solid = closed
+    g = np.where(solid, 100, 0).astype(np.int8)
+    out.fmap = FloorMap(grid=g, resolution=res, origin=fmap.origin, yaml_path=fmap.yaml_path,
+                        image_path=fmap.image_path, negate=fmap.negate,
+                        occupied_thresh=fmap.occupied_thresh, free_thresh=fmap.free_thresh,
+                        mode=fmap.mode)
+    return out
+
+
+def _without_slivers(unknown: np.ndarray, free: np.ndarray, res: float,
+                     width: float) -> np.ndarray:
+    """``unknown`` less its slivers: parts no wider than ``width`` (an opening by a square of
+    that size) in places that the map mostly saw as floor (at least half the cells within
+    ``_SLIVER_WINDOW`` m are free). The second test keeps the ray fans a laser leaves through a
+    window or an open door solid: there the unseen strips are as wide as the rays."""
+    from scipy import ndimage
+
+    k = int(math.floor(width / res + 1e-9))
+    if k < 1:
+        return unknown.copy()
+    pad = k + 1
+    padded = np.pad(unknown, pad, mode="edge")
+    opened = ndimage.binary_opening(padded, structure=np.ones((k + 1, k + 1), dtype=bool))
+    sliver = unknown & ~opened[pad:-pad, pad:-pad]
+    n = max(3, 2 * int(round(_SLIVER_WINDOW / (2.0 * res))) + 1)
+    seen_free = ndimage.uniform_filter(free.astype(np.float32), size=n, mode="constant")
+    return unknown & ~(sliver & (seen_free >= 0.5))
+
+
+def _drop_speckle(solid: np.ndarray, occupied: np.ndarray, area: float, res: float,
+                  out: SolidMap) -> np.ndarray:
+    """Remove occupied blobs of at most ``area`` m2 that touch no other solid cell."""
+    from scipy import ndimage
+
+    labels, n = ndimage.label(solid, structure=np.ones((3, 3), dtype=bool))
+    if n == 0:
+        return solid
+    sizes = np.bincount(labels.ravel())
+    small = sizes * res * res <= area + 1e-12
+    small[0] = False
+    # a blob qualifies only when every cell of it is occupied (none unknown)
+    has_unknown = np.bincount(labels[solid & ~occupied].ravel(), minlength=n + 1) > 0
+    drop = small & ~has_unknown
+    mask = drop[labels]
+    out.speckle_blobs = int(drop.sum())
+    out.speckle_cells = int(mask.sum())
+    if out.speckle_cells:
+        out.report.append("%d occupied blobs (%d cells) of at most %g m2 removed "
+                          "(clean.speckle)" % (out.speckle_blobs, out.speckle_cells, area))
+    return solid & ~mask
