@@ -16,7 +16,7 @@ from bullet_floor_sim.core.markov import MarkovChain
 from bullet_floor_sim.core.planner import PlanningGrid
 from bullet_floor_sim.core.rois import Roi, RoiError, load_rois, roi_at, roi_polygon
 from bullet_floor_sim.core.walker import (GoalSampler, Leg, RegionIndex, Walker, WalkerConfig,
-                                          WalkerError, anchor, region_label)
+                                          WalkerError, anchor, region_label, walkable_regions)
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
 OFFICE = os.path.join(ROOT, "worlds", "office")
@@ -144,6 +144,41 @@ def test_unreachable_region_is_reported():
     # a robot pressed against a wall still belongs to its room's component
     assert sampler.component_at(0.15, 2.0) == sampler.component_at(1.5, 2.0) > 0
     assert sampler.component_at(50.0, 50.0) == 0
+
+
+def rooms_and_narrow_door(door_cells: int):
+    """Three 2 m x 3 m rooms in a row: a 1.0 m door between the first two, a door of
+    ``door_cells`` x 0.05 m between the second and the third, and a 0.3 m wide closet."""
+    grid = np.zeros((80, 160), dtype=np.int8)    # 8 m x 4 m at 0.05 m
+    grid[:2, :] = grid[-2:, :] = 100
+    grid[:, :2] = grid[:, -2:] = 100
+    grid[:, 48:52] = 100                          # wall at x 2.4..2.6
+    grid[30:50, 48:52] = 0                        # 1.0 m door
+    grid[:, 98:102] = 100                         # wall at x 4.9..5.1
+    grid[30:30 + door_cells, 98:102] = 0
+    grid[2:8, 2:150] = 100                        # a 0.3 m strip along the south wall
+    grid[2:8, 2:8] = 0
+    return map_from_grid(grid, 0.05, (0.0, 0.0, 0.0))
+
+
+def test_walkable_regions_leaves_out_a_room_behind_a_narrow_door_and_names_it():
+    rois = [Roi("a", "1", "office", "m", [(0.1, 0.4), (2.4, 0.4), (2.4, 3.9), (0.1, 3.9)]),
+            Roi("b", "1", "office", "m", [(2.6, 0.4), (4.9, 0.4), (4.9, 3.9), (2.6, 3.9)]),
+            Roi("c", "1", "lab", "m", [(5.1, 0.4), (7.9, 0.4), (7.9, 3.9), (5.1, 3.9)]),
+            Roi("d", "1", "closet", "m", [(0.1, 0.1), (0.4, 0.1), (0.4, 0.4), (0.1, 0.4)])]
+    # a 0.6 m door: the walker (0.34 m radius, planning cells of 0.1 m) does not pass
+    sampler = GoalSampler(PlanningGrid(rooms_and_narrow_door(12)), 0.45, 0.5)
+    kept, warnings = walkable_regions(rois, sampler)
+    assert [r.id for r in kept] == ["a", "b"]
+    assert warnings == [
+        'region "c" (lab c) cannot be reached: its free space is not connected to the rest of '
+        "the floor's (a passage narrower than the walker's 0.68 m footprint with clearance): "
+        "left out of the walk",
+        'region "d" (closet d) has no point 0.45 m from every wall: left out of the walk']
+    # a 1.2 m door: all three rooms are one component
+    sampler = GoalSampler(PlanningGrid(rooms_and_narrow_door(24)), 0.45, 0.5)
+    kept, warnings = walkable_regions(rois[:3], sampler)
+    assert [r.id for r in kept] == ["a", "b", "c"] and warnings == []
 
 
 def test_narrow_region_gets_goals_with_half_the_margin():

@@ -384,3 +384,56 @@ def test_rois_lie_in_free_space(name):
         # Cell count matches the polygon area (the mask really covers it).
         area = Polygon(roi["points"]).area
         assert mask.sum() * RES * RES == pytest.approx(area, rel=0.05)
+
+
+# ---------------------------------------------------------------------------------------------
+# 4. every shipped world, real SLAM maps included
+# ---------------------------------------------------------------------------------------------
+
+ROOT = HERE / ".." / ".."
+SHIPPED = sorted(p.parent.name for p in (ROOT / "worlds").glob("*/world.yaml"))
+
+
+def test_the_real_worlds_are_shipped():
+    real = [w for w in SHIPPED if w not in ("office", "simple")]
+    assert len(real) >= 3, SHIPPED
+    for w in real:
+        readme = (ROOT / "worlds" / w / "README.md").read_text()
+        assert "Source:" in readme and "licence" in readme, w
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_every_world_loads_and_every_region_is_walkable(name):
+    from bullet_floor_sim.core.config import load_world_config
+    from bullet_floor_sim.core.markov import MarkovChain, usable_rois
+    from bullet_floor_sim.core.planner import PlanningGrid
+    from bullet_floor_sim.core.rois import load_rois
+    from bullet_floor_sim.core.walker import GoalSampler, WalkerConfig, walkable_regions
+    from bullet_floor_sim.core.world import World
+
+    cfg = load_world_config(str(ROOT / "worlds" / name / "world.yaml"))
+    world = World(cfg, seed=1)
+    try:
+        assert world.n >= (1 if name == "simple" else 2)
+        rois, problems = usable_rois(load_rois(cfg.rois))
+        assert problems == []
+        assert len(rois) >= (2 if name == "simple" else 10)
+        grid = PlanningGrid(world.fmap, handling=cfg.map_handling)
+        wc = WalkerConfig()
+        sampler = GoalSampler(grid, wc.clearance, wc.margin, wc.goal_tries)
+        kept, unreachable = walkable_regions(rois, sampler)
+        assert unreachable == [] and len(kept) == len(rois)
+        chain = MarkovChain.from_rois(rois)
+        assert chain.warnings == [] or name == "simple"
+        # every region has a goal that the walker's planner reaches from the walker's spawn
+        rng = np.random.default_rng(3)
+        start = tuple(world.spawn[0][:2])
+        for roi in rois:
+            goal = sampler.sample(roi, rng, start=start)
+            path = grid.plan(start, goal)
+            assert np.hypot(*(path[-1] - np.array(goal))) < 1e-9, roi.id
+        # no robot spawns in solid space
+        for x, y, _ in world.spawn:
+            assert world.solid.fmap.value_at(x, y) == 0
+    finally:
+        world.close()

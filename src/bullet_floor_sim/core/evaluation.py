@@ -41,7 +41,7 @@ from .plotting import pyplot
 from .prediction import DestinationModel, OnlinePredictor, PredictorPool, log_loss, top1
 from .rois import load_rois
 from .tracking import StaticMap, Tracker, TrackerConfig, detect, scan_points
-from .walker import GoalSampler, Walker, WalkerConfig, WalkerError
+from .walker import GoalSampler, Walker, WalkerConfig, WalkerError, walkable_regions
 
 __all__ = ["EvalConfig", "EvalResult", "LegScore", "run", "FRACTIONS", "METHODS", "PIPELINES",
            "LEG_KINDS", "format_table", "plot"]
@@ -131,6 +131,7 @@ class EvalResult:
     mean_track_error: float
     follow_modes: Dict[str, int]
     handovers: int = 0
+    warnings: List[str] = field(default_factory=list)  # the map's handling, regions left out
 
     @property
     def recall(self) -> float:
@@ -225,13 +226,15 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
                               % (cfg.world, world.n, cfg.walker, cfg.observer))
     if not world.config.rois:
         raise EvaluationError("evaluate: world %s has no rois file" % cfg.world)
-    rois, warnings = usable_rois(load_rois(world.config.rois))
-    chain = MarkovChain.from_rois(rois)
     handling = world.config.map_handling
     grid = PlanningGrid(world.fmap, handling=handling)
     wcfg = WalkerConfig()
-    walker = Walker(chain, rois, GoalSampler(grid, wcfg.clearance, wcfg.margin, wcfg.goal_tries),
-                    wcfg, seed=cfg.seed)
+    sampler = GoalSampler(grid, wcfg.clearance, wcfg.margin, wcfg.goal_tries)
+    rois, warnings = usable_rois(load_rois(world.config.rois))
+    rois, unreachable = walkable_regions(rois, sampler)
+    chain = MarkovChain.from_rois(rois)
+    warnings = world.solid.report + warnings + unreachable + chain.warnings
+    walker = Walker(chain, rois, sampler, wcfg, seed=cfg.seed)
     model = DestinationModel(grid, rois, chain)
     uniform = {r: 1.0 / len(chain.ids) for r in chain.ids}
     static = StaticMap(world.fmap, handling=handling)
@@ -384,7 +387,7 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
                       tracked_ticks=tracked, false_track_ticks=false_ticks,
                       id_switches=switches, handovers=pred_trk.handovers,
                       mean_track_error=err_sum / tracked if tracked else float("nan"),
-                      follow_modes=modes)
+                      follow_modes=modes, warnings=warnings)
 
 
 def _laser_in_map(pose: Sequence[float], laser: Sequence[float]) -> Tuple[float, float, float]:
@@ -432,7 +435,7 @@ def _score(leg, gt: List[_Record], trk: List[_Record], model: DestinationModel,
 
 def format_table(result: EvalResult) -> str:
     """The result as text: one block per pipeline, accuracy and log-loss per fraction."""
-    lines = []
+    lines = ["note: %s" % w for w in result.warnings]
     head = "%-12s" % "method" + "".join("   %3d%% acc  logloss" % round(100 * f)
                                         for f in FRACTIONS)
     what = {"change": "legs to another region", "stay": "legs within the start region"}

@@ -244,10 +244,37 @@ class GoalSampler:
                 error = e
                 if "no point lies" not in str(e):
                     break  # wide enough, but nothing free and reachable in it
+        # a cluttered region whose acceptable part is too small for rejection sampling: draw
+        # one of its acceptable cell centres (exact, but only to the planning grid's cells)
+        x, y, comp = self.cells_in(roi)
+        pick = np.flatnonzero(comp == component) if component > 0 else np.arange(len(x))
+        if len(pick):
+            k = int(pick[rng.integers(len(pick))])
+            return float(x[k]), float(y[k])
         unreachable = component > 0 and self._any_free(roi, 0) and not self._any_free(
             roi, component)
         why = " (its free space is not connected to the robot's)" if unreachable else ""
         raise RoiError("%s%s" % (error, why))
+
+    def cells_in(self, roi: Roi) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The acceptable planning-cell centres inside a region: (x, y, component) arrays."""
+        import shapely
+
+        grid = self.grid
+        xmin, ymin, xmax, ymax = roi_polygon(roi).bounds
+        c0, r0 = grid.to_cell(xmin, ymin)
+        c1, r1 = grid.to_cell(xmax, ymax)
+        cs = np.arange(max(0, min(c0, c1)), min(grid.width, max(c0, c1) + 1))
+        rs = np.arange(max(0, min(r0, r1)), min(grid.height, max(r0, r1) + 1))
+        cc, rr = np.meshgrid(cs, rs)
+        ok = self.ok[rr, cc]
+        cc, rr = cc[ok], rr[ok]
+        k = grid.factor  # planning cell centres, as PlanningGrid.to_world gives them
+        x, y = grid.fmap.cell_to_world((cc + 0.5) * k - 0.5, (rr + 0.5) * k - 0.5)
+        x, y = np.atleast_1d(x), np.atleast_1d(y)
+        inside = (shapely.covers(roi_polygon(roi), shapely.points(x, y)) if len(cc)
+                  else np.zeros(0, dtype=bool))
+        return x[inside], y[inside], self.labels[rr[inside], cc[inside]]
 
     def _any_free(self, roi: Roi, component: int) -> bool:
         """Whether any cell centre inside the region is acceptable (slow; for messages)."""
@@ -439,3 +466,48 @@ class Walker:
             return 0.0
         return float(min(self.config.max_retry_delay,
                          self.config.retry_delay * 2.0 ** (self.failures_in_a_row - 1)))
+
+
+# --------------------------------------------------------------------------------------------
+# regions the walker can reach
+# --------------------------------------------------------------------------------------------
+
+
+def walkable_regions(rois: Sequence[Roi], sampler: GoalSampler) -> Tuple[List[Roi], List[str]]:
+    """The regions with a goal point on the floor's main free-space component, and one
+    warning per region left out.
+
+    A goal point is a cell centre inside the region's polygon that the sampler accepts (the
+    walker's clearance to every wall, on a passable cell). The main component is the one that
+    holds goal points of the most regions (then the larger one): a room behind a door
+    narrower than the walker's footprint, or a corner cut off by the planner's inflation, is
+    another component. The answer depends only on the map and the ROIs, so the walker and the
+    destination predictor leave out the same regions and build the same chain.
+    """
+    comps = [set(int(v) for v in sampler.cells_in(roi)[2]) for roi in rois]
+    grid = sampler.grid
+    counts: Dict[int, int] = {}
+    for s in comps:
+        for k in s:
+            counts[k] = counts.get(k, 0) + 1
+    if not counts:
+        return [], ['region "%s" (%s) has no point %.2f m from every wall: left out of the walk'
+                    % (r.id, region_label(r), sampler.clearance) for r in rois]
+    area = np.bincount(sampler.labels.ravel())
+    main = max(counts, key=lambda k: (counts[k], area[k]))
+    kept, warnings = [], []
+    for roi, s in zip(rois, comps):
+        if main in s:
+            kept.append(roi)
+        elif not s:
+            warnings.append('region "%s" (%s) has no point %.2f m from every wall: left out of '
+                            "the walk" % (roi.id, region_label(roi), sampler.clearance))
+        else:
+            warnings.append('region "%s" (%s) cannot be reached: its free space is not '
+                            "connected to the rest of the floor's (a passage narrower than the "
+                            "walker's %.2f m footprint with clearance): left out of the walk"
+                            % (roi.id, region_label(roi), 2 * grid.config.robot_radius))
+    return kept, warnings
+
+
+__all__ += ["walkable_regions"]

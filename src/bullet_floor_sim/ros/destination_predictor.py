@@ -41,6 +41,7 @@ from ..core.markov import MarkovChain, usable_rois
 from ..core.planner import PlannerConfig, PlanningGrid
 from ..core.prediction import DestinationModel, PredictionConfig, PredictorPool
 from ..core.rois import Roi, load_rois
+from ..core.walker import GoalSampler, walkable_regions
 from ..msg import Destination, TrackArray
 from .markov_walker import roi_from_msg
 from .params import config_from_params
@@ -98,6 +99,7 @@ class DestinationPredictorNode:
         self.lock = threading.Lock()
         self.grid: Optional[PlanningGrid] = None
         self.rois: Optional[List[Roi]] = None
+        self._usable: List[Roi] = []  # the usable ROIs the model was built from
         self.model: Optional[DestinationModel] = None
         self.pool: Optional[PredictorPool] = None   # per-track predictors of the model
         self.last_t = -float("inf")
@@ -114,6 +116,7 @@ class DestinationPredictorNode:
     def _on_map(self, msg: OccupancyGrid) -> None:
         try:
             self.grid = PlanningGrid(grid_from_msg(msg), self.planner_cfg)
+            self._usable = []  # which regions are reachable is decided again on this map
         except BulletFloorSimError as e:
             rospy.logerr("destination_predictor: cannot use the map: %s", e)
             return
@@ -155,8 +158,17 @@ class DestinationPredictorNode:
             good, warnings = usable_rois(rois)
             for w in warnings:
                 rospy.logwarn("destination_predictor: %s", w)
-            if not good or (good == self.rois and self.model is not None):
+            if not good or (good == self._usable and self.model is not None):
                 continue
+            usable = good
+            # the walker leaves out the regions it cannot reach; so must its chain here
+            good, unreachable = walkable_regions(good, GoalSampler(
+                self.grid, self.config.clearance, self.config.margin))
+            for w in unreachable:
+                rospy.logwarn("destination_predictor: %s", w)
+            if not good:
+                continue
+            self._usable = usable
             try:
                 t0 = rospy.get_time()
                 chain = MarkovChain.from_rois(good, tol=self.tol, mode=self.mode)

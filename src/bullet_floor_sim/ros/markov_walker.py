@@ -58,7 +58,7 @@ from ..core.markov import MODES, MarkovChain, store_chain, usable_rois
 from ..core.planner import PlannerConfig, PlanningGrid
 from ..core.rois import Roi
 from ..core.walker import (GoalSampler, Leg, RegionIndex, Walker, WalkerConfig, WalkerError,
-                           anchor, region_label)
+                           anchor, region_label, walkable_regions)
 from .convert import yaw as yaw_of
 
 __all__ = ["main", "MarkovWalkerNode", "roi_from_msg", "chain_markers"]
@@ -187,6 +187,7 @@ class MarkovWalkerNode:
         self.sampler: Optional[GoalSampler] = None
         self.chain: Optional[MarkovChain] = None
         self.rois: List[Roi] = []
+        self._usable: List[Roi] = []  # the usable ROIs the chain was built from
         self.walker: Optional[Walker] = None
         self.index: Optional[RegionIndex] = None
         self.pose: Optional[Tuple[float, float, float]] = None
@@ -244,6 +245,7 @@ class MarkovWalkerNode:
                               self.config.goal_tries)
         with self.lock:
             self.sampler = sampler
+            self._usable = []  # which regions are reachable is decided again on this map
             if self.walker is not None:
                 self.walker.sampler = sampler
         rospy.loginfo("markov_walker: map from %s (%d x %d cells of %.2f m, %d free-space "
@@ -316,14 +318,20 @@ class MarkovWalkerNode:
         if rois is None:
             return self.chain is not None
         good, warnings = usable_rois(rois)
-        if good == self.rois and self.chain is not None:
+        sampler = self.sampler
+        if sampler is None:  # which regions the walker reaches needs the map
+            return False
+        if good == self._usable and self.chain is not None:
             return True
-        for w in warnings:
+        usable = good
+        good, unreachable = walkable_regions(good, sampler)
+        for w in warnings + unreachable:
             rospy.logwarn("markov_walker: %s", w)
         if not good:
-            self.complain("rois", "markov_walker: none of the %d ROIs of config %s is usable; "
-                          "retrying" % (len(rois), self.roi_config))
+            self.complain("rois", "markov_walker: none of the %d ROIs of config %s is usable "
+                          "and reachable; retrying" % (len(rois), self.roi_config))
             return self.chain is not None
+        self._usable = usable
         chain = MarkovChain.from_rois(good, tol=self.tol, mode=self.mode,
                                       min_shared=self.min_shared)
         for w in chain.warnings:
