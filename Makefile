@@ -7,7 +7,7 @@ VENV_PY := $(REPO)/.venv/bin/python
 ROSENV := source $(REPO)/.venv/bin/activate && source $(REPO)/.ws/devel/setup.bash &&
 WORLD ?= office
 
-.PHONY: setup test unit-test integration-test lint demo bench clean
+.PHONY: setup test unit-test integration-test lint demo bench eval clean
 
 setup:
 	bash tools/setup.sh
@@ -46,6 +46,13 @@ demo: setup
 
 bench: setup
 	$(ROSENV) $(VENV_PY) bench/run_all.py
+
+# The destination-prediction study on every shipped world: one table, an EVAL line per world
+# (LEGS legs each, seed SEED; 200 legs take 3-10 min a world).
+LEGS ?= 200
+SEED ?= 1
+eval: setup
+	$(ROSENV) $(VENV_PY) bench/eval_worlds.py --legs $(LEGS) --seed $(SEED)
 
 clean:
 	rm -rf .ws .venv "$${BFS_WS:-$${XDG_CACHE_HOME:-$$HOME/.cache}/bullet_floor_sim/ws-$$(printf %s "$(REPO)" | sha1sum | cut -c1-8)}"

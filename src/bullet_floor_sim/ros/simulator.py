@@ -885,6 +885,8 @@ def main(argv: Optional[List[str]] = None) -> int:
                       bullet_capi.status())
         for line in world.sections_report:
             rospy.loginfo("simulator: lidar beams at robots of %s", line)
+        for line in world.solid.report:  # what the map's handling made solid or floor
+            rospy.loginfo("simulator: map %s: %s", world.fmap.yaml_path, line)
         node.spin(stop)
     except BulletFloorSimError as e:
         rospy.logfatal("simulator: %s", e)

@@ -1,0 +1,90 @@
+#!/usr/bin/env python3
+"""The destination-prediction study on every shipped world, one table (``make eval``).
+
+Runs core/evaluation.py (the code ``evaluate_prediction`` runs) on each world under worlds/
+with the same legs and seed, one world after the other in this process, so the real-time
+factors are measured side by side. Prints one row per world and an ``EVAL world=<name> ...``
+line each:
+
+    make eval                      # 200 legs, seed 1, every world
+    .venv/bin/python bench/eval_worlds.py --legs 40 --seed 5 --worlds office malaga_campus
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "src"))
+
+from bullet_floor_sim.core.evaluation import FRACTIONS, EvalConfig, run  # noqa: E402
+from bullet_floor_sim.core.paths import worlds_dir  # noqa: E402
+
+COLUMNS = ("world", "legs", "given_up", "trk25", "trk50", "trk75", "gt25", "gt50", "gt75",
+           "markov50", "heading50", "tracked", "rtf")
+
+
+def shipped() -> list:
+    d = worlds_dir()
+    return sorted(w for w in os.listdir(d) if os.path.isfile(os.path.join(d, w, "world.yaml"))
+                  and w != "simple")  # simple has one robot: no observer
+
+
+def row(world: str, legs: int, seed: int) -> dict:
+    t0 = time.time()
+    last = [t0]
+
+    def progress(line: str) -> None:
+        if time.time() - last[0] > 30.0:  # a progress line every 30 s of wall time
+            last[0] = time.time()
+            print("  %s: %s" % (world, line), file=sys.stderr, flush=True)
+
+    r = run(EvalConfig(legs=legs, seed=seed, world=world), progress)
+    tab = r.table()
+    k = {f: FRACTIONS.index(f) for f in (0.25, 0.5, 0.75)}
+    out = {"world": world, "legs": len(r.legs),
+           "given_up": r.failed_legs / max(1, len(r.legs) + r.failed_legs),
+           "markov50": tab["tracker"]["markov"][k[0.5]][0],
+           "heading50": tab["tracker"]["heading"][k[0.5]][0],
+           "tracked": r.tracked_share, "rtf": r.sim_time / max(r.wall_time, 1e-9),
+           "notes": r.warnings}
+    for f, name in ((0.25, "25"), (0.5, "50"), (0.75, "75")):
+        out["trk" + name] = tab["tracker"]["predictor"][k[f]][0]
+        out["gt" + name] = tab["ground_truth"]["predictor"][k[f]][0]
+    return out
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--legs", type=int, default=200)
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--worlds", nargs="*", default=None, help="default: every shipped world")
+    args = p.parse_args()
+    worlds = args.worlds or shipped()
+    rows = []
+    for w in worlds:
+        print("== %s: %d legs, seed %d" % (w, args.legs, args.seed), file=sys.stderr, flush=True)
+        rows.append(row(w, args.legs, args.seed))
+        for n in rows[-1]["notes"]:
+            print("  note: %s" % n, file=sys.stderr)
+    print("| " + " | ".join(COLUMNS) + " |")
+    print("|" + "---|" * len(COLUMNS))
+    office = next((r["rtf"] for r in rows if r["world"] == "office"), None)
+    for r in rows:
+        cells = [r["world"], "%d" % r["legs"], "%.1f %%" % (100 * r["given_up"])]
+        cells += ["%.1f %%" % (100 * r[c]) for c in COLUMNS[3:12]]
+        cells.append("%.1fx" % r["rtf"])
+        print("| " + " | ".join(cells) + " |")
+    for r in rows:
+        print("EVAL world=%s legs=%d given_up=%.3f trk25=%.3f trk50=%.3f trk75=%.3f gt25=%.3f "
+              "gt50=%.3f gt75=%.3f markov50=%.3f heading50=%.3f tracked=%.3f rtf=%.1f%s" % (
+                  r["world"], r["legs"], r["given_up"], r["trk25"], r["trk50"], r["trk75"],
+                  r["gt25"], r["gt50"], r["gt75"], r["markov50"], r["heading50"], r["tracked"],
+                  r["rtf"], "" if office is None else " rtf_vs_office=%.2f" % (r["rtf"] / office)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
