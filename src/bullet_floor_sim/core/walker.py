@@ -251,8 +251,9 @@ class GoalSampler:
         if len(pick):
             k = int(pick[rng.integers(len(pick))])
             return float(x[k]), float(y[k])
-        unreachable = component > 0 and self._any_free(roi, 0) and not self._any_free(
-            roi, component)
+        # here no acceptable cell of the region is in the robot's component: if it has any,
+        # they lie in another one
+        unreachable = component > 0 and len(comp) > 0
         why = " (its free space is not connected to the robot's)" if unreachable else ""
         raise RoiError("%s%s" % (error, why))
 
@@ -275,19 +276,6 @@ class GoalSampler:
         inside = (shapely.covers(roi_polygon(roi), shapely.points(x, y)) if len(cc)
                   else np.zeros(0, dtype=bool))
         return x[inside], y[inside], self.labels[rr[inside], cc[inside]]
-
-    def _any_free(self, roi: Roi, component: int) -> bool:
-        """Whether any cell centre inside the region is acceptable (slow; for messages)."""
-        from shapely.geometry import Point
-
-        poly = roi_polygon(roi)
-        xmin, ymin, xmax, ymax = poly.bounds
-        step = self.grid.resolution
-        for x in np.arange(xmin, xmax, step):
-            for y in np.arange(ymin, ymax, step):
-                if self.acceptable(x, y, component) and poly.covers(Point(x, y)):
-                    return True
-        return False
 
 
 # --------------------------------------------------------------------------------------------
@@ -485,16 +473,12 @@ def walkable_regions(rois: Sequence[Roi], sampler: GoalSampler) -> Tuple[List[Ro
     destination predictor leave out the same regions and build the same chain.
     """
     comps = [set(int(v) for v in sampler.cells_in(roi)[2]) for roi in rois]
-    grid = sampler.grid
     counts: Dict[int, int] = {}
     for s in comps:
         for k in s:
             counts[k] = counts.get(k, 0) + 1
-    if not counts:
-        return [], ['region "%s" (%s) has no point %.2f m from every wall: left out of the walk'
-                    % (r.id, region_label(r), sampler.clearance) for r in rois]
     area = np.bincount(sampler.labels.ravel())
-    main = max(counts, key=lambda k: (counts[k], area[k]))
+    main = max(counts, key=lambda k: (counts[k], area[k])) if counts else None
     kept, warnings = [], []
     for roi, s in zip(rois, comps):
         if main in s:
@@ -506,7 +490,8 @@ def walkable_regions(rois: Sequence[Roi], sampler: GoalSampler) -> Tuple[List[Ro
             warnings.append('region "%s" (%s) cannot be reached: its free space is not '
                             "connected to the rest of the floor's (a passage narrower than the "
                             "walker's %.2f m footprint with clearance): left out of the walk"
-                            % (roi.id, region_label(roi), 2 * grid.config.robot_radius))
+                            % (roi.id, region_label(roi),
+                               2 * sampler.grid.config.robot_radius))
     return kept, warnings
 
 
