@@ -27,8 +27,8 @@ from typing import Any, Dict, List, Optional, Tuple, Type, TypeVar
 
 
 from .errors import ConfigError
-from .yamlio import read_yaml
 from .solidmap import MapHandling
+from .yamlio import read_yaml
 
 __all__ = [
     "DriveConfig",

@@ -61,6 +61,8 @@ class FloorMap:
     free_thresh: float = 0.196
     mode: str = "trinary"
     _rects: List[Tuple[int, int, int, int]] = field(default_factory=list, repr=False, compare=False)
+    # derived grids kept with the map (core/solidmap.py keeps its answer per handling here)
+    _derived: Dict[Any, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def width(self) -> int:

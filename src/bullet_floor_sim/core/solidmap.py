@@ -13,8 +13,9 @@ robot leaves the building through such a gap:
   cells in parts no wider than ``clean.unknown_slivers`` (metres, default 0.3; a
   morphological opening of the unknown mask) where at least half of the surrounding 0.6 m is
   free are floor: the unseen strips between a laser's diverging rays across an open hall, not
-  walls. (Ray fans out through a window are as much unseen as seen, and stay solid.) ``unknown: free``: every unknown
-  cell is empty (for maps whose unknown cells are known to be open floor).
+  walls. (Ray fans out through a window are as much unseen as seen, and stay solid.)
+  ``unknown: free``: every unknown cell is empty (for maps whose unknown cells are known to
+  be open floor).
 * ``close_gaps`` (metres, default 0.15): slits in the solid cells up to this wide are closed
   (a morphological closing of the solid mask by a square of that size). Nothing a person or
   a robot passes is that narrow, so only beams are stopped: one-cell gaps in walls, and the
@@ -89,7 +90,17 @@ def solid_map(fmap: FloorMap, handling: MapHandling = MapHandling()) -> SolidMap
 
     Returns:
         The SolidMap; its ``report`` has one line per change (empty when nothing changed).
+        It is computed once per map and handling (the world, its planner and its tracker all
+        ask) and shared: read it, do not change it.
     """
+    key = ("solid_map", handling)
+    cached = fmap._derived.get(key)
+    if cached is None:
+        cached = fmap._derived[key] = _solid_map(fmap, handling)
+    return cached
+
+
+def _solid_map(fmap: FloorMap, handling: MapHandling) -> SolidMap:
     grid = fmap.grid
     occupied = grid == 100
     unknown = grid < 0

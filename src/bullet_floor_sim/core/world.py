@@ -29,11 +29,11 @@ from . import bullet_capi
 from .config import RobotSpec, WorldConfig, load_world_config, resolve_world
 from .errors import ConfigError, MapError
 from .floormap import FloorMap, load_map, wall_mesh
-from .solidmap import SolidMap, solid_map
 from .paths import worlds_dir
 from .robot import DRIVES, RobotModel, check_command, load_model
 from .sections import Section, check_section, clip_beams, measure_section, pad_sections
 from .sensors import MAX_RAYS_PER_BATCH, SMALL_N, Battery, Lidar, Odometry, Scan, cast_rays
+from .solidmap import SolidMap, solid_map
 
 __all__ = ["SimClock", "World", "RobotView", "Snapshot"]
 
