@@ -192,3 +192,30 @@ def test_navigator_notices_a_stall_and_plans_again():
         x += st.v * 0.1
         assert st.message != "stalled"
     assert nav.stalls == 1
+
+
+def test_points_on_the_map_walls_slow_but_never_stop_the_follower():
+    # a corridor 1.2 m wide along x; a wall point 0.35 m to the left and 0.5 m ahead lies in the
+    # stop corridor (half-width 0.37) but on a wall the plan keeps clear of: the robot goes on
+    grid_map = np.full((40, 100), 100, dtype=np.int8)
+    grid_map[14:26, :] = 0
+    fmap = map_from_grid(grid_map, 0.05)
+    grid = PlanningGrid(fmap)
+    y_wall = 26 * 0.05                        # the upper wall's surface
+    robot_y = y_wall - 0.36
+    seen = np.array([[1.5, y_wall + 0.01], [1.0, y_wall + 0.01]])
+    assert grid.on_walls(seen).all()
+    assert not grid.on_walls(np.array([[1.5, robot_y]])).any()   # a robot in mid-corridor
+    f = PathFollower()
+    f.set_path(np.array([[1.0 + 0.1 * k, robot_y] for k in range(20)]))
+    base = seen - np.array([1.0, robot_y])    # in the base frame of a robot at (1.0, robot_y, 0)
+    base = np.vstack([base, [[0.5, 0.35]]])
+    known = grid.on_walls(base + np.array([1.0, robot_y]))
+    cmd = f.compute((1.0, robot_y, 0.0), base, known)
+    assert cmd.state == "following" and cmd.v > 0
+    # without the map's word the same point stops it, and an unknown point stops it always
+    f.set_path(np.array([[1.0 + 0.1 * k, robot_y] for k in range(20)]))
+    assert f.compute((1.0, robot_y, 0.0), base).state == "blocked"
+    robot_ahead = np.array([[0.6, 0.0]])
+    f.set_path(np.array([[1.0 + 0.1 * k, robot_y] for k in range(20)]))
+    assert f.compute((1.0, robot_y, 0.0), robot_ahead, np.array([False])).state == "blocked"

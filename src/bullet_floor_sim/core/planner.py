@@ -141,6 +141,18 @@ class PlanningGrid:
         c, r = self.to_cell(x, y)
         return float(self.clearance[r, c]) if self.inside(c, r) else -math.inf
 
+    def on_walls(self, xy: np.ndarray, tolerance: float = 0.1) -> np.ndarray:
+        """Which map-frame points (N, 2) lie on the map's solid cells (within ``tolerance`` m
+        of one): what the plan already keeps clear of. Points off the map count as walls."""
+        pts = np.asarray(xy, dtype=float).reshape(-1, 2)
+        col, row = self.fmap.world_to_cell(pts[:, 0], pts[:, 1])
+        col, row = np.asarray(col, dtype=np.int64), np.asarray(row, dtype=np.int64)
+        h, w = self._fine.shape
+        inside = (col >= 0) & (row >= 0) & (col < w) & (row < h)
+        out = np.ones(len(pts), dtype=bool)
+        out[inside] = self._fine[row[inside], col[inside]] <= tolerance + self.fmap.resolution
+        return out
+
     def is_free(self, x: float, y: float) -> bool:
         """The robot fits at (x, y): on the map and at least robot_radius from every wall."""
         c, r = self.to_cell(x, y)
@@ -426,17 +438,17 @@ class PathFollower:
             return math.inf
         return float(pts[sel, 0].min()) - cfg.robot_radius
 
-    def obstacle_ahead(self, obstacles: Optional[np.ndarray]) -> bool:
-        """Whether any base-frame point lies in the stop corridor in front of the footprint."""
-        return self.free_ahead(obstacles) < self.config.stop_distance
-
-    def compute(self, pose: Sequence[float],
-                obstacles: Optional[np.ndarray] = None) -> FollowerCommand:
+    def compute(self, pose: Sequence[float], obstacles: Optional[np.ndarray] = None,
+                known: Optional[np.ndarray] = None) -> FollowerCommand:
         """Velocity command for the current ground-truth pose.
 
         Args:
             pose: (x, y, yaw) in the map frame.
             obstacles: (N, 2) scan points in the robot's base frame (x forward), or None.
+            known: optional (N,) bool, the points on the map's walls. The path already keeps
+                the footprint clear of them, so they shorten the look-ahead and slow the robot
+                but never stop it: only what the map does not know (a robot, a person) can
+                block the way. Without it every point can.
 
         Returns:
             The command; ``state == "done"`` once within tolerance of the goal.
@@ -468,6 +480,10 @@ class PathFollower:
         # obstacle the look-ahead shrinks so that the robot follows the path's detours tightly
         free = self.free_ahead(obstacles)
         lookahead = cfg.lookahead if free > 1.0 else cfg.short_lookahead
+        if known is not None and obstacles is not None and len(obstacles):
+            free_new = self.free_ahead(np.asarray(obstacles)[~np.asarray(known, dtype=bool)])
+        else:
+            free_new = free
         rest = self.path[self._index:]
         dr = np.hypot(rest[:, 0] - x, rest[:, 1] - y)
         far = np.nonzero(dr >= lookahead)[0]
@@ -476,7 +492,7 @@ class PathFollower:
         c, s = math.cos(yaw), math.sin(yaw)
         lx, ly = c * dx + s * dy, -s * dx + c * dy
         alpha = math.atan2(ly, lx)
-        blocked = free < cfg.stop_distance
+        blocked = free_new < cfg.stop_distance
         if abs(alpha) > cfg.rotate_in_place or (blocked and abs(alpha) > 0.25):
             # turning on the spot is always safe for a round footprint
             return FollowerCommand(0.0, _clip(1.5 * alpha, cfg.max_angular), "rotating", dist_goal)
@@ -492,6 +508,13 @@ class PathFollower:
         if abs(curvature) * v > cfg.max_angular:
             v = cfg.max_angular / abs(curvature)
         return FollowerCommand(v, _clip(curvature * v, cfg.max_angular), "following", dist_goal)
+
+
+def _to_map(pose: Sequence[float], pts: np.ndarray) -> np.ndarray:
+    """Base-frame points (N, 2) in the map frame, for a robot at ``pose`` (x, y, yaw)."""
+    x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.stack([x + c * pts[:, 0] - s * pts[:, 1], y + s * pts[:, 0] + c * pts[:, 1]], axis=1)
 
 
 def _wrap(a: float) -> float:
@@ -580,6 +603,8 @@ class Navigator:
         self._last_cmd = (0.0, 0.0)
         self._still_since: Optional[Tuple[float, float, float, float]] = None  # t, x, y, yaw
         self.stalls = 0
+        self._seen = np.zeros((0, 2))             # the last scan's points in the map frame
+        self._known = np.zeros(0, dtype=bool)     # which of them are on the map's walls
 
     @property
     def path(self) -> np.ndarray:
@@ -625,6 +650,12 @@ class Navigator:
         """
         if self.goal is None:
             return NavStatus(0.0, 0.0, "aborted", "no goal")
+        if obstacles is not None and len(obstacles):
+            obstacles = np.asarray(obstacles, dtype=float)
+            self._seen = _to_map(pose, obstacles)
+            self._known = self.grid.on_walls(self._seen)
+        else:
+            self._seen, self._known = np.zeros((0, 2)), np.zeros(0, dtype=bool)
         st = self._update(pose, obstacles, now)
         self._last_cmd = (st.v, st.w)
         return st
@@ -650,7 +681,7 @@ class Navigator:
         cfg = self.config
         dt = 0.0 if self._last_t is None else max(0.0, now - self._last_t)
         self._last_t = now
-        cmd = self.follower.compute(pose, obstacles)
+        cmd = self.follower.compute(pose, obstacles, self._known)
         if cmd.state == "done":
             self.goal = None
             return NavStatus(0.0, 0.0, "succeeded", "goal reached", cmd.distance_to_goal)
@@ -693,15 +724,9 @@ class Navigator:
         if self.goal is None or obstacles is None or len(obstacles) == 0:
             return
         pts = np.asarray(obstacles, dtype=float)
-        pts = pts[np.hypot(pts[:, 0], pts[:, 1]) < self.config.obstacle_range]
-        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
-        c, s = math.cos(yaw), math.sin(yaw)
-        world = np.stack([x + c * pts[:, 0] - s * pts[:, 1], y + s * pts[:, 0] + c * pts[:, 1]],
-                         axis=1)
-        # points on the static walls are already in the grid: keep only the new ones
-        if len(world):
-            keep = np.array([self.grid.fmap.value_at(px, py) != 100 for px, py in world])
-            world = world[keep]
+        # points on the map's walls are already in the grid: keep only the new ones, near
+        near = np.hypot(pts[:, 0], pts[:, 1]) < self.config.obstacle_range
+        world = self._seen[near & ~self._known]
         try:
             path = self.grid.plan(pose, self.goal, obstacles=world)
         except PlanError:
