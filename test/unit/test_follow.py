@@ -6,8 +6,8 @@ import pytest
 
 from bullet_floor_sim.core.floormap import map_from_grid
 from bullet_floor_sim.core.follow import (FollowBehaviour, FollowConfig, FollowError,
-                                          in_view, pick_target, search_plan, search_point,
-                                          standoff_point)
+                                          give_way_point, in_view, pick_target, search_plan,
+                                          search_point, standoff_point)
 from bullet_floor_sim.core.planner import PlanningGrid
 
 RES = 0.05
@@ -69,7 +69,7 @@ def test_a_standing_target_within_reach_only_gets_faced():
 def test_lost_target_waits_lost_after_then_searches_the_predicted_region_and_looks_round():
     grid = hall()
     fb = FollowBehaviour(grid, FollowConfig(lost_after=2.0, search_turn=math.pi))
-    fb.update(0.0, (2.0, 2.0, 0.0), (4.0, 2.0, 0.5, 0.0))
+    fb.update(0.0, (2.0, 2.0, 0.0), (4.8, 2.0, 0.5, 0.0))  # lost 2.3 m off: not close by
     dest = ("7", (8.0, 3.0))
     d = fb.update(1.5, (2.5, 2.0, 0.0), None, dest)
     assert d.mode == "follow" and d.goal is None  # unseen 1.5 s < lost_after
@@ -84,10 +84,25 @@ def test_lost_target_waits_lost_after_then_searches_the_predicted_region_and_loo
     assert fb.update(13.0, (8.0, 3.0, 0.0), (9.5, 3.0, 0.3, 0.0)).mode == "follow"
 
 
+def test_a_target_lost_close_by_is_looked_for_behind_first():
+    grid = hall()
+    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5, slack=0.7))
+    fb.update(0.0, (2.0, 2.0, 0.0), (3.5, 2.5, 0.0, 0.0))
+    plan = [("7", (8.0, 3.0))]
+    # the observer turned its back (yaw pi) and lost it 1.58 m off: it turns towards it first
+    d = fb.update(1.5, (2.0, 2.0, math.pi), None, plan)
+    assert d.mode == "search" and "looking back" in d.reason
+    assert d.goal == pytest.approx((2.0, 2.0, math.atan2(0.5, 1.5)), abs=1e-9)
+    assert fb.update(2.0, (2.0, 2.0, 1.0), None, plan).goal is None    # still turning
+    # not there either: on to the predicted region
+    d = fb.update(3.0, (2.0, 2.0, 0.32), None, plan, goal_done=True)
+    assert d.goal[:2] == pytest.approx((8.0, 3.0)) and "region 7" in d.reason
+
+
 def test_a_search_goes_on_to_the_next_likely_region_and_round_again():
     grid = hall()
     fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, search_turn=math.pi, search_wait=3.0))
-    fb.update(0.0, (2.0, 2.0, 0.0), (4.0, 2.0, 0.5, 0.0))
+    fb.update(0.0, (2.0, 2.0, 0.0), (4.8, 2.0, 0.5, 0.0))
     plan = [("7", (8.0, 3.0)), ("4", (1.0, 1.0))]
     assert fb.update(2.0, (2.5, 2.0, 0.0), None, plan).goal[:2] == pytest.approx((8.0, 3.0))
     d = fb.update(9.0, (8.0, 3.0, 0.0), None, plan, goal_done=True)
@@ -204,3 +219,56 @@ def test_an_observer_waiting_in_a_doorway_moves_out_of_it():
     assert gyaw == pytest.approx(math.atan2(3.0 - gy, 6.3 - gx))
     # waiting in a roomy place, it stays put
     assert fb.update(9.0, (gx, gy, gyaw), (6.3, 3.0, 0.0, 0.0), goal_done=True).goal is None
+
+
+def corridor_with_alcove():
+    """A corridor 1.2 m wide (y 1.0..2.2) and 12 m long, with a 2 x 2 m alcove on its north
+    side at x 6..8 (y 2.2..4.2): the one place where two robots can pass."""
+    g = np.full((int(5.0 / RES), int(12.0 / RES)), 100, dtype=np.int8)
+    g[int(1.0 / RES):int(2.2 / RES), 1:-1] = 0
+    g[int(2.2 / RES):int(4.2 / RES), int(6.0 / RES):int(8.0 / RES)] = 0
+    return PlanningGrid(map_from_grid(g, RES))
+
+
+def test_give_way_point_is_the_nearest_free_place_clear_of_the_route():
+    grid = corridor_with_alcove()
+    route = np.array([[x, 1.6] for x in np.arange(2.0, 11.0, 0.1)])
+    p = give_way_point(grid, route, (6.5, 1.6), (3.0, 1.6), 0.9, 4.0)
+    assert p is not None and grid.is_free(*p)
+    assert 6.0 < p[0] < 8.0 and p[1] >= 1.6 + 0.9 - 1e-9   # up in the alcove
+    # hand-checked: the nearest free cell centre at least 0.9 m from y = 1.6 is at y = 2.55,
+    # straight above the robot's cell (x 6.45 or 6.55)
+    assert p[1] == pytest.approx(2.55, abs=1e-6) and abs(p[0] - 6.5) <= 0.05 + 1e-9
+    # the alcove out of reach: nowhere to go
+    assert give_way_point(grid, route, (2.5, 1.6), (1.0, 1.6), 0.9, 2.0) is None
+
+
+def test_an_observer_on_the_targets_way_steps_aside_and_waits_until_it_passed():
+    grid = corridor_with_alcove()
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9))
+    dest = [("east", (10.5, 1.6))]
+    # the target stands west of the observer and is predicted to walk east, through it
+    d = fb.update(0.0, (6.3, 1.6, math.pi), (4.8, 1.6, 0.0, 0.0), dest)
+    assert d.mode == "give_way" and d.goal is not None
+    gx, gy, gyaw = d.goal
+    assert 6.0 < gx < 8.0 and gy >= 2.5                    # into the alcove
+    assert gyaw == pytest.approx(math.atan2(1.6 - gy, 4.8 - gx), abs=1e-9)  # facing it
+    # it waits there while the target comes past (no new goal), however the target moves
+    assert fb.update(1.0, (6.5, 2.6, -2.0), (5.5, 1.6, 0.7, 0.0), dest).goal is None
+    assert fb.mode == "give_way"
+    # once the target has gone its distance (1.5 m from where it stood), it follows again
+    d = fb.update(5.0, (6.5, 2.6, -1.0), (7.9, 1.6, 0.7, 0.0), dest)
+    assert d.mode == "follow"
+
+
+def test_an_observer_behind_the_target_or_far_from_it_does_not_give_way():
+    grid = corridor_with_alcove()
+    dest = [("east", (10.5, 1.6))]
+    # behind the target, which walks away from it: the usual stand-off goal
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7))
+    d = fb.update(0.0, (3.0, 1.6, 0.0), (4.5, 1.6, 0.6, 0.0), dest)
+    assert d.mode == "follow"
+    # on its way but 4 m off (beyond distance + slack): nothing to give way to yet
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7))
+    d = fb.update(0.0, (8.5, 1.6, math.pi), (4.5, 1.6, 0.0, 0.0), dest)
+    assert d.mode == "follow"

@@ -36,7 +36,8 @@ import numpy as np
 from .errors import BulletFloorSimError
 from .follow import FollowBehaviour, FollowConfig, pick_target, search_plan
 from .markov import MarkovChain, usable_rois
-from .planner import (Navigator, PathFollower, PlanError, PlanningGrid, obstacles_in_base)
+from .planner import (Navigator, NavigatorConfig, PathFollower, PlanError, PlanningGrid,
+                      obstacles_in_base)
 from .plotting import pyplot
 from .prediction import DestinationModel, OnlinePredictor, PredictorPool, log_loss, top1
 from .rois import load_rois
@@ -240,7 +241,8 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
     static = StaticMap(world.fmap, handling=handling)
     tracker = Tracker(TrackerConfig(centre_offset=0.25))  # measured for the Scitos body
     follow = FollowBehaviour(grid, FollowConfig())
-    nav_walker, nav_observer = Navigator(grid, PathFollower()), Navigator(grid, PathFollower())
+    nav_walker = Navigator(grid, PathFollower())
+    nav_observer = Navigator(grid, PathFollower(), NavigatorConfig(give_way=True))  # it yields
     pred_gt = OnlinePredictor(model)
     pred_trk = PredictorPool(model)
     laser = [world.models[i].laser_pose for i in range(world.n)]  # (x, y, z, yaw) in base

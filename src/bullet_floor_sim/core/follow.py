@@ -12,7 +12,16 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   when the last goal was sent, or at least every ``goal_period`` seconds while it moves.
   Within ``distance + slack`` of a target that stands still, the observer only turns to face
   it (a lidar sees 180 degrees ahead).
-* **search**: when no track has been seen for ``lost_after`` seconds, the observer goes to the
+* **give way**: near the target (within ``distance + slack``), the observer plans the target's
+  route to its predicted destination (the best region's point) and, when it stands within
+  ``give_way`` metres of that route, goes to the nearest free point at least that far from it
+  (a roomy one first, up to ``give_way_reach`` away: a wider spot of the corridor, a doorway's
+  side, or back along the way), and waits there, facing the target, until the target has moved
+  ``distance`` metres or ``give_way_hold`` seconds have passed. Standing on the route of a
+  target that turned back, the observer blocked it for good in narrow corridors.
+* **search**: when no track has been seen for ``lost_after`` seconds, the observer first turns
+  to where it was last seen if that was within ``distance + slack`` (turning towards its own
+  goal, it had turned its back on the target), then goes to the
   predicted destination region (the predictor's arg-max; the point of the region nearest to
   where the target was last seen), turns on the spot to look around, waits ``search_wait``
   seconds, then goes on to the next most likely region (up to ``search_regions`` of them, each
@@ -29,11 +38,13 @@ import math
 from dataclasses import dataclass
 from typing import Callable, List, Mapping, Optional, Sequence, Tuple
 
+import numpy as np
+
 from .errors import BulletFloorSimError
-from .planner import PlanningGrid
+from .planner import PlanError, PlanningGrid, give_way_point
 
 __all__ = ["FollowError", "FollowConfig", "FollowDecision", "FollowBehaviour", "standoff_point",
-           "in_view", "pick_target", "search_point", "search_plan"]
+           "in_view", "pick_target", "search_point", "search_plan", "give_way_point"]  # (planner's)
 
 
 class FollowError(BulletFloorSimError):
@@ -59,6 +70,10 @@ class FollowConfig:
             chosen with at least this much when one exists, and an observer standing still
             with less (in a doorway: 0.47-0.51 m in the office world, its corridor 0.89 m)
             moves to one. Waiting in a doorway shut the walker in (or out) for good.
+        give_way: the clearance (m) kept from the target's predicted route when near it: two
+            footprint radii and a margin, so that the target passes without stopping.
+        give_way_reach: look for a place to give way at most this far (m) from the observer.
+        give_way_hold: wait where it gave way at most this long (s) for the target to pass.
     """
 
     distance: float = 1.5
@@ -71,11 +86,15 @@ class FollowConfig:
     search_regions: int = 3
     search_min_probability: float = 0.05
     roomy: float = 0.6
+    give_way: float = 0.9
+    give_way_reach: float = 4.0
+    give_way_hold: float = 20.0
 
     def check(self) -> None:
         """Raise FollowError naming the first bad parameter."""
         for name in ("distance", "slack", "replan_distance", "goal_period", "lost_after",
-                     "search_turn", "search_wait", "roomy"):
+                     "search_turn", "search_wait", "roomy", "give_way", "give_way_reach",
+                     "give_way_hold"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise FollowError("follower: %s must be a finite number > 0, got %r" % (name, v))
@@ -92,7 +111,7 @@ class FollowDecision:
     """What the observer should do now.
 
     Attributes:
-        mode: ``follow``, ``search`` or ``idle``.
+        mode: ``follow``, ``give_way``, ``search`` or ``idle``.
         goal: a new navigation goal (x, y, yaw) to send now, or None (keep the current one).
         reason: one line for the log.
     """
@@ -149,8 +168,11 @@ class FollowBehaviour:
         self._goal_time = -math.inf
         self._search: List[Tuple[str, Tuple[float, float]]] = []
         self._search_index = 0
-        self._search_phase = ""          # go | look | wait
+        self._search_phase = ""          # back | go | look | wait
         self._search_since = -math.inf
+        self._route_key: Optional[Tuple[float, float, float, float, float]] = None  # tx ty gx gy t
+        self._route: Optional[np.ndarray] = None
+        self._yield: Optional[Tuple[float, float, float]] = None  # target x, y, t when it began
 
     def update(self, t: float, robot: Sequence[float], target: Optional[Sequence[float]],
                destination=None, goal_done: bool = False) -> FollowDecision:
@@ -167,7 +189,9 @@ class FollowBehaviour:
         """
         cfg = self.config
         if target is not None:
-            return self._follow(t, robot, target, goal_done)
+            plan = _as_plan(destination)
+            way = self._give_way(t, robot, target, plan[0][1] if plan else None, goal_done)
+            return way if way is not None else self._follow(t, robot, target, goal_done)
         if self.last_seen is not None and t - self.last_seen < cfg.lost_after:
             return FollowDecision(self.mode, None, "target unseen for %.1f s" % (
                 t - self.last_seen))
@@ -179,8 +203,19 @@ class FollowBehaviour:
             return FollowDecision("idle")
         rx, ry, ryaw = (float(v) for v in robot[:3])
         if self.mode != "search" or [r for r, _ in plan] != [r for r, _ in self._search]:
+            first_loss = self.mode != "search"
             self.mode, self._search, self._search_index = "search", plan, 0
+            lx, ly = self.last_target if self.last_target is not None else (rx, ry)
+            if first_loss and math.hypot(lx - rx, ly - ry) <= cfg.distance + cfg.slack:
+                self._search_phase = "back"
+                return FollowDecision("search", (rx, ry, math.atan2(ly - ry, lx - rx)),
+                                      "target lost close by at (%.2f, %.2f): looking back"
+                                      % (lx, ly))
             return self._search_go(rx, ry, "target lost: searching predicted region")
+        if self._search_phase == "back":
+            if goal_done:
+                return self._search_go(rx, ry, "not there: searching predicted region")
+            return FollowDecision("search")
         if self._search_phase == "go" and goal_done:
             self._search_phase = "look"
             return FollowDecision("search", (rx, ry, _wrap(ryaw + cfg.search_turn)),
@@ -192,6 +227,64 @@ class FollowBehaviour:
             self._search_index = (self._search_index + 1) % len(self._search)
             return self._search_go(rx, ry, "not found: searching region")
         return FollowDecision("search")
+
+    def _give_way(self, t: float, robot: Sequence[float], target: Sequence[float],
+                  dest: Optional[Tuple[float, float]], goal_done: bool
+                  ) -> Optional[FollowDecision]:
+        """The decision while giving way (None: follow as usual)."""
+        cfg = self.config
+        tx, ty = float(target[0]), float(target[1])
+        rx, ry, ryaw = (float(v) for v in robot[:3])
+        if self._yield is not None:
+            yx, yy, yt = self._yield
+            if math.hypot(tx - yx, ty - yy) < cfg.distance and t - yt < cfg.give_way_hold:
+                self.last_seen, self.last_target, self.mode = t, (tx, ty), "give_way"
+                facing = math.atan2(ty - ry, tx - rx)
+                if goal_done and abs(_wrap(facing - ryaw)) > 0.5:
+                    return FollowDecision("give_way", (rx, ry, facing), "facing the target")
+                return FollowDecision("give_way")
+            self._yield = None
+        if dest is None or math.hypot(tx - rx, ty - ry) > cfg.distance + cfg.slack:
+            return None
+        route = self._target_route(t, (tx, ty), dest)
+        if route is None:
+            return None
+        route = route[_distance_to(route, tx, ty) >= cfg.give_way]  # its way, not where it is
+        if _distance_to(route, rx, ry).min() >= cfg.give_way:
+            return None
+        point = give_way_point(self.grid, route, (rx, ry), (tx, ty), cfg.give_way,
+                               cfg.give_way_reach, cfg.roomy)
+        if point is None:
+            return None
+        self._yield = (tx, ty, t)
+        self.last_seen, self.last_target, self.mode = t, (tx, ty), "give_way"
+        self._goal_target, self._goal_time = (tx, ty), t
+        gx, gy = point
+        return FollowDecision("give_way", (gx, gy, math.atan2(ty - gy, tx - gx)),
+                              "on the target's way to (%.2f, %.2f): stepping to (%.2f, %.2f)"
+                              % (dest[0], dest[1], gx, gy))
+
+    def _target_route(self, t: float, target: Tuple[float, float],
+                      dest: Tuple[float, float]) -> Optional[np.ndarray]:
+        """The target's planned path towards ``dest``, its first ``distance + slack +
+        give_way_reach`` metres; planned again when the target moved ``replan_distance`` or the
+        destination changed, at most every ``goal_period`` s (an A* on a big floor is 0.1-0.4 s)."""
+        cfg = self.config
+        key = self._route_key
+        if key is not None and (t - key[4] < cfg.goal_period or (
+                math.hypot(target[0] - key[0], target[1] - key[1]) < cfg.replan_distance
+                and (dest[0], dest[1]) == (key[2], key[3]))):
+            return self._route
+        self._route_key = (target[0], target[1], float(dest[0]), float(dest[1]), t)
+        try:
+            path = self.grid.plan(target, dest)
+        except PlanError:
+            self._route = None
+            return None
+        steps = np.hypot(*np.diff(path, axis=0).T) if len(path) > 1 else np.zeros(0)
+        along = np.concatenate([[0.0], np.cumsum(steps)])
+        self._route = path[along <= cfg.distance + cfg.slack + cfg.give_way_reach]
+        return self._route
 
     def _search_go(self, rx: float, ry: float, why: str) -> FollowDecision:
         region, (x, y) = self._search[self._search_index]
@@ -247,6 +340,14 @@ class FollowBehaviour:
         gx, gy = point
         return FollowDecision("follow", (gx, gy, math.atan2(ty - gy, tx - gx)),
                               "target at (%.2f, %.2f)" % (tx, ty))
+
+
+def _distance_to(points: np.ndarray, x: float, y: float) -> np.ndarray:
+    """Distance from (x, y) to each of the (N, 2) points (inf for none)."""
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    if not len(pts):
+        return np.array([math.inf])
+    return np.hypot(pts[:, 0] - x, pts[:, 1] - y)
 
 
 def pick_target(tracks: Sequence, current: Optional[int],

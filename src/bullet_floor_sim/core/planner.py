@@ -371,6 +371,7 @@ class FollowerConfig:
         stop_distance: free space (m) needed ahead of the footprint to keep driving.
         side_margin: extra half-width (m) of the stop corridor beyond the footprint radius.
         robot_radius: footprint circumradius (m).
+        sweep: how far along the path (m) the stop check looks for obstacles.
     """
 
     lookahead: float = 0.6
@@ -385,6 +386,7 @@ class FollowerConfig:
     stop_distance: float = 0.3
     side_margin: float = 0.03
     robot_radius: float = 0.34
+    sweep: float = 1.5
 
 
 @dataclass
@@ -438,6 +440,35 @@ class PathFollower:
             return math.inf
         return float(pts[sel, 0].min()) - cfg.robot_radius
 
+    def free_along_path(self, pose: Sequence[float], obstacles: Optional[np.ndarray]) -> float:
+        """Distance (m) from the footprint's front, along the path ahead (from the robot to the
+        path's next points, ``sweep`` metres of it), to the first base-frame point in front of
+        the robot within ``robot_radius + side_margin`` of that line: what the footprint would
+        sweep. inf when there is none."""
+        if obstacles is None or len(obstacles) == 0:
+            return math.inf
+        cfg = self.config
+        pts = np.asarray(obstacles, dtype=float).reshape(-1, 2)
+        pts = _to_map(pose, pts[pts[:, 0] > 0.0])
+        if not len(pts):
+            return math.inf
+        line = np.vstack([np.asarray(pose[:2], dtype=float)[None, :],
+                          self.path[self._index + 1:]])
+        half, best, s0 = cfg.robot_radius + cfg.side_margin, math.inf, 0.0
+        for a, b in zip(line[:-1], line[1:]):
+            ab = b - a
+            seg = float(np.hypot(*ab))
+            if seg > 1e-9:
+                t = np.clip(((pts - a) @ ab) / (seg * seg), 0.0, 1.0)
+                d = np.hypot(*(pts - a - t[:, None] * ab).T)
+                hit = d < half
+                if hit.any():
+                    best = min(best, s0 + float((t[hit] * seg).min()))
+            s0 += seg
+            if s0 >= cfg.sweep or s0 >= best:
+                break
+        return best - cfg.robot_radius
+
     def compute(self, pose: Sequence[float], obstacles: Optional[np.ndarray] = None,
                 known: Optional[np.ndarray] = None) -> FollowerCommand:
         """Velocity command for the current ground-truth pose.
@@ -448,7 +479,8 @@ class PathFollower:
             known: optional (N,) bool, the points on the map's walls. The path already keeps
                 the footprint clear of them, so they shorten the look-ahead and slow the robot
                 but never stop it: only what the map does not know (a robot, a person) can
-                block the way. Without it every point can.
+                block the way, and only when it is on the path ahead
+                (:meth:`free_along_path`): beside a bend it is not. Without it every point can.
 
         Returns:
             The command; ``state == "done"`` once within tolerance of the goal.
@@ -480,10 +512,10 @@ class PathFollower:
         # obstacle the look-ahead shrinks so that the robot follows the path's detours tightly
         free = self.free_ahead(obstacles)
         lookahead = cfg.lookahead if free > 1.0 else cfg.short_lookahead
+        unknown = obstacles
         if known is not None and obstacles is not None and len(obstacles):
-            free_new = self.free_ahead(np.asarray(obstacles)[~np.asarray(known, dtype=bool)])
-        else:
-            free_new = free
+            unknown = np.asarray(obstacles)[~np.asarray(known, dtype=bool)]
+        free_new = self.free_along_path((x, y, yaw), unknown)
         rest = self.path[self._index:]
         dr = np.hypot(rest[:, 0] - x, rest[:, 1] - y)
         far = np.nonzero(dr >= lookahead)[0]
@@ -539,7 +571,47 @@ def obstacles_in_base(ranges: Iterable[float], angle_min: float, angle_increment
     return np.stack([laser_pose[0] + r * np.cos(a), laser_pose[1] + r * np.sin(a)], axis=1)
 
 
-__all__ += ["path_length", "obstacles_in_base"]
+__all__ += ["path_length", "obstacles_in_base", "give_way_point"]
+
+
+def give_way_point(grid: PlanningGrid, route: np.ndarray, robot: Sequence[float],
+                   target: Sequence[float], clear: float, reach: float, roomy: float = 0.0
+                   ) -> Optional[Tuple[float, float]]:
+    """The free planning-cell centre nearest to ``robot`` that is at least ``clear`` metres from
+    every point of ``route`` (an (N, 2) polyline sampled finely, e.g. a plan) and from the
+    ``target``, within ``reach`` metres of the robot; one with ``roomy`` metres of wall
+    clearance first. None when there is none."""
+    rx, ry = float(robot[0]), float(robot[1])
+    c0, r0 = grid.to_cell(rx, ry)
+    n = int(math.ceil(reach / grid.resolution))
+    cols = np.arange(max(0, c0 - n), min(grid.width, c0 + n + 1))
+    rows = np.arange(max(0, r0 - n), min(grid.height, r0 + n + 1))
+    if not len(cols) or not len(rows):
+        return None
+    C, R = np.meshgrid(cols, rows)
+    C, R = C.ravel(), R.ravel()
+    ok = np.isfinite(grid.cost[R, C])
+    C, R = C[ok], R[ok]
+    k = grid.factor
+    x, y = grid.fmap.cell_to_world((C + 0.5) * k - 0.5, (R + 0.5) * k - 0.5)
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    d_robot = np.hypot(x - rx, y - ry)
+    ok = (d_robot <= reach) & (np.hypot(x - float(target[0]), y - float(target[1])) >= clear)
+    pts = np.asarray(route, dtype=float).reshape(-1, 2)
+    if len(pts):
+        far = np.ones(len(x), dtype=bool)
+        for k0 in range(0, len(pts), 64):   # bounded (cells x route points) scratch
+            p = pts[k0:k0 + 64]
+            d = np.hypot(x[:, None] - p[None, :, 0], y[:, None] - p[None, :, 1]).min(axis=1)
+            far &= d >= clear
+        ok &= far
+    if not ok.any():
+        return None
+    roomy_ok = ok & (grid.clearance[R, C] >= roomy)
+    pick = roomy_ok if roomy_ok.any() else ok
+    i = int(np.argmin(np.where(pick, d_robot, np.inf)))
+    return float(x[i]), float(y[i])
+
 
 
 @dataclass
@@ -548,13 +620,19 @@ class NavigatorConfig:
 
     Attributes:
         replan_after: blocked this long -> plan again, around the obstacles in the scan.
-        blocked_timeout: blocked this long in total -> abort.
+        blocked_timeout: blocked this long in total since the last 0.1 m of progress towards
+            the goal -> abort.
         progress_timeout: no 0.1 m of progress towards the goal for this long -> abort.
         obstacle_range: scan points farther than this (m) are ignored when replanning.
         sidestep: how far (m) to step aside when no path passes an obstacle.
         stall_time: commanded to move but moved less than 2 cm and turned less than 0.05 rad
             for this long -> stalled (pressed against another robot the scan does not show
             ahead): plan again at once, around the obstacles in the scan.
+        give_way: when no path passes what blocks it and it cannot step aside, retreat to the
+            nearest free place (a roomy one first) at least ``give_way_clear`` m from every
+            point the map does not know, within ``give_way_reach`` m, wait ``give_way_wait`` s
+            there and go on to the goal: the robot that yields in a passage too narrow for two
+            (the observer; the walker keeps its way). False: wait where it is.
     """
 
     replan_after: float = 2.0
@@ -563,6 +641,10 @@ class NavigatorConfig:
     obstacle_range: float = 3.0
     sidestep: float = 0.45
     stall_time: float = 1.5
+    give_way: bool = False
+    give_way_clear: float = 1.2
+    give_way_reach: float = 5.0
+    give_way_wait: float = 3.0
 
 
 @dataclass
@@ -603,6 +685,9 @@ class Navigator:
         self._last_cmd = (0.0, 0.0)
         self._still_since: Optional[Tuple[float, float, float, float]] = None  # t, x, y, yaw
         self.stalls = 0
+        self._retreat: Optional[Tuple[float, float]] = None  # where it retreats to, out of the way
+        self._resume_at: Optional[float] = None   # out of the way: when to go on to the goal
+        self.retreats = 0
         self._seen = np.zeros((0, 2))             # the last scan's points in the map frame
         self._known = np.zeros(0, dtype=bool)     # which of them are on the map's walls
 
@@ -629,6 +714,7 @@ class Navigator:
         self._last_t = now
         self._last_cmd = (0.0, 0.0)
         self._still_since = None
+        self._retreat, self._resume_at = None, None
         return path
 
     def cancel(self) -> None:
@@ -681,13 +767,19 @@ class Navigator:
         cfg = self.config
         dt = 0.0 if self._last_t is None else max(0.0, now - self._last_t)
         self._last_t = now
+        if self._resume_at is not None:
+            return self._wait_then_resume(pose, now)
         cmd = self.follower.compute(pose, obstacles, self._known)
+        if cmd.state == "done" and self._retreat:
+            self._retreat, self._resume_at = None, now + cfg.give_way_wait
+            return NavStatus(0.0, 0.0, "active", "giving way", cmd.distance_to_goal)
         if cmd.state == "done":
             self.goal = None
             return NavStatus(0.0, 0.0, "succeeded", "goal reached", cmd.distance_to_goal)
         if cmd.distance_to_goal < self._best - 0.1:
             self._best = cmd.distance_to_goal
             self._best_t = now
+            self._blocked_total = 0.0   # the time blocked counts since the last progress
         if cmd.state == "blocked":
             self._blocked_total += dt
             if self._blocked_since is None:
@@ -728,13 +820,55 @@ class Navigator:
         near = np.hypot(pts[:, 0], pts[:, 1]) < self.config.obstacle_range
         world = self._seen[near & ~self._known]
         try:
-            path = self.grid.plan(pose, self.goal, obstacles=world)
+            path = self.grid.plan(pose, self._retreat or self.goal, obstacles=world)
         except PlanError:
-            path = self._sidestep(pose, world)
+            path = None if self._retreat else self._sidestep(pose, world)
+            if path is None and self.config.give_way:
+                path = self._out_of_the_way(pose, world)
+                if path is not None:
+                    self._retreat = (float(path[-1, 0]), float(path[-1, 1]))
+                    self.retreats += 1
+                    self._blocked_total = 0.0
+                    self.follower.set_path(path, None)
+                return
             if path is None:
                 return  # nothing better: wait for the obstacle to move
         self.replans += 1
+        self.follower.set_path(path, None if self._retreat else self.goal[2])
+
+    def _out_of_the_way(self, pose: Sequence[float], world: np.ndarray) -> Optional[np.ndarray]:
+        """A path, around ``world`` (the points the map does not know), to the nearest place
+        at least ``give_way_clear`` m from all of them; None when there is none."""
+        cfg = self.config
+        if not len(world):
+            return None
+        centre = world.mean(axis=0)
+        point = give_way_point(self.grid, world, pose, centre, cfg.give_way_clear,
+                               cfg.give_way_reach, 0.6)
+        if point is None:
+            return None
+        try:
+            return self.grid.plan(pose, point, obstacles=world)
+        except PlanError:
+            return None
+
+    def _wait_then_resume(self, pose: Sequence[float], now: float) -> NavStatus:
+        """Out of the way: wait, then plan to the goal again (around what the scan shows)."""
+        if now < self._resume_at:
+            return NavStatus(0.0, 0.0, "active", "giving way")
+        world = self._seen[~self._known] if len(self._seen) else np.zeros((0, 2))
+        try:
+            path = self.grid.plan(pose, self.goal, obstacles=world)
+        except PlanError:
+            try:
+                path = self.grid.plan(pose, self.goal)
+            except PlanError as e:
+                return self._abort("cannot go on after giving way: %s" % e,
+                                   FollowerCommand(0.0, 0.0, "blocked", 0.0))
+        self._resume_at = None
+        self._best, self._best_t = math.inf, now
         self.follower.set_path(path, self.goal[2])
+        return NavStatus(0.0, 0.0, "active", "going on")
 
     def _sidestep(self, pose: Sequence[float], world: np.ndarray) -> Optional[np.ndarray]:
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
