@@ -272,3 +272,22 @@ def test_an_observer_behind_the_target_or_far_from_it_does_not_give_way():
     fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7))
     d = fb.update(0.0, (8.5, 1.6, math.pi), (4.5, 1.6, 0.0, 0.0), dest)
     assert d.mode == "follow"
+
+
+def test_an_observer_standing_in_a_long_narrow_corridor_waits_in_the_hall_beyond_it():
+    # a corridor 1.0 m wide (y 1.0..2.0, x 0..8) opening into a hall (x 8..12, y 0..4): no
+    # point of the stand-off circle is roomy, the hall is
+    g = np.full((int(4.0 / RES), int(12.0 / RES)), 100, dtype=np.int8)
+    g[int(1.0 / RES):int(2.0 / RES), 1:int(8.0 / RES)] = 0
+    g[1:-1, int(8.0 / RES):-1] = 0
+    grid = PlanningGrid(map_from_grid(g, RES))
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, roomy=0.6,
+                                            give_way=0.9, give_way_reach=4.0))
+    fb.update(0.0, (6.5, 1.5, math.pi), (5.5, 1.5, 0.0, 0.0))          # the first goal
+    # at its goal (done), the target standing 1 m off: no roomy point on the stand-off circle,
+    # so the nearest roomy place, in the hall, 1.0 m or more from the target
+    d = fb.update(2.0, (6.5, 1.5, math.pi), (5.5, 1.5, 0.0, 0.0), goal_done=True)
+    assert d.goal is not None and "narrow passage" in d.reason
+    gx, gy, _ = d.goal
+    assert grid.clearance_at(gx, gy) >= 0.6 and gx > 8.0
+    assert math.hypot(gx - 6.5, gy - 1.5) <= 4.0

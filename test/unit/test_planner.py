@@ -11,7 +11,8 @@ from scipy.ndimage import distance_transform_edt
 from bullet_floor_sim.core.config import load_world_config, resolve_world
 from bullet_floor_sim.core.floormap import map_from_grid
 from bullet_floor_sim.core.paths import worlds_dir
-from bullet_floor_sim.core.planner import (FollowerConfig, Navigator, PathFollower, PlanError,
+from bullet_floor_sim.core.planner import (FollowerConfig, Navigator, NavigatorConfig,
+                                           PathFollower, PlanError,
                                            PlannerConfig, PlanningGrid, obstacles_in_base,
                                            path_length)
 from bullet_floor_sim.core.world import World
@@ -219,3 +220,46 @@ def test_points_on_the_map_walls_slow_but_never_stop_the_follower():
     robot_ahead = np.array([[0.6, 0.0]])
     f.set_path(np.array([[1.0 + 0.1 * k, robot_y] for k in range(20)]))
     assert f.compute((1.0, robot_y, 0.0), robot_ahead, np.array([False])).state == "blocked"
+
+
+def _drive_unicycle(nav, pose, obstacles_map, t, seconds, until="", dt=0.1):
+    """Run the navigator on a unicycle that does what it is told, against fixed map-frame
+    obstacle points, until the goal ends or the status message is ``until``; returns the pose,
+    the time and the last status."""
+    x, y, yaw = pose
+    st = None
+    for _ in range(int(round(seconds / dt))):
+        c, s = math.cos(yaw), math.sin(yaw)
+        pts = None
+        if len(obstacles_map):
+            d = obstacles_map - np.array([x, y])
+            pts = np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
+        st = nav.update((x, y, yaw), pts, t)
+        if st.state != "active" or (until and st.message == until):
+            break
+        x, y, yaw = x + st.v * dt * math.cos(yaw), y + st.v * dt * math.sin(yaw), yaw + st.w * dt
+        t += dt
+    return (x, y, yaw), t, st
+
+
+def test_a_yielding_robot_backs_out_of_a_narrow_corridor_then_goes_on():
+    # a corridor 1.2 m wide (y 1.0..2.2) from x 0 to 12: no room for two robots side by side
+    g = np.full((int(3.2 / 0.05), int(12.0 / 0.05)), 100, dtype=np.int8)
+    g[int(1.0 / 0.05):int(2.2 / 0.05), 1:-1] = 0
+    grid = PlanningGrid(map_from_grid(g, 0.05))
+    other = np.array([[5.0 + 0.35 * math.cos(a), 1.6 + 0.35 * math.sin(a)]
+                      for a in np.linspace(0, 2 * math.pi, 40, endpoint=False)])
+    stubborn = Navigator(grid, PathFollower(), NavigatorConfig())
+    stubborn.start((4.0, 1.6, 0.0), (10.0, 1.6), 0.0)
+    pose, t, st = _drive_unicycle(stubborn, (4.0, 1.6, 0.0), other, 0.0, 10.0)
+    assert st.state == "active" and pose[0] > 3.9 and stubborn.retreats == 0   # it waits
+    nav = Navigator(grid, PathFollower(), NavigatorConfig(give_way=True, give_way_clear=1.2))
+    nav.start((4.0, 1.6, 0.0), (10.0, 1.6), 0.0)
+    pose, t, st = _drive_unicycle(nav, (4.0, 1.6, 0.0), other, 0.0, 30.0, "giving way")
+    assert nav.retreats == 1 and st.state == "active" and st.message == "giving way"
+    # out of the way: at least 1.2 m from the other robot's body, on the near side
+    assert np.min(np.hypot(other[:, 0] - pose[0], other[:, 1] - pose[1])) >= 1.2 - 0.15
+    assert pose[0] < 5.0 - 0.35 - 1.2 + 0.15
+    # the other robot has gone: after the wait it goes on to its goal
+    pose, t, st = _drive_unicycle(nav, pose, np.zeros((0, 2)), t, 60.0)
+    assert st.state == "succeeded" and math.hypot(pose[0] - 10.0, pose[1] - 1.6) < 0.2

@@ -124,3 +124,38 @@ def test_the_users_map_is_not_changed():
 def test_bad_handling_is_one_line_naming_the_file(kw, msg):
     with pytest.raises(ConfigError, match=msg):
         MapHandling(**kw).check("w.yaml")
+
+
+def test_the_derived_map_is_kept_on_disk_and_read_back_the_same(tmp_path, monkeypatch):
+    import os
+
+    from scipy.ndimage import distance_transform_edt
+
+    monkeypatch.setenv("BULLET_FLOOR_SIM_CACHE", str(tmp_path))
+    g = room(gap=1)
+    first = solid(g)
+    entries = os.listdir(tmp_path / "maps")
+    assert len(entries) == 1 and entries[0].endswith(".npz")
+    # the distance field is the Euclidean distance (in cells) to the nearest solid cell
+    occ = first.fmap.occupied
+    assert np.allclose(first.distance, distance_transform_edt(~occ))
+    again = solid(g)                       # a new FloorMap of the same grid: from the disk
+    assert again is not first
+    assert np.array_equal(again.fmap.grid, first.fmap.grid)
+    assert np.array_equal(again.distance, first.distance)
+    assert again.fmap.rectangles() == first.fmap.rectangles()
+    assert (again.report, again.gap_cells, again.unknown_solid) == (
+        first.report, first.gap_cells, first.unknown_solid)
+    # another handling, another entry; an edited grid, another entry
+    solid(g, close_gaps=0.0)
+    g2 = g.copy()
+    g2[20, 20] = 100
+    assert solid(g2).fmap.grid[20, 20] == 100
+    assert len(os.listdir(tmp_path / "maps")) == 3
+    # a corrupt entry is derived again (and rewritten)
+    for name in os.listdir(tmp_path / "maps"):
+        (tmp_path / "maps" / name).write_bytes(b"not an npz")
+    assert np.array_equal(solid(g).fmap.grid, first.fmap.grid)
+    # an empty BULLET_FLOOR_SIM_CACHE turns the cache off
+    monkeypatch.setenv("BULLET_FLOOR_SIM_CACHE", "")
+    assert solid(g).report == first.report

@@ -173,6 +173,7 @@ class FollowBehaviour:
         self._route_key: Optional[Tuple[float, float, float, float, float]] = None  # tx ty gx gy t
         self._route: Optional[np.ndarray] = None
         self._yield: Optional[Tuple[float, float, float]] = None  # target x, y, t when it began
+        self._standing = True            # no goal under way (the last one finished)
 
     def update(self, t: float, robot: Sequence[float], target: Optional[Sequence[float]],
                destination=None, goal_done: bool = False) -> FollowDecision:
@@ -187,6 +188,15 @@ class FollowBehaviour:
                 None.
             goal_done: the navigation finished (reached or gave up) the last goal sent.
         """
+        if goal_done:
+            self._standing = True
+        decision = self._decide(t, robot, target, destination, goal_done)
+        if decision.goal is not None:
+            self._standing = False
+        return decision
+
+    def _decide(self, t: float, robot: Sequence[float], target: Optional[Sequence[float]],
+                destination, goal_done: bool) -> FollowDecision:
         cfg = self.config
         if target is not None:
             plan = _as_plan(destination)
@@ -253,7 +263,7 @@ class FollowBehaviour:
         if _distance_to(route, rx, ry).min() >= cfg.give_way:
             return None
         point = give_way_point(self.grid, route, (rx, ry), (tx, ty), cfg.give_way,
-                               cfg.give_way_reach, cfg.roomy)
+                               cfg.give_way_reach, cfg.roomy, obstacles=np.array([[tx, ty]]))
         if point is None:
             return None
         self._yield = (tx, ty, t)
@@ -308,8 +318,14 @@ class FollowBehaviour:
                  math.hypot(tx - self._goal_target[0], ty - self._goal_target[1]))
         cramped = self.grid.clearance_at(rx, ry) < cfg.roomy
         if not first and dist <= cfg.distance + cfg.slack and not moving and cramped \
-                and goal_done:
+                and self._standing:
             point = standoff_point(self.grid, (tx, ty), (rx, ry), cfg.distance, None, cfg.roomy)
+            if point is None or self.grid.clearance_at(*point) < cfg.roomy:
+                # none on the circle (a long narrow corridor): the nearest roomy place, however
+                # far along it, up to give_way_reach, not past the target
+                here = np.array([[tx, ty]])
+                point = give_way_point(self.grid, here, (rx, ry), (tx, ty), cfg.give_way,
+                                       cfg.give_way_reach, cfg.roomy, obstacles=here)
             if point is not None and self.grid.clearance_at(*point) >= cfg.roomy:
                 self._goal_target, self._goal_time = (tx, ty), t
                 gx, gy = point

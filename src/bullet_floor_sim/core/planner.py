@@ -83,8 +83,6 @@ class PlanningGrid:
 
     def __init__(self, fmap: FloorMap, config: Optional[PlannerConfig] = None,
                  handling: Optional[MapHandling] = None) -> None:
-        from scipy.ndimage import distance_transform_edt
-
         self.fmap = fmap
         self.config = cfg = config or PlannerConfig()
         if cfg.robot_radius <= 0 or cfg.resolution <= 0:
@@ -97,15 +95,12 @@ class PlanningGrid:
         if handling is None:
             handling = MapHandling(unknown="wall" if cfg.unknown_is_obstacle else "free")
         self.handling = handling
-        blocked = solid_map(fmap, handling).fmap.occupied
-        # Distance from each fine cell centre to the nearest blocked cell centre, minus half a
+        # Distance from each fine cell centre to the nearest solid cell centre, minus half a
         # fine cell (the wall cell's extent); then the worst fine cell of each coarse block, minus
         # the coarse cell's half-diagonal: a footprint centred anywhere in the coarse cell keeps
         # at least this clearance.
-        if blocked.any():
-            fine = distance_transform_edt(~blocked) * fmap.resolution - 0.5 * fmap.resolution
-        else:
-            fine = np.full(blocked.shape, np.inf)
+        dist = solid_map(fmap, handling).distance
+        fine = dist.astype(float) * fmap.resolution - 0.5 * fmap.resolution
         self._fine = fine
         h, w = fine.shape
         H, W = -(-h // k), -(-w // k)
@@ -575,12 +570,15 @@ __all__ += ["path_length", "obstacles_in_base", "give_way_point"]
 
 
 def give_way_point(grid: PlanningGrid, route: np.ndarray, robot: Sequence[float],
-                   target: Sequence[float], clear: float, reach: float, roomy: float = 0.0
-                   ) -> Optional[Tuple[float, float]]:
+                   target: Sequence[float], clear: float, reach: float, roomy: float = 0.0,
+                   obstacles: Optional[np.ndarray] = None) -> Optional[Tuple[float, float]]:
     """The free planning-cell centre nearest to ``robot`` that is at least ``clear`` metres from
     every point of ``route`` (an (N, 2) polyline sampled finely, e.g. a plan) and from the
-    ``target``, within ``reach`` metres of the robot; one with ``roomy`` metres of wall
-    clearance first. None when there is none."""
+    ``target``, within ``reach`` metres of the robot and reachable from it without passing
+    ``obstacles`` (map-frame points, inflated as the planner does); one with ``roomy`` metres
+    of wall clearance first. None when there is none."""
+    from scipy.ndimage import label
+
     rx, ry = float(robot[0]), float(robot[1])
     c0, r0 = grid.to_cell(rx, ry)
     n = int(math.ceil(reach / grid.resolution))
@@ -588,10 +586,20 @@ def give_way_point(grid: PlanningGrid, route: np.ndarray, robot: Sequence[float]
     rows = np.arange(max(0, r0 - n), min(grid.height, r0 + n + 1))
     if not len(cols) or not len(rows):
         return None
-    C, R = np.meshgrid(cols, rows)
-    C, R = C.ravel(), R.ravel()
-    ok = np.isfinite(grid.cost[R, C])
-    C, R = C[ok], R[ok]
+    cost = grid.cost
+    if obstacles is not None and len(obstacles):
+        cost = cost.copy()
+        grid._stamp_obstacles(cost, np.asarray(obstacles, dtype=float).reshape(-1, 2), (rx, ry))
+    free = np.isfinite(cost[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1])
+    parts, _ = label(free, structure=np.ones((3, 3)))
+    r, c = r0 - rows[0], c0 - cols[0]
+    near = parts[max(r - 2, 0):r + 3, max(c - 2, 0):c + 3]   # its cell, or one next to it
+    near = near[near > 0]
+    if not len(near):
+        return None
+    own = int(np.bincount(near).argmax())
+    R, C = np.nonzero(parts == own)
+    R, C = R + rows[0], C + cols[0]
     k = grid.factor
     x, y = grid.fmap.cell_to_world((C + 0.5) * k - 0.5, (R + 0.5) * k - 0.5)
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
@@ -628,7 +636,7 @@ class NavigatorConfig:
         stall_time: commanded to move but moved less than 2 cm and turned less than 0.05 rad
             for this long -> stalled (pressed against another robot the scan does not show
             ahead): plan again at once, around the obstacles in the scan.
-        give_way: when no path passes what blocks it and it cannot step aside, retreat to the
+        give_way: when no path passes what blocks it, retreat (before stepping aside) to the
             nearest free place (a roomy one first) at least ``give_way_clear`` m from every
             point the map does not know, within ``give_way_reach`` m, wait ``give_way_wait`` s
             there and go on to the goal: the robot that yields in a passage too narrow for two
@@ -822,15 +830,15 @@ class Navigator:
         try:
             path = self.grid.plan(pose, self._retreat or self.goal, obstacles=world)
         except PlanError:
-            path = None if self._retreat else self._sidestep(pose, world)
-            if path is None and self.config.give_way:
+            if self.config.give_way:   # the yielding robot gets out of the way
                 path = self._out_of_the_way(pose, world)
                 if path is not None:
                     self._retreat = (float(path[-1, 0]), float(path[-1, 1]))
                     self.retreats += 1
                     self._blocked_total = 0.0
                     self.follower.set_path(path, None)
-                return
+                    return
+            path = None if self._retreat else self._sidestep(pose, world)
             if path is None:
                 return  # nothing better: wait for the obstacle to move
         self.replans += 1
@@ -844,7 +852,7 @@ class Navigator:
             return None
         centre = world.mean(axis=0)
         point = give_way_point(self.grid, world, pose, centre, cfg.give_way_clear,
-                               cfg.give_way_reach, 0.6)
+                               cfg.give_way_reach, 0.6, obstacles=world)
         if point is None:
             return None
         try:

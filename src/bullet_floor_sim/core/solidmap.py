@@ -25,18 +25,21 @@ robot leaves the building through such a gap:
   a table leg as a person who walked by during mapping, and only the user knows which.
 
 Everything it changes is counted in :attr:`SolidMap.report` (the simulator logs it); the
-user's map file is never rewritten, and map_server still serves it as it is.
+user's map file is never rewritten, and map_server still serves it as it is. The solid cells,
+their distance field and the wall rectangles are kept on disk (core/mapcache.py), so a big map
+costs its second of derivation once.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import List
+from typing import List, Optional
 
 import numpy as np
 
 from .errors import ConfigError
 from .floormap import FloorMap
+from .mapcache import load_entry, map_cache_dir, map_key, store_entry
 
 __all__ = ["MapHandling", "SolidMap", "solid_map", "UNKNOWN_MODES"]
 
@@ -67,10 +70,14 @@ class MapHandling:
                                   % (where, key, what, v))
 
 
+_COUNTS = ("unknown_solid", "sliver_cells", "gap_cells", "speckle_cells", "speckle_blobs")
+
+
 @dataclass
 class SolidMap:
-    """The solid cells, as a FloorMap (100 solid, 0 empty) on the user's grid, and what was
-    changed to get them."""
+    """The solid cells, as a FloorMap (100 solid, 0 empty) on the user's grid, what was
+    changed to get them, and ``distance``: float32 (rows, cols), the distance in cells from
+    each cell centre to the nearest solid cell centre (inf everywhere on a map with none)."""
 
     fmap: FloorMap
     unknown_solid: int = 0
@@ -79,6 +86,7 @@ class SolidMap:
     speckle_cells: int = 0
     speckle_blobs: int = 0
     report: List[str] = field(default_factory=list)
+    distance: Optional[np.ndarray] = field(default=None, repr=False)
 
 
 def solid_map(fmap: FloorMap, handling: MapHandling = MapHandling()) -> SolidMap:
@@ -96,8 +104,59 @@ def solid_map(fmap: FloorMap, handling: MapHandling = MapHandling()) -> SolidMap
     key = ("solid_map", handling)
     cached = fmap._derived.get(key)
     if cached is None:
-        cached = fmap._derived[key] = _solid_map(fmap, handling)
+        disk = map_key(fmap.grid, fmap.resolution, fmap.origin, handling)
+        cached = _from_entry(fmap, load_entry(disk))
+        if cached is None:
+            cached = _solid_map(fmap, handling)
+            _store(disk, cached)
+        fmap._derived[key] = cached
     return cached
+
+
+def _distance(solid: np.ndarray) -> np.ndarray:
+    from scipy.ndimage import distance_transform_edt
+
+    if not solid.any():
+        return np.full(solid.shape, np.inf, dtype=np.float32)
+    return distance_transform_edt(~solid).astype(np.float32)
+
+
+def _solid_fmap(fmap: FloorMap, solid: np.ndarray) -> FloorMap:
+    return FloorMap(grid=np.where(solid, 100, 0).astype(np.int8), resolution=fmap.resolution,
+                    origin=fmap.origin, yaml_path=fmap.yaml_path, image_path=fmap.image_path,
+                    negate=fmap.negate, occupied_thresh=fmap.occupied_thresh,
+                    free_thresh=fmap.free_thresh, mode=fmap.mode)
+
+
+def _store(key: str, sm: SolidMap) -> None:
+    """Keep what took long on disk: the solid cells, distances and wall rectangles (these
+    are only worked out here when there is a cache to keep them in)."""
+    if not map_cache_dir():
+        return
+    rects = np.array(sm.fmap.rectangles(), dtype=np.int32).reshape(-1, 4)
+    meta = {name: getattr(sm, name) for name in _COUNTS}
+    meta["report"] = list(sm.report)
+    store_entry(key, {"solid": np.packbits(sm.fmap.occupied), "distance": sm.distance,
+                      "rects": rects}, meta)
+
+
+def _from_entry(fmap: FloorMap, entry) -> Optional[SolidMap]:
+    """The SolidMap of a cache entry; None when there is none or it does not fit the map."""
+    if entry is None:
+        return None
+    try:
+        n = fmap.grid.size
+        solid = np.unpackbits(entry["solid"], count=n).astype(bool).reshape(fmap.grid.shape)
+        distance = entry["distance"]
+        if distance.shape != fmap.grid.shape or entry["rects"].ndim != 2:
+            return None
+        out = SolidMap(fmap=_solid_fmap(fmap, solid), distance=distance,
+                       report=[str(line) for line in entry["meta"]["report"]],
+                       **{name: int(entry["meta"][name]) for name in _COUNTS})
+    except (KeyError, ValueError, TypeError):
+        return None
+    out.fmap._rects.extend(tuple(int(v) for v in r) for r in entry["rects"])
+    return out
 
 
 def _solid_map(fmap: FloorMap, handling: MapHandling) -> SolidMap:
@@ -132,11 +191,8 @@ def _solid_map(fmap: FloorMap, handling: MapHandling) -> SolidMap:
             out.report.append("%d cells of gaps up to %.2f m closed (clean.close_gaps)"
                               % (out.gap_cells, handling.close_gaps))
         solid = closed
-    g = np.where(solid, 100, 0).astype(np.int8)
-    out.fmap = FloorMap(grid=g, resolution=res, origin=fmap.origin, yaml_path=fmap.yaml_path,
-                        image_path=fmap.image_path, negate=fmap.negate,
-                        occupied_thresh=fmap.occupied_thresh, free_thresh=fmap.free_thresh,
-                        mode=fmap.mode)
+    out.fmap = _solid_fmap(fmap, solid)
+    out.distance = _distance(solid)
     return out
 
 

@@ -201,13 +201,8 @@ class World:
 
     def _clearance_field(self) -> np.ndarray:
         """Lower bound of the distance (m) from each cell's points to the nearest wall."""
-        from scipy.ndimage import distance_transform_edt
-
-        occ = self.solid.fmap.occupied
-        if not occ.any():
-            return np.full(occ.shape, np.inf)
-        dist = distance_transform_edt(~occ) * self.fmap.resolution
-        return dist - self.fmap.resolution * math.sqrt(2.0)
+        res = self.fmap.resolution
+        return self.solid.distance.astype(float) * res - res * math.sqrt(2.0)
 
     def _init_robots(self) -> None:
         p = self.client

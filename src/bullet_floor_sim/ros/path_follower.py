@@ -12,7 +12,9 @@ map_server's). The plan is published where stock move_base with global_planner p
 Parameters (defaults suit a Scitos A5): ``~robot_radius`` 0.34, ``~inflation_radius`` 0.6,
 ``~planning_resolution`` 0.1, ``~max_linear`` 0.6, ``~max_angular`` 1.2,
 ``~xy_goal_tolerance`` 0.15, ``~yaw_goal_tolerance`` 0.15, ``~controller_frequency`` 10,
-``~blocked_timeout`` 30, ``~progress_timeout`` 60, ``~global_frame`` map, ``~map_topic`` /map.
+``~blocked_timeout`` 30, ``~progress_timeout`` 60, ``~give_way`` false (true: when blocked
+where no path passes, retreat to a wider place, wait and go on: core/planner.Navigator),
+``~global_frame`` map, ``~map_topic`` /map.
 """
 from __future__ import annotations
 
@@ -57,7 +59,8 @@ class PathFollowerNode:
             xy_tolerance=float(gp("~xy_goal_tolerance", 0.15)),
             yaw_tolerance=float(gp("~yaw_goal_tolerance", 0.15)))
         self.nav_cfg = NavigatorConfig(blocked_timeout=float(gp("~blocked_timeout", 30.0)),
-                                       progress_timeout=float(gp("~progress_timeout", 60.0)))
+                                       progress_timeout=float(gp("~progress_timeout", 60.0)),
+                                       give_way=bool(gp("~give_way", False)))
         self.rate_hz = float(gp("~controller_frequency", 10.0))
         self.global_frame = str(gp("~global_frame", "map"))
         self.grid: Optional[PlanningGrid] = None
