@@ -102,6 +102,23 @@ def test_scan_points_land_in_the_base_frame():
     np.testing.assert_allclose(pts, [[0.3, -1.0], [0.3, 2.0]], atol=1e-12)
 
 
+def _wall_distance(world, x, y, reach=1.0):
+    """Exact distance (m) from (x, y) to the nearest solid cell's square (inf beyond reach)."""
+    fm = world.solid.fmap
+    res = fm.resolution
+    col, row = fm.world_to_cell(x, y)
+    n = int(reach / res) + 1
+    r0, c0 = max(int(row) - n, 0), max(int(col) - n, 0)
+    rows, cols = np.nonzero(fm.occupied[r0:int(row) + n + 1, c0:int(col) + n + 1])
+    if not len(rows):
+        return math.inf
+    x0 = fm.origin[0] + (cols + c0) * res   # the maps here have no origin yaw
+    y0 = fm.origin[1] + (rows + r0) * res
+    dx = np.maximum.reduce([x0 - x, np.zeros_like(x0), x - (x0 + res)])
+    dy = np.maximum.reduce([y0 - y, np.zeros_like(y0), y - (y0 + res)])
+    return float(np.hypot(dx, dy).min())
+
+
 def _drive(world, navs, goals, limit=400.0):
     """Run navigators in the core world; return per-robot (state, time, error, min clearance)."""
     lp = world.models[0].laser_pose
@@ -117,7 +134,7 @@ def _drive(world, navs, goals, limit=400.0):
             if out[i] is not None:
                 continue
             v = world.view(i)
-            minclear[i] = min(minclear[i], float(world._clearance_at(np.array([v.pose]))[0]))
+            minclear[i] = min(minclear[i], _wall_distance(world, v.pose[0], v.pose[1]))
             st = nav.update(v.pose, obs[i], now)
             world.command(i, st.v, 0.0, st.w)
             if st.state != "active":
@@ -263,3 +280,19 @@ def test_a_yielding_robot_backs_out_of_a_narrow_corridor_then_goes_on():
     # the other robot has gone: after the wait it goes on to its goal
     pose, t, st = _drive_unicycle(nav, pose, np.zeros((0, 2)), t, 60.0)
     assert st.state == "succeeded" and math.hypot(pose[0] - 10.0, pose[1] - 1.6) < 0.2
+
+
+def test_a_robot_that_cannot_move_backs_off_unless_something_is_behind_it():
+    g = np.zeros((60, 100), dtype=np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+    grid = PlanningGrid(map_from_grid(g, 0.05))
+    for behind, expect in ((None, True), (np.array([[-0.45, 0.0]]), False)):
+        nav = Navigator(grid, PathFollower())
+        nav.start((1.0, 1.5, 0.0), (4.0, 1.5), 0.0)
+        backed = []
+        for k in range(80):            # 8 s pressed against something: it never moves
+            st = nav.update((1.0, 1.5, 0.0), behind, 0.1 * k)
+            if st.message == "backing up":
+                backed.append(st.v)
+        assert bool(backed) == expect
+        assert all(v < 0 for v in backed)

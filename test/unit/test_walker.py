@@ -175,10 +175,14 @@ def test_walkable_regions_leaves_out_a_room_behind_a_narrow_door_and_names_it():
         "the floor's (a passage narrower than the walker's 0.68 m footprint with clearance): "
         "left out of the walk",
         'region "d" (closet d) has no point 0.45 m from every wall: left out of the walk']
-    # a 1.2 m door: all three rooms are one component
-    sampler = GoalSampler(PlanningGrid(rooms_and_narrow_door(24)), 0.45, 0.5)
-    kept, warnings = walkable_regions(rois[:3], sampler)
-    assert [r.id for r in kept] == ["a", "b", "c"] and warnings == []
+    # a 0.8 m door (an office door) and a 1.2 m door: all three rooms are one component; a
+    # 0.7 m door is narrower than the 0.68 m footprint with any room to spare
+    for cells in (16, 24):
+        sampler = GoalSampler(PlanningGrid(rooms_and_narrow_door(cells)), 0.45, 0.5)
+        kept, warnings = walkable_regions(rois[:3], sampler)
+        assert [r.id for r in kept] == ["a", "b", "c"] and warnings == []
+    sampler = GoalSampler(PlanningGrid(rooms_and_narrow_door(14)), 0.45, 0.5)
+    assert [r.id for r in walkable_regions(rois[:3], sampler)[0]] == ["a", "b"]
 
 
 def test_narrow_region_gets_goals_with_half_the_margin():

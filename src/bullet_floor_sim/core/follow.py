@@ -13,8 +13,9 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   Within ``distance + slack`` of a target that stands still, the observer only turns to face
   it (a lidar sees 180 degrees ahead).
 * **give way**: near the target (within ``distance + slack``), the observer plans the target's
-  route to its predicted destination (the best region's point) and, when it stands within
-  ``give_way`` metres of that route, goes to the nearest free point at least that far from it
+  routes to its likely destinations (the search plan's regions: up to ``search_regions`` of
+  at least ``search_min_probability``; a leg's first prediction is often wrong) and, when it
+  stands within ``give_way`` - 0.2 metres of one, goes to the nearest free point at least that far from it
   (a roomy one first, up to ``give_way_reach`` away: a wider spot of the corridor, a doorway's
   side, or back along the way), and waits there, facing the target, until the target has moved
   ``distance`` metres or ``give_way_hold`` seconds have passed. Standing on the route of a
@@ -42,6 +43,8 @@ import numpy as np
 
 from .errors import BulletFloorSimError
 from .planner import PlanError, PlanningGrid, give_way_point
+
+_GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps to give_way
 
 __all__ = ["FollowError", "FollowConfig", "FollowDecision", "FollowBehaviour", "standoff_point",
            "in_view", "pick_target", "search_point", "search_plan", "give_way_point"]  # (planner's)
@@ -170,7 +173,7 @@ class FollowBehaviour:
         self._search_index = 0
         self._search_phase = ""          # back | go | look | wait
         self._search_since = -math.inf
-        self._route_key: Optional[Tuple[float, float, float, float, float]] = None  # tx ty gx gy t
+        self._route_key = None           # (target x, y, time, destinations) of self._route
         self._route: Optional[np.ndarray] = None
         self._yield: Optional[Tuple[float, float, float]] = None  # target x, y, t when it began
         self._standing = True            # no goal under way (the last one finished)
@@ -199,8 +202,8 @@ class FollowBehaviour:
                 destination, goal_done: bool) -> FollowDecision:
         cfg = self.config
         if target is not None:
-            plan = _as_plan(destination)
-            way = self._give_way(t, robot, target, plan[0][1] if plan else None, goal_done)
+            dests = [p for _, p in _as_plan(destination)]
+            way = self._give_way(t, robot, target, dests, goal_done)
             return way if way is not None else self._follow(t, robot, target, goal_done)
         if self.last_seen is not None and t - self.last_seen < cfg.lost_after:
             return FollowDecision(self.mode, None, "target unseen for %.1f s" % (
@@ -239,9 +242,10 @@ class FollowBehaviour:
         return FollowDecision("search")
 
     def _give_way(self, t: float, robot: Sequence[float], target: Sequence[float],
-                  dest: Optional[Tuple[float, float]], goal_done: bool
+                  dests: List[Tuple[float, float]], goal_done: bool
                   ) -> Optional[FollowDecision]:
-        """The decision while giving way (None: follow as usual)."""
+        """The decision while giving way (None: follow as usual). ``dests``: the points of
+        the likely destinations (the search plan's)."""
         cfg = self.config
         tx, ty = float(target[0]), float(target[1])
         rx, ry, ryaw = (float(v) for v in robot[:3])
@@ -254,13 +258,14 @@ class FollowBehaviour:
                     return FollowDecision("give_way", (rx, ry, facing), "facing the target")
                 return FollowDecision("give_way")
             self._yield = None
-        if dest is None or math.hypot(tx - rx, ty - ry) > cfg.distance + cfg.slack:
+        if not dests or math.hypot(tx - rx, ty - ry) > cfg.distance + cfg.slack:
             return None
-        route = self._target_route(t, (tx, ty), dest)
-        if route is None:
-            return None
-        route = route[_distance_to(route, tx, ty) >= cfg.give_way]  # its way, not where it is
-        if _distance_to(route, rx, ry).min() >= cfg.give_way:
+        route = self._target_routes(t, (tx, ty), dests)
+        ahead = route[_distance_to(route, tx, ty) >= cfg.give_way]  # its way, not where it is
+        # in the way: nearer than the clearance it goes to, less a margin (no stepping again
+        # from where it stepped to, within the navigation's goal tolerance); the place it goes
+        # to keeps clear of the whole of each way, from the target on
+        if _distance_to(ahead, rx, ry).min() >= cfg.give_way - _GIVE_WAY_HYSTERESIS:
             return None
         point = give_way_point(self.grid, route, (rx, ry), (tx, ty), cfg.give_way,
                                cfg.give_way_reach, cfg.roomy, obstacles=np.array([[tx, ty]]))
@@ -271,29 +276,32 @@ class FollowBehaviour:
         self._goal_target, self._goal_time = (tx, ty), t
         gx, gy = point
         return FollowDecision("give_way", (gx, gy, math.atan2(ty - gy, tx - gx)),
-                              "on the target's way to (%.2f, %.2f): stepping to (%.2f, %.2f)"
-                              % (dest[0], dest[1], gx, gy))
+                              "on the target's way to %d likely destination(s): stepping to "
+                              "(%.2f, %.2f)" % (len(dests), gx, gy))
 
-    def _target_route(self, t: float, target: Tuple[float, float],
-                      dest: Tuple[float, float]) -> Optional[np.ndarray]:
-        """The target's planned path towards ``dest``, its first ``distance + slack +
-        give_way_reach`` metres; planned again when the target moved ``replan_distance`` or the
-        destination changed, at most every ``goal_period`` s (an A* on a big floor is 0.1-0.4 s)."""
+    def _target_routes(self, t: float, target: Tuple[float, float],
+                       dests: List[Tuple[float, float]]) -> np.ndarray:
+        """The points of the target's planned paths to each of ``dests``, their first
+        ``distance + slack + give_way_reach`` metres; planned again when the target moved
+        ``replan_distance`` or the destinations changed, at most every ``goal_period`` s (an
+        A* on a big floor is 0.1-0.4 s)."""
         cfg = self.config
         key = self._route_key
-        if key is not None and (t - key[4] < cfg.goal_period or (
+        if key is not None and (t - key[2] < cfg.goal_period or (
                 math.hypot(target[0] - key[0], target[1] - key[1]) < cfg.replan_distance
-                and (dest[0], dest[1]) == (key[2], key[3]))):
+                and key[3] == dests)):
             return self._route
-        self._route_key = (target[0], target[1], float(dest[0]), float(dest[1]), t)
-        try:
-            path = self.grid.plan(target, dest)
-        except PlanError:
-            self._route = None
-            return None
-        steps = np.hypot(*np.diff(path, axis=0).T) if len(path) > 1 else np.zeros(0)
-        along = np.concatenate([[0.0], np.cumsum(steps)])
-        self._route = path[along <= cfg.distance + cfg.slack + cfg.give_way_reach]
+        self._route_key = (target[0], target[1], t, list(dests))
+        keep = cfg.distance + cfg.slack + cfg.give_way_reach
+        parts = [np.zeros((0, 2))]
+        for dest in dests:
+            try:
+                path = self.grid.plan(target, dest)
+            except PlanError:
+                continue
+            steps = np.hypot(*np.diff(path, axis=0).T) if len(path) > 1 else np.zeros(0)
+            parts.append(path[np.concatenate([[0.0], np.cumsum(steps)]) <= keep])
+        self._route = np.vstack(parts)
         return self._route
 
     def _search_go(self, rx: float, ry: float, why: str) -> FollowDecision:

@@ -4,8 +4,8 @@ This is what moves the simulated human (and any robot when the stock navigation 
 installed). It localises from ground truth: it is legs, not a SLAM system.
 
 * :class:`PlanningGrid` turns a :class:`~bullet_floor_sim.core.floormap.FloorMap` into a
-  coarser planning grid. A cell is *lethal* when the robot's footprint circle centred on any
-  point of it could touch a wall (or unknown space); free cells near walls carry a cost that
+  coarser planning grid. A cell is *lethal* when the robot's footprint circle centred on the
+  cell's centre could touch a wall (or unknown space); free cells near walls carry a cost that
   decays exponentially with clearance, as costmap_2d's inflation layer does, so paths keep
   away from walls and pass through the middle of doors.
 * :meth:`PlanningGrid.plan` runs 8-connected A* (no corner cutting), then shortcuts the cell
@@ -41,6 +41,8 @@ __all__ = [
 ]
 
 _SQRT2 = math.sqrt(2.0)
+_BACKUP_SPEED, _BACKUP_TIME = 0.1, 1.5   # m/s, s: a stalled robot backs off 0.15 m
+_SEGMENT_SLACK = 0.0    # m a shortcut may pass nearer a wall than robot_radius
 _NEIGHBOURS = ((1, 0, 1.0), (-1, 0, 1.0), (0, 1, 1.0), (0, -1, 1.0),
                (1, 1, _SQRT2), (1, -1, _SQRT2), (-1, 1, _SQRT2), (-1, -1, _SQRT2))
 
@@ -96,9 +98,11 @@ class PlanningGrid:
             handling = MapHandling(unknown="wall" if cfg.unknown_is_obstacle else "free")
         self.handling = handling
         # Distance from each fine cell centre to the nearest solid cell centre, minus half a
-        # fine cell (the wall cell's extent); then the worst fine cell of each coarse block, minus
-        # the coarse cell's half-diagonal: a footprint centred anywhere in the coarse cell keeps
-        # at least this clearance.
+        # fine cell (the wall cell's extent): exact for a wall along the grid. A coarse cell's
+        # clearance is that of its centre point, as costmap_2d judges a cell by its centre:
+        # for an even factor the mean of the four fine cells around it (exact beside a flat
+        # wall, at most 2 mm high at a corner). A 0.8 m door is open to a 0.34 m footprint
+        # (the worst point of each cell, as before, closed it: 0.9 m was the narrowest).
         dist = solid_map(fmap, handling).distance
         fine = dist.astype(float) * fmap.resolution - 0.5 * fmap.resolution
         self._fine = fine
@@ -106,8 +110,12 @@ class PlanningGrid:
         H, W = -(-h // k), -(-w // k)
         pad = np.full((H * k, W * k), -1.0)
         pad[:h, :w] = fine
-        coarse = pad.reshape(H, k, W, k).min(axis=(1, 3))
-        self.clearance = coarse - (self.resolution * _SQRT2 / 2.0 if k > 1 else 0.0)
+        if k % 2:
+            self.clearance = pad[k // 2::k, k // 2::k].copy()
+        else:
+            a = k // 2 - 1
+            self.clearance = 0.25 * (pad[a::k, a::k] + pad[a + 1::k, a::k]
+                                     + pad[a::k, a + 1::k] + pad[a + 1::k, a + 1::k])
         self.height, self.width = H, W
         cost = np.exp(-cfg.cost_scaling * np.clip(self.clearance - cfg.robot_radius, 0, None))
         cost[self.clearance > cfg.robot_radius + cfg.inflation_radius] = 0.0
@@ -132,7 +140,7 @@ class PlanningGrid:
         return 0 <= col < self.width and 0 <= row < self.height
 
     def clearance_at(self, x: float, y: float) -> float:
-        """Guaranteed wall clearance (m) anywhere in the cell of (x, y); -inf off the map."""
+        """Wall clearance (m) at the centre of the cell of (x, y); -inf off the map."""
         c, r = self.to_cell(x, y)
         return float(self.clearance[r, c]) if self.inside(c, r) else -math.inf
 
@@ -304,10 +312,12 @@ class PlanningGrid:
         t = np.linspace(0.0, 1.0, n)[:, None]
         pts = a[None, :] * (1 - t) + b[None, :] * t
         col, row = self.fmap.world_to_cell(pts[:, 0], pts[:, 1])
+        fine = self._fine[np.clip(row, 0, self._fine.shape[0] - 1),
+                          np.clip(col, 0, self._fine.shape[1] - 1)]
         col, row = col // self.factor, row // self.factor
         ok = (col >= 0) & (row >= 0) & (col < self.width) & (row < self.height)
-        if not ok.all():
-            return math.inf
+        if not ok.all() or fine.min() < self.config.robot_radius - _SEGMENT_SLACK:
+            return math.inf   # off the map, or cutting a corner closer than the cells allow
         return float(cost[row, col].max())
 
     def _shortcut(self, cost: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -635,7 +645,8 @@ class NavigatorConfig:
         sidestep: how far (m) to step aside when no path passes an obstacle.
         stall_time: commanded to move but moved less than 2 cm and turned less than 0.05 rad
             for this long -> stalled (pressed against another robot the scan does not show
-            ahead): plan again at once, around the obstacles in the scan.
+            ahead): plan again at once, around the obstacles in the scan; stalled again soon
+            after (it cannot even turn): back up 0.15 m when the scan shows nothing behind.
         give_way: when no path passes what blocks it, retreat (before stepping aside) to the
             nearest free place (a roomy one first) at least ``give_way_clear`` m from every
             point the map does not know, within ``give_way_reach`` m, wait ``give_way_wait`` s
@@ -694,6 +705,8 @@ class Navigator:
         self._still_since: Optional[Tuple[float, float, float, float]] = None  # t, x, y, yaw
         self.stalls = 0
         self._retreat: Optional[Tuple[float, float]] = None  # where it retreats to, out of the way
+        self._backup_until: Optional[float] = None  # backing up off a contact until then
+        self._last_stall = -math.inf
         self._resume_at: Optional[float] = None   # out of the way: when to go on to the goal
         self.retreats = 0
         self._seen = np.zeros((0, 2))             # the last scan's points in the map frame
@@ -722,7 +735,7 @@ class Navigator:
         self._last_t = now
         self._last_cmd = (0.0, 0.0)
         self._still_since = None
-        self._retreat, self._resume_at = None, None
+        self._retreat, self._resume_at, self._backup_until = None, None, None
         return path
 
     def cancel(self) -> None:
@@ -800,14 +813,34 @@ class Navigator:
                 self._replan_around(pose, obstacles)
             return NavStatus(0.0, 0.0, "active", "blocked", cmd.distance_to_goal)
         self._blocked_since = None
+        if self._backup_until is not None and now < self._backup_until:
+            return NavStatus(-_BACKUP_SPEED, 0.0, "active", "backing up", cmd.distance_to_goal)
+        self._backup_until = None
         if self._stalled(pose, now):
             self.stalls += 1
+            again = now - self._last_stall < 3.0 * cfg.stall_time
+            self._last_stall = now
+            if again and self._clear_behind(obstacles):
+                # pressed against another robot so that it cannot even turn: back off a little
+                self._backup_until = now + _BACKUP_TIME
+                return NavStatus(-_BACKUP_SPEED, 0.0, "active", "backing up",
+                                 cmd.distance_to_goal)
             self._replan_around(pose, obstacles)
             return NavStatus(0.0, 0.0, "active", "stalled", cmd.distance_to_goal)
         if cmd.state not in ("aligning",) and now - self._best_t > cfg.progress_timeout:
             return self._abort("no progress for %.0f s, %.2f m from the goal"
                                % (now - self._best_t, cmd.distance_to_goal), cmd)
         return NavStatus(cmd.v, cmd.w, "active", cmd.state, cmd.distance_to_goal)
+
+    def _clear_behind(self, obstacles: Optional[np.ndarray]) -> bool:
+        """No scan point in the strip the footprint sweeps backing up ``_BACKUP_TIME`` s."""
+        if obstacles is None or not len(obstacles):
+            return True
+        pts = np.asarray(obstacles, dtype=float)
+        r = self.follower.config.robot_radius
+        reach = r + _BACKUP_SPEED * _BACKUP_TIME + 0.05
+        return not ((pts[:, 0] < 0.0) & (pts[:, 0] > -reach)
+                    & (np.abs(pts[:, 1]) < r + 0.03)).any()
 
     def _abort(self, message: str, cmd: FollowerCommand) -> NavStatus:
         self.goal = None
