@@ -8,8 +8,9 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   from the target back towards the observer (so the observer trails it through doors rather
   than overtaking it), snapped to the nearest free planning cell on that circle, facing the
   target. A target coming towards the observer gets room: the stand-off point goes to the side
-  of its path (the side nearer the observer), not backwards in front of it into a dead end. A new goal is sent when the target has moved ``replan_distance`` from where it was
-  when the last goal was sent, or at least every ``goal_period`` seconds while it moves.
+  of its path (the side nearer the observer), not backwards in front of it into a dead end. A
+  new goal is sent when the target has moved ``replan_distance`` from where it was when the
+  last goal was sent, or at least every ``goal_period`` seconds while it moves.
   Within ``distance + slack`` of a target that stands still, the observer only turns to face
   it (a lidar sees 180 degrees ahead).
 * **give way**: near the target (within ``distance + slack``), the observer plans the target's
