@@ -165,3 +165,22 @@ def test_sources_run_on_python_3_8():
                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True)
     assert out.returncode == 0, out.stdout
     assert "Minimum required versions: 3." in out.stdout
+
+
+def test_two_checkouts_keep_their_own_cached_model(tmp_path, monkeypatch):
+    # a source tree and its workspace copy (two urdf/ directories): loading from one must not
+    # remove the other's entry, which a running process of the other may still have to load
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("BULLET_FLOOR_SIM_CACHE", str(cache))
+    dirs = []
+    for name in ("a", "b"):
+        d = tmp_path / name / "urdf"
+        shutil.copytree(os.path.join(ROOT, "urdf"), str(d))
+        dirs.append(str(d))
+    load_model.cache_clear()
+    first = load_model("scitos_a5", dirs[0])
+    second = load_model("scitos_a5", dirs[1])
+    assert first.urdf_path != second.urdf_path
+    assert os.path.exists(first.urdf_path) and os.path.exists(second.urdf_path)
+    assert len(os.listdir(str(cache))) == 4
+    load_model.cache_clear()

@@ -218,16 +218,34 @@ def load_model(model: str, urdf_dir: str = "") -> RobotModel:
     if stored:
         fields = {"laser_pose": list(out.laser_pose), "wheel_radius": out.wheel_radius,
                   "wheel_separation": out.wheel_separation,
-                  "wheel_joints": list(out.wheel_joints)}
+                  "wheel_joints": list(out.wheel_joints), "urdf_dir": os.path.abspath(urdf_dir)}
         try:   # the JSON last: its presence means the URDF beside it is whole
             _write_atomic(os.path.join(cache, "%s-%s.json" % (model, key)), json.dumps(fields))
-            old = re.compile(r"%s-[0-9a-f]{20}\.(urdf|json)$" % re.escape(model))
-            for name in os.listdir(cache):   # older versions of this model
-                if old.match(name) and not name.startswith("%s-%s." % (model, key)):
-                    os.unlink(os.path.join(cache, name))
+            _prune(cache, model, key, fields["urdf_dir"])
         except OSError:
             pass
     return out
+
+
+def _prune(cache: str, model: str, key: str, urdf_dir: str) -> None:
+    """Remove older versions of this model from this same directory; another checkout's
+    (another workspace, a source tree beside its install) stays: a process running from it
+    loads its URDF from the cache later, and lost it to every load from here."""
+    old = re.compile(r"%s-([0-9a-f]{20})\.json$" % re.escape(model))
+    for name in os.listdir(cache):
+        m = old.match(name)
+        if not m or m.group(1) == key:
+            continue
+        try:
+            with open(os.path.join(cache, name)) as f:
+                same = json.load(f).get("urdf_dir") == urdf_dir
+        except (OSError, ValueError, AttributeError):
+            same = False
+        if same:
+            for ext in (".json", ".urdf"):
+                path = os.path.join(cache, "%s-%s%s" % (model, m.group(1), ext))
+                if os.path.exists(path):
+                    os.unlink(path)
 
 
 def check_command(cfg: DriveConfig, vx: float, vy: float, w: float, who: str) -> None:
