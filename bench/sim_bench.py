@@ -4,6 +4,11 @@
 Prints a table and ends with one machine-readable line:
 
     BENCH sim rtf_1=<x> rtf_10=<x> rtf_50=<x> ray_overhead=<ratio> load_s=<x> rss_mb_10=<x>
+    BENCH sim_real world=malaga_campus rtf_10=<x> office_rtf_10=<x> ratio=<x> load_s=<x>
+
+The second line is the 10-robot case on the largest real SLAM map beside office's, run one
+after the other in this run (a world loads from the map cache, core/mapcache.py, as every
+load after the first does).
 
 Setup of every case: the office world, physics at 100 Hz, every robot with one 360-beam lidar
 (360 degrees, 1 degree) at 10 Hz, robots spread over free space and driven by random
@@ -27,8 +32,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 
 
-def _world(n_robots: int, seed: int = 7):
-    """The office world with n robots at free, spread-out poses."""
+def _world(n_robots: int, seed: int = 7, name: str = "office"):
+    """A world (office by default) with n robots at free, spread-out poses."""
     import dataclasses
 
     import numpy as np
@@ -38,7 +43,7 @@ def _world(n_robots: int, seed: int = 7):
     from bullet_floor_sim.core.paths import worlds_dir
     from bullet_floor_sim.core.world import World
 
-    cfg = load_world_config(resolve_world("office", worlds_dir()))
+    cfg = load_world_config(resolve_world(name, worlds_dir()))
     fmap = load_map(cfg.map_yaml)
     from scipy.ndimage import distance_transform_edt
 
@@ -60,12 +65,12 @@ def _world(n_robots: int, seed: int = 7):
     return world, time.perf_counter() - t0
 
 
-def run_case(n_robots: int, sim_seconds: float) -> dict:
+def run_case(n_robots: int, sim_seconds: float, name: str = "office") -> dict:
     """Run one case in this process and return its numbers."""
     import numpy as np
 
     t_imports = time.perf_counter()
-    world, load_s = _world(n_robots)
+    world, load_s = _world(n_robots, name=name)
     load_total = time.perf_counter() - t_imports
     rng = np.random.default_rng(1)
     steps = int(round(sim_seconds / world.clock.dt))
@@ -133,10 +138,10 @@ def _ray_overhead(world, reps: int = 20) -> dict:
             "rays_cast_per_beam": (world.rays_cast - cast0) / (n_rays * reps)}
 
 
-def _case(n_robots: int, sim_seconds: float, env: dict) -> dict:
+def _case(n_robots: int, sim_seconds: float, env: dict, name: str = "office") -> dict:
     """One case in a process of its own (its peak RSS is its own)."""
     proc = subprocess.run([sys.executable, __file__, "--case", str(n_robots), "--sim-seconds",
-                           str(sim_seconds)], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                           str(sim_seconds), "--world", name], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
                           universal_newlines=True, check=True, env=env)
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
@@ -145,9 +150,12 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--case", type=int, help="(internal) run one case with N robots")
     ap.add_argument("--sim-seconds", type=float, default=None)
+    ap.add_argument("--world", default="office", help="(internal) the world of --case")
+    ap.add_argument("--real", default="malaga_campus",
+                    help="the real SLAM world measured beside office ('' = none)")
     args = ap.parse_args()
     if args.case:
-        print(json.dumps(run_case(args.case, args.sim_seconds)))
+        print(json.dumps(run_case(args.case, args.sim_seconds, args.world)))
         return 0
     cases = [(1, 60.0), (10, 20.0), (50, 5.0)]
     results = {}
@@ -159,6 +167,10 @@ def main() -> int:
         load_cold = _case(1, 0.1, env)["load_s"]
         for n, sim_s in cases:
             results[n] = _case(n, args.sim_seconds or sim_s, env)
+        real = None
+        if args.real:
+            _case(1, 0.1, env, args.real)            # its first load fills the map cache
+            real = _case(10, args.sim_seconds or 20.0, env, args.real)
     print("%-7s %8s %8s %9s %10s %12s %12s %9s %8s %7s" % (
         "robots", "sim_s", "wall_s", "rtf", "load_s", "raw_rays/s", "lidar_rays/s", "ray_ovh",
         "rss_mb", "stalls"))
@@ -176,6 +188,13 @@ def main() -> int:
           % (results[1]["rtf"], results[10]["rtf"], results[50]["rtf"],
              max(r["ray_overhead"] for r in results.values()), results[1]["load_s"],
              results[10]["rss_mb"]))
+    if real is not None:
+        print("%s, 10 robots: rtf %.1f (office %.1f, ratio %.2f; target >= 0.67), load_s %.3f"
+              % (args.real, real["rtf"], results[10]["rtf"], real["rtf"] / results[10]["rtf"],
+                 real["load_s"]))
+        print("BENCH sim_real world=%s rtf_10=%.1f office_rtf_10=%.1f ratio=%.2f load_s=%.3f"
+              % (args.real, real["rtf"], results[10]["rtf"], real["rtf"] / results[10]["rtf"],
+                 real["load_s"]))
     return 0
 
 
