@@ -20,6 +20,9 @@ Per robot count, three runs, each in its own process:
   holds what the subscribers' process and the kernel's sockets take from the two cores.
 * "still": no command (the core then skips the physics and the lidars reuse their wall
   distances, so it is mostly the node's publishing); ``BENCH ros_still ...``.
+* "real": the 10-robot moving case on the largest real SLAM map shipped (malaga_campus,
+  62 x 69 m) beside office's: ``BENCH ros_real world=... rtf_10=... office_rtf_10=...
+  ratio=...`` (target: ratio >= 0.67).
 """
 from __future__ import annotations
 
@@ -46,10 +49,13 @@ def _free_port() -> int:
     return port
 
 
-def _world_file(n: int, tmp: str) -> str:
+REAL_WORLD = "malaga_campus"   # measured beside office: the largest real SLAM map shipped
+
+
+def _world_file(n: int, tmp: str, name: str = "office") -> str:
     import sim_bench
 
-    world, _ = sim_bench._world(n)
+    world, _ = sim_bench._world(n, name=name)
     doc = {"map": world.config.map_yaml, "wall_height": world.config.wall_height,
            "robots": [{"name": s.name, "pose": [float(v) for v in s.pose],
                        "laser": {"fov": 360.0, "resolution": 1.0}} for s in world.specs]}
@@ -60,7 +66,8 @@ def _world_file(n: int, tmp: str) -> str:
     return path
 
 
-def run_case(n: int, window: float, moving: bool = True) -> Tuple[float, float, float]:
+def run_case(n: int, window: float, moving: bool = True,
+             name: str = "office") -> Tuple[float, float, float]:
     """Achieved real-time factor of the node with n robots (sim s per wall s), the seconds
     it took to exit on SIGINT, and its mean publishing share over the window."""
     import rosgraph
@@ -70,7 +77,7 @@ def run_case(n: int, window: float, moving: bool = True) -> Tuple[float, float, 
     from std_msgs.msg import Float64
 
     tmp = tempfile.mkdtemp(prefix="bfs_ros_bench_")
-    world = _world_file(n, tmp)
+    world = _world_file(n, tmp, name)
     env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % _free_port(), ROS_HOME=tmp)
     os.environ.update(ROS_MASTER_URI=env["ROS_MASTER_URI"])
     core = subprocess.Popen(["roscore", "-p", env["ROS_MASTER_URI"].rsplit(":", 1)[1]], env=env,
@@ -172,8 +179,9 @@ def _sub(*args: str) -> list:
 
 
 def main() -> int:
-    if len(sys.argv) == 4 and sys.argv[1] == "--case":
-        print("%r %r %r" % run_case(int(sys.argv[2]), 10.0, moving=sys.argv[3] == "moving"))
+    if len(sys.argv) in (4, 5) and sys.argv[1] == "--case":
+        name = sys.argv[4] if len(sys.argv) == 5 else "office"
+        print("%r %r %r" % run_case(int(sys.argv[2]), 10.0, sys.argv[3] == "moving", name))
         return 0
     if len(sys.argv) == 3 and sys.argv[1] == "--core":
         n = int(sys.argv[2])
@@ -185,7 +193,7 @@ def main() -> int:
         core[n] = _sub("--core", str(n))[0]
         for mode in ("moving", "still"):
             rtf[n, mode], stop[n, mode], share[n, mode] = _sub("--case", str(n), mode)
-    print("%-7s %10s %10s %14s %10s %10s %16s" % ("robots", "rtf", "core_rtf", "core_rtf/rtf",
+    real = _sub("--case", "10", "moving", REAL_WORLD)[0]   # the largest real SLAM map    print("%-7s %10s %10s %14s %10s %10s %16s" % ("robots", "rtf", "core_rtf", "core_rtf/rtf",
                                                   "pub_share", "rtf_still", "sigint_exit_s"))
     for n in sizes:
         print("%-7d %10.1f %10.1f %14.2f %10.2f %10.1f %16s" % (
@@ -204,6 +212,10 @@ def main() -> int:
     print("BENCH ros_still rtf_1=%.1f rtf_10=%.1f rtf_50=%.2f"
           % tuple(rtf[n, "still"] for n in sizes))
     print("BENCH ros_shutdown max_s=%.2f" % max(stop.values()))
+    print("%s, 10 robots moving: rtf %.1f (office %.1f, ratio %.2f; target >= 0.67)"
+          % (REAL_WORLD, real, rtf[10, "moving"], real / rtf[10, "moving"]))
+    print("BENCH ros_real world=%s rtf_10=%.1f office_rtf_10=%.1f ratio=%.2f"
+          % (REAL_WORLD, real, rtf[10, "moving"], real / rtf[10, "moving"]))
     return 0
 
 
