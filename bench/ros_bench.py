@@ -193,7 +193,8 @@ def main() -> int:
         core[n] = _sub("--core", str(n))[0]
         for mode in ("moving", "still"):
             rtf[n, mode], stop[n, mode], share[n, mode] = _sub("--case", str(n), mode)
-    real = _sub("--case", "10", "moving", REAL_WORLD)[0]   # the largest real SLAM map    print("%-7s %10s %10s %14s %10s %10s %16s" % ("robots", "rtf", "core_rtf", "core_rtf/rtf",
+    real = _sub("--case", "10", "moving", REAL_WORLD)[0]   # the largest real SLAM map
+    print("%-7s %10s %10s %14s %10s %10s %16s" % ("robots", "rtf", "core_rtf", "core_rtf/rtf",
                                                   "pub_share", "rtf_still", "sigint_exit_s"))
     for n in sizes:
         print("%-7d %10.1f %10.1f %14.2f %10.2f %10.1f %16s" % (
