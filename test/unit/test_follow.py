@@ -291,3 +291,11 @@ def test_an_observer_standing_in_a_long_narrow_corridor_waits_in_the_hall_beyond
     gx, gy, _ = d.goal
     assert grid.clearance_at(gx, gy) >= 0.6 and gx > 8.0
     assert math.hypot(gx - 6.5, gy - 1.5) <= 4.0
+
+
+def test_no_route_to_any_destination_is_no_reason_to_give_way():
+    grid = corridor_with_alcove()
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7))
+    # the only likely destination lies outside the map: no route, the usual follow decision
+    d = fb.update(0.0, (6.3, 1.6, math.pi), (4.8, 1.6, 0.0, 0.0), [("x", (40.0, 1.6))])
+    assert d.mode == "follow"

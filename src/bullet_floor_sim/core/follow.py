@@ -262,6 +262,8 @@ class FollowBehaviour:
         if not dests or math.hypot(tx - rx, ty - ry) > cfg.distance + cfg.slack:
             return None
         route = self._target_routes(t, (tx, ty), dests)
+        if not len(route):
+            return None      # no destination it can be planned to from where it is seen
         ahead = route[_distance_to(route, tx, ty) >= cfg.give_way]  # its way, not where it is
         # in the way: nearer than the clearance it goes to, less a margin (no stepping again
         # from where it stepped to, within the navigation's goal tolerance); the place it goes

@@ -42,6 +42,7 @@ __all__ = [
 
 _SQRT2 = math.sqrt(2.0)
 _BACKUP_SPEED, _BACKUP_TIME = 0.1, 1.5   # m/s, s: a stalled robot backs off 0.15 m
+_MAX_RETREATS = 3   # per goal: then it waits where it is, and the goal can time out
 _SEGMENT_SLACK = 0.0    # m a shortcut may pass nearer a wall than robot_radius
 _NEIGHBOURS = ((1, 0, 1.0), (-1, 0, 1.0), (0, 1, 1.0), (0, -1, 1.0),
                (1, 1, _SQRT2), (1, -1, _SQRT2), (-1, 1, _SQRT2), (-1, -1, _SQRT2))
@@ -157,7 +158,9 @@ class PlanningGrid:
         return out
 
     def is_free(self, x: float, y: float) -> bool:
-        """The robot fits at (x, y): on the map and at least robot_radius from every wall."""
+        """The robot fits at (x, y): on the map, in a cell whose centre is at least
+        robot_radius from every wall (a point off the centre may be up to half a cell's
+        diagonal nearer)."""
         c, r = self.to_cell(x, y)
         return self.inside(c, r) and math.isfinite(self.cost[r, c])
 
@@ -646,12 +649,14 @@ class NavigatorConfig:
         stall_time: commanded to move but moved less than 2 cm and turned less than 0.05 rad
             for this long -> stalled (pressed against another robot the scan does not show
             ahead): plan again at once, around the obstacles in the scan; stalled again soon
-            after (it cannot even turn): back up 0.15 m when the scan shows nothing behind.
+            after (it cannot even turn): back up 0.15 m when that brings it no nearer a wall
+            of the map and the scan shows nothing behind.
         give_way: when no path passes what blocks it, retreat (before stepping aside) to the
             nearest free place (a roomy one first) at least ``give_way_clear`` m from every
             point the map does not know, within ``give_way_reach`` m, wait ``give_way_wait`` s
             there and go on to the goal: the robot that yields in a passage too narrow for two
-            (the observer; the walker keeps its way). False: wait where it is.
+            (the observer; the walker keeps its way), at most 3 times a goal. False: wait
+            where it is.
     """
 
     replan_after: float = 2.0
@@ -736,6 +741,8 @@ class Navigator:
         self._last_cmd = (0.0, 0.0)
         self._still_since = None
         self._retreat, self._resume_at, self._backup_until = None, None, None
+        self._last_stall = -math.inf
+        self.retreats = 0
         return path
 
     def cancel(self) -> None:
@@ -797,7 +804,8 @@ class Navigator:
         if cmd.state == "done":
             self.goal = None
             return NavStatus(0.0, 0.0, "succeeded", "goal reached", cmd.distance_to_goal)
-        if cmd.distance_to_goal < self._best - 0.1:
+        if self._retreat is None and cmd.distance_to_goal < self._best - 0.1:
+            # (retreating, the distance is to the place it retreats to: no progress)
             self._best = cmd.distance_to_goal
             self._best_t = now
             self._blocked_total = 0.0   # the time blocked counts since the last progress
@@ -820,7 +828,7 @@ class Navigator:
             self.stalls += 1
             again = now - self._last_stall < 3.0 * cfg.stall_time
             self._last_stall = now
-            if again and self._clear_behind(obstacles):
+            if again and self._clear_behind(pose, obstacles):
                 # pressed against another robot so that it cannot even turn: back off a little
                 self._backup_until = now + _BACKUP_TIME
                 return NavStatus(-_BACKUP_SPEED, 0.0, "active", "backing up",
@@ -832,12 +840,24 @@ class Navigator:
                                % (now - self._best_t, cmd.distance_to_goal), cmd)
         return NavStatus(cmd.v, cmd.w, "active", cmd.state, cmd.distance_to_goal)
 
-    def _clear_behind(self, obstacles: Optional[np.ndarray]) -> bool:
-        """No scan point in the strip the footprint sweeps backing up ``_BACKUP_TIME`` s."""
+    def _clear_behind(self, pose: Sequence[float], obstacles: Optional[np.ndarray]) -> bool:
+        """Backing up ``_BACKUP_TIME`` s brings the robot no nearer a wall of the map (than
+        now or than its radius), and no scan point lies in the strip it sweeps (a lidar that
+        sees only ahead shows nothing there: the map is the check then)."""
+        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+        back = _BACKUP_SPEED * _BACKUP_TIME
+        fine = self.grid._fine
+        cells = self.grid.fmap.world_to_cell(np.array([x, x - back * math.cos(yaw)]),
+                                             np.array([y, y - back * math.sin(yaw)]))
+        col, row = (np.asarray(v, dtype=np.int64) for v in cells)
+        if not ((col >= 0) & (row >= 0) & (col < fine.shape[1]) & (row < fine.shape[0])).all():
+            return False
+        r = self.follower.config.robot_radius
+        if fine[row[1], col[1]] < min(r, fine[row[0], col[0]]):
+            return False
         if obstacles is None or not len(obstacles):
             return True
         pts = np.asarray(obstacles, dtype=float)
-        r = self.follower.config.robot_radius
         reach = r + _BACKUP_SPEED * _BACKUP_TIME + 0.05
         return not ((pts[:, 0] < 0.0) & (pts[:, 0] > -reach)
                     & (np.abs(pts[:, 1]) < r + 0.03)).any()
@@ -863,7 +883,7 @@ class Navigator:
         try:
             path = self.grid.plan(pose, self._retreat or self.goal, obstacles=world)
         except PlanError:
-            if self.config.give_way:   # the yielding robot gets out of the way
+            if self.config.give_way and self.retreats < _MAX_RETREATS:  # it gets out of the way
                 path = self._out_of_the_way(pose, world)
                 if path is not None:
                     self._retreat = (float(path[-1, 0]), float(path[-1, 1]))
@@ -907,7 +927,6 @@ class Navigator:
                 return self._abort("cannot go on after giving way: %s" % e,
                                    FollowerCommand(0.0, 0.0, "blocked", 0.0))
         self._resume_at = None
-        self._best, self._best_t = math.inf, now
         self.follower.set_path(path, self.goal[2])
         return NavStatus(0.0, 0.0, "active", "going on")
 

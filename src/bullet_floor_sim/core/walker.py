@@ -182,7 +182,7 @@ class GoalSampler:
 
     Args:
         grid: the planner's grid over the map (its ``cost`` is finite where the robot fits;
-            its ``clearance`` is the guaranteed wall distance of each cell).
+            its ``clearance`` is the wall distance of each cell's centre).
         clearance: minimum wall distance of a goal (metres, >= the grid's robot radius).
         margin: minimum distance of a goal from its region's boundary.
         goal_tries: random draws per region.
