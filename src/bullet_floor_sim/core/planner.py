@@ -146,8 +146,10 @@ class PlanningGrid:
         return float(self.clearance[r, c]) if self.inside(c, r) else -math.inf
 
     def on_walls(self, xy: np.ndarray, tolerance: float = 0.1) -> np.ndarray:
-        """Which map-frame points (N, 2) lie on the map's solid cells (within ``tolerance`` m
-        of one): what the plan already keeps clear of. Points off the map count as walls."""
+        """Which map-frame points (N, 2) lie on the map's solid cells: in a cell whose centre
+        is within ``tolerance`` + one map cell of a wall (a point itself up to about
+        ``tolerance`` + 1.7 cells: 0.18 m on a 0.05 m map), what the plan already keeps clear
+        of. Points off the map count as walls."""
         pts = np.asarray(xy, dtype=float).reshape(-1, 2)
         col, row = self.fmap.world_to_cell(pts[:, 0], pts[:, 1])
         col, row = np.asarray(col, dtype=np.int64), np.asarray(row, dtype=np.int64)
