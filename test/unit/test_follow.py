@@ -6,9 +6,9 @@ import pytest
 
 from bullet_floor_sim.core.floormap import map_from_grid
 from bullet_floor_sim.core.follow import (FollowBehaviour, FollowConfig, FollowError,
-                                          give_way_point, in_view, pick_target, search_plan,
-                                          search_point, standoff_point)
-from bullet_floor_sim.core.planner import PlanningGrid
+                                          in_view, pick_target, search_plan, search_point,
+                                          standoff_point)
+from bullet_floor_sim.core.planner import PlanningGrid, give_way_point
 
 RES = 0.05
 

@@ -48,7 +48,7 @@ from .planner import PlanError, PlanningGrid, give_way_point
 _GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps to give_way
 
 __all__ = ["FollowError", "FollowConfig", "FollowDecision", "FollowBehaviour", "standoff_point",
-           "in_view", "pick_target", "search_point", "search_plan", "give_way_point"]  # (planner's)
+           "in_view", "pick_target", "search_point", "search_plan"]
 
 
 class FollowError(BulletFloorSimError):

@@ -43,7 +43,6 @@ __all__ = [
 _SQRT2 = math.sqrt(2.0)
 _BACKUP_SPEED, _BACKUP_TIME = 0.1, 1.5   # m/s, s: a stalled robot backs off 0.15 m
 _MAX_RETREATS = 3   # per goal: then it waits where it is, and the goal can time out
-_SEGMENT_SLACK = 0.0    # m a shortcut may pass nearer a wall than robot_radius
 _NEIGHBOURS = ((1, 0, 1.0), (-1, 0, 1.0), (0, 1, 1.0), (0, -1, 1.0),
                (1, 1, _SQRT2), (1, -1, _SQRT2), (-1, 1, _SQRT2), (-1, -1, _SQRT2))
 
@@ -321,7 +320,7 @@ class PlanningGrid:
                           np.clip(col, 0, self._fine.shape[1] - 1)]
         col, row = col // self.factor, row // self.factor
         ok = (col >= 0) & (row >= 0) & (col < self.width) & (row < self.height)
-        if not ok.all() or fine.min() < self.config.robot_radius - _SEGMENT_SLACK:
+        if not ok.all() or fine.min() < self.config.robot_radius:
             return math.inf   # off the map, or cutting a corner closer than the cells allow
         return float(cost[row, col].max())
 
@@ -622,12 +621,9 @@ def give_way_point(grid: PlanningGrid, route: np.ndarray, robot: Sequence[float]
     ok = (d_robot <= reach) & (np.hypot(x - float(target[0]), y - float(target[1])) >= clear)
     pts = np.asarray(route, dtype=float).reshape(-1, 2)
     if len(pts):
-        far = np.ones(len(x), dtype=bool)
-        for k0 in range(0, len(pts), 64):   # bounded (cells x route points) scratch
-            p = pts[k0:k0 + 64]
-            d = np.hypot(x[:, None] - p[None, :, 0], y[:, None] - p[None, :, 1]).min(axis=1)
-            far &= d >= clear
-        ok &= far
+        from scipy.spatial import cKDTree
+
+        ok &= cKDTree(pts).query(np.stack([x, y], axis=1))[0] >= clear
     if not ok.any():
         return None
     roomy_ok = ok & (grid.clearance[R, C] >= roomy)
@@ -919,7 +915,7 @@ class Navigator:
         """Out of the way: wait, then plan to the goal again (around what the scan shows)."""
         if now < self._resume_at:
             return NavStatus(0.0, 0.0, "active", "giving way")
-        world = self._seen[~self._known] if len(self._seen) else np.zeros((0, 2))
+        world = self._seen[~self._known]
         try:
             path = self.grid.plan(pose, self.goal, obstacles=world)
         except PlanError:
