@@ -107,3 +107,30 @@ def test_cli_bad_arguments_are_one_line(capsys):
                                      "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "/nonexistent/world.yaml" in err[0]
+
+
+def test_rescore_with_the_runs_own_parameters_gives_the_live_scores():
+    from bullet_floor_sim.core.prediction import PredictionConfig
+
+    r = ev.run(ev.EvalConfig(legs=3, seed=2, world="office"))
+    model = ev.world_model("office", PredictionConfig())
+    again = ev.rescore(r, model)
+    assert len(again.legs) == len(r.legs) == 3
+    moments = 0
+    for a, b in zip(r.legs, again.legs):
+        for p in ev.PIPELINES:
+            for m in ev.METHODS:
+                assert [c for c, _, _ in a.scores[p][m]] == [c for c, _, _ in b.scores[p][m]]
+                assert [ll for _, ll, _ in a.scores[p][m]] == pytest.approx(
+                    [ll for _, ll, _ in b.scores[p][m]], abs=1e-9)
+            moments += sum(1 for x in a.moments[p] if x is not None)
+    assert moments >= 20   # most of the 3 x 2 x 5 moments had a prediction
+    # with another beta, each moment gets that model's posterior of (r0, S, Q)
+    model.config.beta = 8.0
+    other = ev.rescore(r, model)
+    leg = other.legs[0]
+    m = next(x for x in leg.moments["ground_truth"][2:] if x is not None)
+    k = leg.moments["ground_truth"].index(m)
+    probs = model.posterior(m[0], m[1:3], m[3:5])
+    assert other.legs[0].scores["ground_truth"]["predictor"][k][1] == pytest.approx(
+        -math.log(max(probs[leg.target_region], 1e-6)))

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -39,18 +39,21 @@ from .markov import MarkovChain, usable_rois
 from .planner import (Navigator, NavigatorConfig, PathFollower, PlanError, PlanningGrid,
                       obstacles_in_base)
 from .plotting import pyplot
-from .prediction import DestinationModel, OnlinePredictor, PredictorPool, log_loss, top1
+from .prediction import (DestinationModel, OnlinePredictor, PredictionConfig, PredictorPool,
+                         log_loss, posterior_or_prior, top1)
 from .rois import load_rois
 from .tracking import StaticMap, Tracker, TrackerConfig, detect, scan_points
 from .walker import GoalSampler, Walker, WalkerConfig, WalkerError, walkable_regions
 
 __all__ = ["EvalConfig", "EvalResult", "LegScore", "run", "FRACTIONS", "METHODS", "PIPELINES",
-           "LEG_KINDS", "format_table", "plot"]
+           "LEG_KINDS", "format_table", "plot", "rescore",
+           "world_model"]
 
 FRACTIONS = (0.10, 0.25, 0.50, 0.75, 0.90)
 METHODS = ("predictor", "markov", "heading")
 PIPELINES = ("tracker", "ground_truth")
 LEG_KINDS = ("all", "change", "stay")
+Moment = Tuple[str, float, float, float, float, float, float]
 
 
 class EvaluationError(BulletFloorSimError):
@@ -75,6 +78,7 @@ class EvalConfig:
         follow: the observer follows (False: it stays where it is; a baseline for the tracker).
         match_distance: a track within this distance (m) of the walker tracks it.
         visible_beams: the walker is visible when this many observer beams end on its body.
+        prediction: the predictor's parameters (default: PredictionConfig()).
     """
 
     legs: int = 200
@@ -87,6 +91,7 @@ class EvalConfig:
     follow: bool = True
     match_distance: float = 0.5
     visible_beams: int = 3
+    prediction: Optional[PredictionConfig] = None
 
     def check(self) -> None:
         if not (isinstance(self.legs, int) and self.legs >= 1):
@@ -105,6 +110,9 @@ class LegScore:
 
     ``scores[pipeline][method]`` = list over FRACTIONS of (correct: bool, log_loss: float,
     predicted: bool -- whether the pipeline had a prediction of this leg then).
+    ``moments[pipeline]`` = list over FRACTIONS of what that prediction was made from
+    (start region, start x, y, position x, y, velocity x, y), or None: :func:`rescore`
+    scores them again under other prediction parameters.
     """
 
     number: int
@@ -112,6 +120,7 @@ class LegScore:
     target_region: str
     duration: float
     scores: Dict[str, Dict[str, List[Tuple[bool, float, bool]]]] = field(default_factory=dict)
+    moments: Dict[str, List[Optional[Moment]]] = field(default_factory=dict)
 
 
 @dataclass
@@ -221,6 +230,32 @@ def run(config: Optional[EvalConfig] = None,
         world.close()
 
 
+def _regions(world):
+    """The planning grid, the walker's goal sampler, the regions the walker can reach, their
+    chain, and the warnings about the map and the regions left out."""
+    grid = PlanningGrid(world.fmap, handling=world.config.map_handling)
+    wcfg = WalkerConfig()
+    sampler = GoalSampler(grid, wcfg.clearance, wcfg.margin, wcfg.goal_tries)
+    rois, warnings = usable_rois(load_rois(world.config.rois))
+    rois, unreachable = walkable_regions(rois, sampler)
+    chain = MarkovChain.from_rois(rois)
+    return grid, sampler, rois, chain, world.solid.report + warnings + unreachable + chain.warnings
+
+
+def world_model(world_name: str, prediction: Optional[PredictionConfig] = None
+                ) -> DestinationModel:
+    """The destination model :func:`run` builds for a world (its regions the walker can
+    reach, their chain, its planning grid) with the given prediction parameters."""
+    from .world import World
+
+    world = World.from_name(world_name, seed=0, physics_rate=100.0)
+    try:
+        grid, _, rois, chain, _ = _regions(world)
+        return DestinationModel(grid, rois, chain, prediction)
+    finally:
+        world.close()
+
+
 def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
     if world.n < 2 or max(cfg.walker, cfg.observer) >= world.n:
         raise EvaluationError("evaluate: world %s has %d robot(s); robots %d and %d are needed"
@@ -228,15 +263,9 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
     if not world.config.rois:
         raise EvaluationError("evaluate: world %s has no rois file" % cfg.world)
     handling = world.config.map_handling
-    grid = PlanningGrid(world.fmap, handling=handling)
-    wcfg = WalkerConfig()
-    sampler = GoalSampler(grid, wcfg.clearance, wcfg.margin, wcfg.goal_tries)
-    rois, warnings = usable_rois(load_rois(world.config.rois))
-    rois, unreachable = walkable_regions(rois, sampler)
-    chain = MarkovChain.from_rois(rois)
-    warnings = world.solid.report + warnings + unreachable + chain.warnings
-    walker = Walker(chain, rois, sampler, wcfg, seed=cfg.seed)
-    model = DestinationModel(grid, rois, chain)
+    grid, sampler, rois, chain, warnings = _regions(world)
+    walker = Walker(chain, rois, sampler, WalkerConfig(), seed=cfg.seed)
+    model = DestinationModel(grid, rois, chain, cfg.prediction)
     uniform = {r: 1.0 / len(chain.ids) for r in chain.ids}
     static = StaticMap(world.fmap, handling=handling)
     tracker = Tracker(TrackerConfig(centre_offset=0.25))  # measured for the Scitos body
@@ -407,27 +436,64 @@ def _obstacles(scan, laser) -> Optional[np.ndarray]:
 
 def _score(leg, gt: List[_Record], trk: List[_Record], model: DestinationModel,
            uniform: Dict[str, float]) -> LegScore:
+    """Score a completed leg from each pipeline's records, and keep the moments scored."""
     out = LegScore(leg.number, leg.start_region, leg.target_region, leg.duration)
-    truth = leg.target_region
     for name, records in (("ground_truth", gt), ("tracker", trk)):
-        per = {m: [] for m in METHODS}
         times = [r.t for r in records]
+        latest = []
         for f in FRACTIONS:
-            tf = leg.started + f * leg.duration
-            k = int(np.searchsorted(times, tf, side="right")) - 1
-            rec = records[k] if k >= 0 else None
-            if rec is None:
-                for m in METHODS:
-                    per[m].append((False, log_loss(uniform, truth), False))
-                continue
-            p = rec.prediction
-            dists = {"predictor": p.probabilities,
-                     "markov": model.markov_baseline(p.start_region),
-                     "heading": model.heading_baseline(p.start_region, rec.xy, rec.velocity)}
-            for m in METHODS:
-                per[m].append((top1(dists[m]) == truth, log_loss(dists[m], truth), True))
-        out.scores[name] = per
+            k = int(np.searchsorted(times, leg.started + f * leg.duration, side="right")) - 1
+            latest.append(records[k] if k >= 0 else None)
+        out.moments[name] = [None if r is None else _moment(r) for r in latest]
+        seen = [None if r is None else (r.prediction.probabilities, out.moments[name][i])
+                for i, r in enumerate(latest)]
+        out.scores[name] = _score_pipeline(leg.target_region, seen, model, uniform)
     return out
+
+
+def _moment(rec: _Record) -> Moment:
+    p = rec.prediction
+    return (p.start_region, float(p.start_xy[0]), float(p.start_xy[1]), float(rec.xy[0]),
+            float(rec.xy[1]), float(rec.velocity[0]), float(rec.velocity[1]))
+
+
+def _score_pipeline(truth: str, seen: Sequence[Optional[Tuple[Dict[str, float], Moment]]],
+                    model: DestinationModel, uniform: Dict[str, float]
+                    ) -> Dict[str, List[Tuple[bool, float, bool]]]:
+    """Per method, per fraction (correct, log-loss, predicted) from the predictor's
+    probabilities and the moment they were made at (None: no prediction of the leg)."""
+    per = {m: [] for m in METHODS}  # type: Dict[str, List[Tuple[bool, float, bool]]]
+    for item in seen:
+        if item is None:
+            for m in METHODS:
+                per[m].append((False, log_loss(uniform, truth), False))
+            continue
+        probs, (r0, _sx, _sy, qx, qy, vx, vy) = item
+        dists = {"predictor": probs, "markov": model.markov_baseline(r0),
+                 "heading": model.heading_baseline(r0, (qx, qy), (vx, vy))}
+        for m in METHODS:
+            per[m].append((top1(dists[m]) == truth, log_loss(dists[m], truth), True))
+    return per
+
+
+def rescore(result: EvalResult, model: DestinationModel) -> EvalResult:
+    """The same run scored with another destination model (other prediction parameters):
+    each leg's moments (start region, S, Q, velocity at each fraction) get that model's
+    posterior, as the live predictor computes it. The walk, the tracks and the leg cuts stay
+    those of the run, so this measures the posterior alone (the follower, which searches
+    where the live predictor pointed, is not re-run)."""
+    uniform = {r: 1.0 / len(model.chain.ids) for r in model.chain.ids}
+    legs = []
+    for leg in result.legs:
+        new = LegScore(leg.number, leg.start_region, leg.target_region, leg.duration,
+                       moments=leg.moments)
+        for name in PIPELINES:
+            seen = [None if m is None else
+                    (posterior_or_prior(model, m[0], m[1:3], m[3:5])[0], m)
+                    for m in leg.moments[name]]
+            new.scores[name] = _score_pipeline(leg.target_region, seen, model, uniform)
+        legs.append(new)
+    return replace(result, legs=legs)
 
 
 # -------------------------------------------------------------------------------------------

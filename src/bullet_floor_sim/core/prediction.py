@@ -60,6 +60,7 @@ __all__ = [
     "OnlinePredictor",
     "PredictorPool",
     "log_loss",
+    "posterior_or_prior",
     "top1",
 ]
 
@@ -677,15 +678,21 @@ class OnlinePredictor:
         return self._predict(t, leg, x, y, False)
 
     def _predict(self, t: float, leg: _Leg, x: float, y: float, under_way: bool) -> Prediction:
-        note = ""
-        try:
-            probs = self.model.posterior(leg.region, leg.xy, (x, y))
-        except PredictionError as e:
-            probs, note = self.model.prior(leg.region), str(e)
+        probs, note = posterior_or_prior(self.model, leg.region, leg.xy, (x, y))
         best = top1(probs)
         self.last = Prediction(t, leg.start, leg.region, leg.xy, probs, best, probs[best],
                                leg.observed, leg.number, note, under_way)
         return self.last
+
+
+def posterior_or_prior(model: DestinationModel, r0: str, start_xy: Sequence[float],
+                       current_xy: Sequence[float]) -> Tuple[Dict[str, float], str]:
+    """The posterior, or the chain's row of r0 with the reason when a position is off the
+    map's free space (what :class:`OnlinePredictor` publishes then): (probabilities, note)."""
+    try:
+        return model.posterior(r0, start_xy, current_xy), ""
+    except PredictionError as e:
+        return model.prior(r0), str(e)
 
 
 # --------------------------------------------------------------------------------------------
