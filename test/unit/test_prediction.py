@@ -95,7 +95,8 @@ def world():
 
 @pytest.fixture(scope="module")
 def model(world):
-    return DestinationModel(*world, goal_points=GOALS)
+    # the progress term alone (the leg-length term has its own tests)
+    return DestinationModel(*world, PredictionConfig(length_exponent=0.0), goal_points=GOALS)
 
 
 def expected(progress, beta):
@@ -135,7 +136,8 @@ def test_posterior_along_the_corridor_by_hand(world, beta, q):
     for A's. Tolerance: the progress to 1 cm (beta * 0.01 on log ratios); the V fields are
     float32 and the grid is exact here, the centimetre allows for the cell refinement."""
     grid, rois, chain = world
-    m = DestinationModel(grid, rois, chain, PredictionConfig(beta=beta), goal_points=GOALS)
+    m = DestinationModel(grid, rois, chain, PredictionConfig(beta=beta, length_exponent=0.0),
+                         goal_points=GOALS)
     s = (7.05, 5.75)
     d = q[0] - s[0]
     progress = {"corridor": d, "A": -d, "B": d, "C": d}
@@ -160,6 +162,34 @@ def test_nothing_observed_gives_the_prior_exactly(model):
     post = model.posterior("C", (23.0, 9.0), (23.0, 9.0))
     assert post == pytest.approx(model.prior("C"), rel=1e-12)
     assert set(post) == {"corridor", "C", "D"}
+
+
+def test_leg_length_term_by_hand(world):
+    """length_exponent 1: each goal point's term is divided by its leg length L = V(S)
+    (at least goal_spacing). From S = (7.05, 5.75) the corridor's goal lies 7 m along the
+    centre line; B's goal is 3.8 m up through B's door from x = 14.05 on it: 10.8 m and a
+    little for the turn, plus the inflation cost of the door. Nothing observed: the prior x 1/L; walking, the same progress
+    ratios as without the term, times the ratio of the lengths."""
+    m1 = DestinationModel(*world, PredictionConfig(length_exponent=1.0), goal_points=GOALS)
+    m0 = DestinationModel(*world, PredictionConfig(length_exponent=0.0), goal_points=GOALS)
+    s = (7.05, 5.75)
+    length = {g: float(m1.cost_to_go(g, *s)[0]) for g in PRIOR}
+    assert length["corridor"] == pytest.approx(7.0, abs=1e-4)
+    assert 10.8 <= length["B"] <= 12.0   # and the cost of its door, near the jambs
+    post = m1.posterior("corridor", s, s)
+    w = {g: PRIOR[g] / length[g] for g in PRIOR}
+    assert post == pytest.approx({g: v / sum(w.values()) for g, v in w.items()}, rel=1e-9)
+    q = (10.05, 5.75)
+    p1, p0 = m1.posterior("corridor", s, q), m0.posterior("corridor", s, q)
+    for g in PRIOR:
+        shift = math.log(p1[g] / p1["corridor"]) - math.log(p0[g] / p0["corridor"])
+        assert shift == pytest.approx(-math.log(length[g] / length["corridor"]), abs=1e-9), g
+    # a goal point nearer than goal_spacing (1 m) counts as 1 m away
+    near = dict(GOALS, corridor=[(7.55, 5.75)])
+    m = DestinationModel(*world, PredictionConfig(length_exponent=1.0), goal_points=near)
+    post = m.posterior("corridor", s, s)
+    w["corridor"] = PRIOR["corridor"] / 1.0
+    assert post == pytest.approx({g: v / sum(w.values()) for g, v in w.items()}, rel=1e-9)
 
 
 def test_walking_to_office_a_raises_p_a_monotonically(model):
@@ -213,7 +243,8 @@ def test_mean_over_goal_points_and_unreachable_ones_dropped(world):
     lies in the sealed pocket and is left out of B's mean."""
     goals = dict(GOALS, corridor=[(14.05, 5.75), (1.05, 5.75)], B=[(14.05, 9.55), (3.5, 2.0)])
     beta = 1.0
-    m = DestinationModel(*world, PredictionConfig(beta=beta), goal_points=goals)
+    m = DestinationModel(*world, PredictionConfig(beta=beta, length_exponent=0.0),
+                         goal_points=goals)
     post = m.posterior("corridor", (7.05, 5.75), (10.05, 5.75))
     w = {"corridor": PRIOR["corridor"] * (math.exp(3 * beta) + math.exp(-3 * beta)) / 2,
          "A": PRIOR["A"] * math.exp(-3 * beta), "B": PRIOR["B"] * math.exp(3 * beta),

@@ -6,7 +6,7 @@ region r0 draws its destination region g from the Markov chain's row of r0 (g = 
 a move inside the same region, as the walker does), then a goal point p in g, and walks an
 efficient path to p on the inflated map. Having seen it walk from S to its current position Q,
 
-    P(g | S..Q)  ∝  P(g | r0) · mean_{p ∈ goals(g)} exp(−β (V_p(Q) − V_p(S)))
+    P(g | S..Q)  ∝  P(g | r0) · mean_{p ∈ goals(g)} exp(−β (V_p(Q) − V_p(S))) / L_p^α
 
 where V_p is the cost-to-go to p on the :class:`~bullet_floor_sim.core.planner.PlanningGrid`
 with the planner's step cost (step length in metres × (1 + cost_weight × mean cell cost),
@@ -14,6 +14,14 @@ lethal cells impassable, 8-connected without corner cutting). The cost of the ob
 S..Q is the same under every hypothesis and cancels. V_p(S) − V_p(Q) is the *progress* made
 towards p: a goal the entity walks straight at gains exp(β·distance), one it walks away from
 loses as much. β (1/m) is the rationality: how strongly progress counts.
+
+L_p = max(V_p(S), goal_spacing) is the length of the leg to p. With α = 1 it states that the
+moment Q is seen is equally likely at any fraction of the leg (the walk to p passes Q once,
+and Q lies on the first L_p metres): as a leg is scored at 10-90 % of its duration, or as
+anyone asks "where is it going?" once per leg. With α = 0 the moment is equally likely at any
+metre walked (long legs are seen more often). Left out (α = 0), a short move inside a long
+corridor region loses to the region beyond it at every moment, since only the region's
+points ahead of Q stay consistent while the next region's all do.
 
 * goals(g) is a fixed set of acceptable goal points in the region, as the walker's
   :class:`~bullet_floor_sim.core.walker.GoalSampler` accepts them (inside the polygon with a
@@ -84,16 +92,18 @@ class PredictionConfig:
 
     Attributes:
         beta: rationality (1/m): a metre of progress towards a goal multiplies its likelihood
-            by exp(beta). Measured on 80 walker legs of the office world (Walker goals,
-            Navigator on the planning grid, unicycle kinematics, 7,879 samples at 10 Hz), mean
-            log-loss in nats per sample: beta 1: 0.334, 2: 0.310, 3: 0.300, 5: 0.293, 8: 0.295,
-            20: 0.343 (the chain alone: 1.006, the heading baseline: 2.086). That walker is
-            ideal: no other robot to wait for or step around, no localisation noise; a detour
-            of d metres costs exp(-beta d) to the true region, so 3, within 0.01 nats of the
-            best, is kept rather than 5.
-        goal_spacing: lattice spacing of the goal points of a region.
+            by exp(beta).
+        length_exponent: α, how a leg's length L_p to a goal point weighs (1 / L_p^α): 1 says
+            a moment is equally likely at any fraction of a leg (the evaluation's sampling).
+        goal_spacing: lattice spacing of the goal points of a region; also the shortest
+            leg length L_p counted.
         max_goals_per_region: at most this many goal points per region (spread over the
-            lattice); 12 keeps the office world to 156 goal points, one Dijkstra each (1.2 s).
+            lattice), one Dijkstra each.
+
+        beta, length_exponent and max_goals_per_region were chosen by
+        bench/choose_prediction.py on 100 legs (seed 2) of each shipped world, leaving the
+        scored world out: every fold chose length_exponent 1 (over 0, 0.5, 1.5), three of
+        four beta 5 (over 2, 3, 8) and 24 goal points (over 12); the README gives the folds.
         clearance: a goal point keeps at least this distance from every wall (the walker's
             0.45 m).
         margin: a goal point keeps at least this distance from its region's boundary (the
@@ -116,9 +126,10 @@ class PredictionConfig:
         handover_speed: ... near enough: within 0.5 m + this speed (m/s) x the gap.
     """
 
-    beta: float = 3.0
+    beta: float = 5.0
+    length_exponent: float = 1.0
     goal_spacing: float = 1.0
-    max_goals_per_region: int = 12
+    max_goals_per_region: int = 24
     clearance: float = 0.45
     margin: float = 0.5
     stop_speed: float = 0.1
@@ -136,7 +147,7 @@ class PredictionConfig:
             if not (_is_number(v) and math.isfinite(v) and v > 0):
                 raise PredictionError("prediction: %s must be a finite number > 0, got %r"
                                       % (name, v))
-        for name in ("beta", "clearance", "margin", "stop_speed", "dwell_time",
+        for name in ("beta", "length_exponent", "clearance", "margin", "stop_speed", "dwell_time",
                      "snap_distance", "handover_time", "handover_speed"):
             v = getattr(self, name)
             if not (_is_number(v) and math.isfinite(v) and v >= 0):
@@ -433,7 +444,8 @@ class DestinationModel:
         qx, qy = _check_xy(current_xy, "current_xy")
         vs = self._values(sx, sy)
         vq = vs if (qx, qy) == (sx, sy) else self._values(qx, qy)
-        beta = self.config.beta
+        beta, alpha = self.config.beta, self.config.length_exponent
+        floor = self.config.goal_spacing
         logw = {}  # type: Dict[str, float]
         reasons = {}  # type: Dict[str, str]
         for g, p in prior.items():
@@ -448,8 +460,9 @@ class DestinationModel:
                 reasons[g] = ("no goal point of region %s is reachable from (%.2f, %.2f)"
                               % (_quote(g), sx, sy))
                 continue
-            logw[g] = (math.log(p) + float(logsumexp(-beta * (b[ok] - a[ok])))
-                       - math.log(int(ok.sum())))
+            a, b = a[ok], b[ok]
+            terms = -beta * (b - a) - alpha * np.log(np.maximum(a, floor))
+            logw[g] = math.log(p) + float(logsumexp(terms)) - math.log(int(ok.sum()))
         if not logw:
             where = ["%s (%.2f, %.2f)" % (what, x, y) for what, x, y
                      in (("start", sx, sy), ("current", qx, qy)) if not len(self._access(x, y)[0])]
