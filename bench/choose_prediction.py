@@ -139,13 +139,13 @@ def main() -> int:
         print("| %s | %s | %.3f | %.3f | %.3f | %.3f | %.3f |" % (
             w, best, s["score"], s["trk50"], s["gt50"], b["trk50"], b["gt50"]))
     # each parameter: the value most folds chose (the first in GRID order on a tie)
-    shipped = {k: max(GRID[k], key=lambda v: sum(1 for c in picks if c[k] == v)) for k in GRID}
+    chosen = {k: max(GRID[k], key=lambda v: sum(1 for c in picks if c[k] == v)) for k in GRID}
     print("\nCHOOSE folds=%d chosen=\"%s\" default=\"%s\"" % (
-        len(worlds), name(shipped), name({k: getattr(PredictionConfig, k) for k in GRID})))
+        len(worlds), name(chosen), name({k: getattr(PredictionConfig, k) for k in GRID})))
     print("\n| world | %s |" % " | ".join(COLUMNS))
     print("|---|" + "---|" * len(COLUMNS))
     for w in worlds:
-        model = world_model(w, PredictionConfig(**shipped))
+        model = world_model(w, PredictionConfig(**chosen))
         tab = rescore(runs[w], model).table()
         print("| %s | %s |" % (w, " | ".join("%.1f" % (100 * tab[p][m][k][0])
                                              for p, m, k in _cells())))
@@ -156,7 +156,7 @@ def _cells():
     """(pipeline, method, fraction index) of the COLUMNS."""
     for col in COLUMNS:
         pipe = "ground_truth" if col.startswith("gt") else "tracker"
-        method = col.split("_")[1] if "_" in col else "predictor"
+        method = col.split("_")[1][:-2] if "_" in col else "predictor"
         yield pipe, method, FRACTIONS.index(int(col[-2:]) / 100.0)
     return 0
 
