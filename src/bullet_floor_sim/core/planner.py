@@ -121,6 +121,7 @@ class PlanningGrid:
         cost[self.clearance > cfg.robot_radius + cfg.inflation_radius] = 0.0
         cost[self.clearance < cfg.robot_radius] = np.inf
         self.cost = cost
+        self._flat = None  # type: Optional[List[float]]
 
     # -- coordinates -----------------------------------------------------------------------
     def to_cell(self, x: float, y: float) -> Tuple[int, int]:
@@ -187,9 +188,10 @@ class PlanningGrid:
         if not (math.isfinite(gx) and math.isfinite(gy)):
             raise PlanError("goal (%s, %s) is not a finite position" % (goal[0], goal[1]))
         cost = self.cost
+        blocked = set()  # type: set
         if obstacles is not None and len(obstacles):
             cost = cost.copy()
-            self._stamp_obstacles(cost, np.asarray(obstacles, dtype=float), (sx, sy))
+            blocked = self._stamp_obstacles(cost, np.asarray(obstacles, dtype=float), (sx, sy))
         gc, gr = self.to_cell(gx, gy)
         if not self.inside(gc, gr):
             b = self.fmap.bounds()
@@ -215,7 +217,7 @@ class PlanningGrid:
         if start_cell is None:
             raise PlanError("start (%.2f, %.2f) is in collision and no free cell is near it"
                             % (sx, sy))
-        cells = self._astar(cost, start_cell, (gc, gr))
+        cells = self._astar(blocked, start_cell, (gc, gr))
         if cells is None:
             raise PlanError("goal (%.2f, %.2f) is unreachable from (%.2f, %.2f)"
                             % (gx, gy, sx, sy))
@@ -226,8 +228,11 @@ class PlanningGrid:
         return _resample(pts, self.config.path_spacing)
 
     def _stamp_obstacles(self, cost: np.ndarray, pts: np.ndarray,
-                         start: Tuple[float, float]) -> None:
+                         start: Tuple[float, float]) -> set:
+        """Make the cells within the robot radius (and half a cell) of each point lethal;
+        returns their flat indices (row * width + col)."""
         rad = self.config.robot_radius + 0.5 * self.resolution
+        stamped = set()
         n = int(math.ceil(rad / self.resolution))
         for x, y in pts:
             if math.hypot(x - start[0], y - start[1]) < self.config.robot_radius:
@@ -240,6 +245,8 @@ class PlanningGrid:
                         wx, wy = self.to_world(c, r)
                         if math.hypot(wx - x, wy - y) <= rad:
                             cost[r, c] = np.inf
+                            stamped.add(r * self.width + c)
+        return stamped
 
     def _nearest_free(self, cost: np.ndarray, c: int, r: int,
                       max_cells: int = 6) -> Optional[Tuple[int, int]]:
@@ -259,10 +266,17 @@ class PlanningGrid:
                 return best[1]
         return None
 
-    def _astar(self, cost: np.ndarray, start: Tuple[int, int],
+    def _astar(self, blocked: set, start: Tuple[int, int],
                goal: Tuple[int, int]) -> Optional[List[Tuple[int, int]]]:
+        """A* over the grid's costs, the ``blocked`` cells (flat indices) lethal too."""
         W = self.width
-        flat = cost.ravel().tolist()
+        if self._flat is None:  # the cost grid as a list, once: a list index is fastest
+            self._flat = self.cost.ravel().tolist()
+        flat = self._flat
+        if blocked:
+            flat = list(flat)
+            for k in blocked:
+                flat[k] = math.inf
         weight = self.config.cost_weight
         s = start[1] * W + start[0]
         g = goal[1] * W + goal[0]
