@@ -7,7 +7,7 @@ VENV_PY := $(REPO)/.venv/bin/python
 ROSENV := source $(REPO)/.venv/bin/activate && source $(REPO)/.ws/devel/setup.bash &&
 WORLD ?= office
 
-.PHONY: setup test unit-test integration-test lint demo bench eval clean
+.PHONY: setup test unit-test integration-test lint demo bench eval demo-legs clean
 
 setup:
 	bash tools/setup.sh
@@ -53,6 +53,12 @@ LEGS ?= 200
 SEED ?= 1
 eval: setup
 	$(ROSENV) $(VENV_PY) bench/eval_worlds.py --legs $(LEGS) --seed $(SEED)
+
+# The full ROS demo (demo.launch, embedded navigation, observer following) on every shipped
+# world, headless at rtf RTF (0 = flat out), until LEGS walker legs have ended: legs given up,
+# the real-time factor held and what the simulator waited for (bench/demo_legs.py).
+demo-legs: setup
+	$(ROSENV) $(VENV_PY) bench/demo_legs.py --legs $(LEGS) --seed $(SEED) --rtf $(RTF)
 
 clean:
 	rm -rf .ws .venv "$${BFS_WS:-$${XDG_CACHE_HOME:-$$HOME/.cache}/bullet_floor_sim/ws-$$(printf %s "$(REPO)" | sha1sum | cut -c1-8)}"

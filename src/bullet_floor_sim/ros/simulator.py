@@ -20,7 +20,14 @@ at start and after ``~reset``, so amcl starts localised whatever the world),
 ``~robot_state_publishers`` (true: one robot_state_publisher per robot, started by this node
 with the robot's prefixed URDF, so any number of robots works from one launch file),
 ``~ray_threads`` (0: PyBullet threads for lidar batches of 1000 rays or more, 0 = all cores;
-1 leaves the other cores to the rest of the ROS graph).
+1 leaves the other cores to the rest of the ROS graph),
+``~max_command_lag`` (0.15 s of sim time: while a moving robot's last ``cmd_vel`` is older,
+the clock goes no faster than real time, so a navigation node that cannot keep pace with
+``rtf:=0`` slows the simulator instead of driving on stale commands; 0 = never wait;
+core/pacing.py), ``~wait_for_subscribers`` (true: after each send the clock holds until every
+subscriber on this machine has read it, so no node works from data queued seconds behind; Linux
+only), ``~max_command_wait`` (2.0 s of wall time: a robot late for that long, or a subscriber
+that has not read for that long, is let go, with a warning naming it, until it is back).
 Services: ``~reset``, ``~pause``, ``~unpause`` (std_srvs/Empty).
 """
 from __future__ import annotations
@@ -53,6 +60,7 @@ from tf2_msgs.msg import TFMessage
 from ..core import bullet_capi
 from ..core.config import load_world_config, resolve_world
 from ..core.errors import BulletFloorSimError, CommandError, ConfigError
+from ..core.pacing import BacklogGate, CommandGate, tcp_unread
 from ..core.paths import worlds_dir
 from ..core.robot import expand_xacro
 from ..core.world import World
@@ -110,6 +118,7 @@ _D6 = struct.Struct("<6d")          # Twist: linear xyz, angular xyz
 _D2 = struct.Struct("<2d")
 _F7 = struct.Struct("<7f")
 _MAX_FLUSH_WAIT = 0.05     # s: the longest a queued message waits for its send when not pacing
+_HOLD_POLL = 0.0005        # s: the sleep between looks while the clock waits for a controller
 _SENTINELS = (1234.5678125, 2345.6789125)   # unlikely values; each slot must be unique
 
 
@@ -322,9 +331,9 @@ class _Outbox:
 
     def __init__(self) -> None:
         self._queues: Dict[object, list] = {}   # connection -> [messages, bytes sent of the first]
+        self.publishers: List[rospy.Publisher] = []
 
-    @staticmethod
-    def publisher(topic: str, cls, queue_size: int) -> rospy.Publisher:
+    def publisher(self, topic: str, cls, queue_size: int) -> rospy.Publisher:
         """A publisher for ``put``: rospy connections without rospy's per-connection queue."""
         import warnings
 
@@ -332,6 +341,7 @@ class _Outbox:
             warnings.simplefilter("ignore")     # rospy warns about a missing queue_size
             pub = rospy.Publisher(topic, cls, queue_size=None)
         pub._bfs_queue_size = queue_size
+        self.publishers.append(pub)
         return pub
 
     @staticmethod
@@ -497,15 +507,24 @@ class SimulatorNode:
         report_period: wall seconds between logs (and messages on ~real_time_factor_achieved
             and ~publishing_share) of the achieved real-time factor and the wall time spent
             building and sending messages as a share of the time spent stepping the world.
+        gate: when the clock waits for the robots' controllers (core/pacing.py; default: a
+            moving robot's command may be 0.15 s of sim time old, a wait lasts at most 2 s).
+        backlog: when the clock waits for subscribers to read what was sent (None: never).
     """
 
     def __init__(self, world: World, rtf: float, rates: dict, publish_map: bool,
                  ground_truth_tf: Union[bool, Sequence[str]] = False,
                  initialpose: bool = False,
                  clock_wall_period: float = 0.001, flush_period: float = 0.002,
-                 send_share: float = 0.1, report_period: float = 10.0) -> None:
+                 send_share: float = 0.1, report_period: float = 10.0,
+                 gate: Optional[CommandGate] = None,
+                 backlog: Optional[BacklogGate] = None) -> None:
         _check_wires()
         self.world = world
+        self.gate = gate or CommandGate([s.name for s in world.specs])
+        self.backlog = backlog
+        self._sent = False           # a flush since the subscribers last had read everything
+        self._peers = {}  # type: Dict[object, Tuple[Any, Tuple[str, str]]]
         self.gt_tf = _gt_tf_robots(ground_truth_tf, [s.name for s in world.specs])
         self.own_time = _stop_listening_to_own_clock()
         self.rtf = rtf
@@ -576,12 +595,15 @@ class SimulatorNode:
         try:
             with self.lock:
                 self.world.command(robot, msg.linear.x, msg.linear.y, msg.angular.z)
+                self.gate.command(robot, self.world.clock.now, msg.linear.x, msg.linear.y,
+                                  msg.angular.z)
         except CommandError as e:
             rospy.logwarn_throttle(2.0, str(e))
 
     def _on_reset(self, _req) -> EmptyResponse:
         with self.lock:
             self.world.reset()
+            self.gate.reset()
         rospy.loginfo("simulator: robots reset to their spawn poses")
         self._publish_initialposes()
         return EmptyResponse()
@@ -712,6 +734,7 @@ class SimulatorNode:
             self._clock_wall = time.perf_counter()
             self._publish_clock(self.world.clock.now_ns)
         self.out.flush()
+        self._sent = True
 
     # ------------------------------------------------------------------------- main loop
     def spin(self, stop: Callable[[], bool] = lambda: False) -> None:
@@ -734,6 +757,8 @@ class SimulatorNode:
                 wall0, sim0 = time.perf_counter(), w.clock.now
                 continue
             t0 = time.perf_counter()
+            if self._wait_for_controllers(t0) or self._wait_for_subscribers(t0):
+                continue
             with self.lock:
                 scans = w.step(1)
                 t1 = time.perf_counter()
@@ -763,14 +788,97 @@ class SimulatorNode:
                 share = publishing / stepping if stepping > 0 else 0.0
                 wall = max(now_wall - rep_wall, 1e-9)
                 rospy.loginfo("simulator: real-time factor %.2f (asked %s); of the wall time "
-                              "%.0f%% stepping, %.0f%% publishing", achieved,
+                              "%.0f%% stepping, %.0f%% publishing%s", achieved,
                               self.rtf if self.rtf > 0 else "as fast as possible",
-                              100.0 * stepping / wall, 100.0 * publishing / wall)
+                              100.0 * stepping / wall, 100.0 * publishing / wall,
+                              self._waits_line(wall))
                 self.rtf_pub.publish(Float64(achieved))
                 self.share_pub.publish(Float64(share))
                 report_at = now_wall + self.report_period
                 rep_wall, rep_sim = now_wall, w.clock.now
                 rep_step, rep_pub = self.time_stepping, self.time_publishing
+
+
+    def _wait_for_controllers(self, wall: float) -> bool:
+        """Hold the clock while a moving robot's controller is behind (core/pacing.py):
+        send what is queued (the controller answers the latest data), sleep a little and
+        say True; False when the world may step."""
+        with self.lock:
+            held = self.gate.hold(self.world.clock.now, wall)
+        for name in self.gate.released:
+            rospy.logwarn("simulator: waited %.1f s of wall time for a cmd_vel for %s, which is "
+                          "moving; going on without it until its next command (is its "
+                          "controller alive?)", self.gate.max_wait, name)
+        if not held:
+            return False
+        self.flush()
+        time.sleep(_HOLD_POLL)
+        return True
+
+    def _wait_for_subscribers(self, wall: float) -> bool:
+        """After a send, hold the clock until every subscriber has read it (core/pacing.py);
+        True while holding."""
+        if self.backlog is None or not self._sent:
+            return False
+        try:
+            unread = self._unread()
+        except OSError as e:
+            rospy.logwarn("simulator: cannot see what subscribers have read (%s); not waiting "
+                          "for them", e)
+            self.backlog = None
+            return False
+        held = self.backlog.hold(unread, wall)
+        for sub, topic in self.backlog.released:
+            rospy.logwarn("simulator: %s has not read %s for %.1f s of wall time; going on "
+                          "without it until it has caught up", sub, topic, self.backlog.max_wait)
+        if not held:
+            self._sent = False
+            return False
+        time.sleep(_HOLD_POLL)
+        return True
+
+    def _unread(self) -> Dict[Tuple[str, str], int]:
+        """Unread bytes per (subscriber, topic) of every connection on this machine."""
+        unread = tcp_unread()
+        for c in [c for c in self._peers if getattr(c, "done", True)]:
+            del self._peers[c]
+        out = {}  # type: Dict[Tuple[str, str], int]
+        for pub in self.out.publishers:
+            for c in pub.impl.connections:
+                peer = self._peers.get(c)
+                if peer is None:
+                    peer = self._peers[c] = _peer_key(c, pub.resolved_name)
+                if peer[0] is not None:
+                    out[peer[1]] = max(out.get(peer[1], 0), unread.get(peer[0], 0))
+        return out
+
+    def _waits_line(self, wall: float) -> str:
+        """The report's account of the wall time spent waiting for controllers and
+        subscribers, slowest first; empty when nobody was waited for."""
+        line = ""
+        waited = sorted(self.gate.take_report().items(), key=lambda kv: -kv[1])
+        if waited:
+            line += "; waited for cmd_vel of %s" % ", ".join(
+                "%s %.0f%%" % (n, 100.0 * t / wall) for n, t in waited)
+        if self.backlog is not None:
+            subs = sorted(self.backlog.take_report().items(), key=lambda kv: -kv[1])[:3]
+            if subs:
+                line += "; waited for subscribers %s" % ", ".join(
+                    "%s (%s) %.0f%%" % (s, t, 100.0 * w / wall) for (s, t), w in subs)
+        return line
+
+
+def _peer_key(c, topic: str) -> Tuple[Any, Tuple[str, str]]:
+    """(the subscriber's socket as tcp_unread keys it, or None when it cannot be seen;
+    (subscriber, topic)) of a publisher-side connection."""
+    label = (str(getattr(c, "endpoint_id", "") or "?"), topic)
+    sock = getattr(c, "socket", None)
+    try:
+        if sock is None or sock.family != socket.AF_INET:
+            return None, label
+        return (sock.getpeername(), sock.getsockname()), label
+    except OSError:
+        return None, label
 
 
 def _map_to_odom(truth, odom) -> Tuple[float, float, float]:
@@ -866,12 +974,17 @@ def main(argv: Optional[List[str]] = None) -> int:
     rates = {k: float(rospy.get_param("~%s_rate" % k, d))
              for k, d in (("clock", 100.0), ("odom", 50.0), ("pose", 20.0), ("state", 10.0))}
     try:
+        wait = float(rospy.get_param("~max_command_wait", 2.0))
+        gate = CommandGate([s.name for s in world.specs],
+                           float(rospy.get_param("~max_command_lag", 0.15)), wait)
+        backlog = BacklogGate(wait) if rospy.get_param("~wait_for_subscribers", True) else None
         node = SimulatorNode(world, float(rospy.get_param("~real_time_factor", 1.0)), rates,
                              bool(rospy.get_param("~publish_map", True)),
                              rospy.get_param("~ground_truth_tf", False),
                              bool(rospy.get_param("~publish_initialpose", False)),
                              send_share=float(rospy.get_param("~send_share", 0.1)),
-                             report_period=float(rospy.get_param("~report_period", 10.0)))
+                             report_period=float(rospy.get_param("~report_period", 10.0)),
+                             gate=gate, backlog=backlog)
     except BulletFloorSimError as e:
         rospy.logfatal("simulator: %s", e)
         world.close()

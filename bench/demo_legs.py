@@ -1,0 +1,191 @@
+#!/usr/bin/env python3
+"""The full ROS demo, counted: how many walker legs demo.launch gives up (``make demo-legs``).
+
+Starts ``roslaunch bullet_floor_sim demo.launch`` headless (rviz off, embedded navigation, the
+observer following) under its own master and ROS_HOME, one world after the other, and listens
+to the walker's ``/<walker>/markov_walker/leg`` (one JSON per leg) until LEGS legs have ended.
+Prints a table and one line per world:
+
+    DEMO world=<name> rtf_asked=<x> legs=<n> given_up=<share> rtf=<sim s per wall s>
+        waited_max=<largest share of wall time the simulator held its clock for one node>
+
+``rtf`` is sim time over wall time from the first leg's end to the last's; ``waited`` is read
+from the simulator's own report lines (core/pacing.py): the mean share of the wall time it held
+its clock for the slowest controller (cmd_vel) or subscriber. The table lists the three it
+waited for most. Each given-up leg is printed with its reason.
+
+    .venv/bin/python bench/demo_legs.py --legs 200 --rtf 0 --worlds office malaga_corridor
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from typing import Tuple
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+
+from eval_worlds import shipped  # noqa: E402
+
+_WAIT = re.compile(r"waited for (?:cmd_vel of|subscribers) ([^;]*)")
+_SHARE = re.compile(r"(\S+(?: \(\S+\))?) (\d+)%")
+
+
+def _free_port() -> int:
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+class _Legs:
+    """The walker's legs as they end, with the sim time of each."""
+
+    def __init__(self) -> None:
+        self.lock = threading.Lock()
+        self.legs = []  # type: list
+
+    def add(self, msg) -> None:
+        leg = json.loads(msg.data)
+        with self.lock:  # (sim time the leg ended, wall time it was heard, the leg)
+            self.legs.append((leg["started"] + leg["duration"], time.time(), leg))
+
+
+def _master() -> Tuple[subprocess.Popen, int]:
+    """A master of our own for every run (this process's listener joins it once)."""
+    port = _free_port()
+    proc = subprocess.Popen(["rosmaster", "--core", "-p", str(port)], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True)
+    deadline = time.time() + 30.0
+    while True:
+        try:
+            socket.create_connection(("127.0.0.1", port), 1.0).close()
+            return proc, port
+        except OSError:
+            if time.time() > deadline or proc.poll() is not None:
+                raise RuntimeError("rosmaster did not start on port %d" % port)
+            time.sleep(0.2)
+
+
+def _listen(port: int, walker: str, legs: _Legs) -> None:
+    os.environ["ROS_MASTER_URI"] = "http://127.0.0.1:%d" % port
+    import rospy
+    from std_msgs.msg import String
+
+    rospy.init_node("demo_legs", anonymous=True, disable_signals=True)
+    rospy.Subscriber("/%s/markov_walker/leg" % walker, String, legs.add, queue_size=100)
+
+
+def run_world(world: str, n: int, rtf: float, seed: int, timeout: float, port: int,
+              legs: _Legs) -> dict:
+    """One demo run until ``n`` legs have ended (or ``timeout`` wall seconds)."""
+    home = tempfile.mkdtemp(prefix="bfs_demo_legs_")
+    log = open(os.path.join(home, "launch.log"), "w")
+    env = dict(os.environ, ROS_HOME=home, ROS_MASTER_URI="http://127.0.0.1:%d" % port)
+    cmd = ["roslaunch", "bullet_floor_sim", "demo.launch", "world:=" + world,
+           "nav:=builtin", "rviz:=false", "rtf:=%g" % rtf, "seed:=%d" % seed]
+    with legs.lock:
+        del legs.legs[:]
+    proc = subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT,
+                            start_new_session=True)
+    try:
+        t_end = time.time() + timeout
+        last = time.time()
+        while time.time() < t_end and proc.poll() is None:
+            with legs.lock:
+                done = len(legs.legs)
+            if done >= n:
+                break
+            if time.time() - last > 30.0:
+                last = time.time()
+                print("  %s: %d/%d legs" % (world, done, n), file=sys.stderr, flush=True)
+            time.sleep(1.0)
+    finally:
+        os.killpg(proc.pid, signal.SIGINT)
+        try:
+            proc.wait(30)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+        log.close()
+    with legs.lock:
+        got = list(legs.legs[:n])
+    out = _summary(world, rtf, got, os.path.join(home, "launch.log"))
+    kept = os.path.join(tempfile.gettempdir(), "bfs_demo_legs_%s.log" % world)
+    shutil.move(os.path.join(home, "launch.log"), kept)  # the nodes' output, for a look
+    shutil.rmtree(home, ignore_errors=True)
+    print("  %s: the nodes' output is in %s" % (world, kept), file=sys.stderr)
+    return out
+
+
+def _summary(world: str, rtf: float, got: list, log_path: str) -> dict:
+    failed = [leg for _, _, leg in got if leg.get("outcome") != "succeeded"]
+    sim = got[-1][0] - got[0][0] if len(got) > 1 else 0.0
+    wall = got[-1][1] - got[0][1] if len(got) > 1 else 0.0
+    waited = {}  # type: dict
+    reports = 0
+    with open(log_path) as f:
+        for line in f:
+            if "simulator: real-time factor" in line:
+                reports += 1
+            for m in _WAIT.finditer(line.strip()):
+                for name, pct in _SHARE.findall(m.group(1)):
+                    waited[name] = waited.get(name, 0) + int(pct)
+    return {"world": world, "rtf_asked": rtf, "legs": len(got),
+            "given_up": len(failed) / max(1, len(got)), "rtf": sim / wall if wall > 0 else 0.0,
+            "waited": {k: v / 100.0 / max(1, reports) for k, v in waited.items()},
+            "failed": failed}
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--legs", type=int, default=200)
+    p.add_argument("--rtf", type=float, default=0.0, help="demo.launch rtf (0 = flat out)")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--timeout", type=float, default=3600.0, help="wall seconds per world")
+    p.add_argument("--worlds", nargs="*", default=None, help="default: every shipped world")
+    args = p.parse_args()
+    rows = []
+    master, port = _master()
+    legs = _Legs()
+    try:
+        _listen(port, "robot1", legs)
+        for w in args.worlds or shipped():
+            print("== %s: demo.launch rtf:=%g, %d legs, seed %d" % (w, args.rtf, args.legs,
+                                                                      args.seed),
+                  file=sys.stderr, flush=True)
+            rows.append(run_world(w, args.legs, args.rtf, args.seed, args.timeout, port, legs))
+    finally:
+        os.killpg(master.pid, signal.SIGINT)
+        master.wait(10)
+    for r in rows:
+        for leg in r["failed"]:
+            print("  %s given up: %s -> %s, %s: %s" % (r["world"], leg.get("from"),
+                                                      leg.get("to"), leg.get("outcome"),
+                                                      leg.get("detail")), file=sys.stderr)
+    print("| world | rtf asked | legs | given up | rtf achieved | the clock waited most for |")
+    print("|---|---|---|---|---|---|")
+    for r in rows:
+        top = sorted(r["waited"].items(), key=lambda kv: -kv[1])[:3]
+        waits = ", ".join("%s %.0f %%" % (k, 100 * v) for k, v in top)
+        print("| %s | %g | %d | %.1f %% | %.1fx | %s |" % (
+            r["world"], r["rtf_asked"], r["legs"], 100 * r["given_up"], r["rtf"], waits or "-"))
+    for r in rows:
+        print("DEMO world=%s rtf_asked=%g legs=%d given_up=%.3f rtf=%.1f waited_max=%.3f" % (
+            r["world"], r["rtf_asked"], r["legs"], r["given_up"], r["rtf"],
+            max(r["waited"].values(), default=0.0)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,241 @@
+"""Waiting for the nodes that drive the robots: sim time never runs away from a controller.
+
+A controller (move_base, path_follower, teleop) answers the sensor data of sim time t with a
+command some wall time later. When the simulator runs faster than the controller can answer
+(``rtf:=0``, or a slow machine), a moving robot goes on with a stale command until the
+velocity watchdog stops it, and the controller reacts to a world that has moved on: a
+navigation that works at real time stutters, overshoots and gives up.
+
+:class:`CommandGate` decides when the simulator must hold its clock. A robot *holds* the
+clock while its last command was a motion (any non-zero component) received more than
+``max_lag`` sim seconds ago: a controller that stops a robot sends a zero command, and after
+that the robot needs nobody. While a robot holds it, the clock goes on at real time at most:
+a controller that sleeps until its next period (a ``rospy.Rate`` in sim time) still gets there,
+and at real time every ROS controller is meant to keep pace. A robot late for more than
+``max_wait`` wall seconds is *released*: the simulator goes on without it until its next command (its
+controller died, or was stopped with the robot moving, and the velocity watchdog stops the
+robot as it always did), and the release is reported once. The gate keeps counts for the
+simulator's periodic report: wall time spent waiting, and for which robots.
+
+:class:`BacklogGate` holds the clock while a subscriber has not read what was sent to it
+(Linux, subscribers on this machine): a node that takes the data of sim time t at t + 2 s
+(the socket's receive queue holds the rest) acts on a world 2 s old, however fresh its
+commands. :func:`tcp_unread` reads every local TCP socket's unread byte count from the
+kernel (sock_diag netlink, one request for all of them: about 0.1 ms).
+
+Plain data in and out; the simulator node is the glue (``~max_command_lag``,
+``~max_command_wait``, ``~wait_for_subscribers``).
+"""
+from __future__ import annotations
+
+import math
+import socket
+import struct
+from typing import Dict, Hashable, List, Optional, Sequence, Tuple
+
+from .errors import ConfigError
+
+__all__ = ["BacklogGate", "CommandGate", "tcp_unread"]
+
+Endpoint = Tuple[str, int]   # (IPv4 address, port)
+
+
+class CommandGate:
+    """When the simulator waits for the robots' controllers (see the module docstring).
+
+    Args:
+        names: the robots' names, in world order (for the report; "" reads "<empty>").
+        max_lag: sim seconds a moving robot may go without a new command before the clock
+            holds for it (0 turns the gate off). A little longer than a controller's period
+            (0.1 s at path_follower's 10 Hz, 0.05 s at move_base's 20 Hz): a command then
+            answers data at most ``max_lag`` minus the period old, as on a real robot. A
+            slower controller only slows the clock to real time between its commands.
+        max_wait: wall seconds the clock holds for one robot before it is released.
+
+    Raises:
+        ConfigError: a negative or non-finite lag, or a wait that is not positive.
+    """
+
+    def __init__(self, names: Sequence[str], max_lag: float = 0.15,
+                 max_wait: float = 2.0) -> None:
+        if not (math.isfinite(max_lag) and max_lag >= 0.0):
+            raise ConfigError("~max_command_lag: %r is not a non-negative number of "
+                              "seconds (0 = do not wait for controllers)" % (max_lag,))
+        if not (math.isfinite(max_wait) and max_wait > 0.0):
+            raise ConfigError("~max_command_wait: %r is not a positive number of seconds"
+                              % (max_wait,))
+        self.names = [n or "<empty>" for n in names]
+        self.max_lag = float(max_lag)
+        self.max_wait = float(max_wait)
+        n = len(self.names)
+        self._last = [-math.inf] * n          # sim time of each robot's last command
+        self._moving = [False] * n            # that command was a motion
+        self._released = [False] * n          # waited max_wait for it: not waited for again
+        self._since = None  # type: Optional[float]  # wall time the current hold began
+        self._sim_since = 0.0                 # sim time it began
+        self._held = False                    # the last poll held the clock
+        self._poll = 0.0                      # wall time of that poll
+        self._late = []  # type: List[int]    # the robots held for at that poll
+        self.released = []  # type: List[str] # robots released by the last poll
+        self.waited: Dict[str, float] = {}    # wall seconds held, per robot (for the report)
+        self.holds = 0                        # holds begun
+
+    def command(self, robot: int, sim_time: float, vx: float, vy: float, w: float) -> None:
+        """A command for a robot arrived at this sim time."""
+        self._last[robot] = float(sim_time)
+        self._moving[robot] = bool(vx or vy or w)
+        self._released[robot] = False
+
+    def reset(self) -> None:
+        """Every robot stopped (a world reset): nobody is waited for."""
+        n = len(self.names)
+        self._last, self._moving, self._released = [-math.inf] * n, [False] * n, [False] * n
+        self._since, self._held = None, False
+
+    def waiting_for(self, sim_time: float) -> List[int]:
+        """The robots the clock holds for at this sim time (none when the gate is off)."""
+        if self.max_lag <= 0.0:
+            return []
+        limit = sim_time - self.max_lag
+        return [i for i, (t, m, r) in enumerate(zip(self._last, self._moving, self._released))
+                if m and not r and t < limit]
+
+    def hold(self, sim_time: float, wall: float) -> List[str]:
+        """Whether to hold the clock now, polled before each step and while holding.
+
+        While a robot is late, the clock goes on at real time at most (a controller that
+        sleeps until a sim time it has not reached yet is never dead-locked), and holds
+        whenever it is ahead of that.
+
+        Returns:
+            The names of the robots the clock holds for (empty: step). When robots have been
+            late for ``max_wait`` wall seconds, they are released: listed in
+            ``self.released`` until the next call, and not waited for again until their
+            next command.
+        """
+        self.released = []  # type: List[str]
+        late = self.waiting_for(sim_time)
+        if self._held:  # the wall time since the last poll was spent holding
+            for i in self._late:
+                self.waited[self.names[i]] = self.waited.get(self.names[i], 0.0) + (
+                    wall - self._poll)
+        self._held = False
+        if not late:
+            self._since = None
+            return []
+        if self._since is None:
+            self._since, self._sim_since = wall, sim_time
+            self.holds += 1
+        elif wall - self._since >= self.max_wait:
+            for i in late:
+                self._released[i] = True
+                self.released.append(self.names[i])
+            self._since = None
+            return []
+        if sim_time - self._sim_since < wall - self._since:  # behind real time: step
+            return []
+        self._held, self._late, self._poll = True, late, wall
+        return [self.names[i] for i in late]
+
+    def take_report(self) -> Dict[str, float]:
+        """Wall seconds held per robot since the last call (and clears them)."""
+        out, self.waited = self.waited, {}
+        return out
+
+
+_NETLINK_SOCK_DIAG = 4
+_SOCK_DIAG_BY_FAMILY = 20
+_NLMSG_ERROR, _NLMSG_DONE = 2, 3
+_NLM_F_REQUEST_DUMP = 0x301
+_TCP_ESTABLISHED = 1
+_NLMSGHDR = struct.Struct("=IHHII")
+
+
+def tcp_unread() -> Dict[Tuple[Endpoint, Endpoint], int]:
+    """Unread bytes in the receive queue of every established IPv4 TCP socket of this machine
+    (network namespace), keyed by (its own address, its peer's address).
+
+    Raises:
+        OSError: sock_diag is not available (not Linux, or no netlink in this sandbox).
+    """
+    req = struct.pack("=BBBBI", socket.AF_INET, socket.IPPROTO_TCP, 0, 0,
+                      1 << _TCP_ESTABLISHED) + bytes(48)
+    out = {}  # type: Dict[Tuple[Endpoint, Endpoint], int]
+    with socket.socket(socket.AF_NETLINK, socket.SOCK_DGRAM, _NETLINK_SOCK_DIAG) as s:
+        s.send(_NLMSGHDR.pack(_NLMSGHDR.size + len(req), _SOCK_DIAG_BY_FAMILY,
+                              _NLM_F_REQUEST_DUMP, 1, 0) + req)
+        while True:
+            data = s.recv(1 << 16)
+            off = 0
+            while off + _NLMSGHDR.size <= len(data):
+                length, kind = _NLMSGHDR.unpack_from(data, off)[:2]
+                if kind == _NLMSG_DONE or length < _NLMSGHDR.size:
+                    return out
+                if kind == _NLMSG_ERROR:
+                    raise OSError("sock_diag refused the TCP socket dump")
+                m = off + _NLMSGHDR.size   # struct inet_diag_msg
+                sport, dport = struct.unpack_from(">HH", data, m + 4)
+                src = socket.inet_ntoa(data[m + 8:m + 12])
+                dst = socket.inet_ntoa(data[m + 24:m + 28])
+                out[((src, sport), (dst, dport))] = struct.unpack_from("=I", data, m + 56)[0]
+                off += (length + 3) & ~3
+            if not data:
+                return out
+
+
+class BacklogGate:
+    """Holds the clock while a subscriber has not read what it was sent (module docstring).
+
+    The simulator asks :meth:`hold` before it steps on, with the unread bytes of each
+    subscriber connection it feeds. A connection unread for ``max_wait`` wall seconds in a
+    row is released (named in ``released``) until it has read everything once: a subscriber
+    that stopped reading (a suspended process) does not stop the simulation.
+
+    Args:
+        max_wait: wall seconds the clock holds for one connection before it is released.
+    """
+
+    def __init__(self, max_wait: float = 2.0) -> None:
+        if not (math.isfinite(max_wait) and max_wait > 0.0):
+            raise ConfigError("~max_command_wait: %r is not a positive number of seconds"
+                              % (max_wait,))
+        self.max_wait = float(max_wait)
+        self._since = {}  # type: Dict[Hashable, float]  # wall time each began to lag
+        self._released = set()  # type: set
+        self._held = []  # type: List[Hashable]
+        self._poll = 0.0
+        self.released = []  # type: List[Hashable]
+        self.waited = {}  # type: Dict[Hashable, float]
+
+    def hold(self, unread: Dict[Hashable, int], wall: float) -> List[Hashable]:
+        """The connections the clock holds for (empty: step on).
+
+        Args:
+            unread: unread bytes per connection (connections not listed are up to date).
+            wall: wall time now.
+        """
+        for c in self._held:   # the wall time since the last poll was spent holding
+            self.waited[c] = self.waited.get(c, 0.0) + (wall - self._poll)
+        self.released = []
+        late = []
+        for c, n in unread.items():
+            if n <= 0:
+                self._released.discard(c)
+                self._since.pop(c, None)
+            elif c not in self._released:
+                since = self._since.setdefault(c, wall)
+                if wall - since >= self.max_wait:
+                    self._released.add(c)
+                    self.released.append(c)
+                else:
+                    late.append(c)
+        for c in [c for c in self._since if c not in unread]:
+            del self._since[c]
+        self._released &= set(unread)
+        self._held, self._poll = late, wall
+        return late
+
+    def take_report(self) -> Dict[Hashable, float]:
+        """Wall seconds held per connection since the last call (and clears them)."""
+        out, self.waited = self.waited, {}
+        return out

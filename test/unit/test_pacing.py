@@ -1,0 +1,111 @@
+"""core/pacing.py: when the simulator's clock waits for the robots' controllers."""
+import math
+
+import pytest
+
+from bullet_floor_sim.core.errors import ConfigError
+from bullet_floor_sim.core.pacing import CommandGate
+
+
+def test_a_moving_robot_holds_the_clock_once_its_command_is_older_than_the_lag():
+    g = CommandGate(["robot1", "robot2"], max_lag=0.15, max_wait=2.0)
+    assert g.hold(0.0, 100.0) == []                # nobody commanded: nobody waited for
+    g.command(0, 1.0, 0.5, 0.0, 0.0)
+    assert g.hold(1.1, 100.0) == []                # 0.1 s old
+    assert g.hold(1.15001, 100.0) == ["robot1"]    # 0.15 s old
+    assert g.holds == 1
+    g.command(0, 1.15001, 0.5, 0.0, 0.1)           # the controller answered
+    assert g.hold(1.15001, 100.02) == []
+    assert g.waited == {"robot1": pytest.approx(0.02)}
+
+
+def test_while_a_robot_is_late_the_clock_goes_on_at_real_time_at_most():
+    g = CommandGate(["a"], max_lag=0.15, max_wait=2.0)
+    g.command(0, 0.0, 0.3, 0.0, 0.0)
+    assert g.hold(0.2, 10.0) == ["a"]              # late: the hold begins (sim 0.2, wall 10)
+    assert g.hold(0.2, 10.05) == []                # 0.05 s of wall: 0.05 s of sim may pass
+    assert g.hold(0.24, 10.05) == []
+    assert g.hold(0.26, 10.05) == ["a"]            # caught up with real time: hold
+    assert g.hold(0.25, 10.5) == []                # a controller asleep till sim 0.3 gets there
+    assert g.hold(0.8, 10.5) == ["a"]
+
+
+def test_a_stopped_robot_holds_nothing():
+    g = CommandGate(["a", "b"], max_lag=0.15)
+    g.command(1, 0.0, 0.0, 0.0, 0.0)               # a zero command: the controller stopped it
+    assert g.hold(100.0, 0.0) == []
+    g.command(1, 100.0, 0.0, 0.0, -0.4)            # turning on the spot is motion
+    assert g.hold(100.5, 0.0) == ["b"]
+
+
+def test_a_robot_late_for_max_wait_is_released_until_its_next_command():
+    g = CommandGate(["walker"], max_lag=0.15, max_wait=2.0)
+    g.command(0, 0.0, 0.2, 0.0, 0.0)
+    assert g.hold(1.0, 10.0) == ["walker"]
+    assert g.hold(1.0, 11.9) == [] and g.released == []     # real time: it steps
+    assert g.hold(3.0, 11.9) == ["walker"] and g.released == []
+    assert g.hold(3.0, 12.0) == [] and g.released == ["walker"]
+    assert g.take_report() == {"walker": pytest.approx(2.0)}  # from each hold to the next poll
+    assert g.take_report() == {}
+    assert g.hold(50.0, 20.0) == []                # released: the clock goes on
+    g.command(0, 50.0, 0.2, 0.0, 0.0)              # it is back
+    assert g.hold(50.4, 21.0) == ["walker"]
+
+
+def test_reset_and_a_zero_lag_wait_for_nobody():
+    g = CommandGate(["a"], max_lag=0.15)
+    g.command(0, 0.0, 1.0, 0.0, 0.0)
+    g.reset()
+    assert g.hold(5.0, 0.0) == []
+    off = CommandGate(["a"], max_lag=0.0)
+    off.command(0, 0.0, 1.0, 0.0, 0.0)
+    assert off.hold(5.0, 0.0) == []
+
+
+@pytest.mark.parametrize("lag,wait", [(-0.1, 2.0), (math.nan, 2.0), (0.3, 0.0), (0.3, math.inf)])
+def test_bad_settings_are_named(lag, wait):
+    with pytest.raises(ConfigError, match="max_command_(lag|wait)"):
+        CommandGate(["a"], max_lag=lag, max_wait=wait)
+
+
+def test_tcp_unread_counts_what_the_peer_has_not_read():
+    import socket
+    import time
+
+    from bullet_floor_sim.core.pacing import tcp_unread
+
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(1)
+    sender = socket.create_connection(srv.getsockname())
+    reader, _ = srv.accept()
+    try:
+        key = (reader.getsockname(), reader.getpeername())   # as the simulator keys a peer
+        sender.sendall(b"x" * 1234)
+        deadline = time.time() + 2.0
+        while tcp_unread().get(key, 0) < 1234 and time.time() < deadline:
+            time.sleep(0.01)
+        assert tcp_unread()[key] == 1234
+        assert len(reader.recv(1000)) == 1000
+        assert tcp_unread()[key] == 234
+        reader.recv(1000)
+        assert tcp_unread()[key] == 0
+    finally:
+        for s in (sender, reader, srv):
+            s.close()
+
+
+def test_the_backlog_gate_holds_for_unread_connections_and_lets_a_stuck_one_go():
+    from bullet_floor_sim.core.pacing import BacklogGate
+
+    g = BacklogGate(max_wait=2.0)
+    assert g.hold({"a": 0, "b": 0}, 10.0) == []
+    assert g.hold({"a": 120, "b": 0}, 10.0) == ["a"]
+    assert g.hold({"a": 0, "b": 0}, 10.3) == []             # a read it
+    assert g.take_report() == {"a": pytest.approx(0.3)}
+    assert g.hold({"a": 0, "b": 50}, 11.0) == ["b"]
+    assert g.hold({"a": 0, "b": 50}, 12.9) == ["b"]
+    assert g.hold({"a": 0, "b": 50}, 13.0) == [] and g.released == ["b"]   # stuck 2 s
+    assert g.hold({"a": 0, "b": 80}, 14.0) == []             # not waited for again ...
+    assert g.hold({"a": 0, "b": 0}, 14.5) == []              # ... until it has caught up
+    assert g.hold({"a": 0, "b": 10}, 14.6) == ["b"]
