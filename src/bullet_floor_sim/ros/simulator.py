@@ -118,6 +118,7 @@ _D6 = struct.Struct("<6d")          # Twist: linear xyz, angular xyz
 _D2 = struct.Struct("<2d")
 _F7 = struct.Struct("<7f")
 _MAX_FLUSH_WAIT = 0.05     # s: the longest a queued message waits for its send when not pacing
+_MAX_FLUSH_SIM = 0.05      # s of sim time: the same bound while the clock waits for subscribers
 _HOLD_POLL = 0.0005        # s: the sleep between looks while the clock waits for a controller
 _SENTINELS = (1234.5678125, 2345.6789125)   # unlikely values; each slot must be unique
 
@@ -332,6 +333,7 @@ class _Outbox:
     def __init__(self) -> None:
         self._queues: Dict[object, list] = {}   # connection -> [messages, bytes sent of the first]
         self.publishers: List[rospy.Publisher] = []
+        self.sent = False   # bytes went out since the owner last cleared this
 
     def publisher(self, topic: str, cls, queue_size: int) -> rospy.Publisher:
         """A publisher for ``put``: rospy connections without rospy's per-connection queue."""
@@ -402,6 +404,7 @@ class _Outbox:
             except Exception:  # noqa: BLE001  (already closing)
                 pass
             return True
+        self.sent = True
         left = n + q[1]
         if left == len(data):
             k = len(msgs)
@@ -523,7 +526,7 @@ class SimulatorNode:
         self.world = world
         self.gate = gate or CommandGate([s.name for s in world.specs])
         self.backlog = backlog
-        self._sent = False           # a flush since the subscribers last had read everything
+        self._flush_sim = 0.0        # sim time of the last flush
         self._peers = {}  # type: Dict[object, Tuple[Any, Tuple[str, str]]]
         self.gt_tf = _gt_tf_robots(ground_truth_tf, [s.name for s in world.specs])
         self.own_time = _stop_listening_to_own_clock()
@@ -734,7 +737,7 @@ class SimulatorNode:
             self._clock_wall = time.perf_counter()
             self._publish_clock(self.world.clock.now_ns)
         self.out.flush()
-        self._sent = True
+        self._flush_sim = self.world.clock.now
 
     # ------------------------------------------------------------------------- main loop
     def spin(self, stop: Callable[[], bool] = lambda: False) -> None:
@@ -771,7 +774,8 @@ class SimulatorNode:
                 ahead = (w.clock.now - sim0) / self.rtf - (now_wall - wall0)
                 if ahead < -1.0:  # far behind: do not try to catch up in a burst
                     wall0, sim0 = now_wall, w.clock.now
-            if ahead > 0 or now_wall >= self._flush_next:
+            if ahead > 0 or now_wall >= self._flush_next or (
+                    self.backlog is not None and w.clock.now - self._flush_sim >= _MAX_FLUSH_SIM):
                 self.flush()
                 flushed = time.perf_counter()
                 self.time_publishing += flushed - now_wall
@@ -818,7 +822,7 @@ class SimulatorNode:
     def _wait_for_subscribers(self, wall: float) -> bool:
         """After a send, hold the clock until every subscriber has read it (core/pacing.py);
         True while holding."""
-        if self.backlog is None or not self._sent:
+        if self.backlog is None or not self.out.sent:
             return False
         try:
             unread = self._unread()
@@ -832,7 +836,7 @@ class SimulatorNode:
             rospy.logwarn("simulator: %s has not read %s for %.1f s of wall time; going on "
                           "without it until it has caught up", sub, topic, self.backlog.max_wait)
         if not held:
-            self._sent = False
+            self.out.sent = False
             return False
         time.sleep(_HOLD_POLL)
         return True
