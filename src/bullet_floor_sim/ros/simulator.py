@@ -820,8 +820,8 @@ class SimulatorNode:
         return True
 
     def _wait_for_subscribers(self, wall: float) -> bool:
-        """After a send, hold the clock until every subscriber has read it (core/pacing.py);
-        True while holding."""
+        """After a send, hold the clock until every subscriber has read it (core/pacing.py),
+        sending what is queued meanwhile; True while holding."""
         if self.backlog is None or not self.out.sent:
             return False
         try:
@@ -838,6 +838,7 @@ class SimulatorNode:
         if not held:
             self.out.sent = False
             return False
+        self.flush()  # a node may wait for a message still queued here (a pose for a scan)
         time.sleep(_HOLD_POLL)
         return True
 
