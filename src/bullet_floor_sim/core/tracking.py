@@ -494,7 +494,7 @@ class Tracker:
         for i, tr in enumerate(self._tracks):
             S = tr.cov[:2, :2] + self._R
             nu = z - np.array([tr.x, tr.y])
-            cost[i] = np.einsum("ij,jk,ik->i", nu, np.linalg.inv(S), nu)
+            cost[i] = np.einsum("ij,jk,ik->i", nu, _inv2(S), nu)
         inside = cost <= self.config.gate
         gated = inside.any(axis=0)
         rows, cols = linear_sum_assignment(np.where(inside, cost, _FORBIDDEN))
@@ -504,7 +504,7 @@ class Tracker:
     def _correct(self, tr: Track, z: np.ndarray, t: float) -> None:
         P = tr.cov
         S = P[:2, :2] + self._R
-        K = P[:, :2] @ np.linalg.inv(S)                     # (4, 2)
+        K = P[:, :2] @ _inv2(S)                             # (4, 2)
         s = tr.state + K @ (z - np.array([tr.x, tr.y]))
         IKH = np.eye(4)
         IKH[:, :2] -= K
@@ -590,6 +590,14 @@ class PoseHistory:
         f = (t - ts[k - 1]) / (ts[k] - ts[k - 1])
         da = math.atan2(math.sin(ab - aa), math.cos(ab - aa))
         return xa + f * (xb - xa), ya + f * (yb - ya), aa + f * da
+
+
+def _inv2(S: np.ndarray) -> np.ndarray:
+    """The inverse of a 2 x 2 innovation covariance (positive definite: R is added), in
+    closed form: np.linalg.inv goes through LAPACK, whose threads took 1 ms a call on a
+    loaded 2-core machine (5.7 s of a 48 s evaluation run)."""
+    a, b, c, d = S[0, 0], S[0, 1], S[1, 0], S[1, 1]
+    return np.array([[d, -b], [-c, a]]) / (a * d - b * c)
 
 
 def _copy(tr: Track) -> Track:
