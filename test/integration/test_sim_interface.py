@@ -162,6 +162,22 @@ class SimInterface(unittest.TestCase):
         self.assertAlmostEqual(t.transform.translation.y, gt.pose.pose.position.y, delta=1e-6)
         self.assertAlmostEqual(abs(yaw_of(t.transform.rotation)), math.pi, delta=1e-6)
 
+    def test_9_map_handling_is_the_worlds(self):
+        """The simulator sets the world's map handling for the nodes that plan or track on
+        /map (path_follower, markov_walker, follower, destination_predictor, people_tracker
+        read it through params.map_handling)."""
+        import dataclasses
+
+        from bullet_floor_sim.core.config import load_world_config, resolve_world
+        from bullet_floor_sim.core.paths import worlds_dir
+        from bullet_floor_sim.ros.params import MAP_HANDLING_PARAM, map_handling
+
+        world = load_world_config(resolve_world("simple", worlds_dir()))
+        self.assertEqual(rospy.get_param(MAP_HANDLING_PARAM),
+                         dataclasses.asdict(world.map_handling))
+        self.assertEqual(map_handling(), world.map_handling)
+        self.assertEqual(map_handling().unknown, "wall")
+
 
 def _vec(x, y, z):
     from geometry_msgs.msg import Vector3

@@ -44,7 +44,7 @@ from ..core.rois import Roi, load_rois
 from ..core.walker import GoalSampler, walkable_regions
 from ..msg import Destination, TrackArray
 from .markov_walker import roi_from_msg
-from .params import config_from_params
+from .params import config_from_params, map_handling
 from .convert import grid_from_msg
 
 __all__ = ["main", "DestinationPredictorNode", "destination_msg"]
@@ -115,7 +115,7 @@ class DestinationPredictorNode:
 
     def _on_map(self, msg: OccupancyGrid) -> None:
         try:
-            self.grid = PlanningGrid(grid_from_msg(msg), self.planner_cfg)
+            self.grid = PlanningGrid(grid_from_msg(msg), self.planner_cfg, handling=map_handling())
             self._usable = []  # which regions are reachable is decided again on this map
         except BulletFloorSimError as e:
             rospy.logerr("destination_predictor: cannot use the map: %s", e)

@@ -41,7 +41,7 @@ from ..core.errors import BulletFloorSimError
 from ..core.follow import FollowBehaviour, FollowConfig, pick_target
 from ..core.planner import PlannerConfig, PlanningGrid
 from ..msg import Destination, TrackArray
-from .params import config_from_params
+from .params import config_from_params, map_handling
 from .convert import grid_from_msg, yaw as yaw_of
 
 __all__ = ["main", "FollowerNode"]
@@ -90,7 +90,7 @@ class FollowerNode:
 
     def _on_map(self, msg: OccupancyGrid) -> None:
         try:
-            grid = PlanningGrid(grid_from_msg(msg), self.planner_cfg)
+            grid = PlanningGrid(grid_from_msg(msg), self.planner_cfg, handling=map_handling())
         except BulletFloorSimError as e:
             rospy.logerr("follower: cannot use the map: %s", e)
             return

@@ -60,6 +60,7 @@ from ..core.rois import Roi
 from ..core.walker import (GoalSampler, Leg, RegionIndex, Walker, WalkerConfig, WalkerError,
                            anchor, region_label, walkable_regions)
 from .convert import yaw as yaw_of
+from .params import map_handling
 
 __all__ = ["main", "MarkovWalkerNode", "roi_from_msg", "chain_markers"]
 
@@ -227,13 +228,15 @@ class MarkovWalkerNode:
     def _use_map_file(self, path: str) -> None:
         from ..core.floormap import load_map
 
-        self._set_grid(PlanningGrid(load_map(path), self._planner_config()), path)
+        self._set_grid(PlanningGrid(load_map(path), self._planner_config(),
+                                    handling=map_handling()), path)
 
     def _on_map(self, msg: OccupancyGrid) -> None:
         from .convert import grid_from_msg
 
         try:
-            grid = PlanningGrid(grid_from_msg(msg), self._planner_config())
+            grid = PlanningGrid(grid_from_msg(msg), self._planner_config(),
+                                handling=map_handling())
         except BulletFloorSimError as e:
             self.complain("map", "markov_walker: cannot use the map on %s: %s"
                           % (self.map_topic, e))

@@ -2,11 +2,19 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, TypeVar
+from typing import Any, Optional, TypeVar
 
 import rospy
 
-__all__ = ["config_from_params"]
+from ..core.errors import ConfigError
+from ..core.solidmap import MapHandling
+
+__all__ = ["config_from_params", "map_handling", "set_map_handling", "MAP_HANDLING_PARAM"]
+
+# The world's map handling (world.yaml keys unknown and clean), set by the simulator before it
+# publishes /map, so every node that plans or tracks on /map reads the map as the simulator
+# built its walls.
+MAP_HANDLING_PARAM = "/bullet_floor_sim/map_handling"
 
 C = TypeVar("C")
 
@@ -28,3 +36,27 @@ def config_from_params(config: C, prefix: str = "~") -> C:
     if check is not None:
         check()
     return config
+
+
+def set_map_handling(handling: MapHandling) -> None:
+    """Publish the world's map handling on the parameter server (the simulator)."""
+    rospy.set_param(MAP_HANDLING_PARAM, dataclasses.asdict(handling))
+
+
+def map_handling() -> Optional[MapHandling]:
+    """The world's map handling as the simulator set it, or None (no simulator of ours, e.g.
+    a real robot or a bag: the planner's and tracker's own defaults apply).
+
+    Raises:
+        ConfigError: the parameter is set but not a valid handling (names the parameter).
+    """
+    doc = rospy.get_param(MAP_HANDLING_PARAM, None)
+    if doc is None:
+        return None
+    names = {f.name for f in dataclasses.fields(MapHandling)}
+    if not isinstance(doc, dict) or set(doc) - names:
+        raise ConfigError("%s: expected a dict with keys %s, got %r"
+                          % (MAP_HANDLING_PARAM, ", ".join(sorted(names)), doc))
+    handling = MapHandling(**doc)
+    handling.check(MAP_HANDLING_PARAM)
+    return handling

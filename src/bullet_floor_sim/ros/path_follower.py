@@ -38,6 +38,7 @@ from ..core.planner import (FollowerConfig, Navigator, NavigatorConfig, PlanErro
                             PlannerConfig, PlanningGrid, PathFollower, obstacles_in_base,
                             path_length)
 from .convert import grid_from_msg, yaw as yaw_of
+from .params import map_handling
 
 __all__ = ["main", "PathFollowerNode"]
 
@@ -88,7 +89,7 @@ class PathFollowerNode:
     # -- inputs ------------------------------------------------------------------------------
     def _on_map(self, msg: OccupancyGrid) -> None:
         try:
-            self.grid = PlanningGrid(grid_from_msg(msg), self.planner_cfg)
+            self.grid = PlanningGrid(grid_from_msg(msg), self.planner_cfg, handling=map_handling())
         except Exception as e:  # a broken map must not kill the node: say so and keep the old
             rospy.logerr("path_follower: cannot use the map (%s): %s", msg.header.frame_id, e)
             return

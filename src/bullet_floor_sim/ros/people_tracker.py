@@ -46,7 +46,7 @@ from ..core.tracking import (PoseHistory, StaticMap, Tracker, TrackerConfig, det
                              scan_points)
 from ..msg import Track as TrackMsg
 from ..msg import TrackArray
-from .params import config_from_params
+from .params import config_from_params, map_handling
 from .convert import grid_from_msg, yaw as yaw_of
 
 __all__ = ["main", "PeopleTrackerNode", "POSE_SOURCES"]
@@ -74,7 +74,8 @@ class PeopleTrackerNode:
         self.laser_in_base = {}   # laser frame -> (x, y, yaw)
         self.lock = threading.Lock()
         self.tf_buffer = tf2_ros.Buffer()
-        self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
+        self.tf_listener: Optional[tf2_ros.TransformListener] = tf2_ros.TransformListener(
+            self.tf_buffer)
         self.pose_pub = rospy.Publisher("~tracks", PoseArray, queue_size=5)
         self.list_pub = rospy.Publisher("~track_list", TrackArray, queue_size=5)
         self.marker_pub = rospy.Publisher("~markers", MarkerArray, queue_size=2)
@@ -86,7 +87,8 @@ class PeopleTrackerNode:
 
     def _on_map(self, msg: OccupancyGrid) -> None:
         try:
-            static = StaticMap(grid_from_msg(msg), self.config.static_tolerance)
+            static = StaticMap(grid_from_msg(msg), self.config.static_tolerance,
+                               handling=map_handling())
         except BulletFloorSimError as e:
             rospy.logerr("people_tracker: cannot use the map: %s", e)
             return
@@ -127,11 +129,18 @@ class PeopleTrackerNode:
                 return None
             off = self.laser_in_base.get(frame)
             if off is None:
+                if self.tf_listener is None:  # a laser frame not seen before
+                    self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
                 t = self.tf_buffer.lookup_transform(self.base_frame, frame, rospy.Time(0),
                                                     rospy.Duration(0.5))
                 tr = t.transform
                 off = (tr.translation.x, tr.translation.y, yaw_of(tr.rotation))
                 self.laser_in_base[frame] = off
+                # placed from ground truth, the node needs no more tf: /tf at 50 Hz of sim
+                # time kept a Python thread busy enough to delay the ground-truth poses by
+                # 10 ms of wall time a scan at rtf:=0
+                self.tf_listener.unregister()
+                self.tf_listener = None
         except tf2_ros.TransformException as e:
             rospy.logwarn_throttle(10.0, "people_tracker: no transform %s -> %s: %s",
                                    self.frame if self.source == "amcl" else self.base_frame,

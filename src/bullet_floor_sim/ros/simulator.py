@@ -64,6 +64,7 @@ from ..core.pacing import BacklogGate, CommandGate, tcp_unread
 from ..core.paths import worlds_dir
 from ..core.robot import expand_xacro
 from ..core.world import World
+from .params import set_map_handling
 
 __all__ = ["main", "SimulatorNode"]
 
@@ -370,6 +371,7 @@ class _Outbox:
                         pass
                     continue
                 q = queues[c] = [[], 0]
+                _no_delay(c)
             msgs = q[0]
             msgs.append(data)
             if len(msgs) > limit and not self._send(c, q):
@@ -873,6 +875,18 @@ class SimulatorNode:
         return line
 
 
+def _no_delay(c) -> None:
+    """TCP_NODELAY on a subscriber's socket: the batches here are small and end on a message,
+    and Nagle's algorithm held each one back until the peer's delayed ACK (up to 40 ms of
+    wall time), while the clock waited for the subscriber to read it."""
+    sock = getattr(c, "socket", None)
+    try:
+        if sock is not None and sock.family in (socket.AF_INET, socket.AF_INET6):
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    except OSError:
+        pass
+
+
 def _peer_key(c, topic: str) -> Tuple[Any, Tuple[str, str]]:
     """(the subscriber's socket as tcp_unread keys it, or None when it cannot be seen;
     (subscriber, topic)) of a publisher-side connection."""
@@ -976,6 +990,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     except BulletFloorSimError as e:
         rospy.logfatal("simulator: %s", e)
         return 1
+    set_map_handling(world.config.map_handling)  # before /map: nodes read it as the world does
     rates = {k: float(rospy.get_param("~%s_rate" % k, d))
              for k, d in (("clock", 100.0), ("odom", 50.0), ("pose", 20.0), ("state", 10.0))}
     try:
