@@ -296,3 +296,36 @@ def test_a_robot_that_cannot_move_backs_off_unless_something_is_behind_it():
                 backed.append(st.v)
         assert bool(backed) == expect
         assert all(v < 0 for v in backed)
+
+
+def test_the_look_ahead_chord_keeps_off_a_door_corner_that_the_path_clears():
+    """malaga_corridor's lab door: a path down a channel 1-5 cm wider than the robot, then
+    diagonally out. From a heading 30 degrees off the path, a 0.6 m look-ahead chord cut the
+    corner 1.5 cm into the wall; the walker stalled there, backed up and tried again until
+    it gave up (all six legs malaga_corridor gave up in 200 at seed 1 were here)."""
+    goal = (4.16, -10.49, 0.0)
+    outcomes = []
+    for safe_chord in (True, False):
+        world = World.from_name("malaga_corridor", seed=1, physics_rate=100.0)
+        try:
+            for i, pose in enumerate([(2.64, -8.95, -1.04), (-20.0, -11.3, 0.0)]):
+                world.pose[i] = world.spawn[i] = pose
+            world.reset()
+            grid = PlanningGrid(world.fmap, handling=world.config.map_handling)
+            nav = Navigator(grid, PathFollower())
+            if not safe_chord:
+                nav.follower.clearance = None   # plain pure pursuit
+            path = nav.start(world.view(0).pose, goal, 0.0)
+            if safe_chord:
+                start, f = np.array([2.64, -8.95]), nav.follower
+                j = f._safe_target(2.64, -8.95, f.path, 8)
+                assert 0 < j < 8
+                target = f.path[j]
+                t = np.linspace(0.0, 1.0, 50)[:, None]
+                chord = grid.clearance_along(start * (1 - t) + target * t).min()
+                assert chord >= grid.clearance_along(path[:9]).min() - 0.01
+            outcomes.append(_drive(world, [nav], [goal], limit=30.0)[0][0])
+        finally:
+            world.close()
+    assert outcomes[0][0] == "succeeded" and outcomes[0][1] < 15.0
+    assert outcomes[1] is None or outcomes[1][0] != "succeeded"   # stuck at the corner

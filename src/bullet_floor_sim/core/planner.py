@@ -23,7 +23,7 @@ from __future__ import annotations
 import heapq
 import math
 from dataclasses import dataclass
-from typing import Iterable, List, Optional, Sequence, Tuple
+from typing import Callable, Iterable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -323,15 +323,22 @@ class PlanningGrid:
         out.reverse()
         return out
 
+    def clearance_along(self, pts: np.ndarray) -> np.ndarray:
+        """Wall clearance (m) at map-frame points (N, 2), from the map's own cells (finer
+        than :meth:`clearance_at`); points off the map read the edge's."""
+        pts = np.asarray(pts, dtype=float).reshape(-1, 2)
+        col, row = self.fmap.world_to_cell(pts[:, 0], pts[:, 1])
+        return self._fine[np.clip(row, 0, self._fine.shape[0] - 1),
+                          np.clip(col, 0, self._fine.shape[1] - 1)]
+
     def _segment_cost(self, cost: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
         """Highest cell cost along the straight segment a-b (inf if it crosses a lethal cell)."""
         length = float(np.hypot(*(b - a)))
         n = max(2, int(math.ceil(length / (0.5 * self.resolution))) + 1)
         t = np.linspace(0.0, 1.0, n)[:, None]
         pts = a[None, :] * (1 - t) + b[None, :] * t
+        fine = self.clearance_along(pts)
         col, row = self.fmap.world_to_cell(pts[:, 0], pts[:, 1])
-        fine = self._fine[np.clip(row, 0, self._fine.shape[0] - 1),
-                          np.clip(col, 0, self._fine.shape[1] - 1)]
         col, row = col // self.factor, row // self.factor
         ok = (col >= 0) & (row >= 0) & (col < self.width) & (row < self.height)
         if not ok.all() or fine.min() < self.config.robot_radius:
@@ -440,6 +447,10 @@ class PathFollower:
         self.goal_yaw: Optional[float] = None
         self._index = 0
         self._aligning = False
+        # wall clearance (m) at map-frame points (N, 2) (the Navigator gives its grid's): the
+        # look-ahead chord then never runs nearer a wall than the path itself does
+        self.clearance: Optional[Callable[[np.ndarray], np.ndarray]] = None
+        self._path_clear: Optional[np.ndarray] = None
 
     def set_path(self, path: np.ndarray, goal_yaw: Optional[float] = None) -> None:
         """Follow a new (M, 2) map-frame path; ``goal_yaw`` is the final heading (or None)."""
@@ -447,6 +458,26 @@ class PathFollower:
         self.goal_yaw = goal_yaw
         self._index = 0
         self._aligning = False
+        self._path_clear = (self.clearance(self.path) if self.clearance is not None
+                            and len(self.path) else None)
+
+    def _safe_target(self, x: float, y: float, rest: np.ndarray, k: int) -> int:
+        """The index of the farthest path point up to ``rest[k]`` (the look-ahead point)
+        that the robot reaches in a straight line no nearer a wall than the path gets on the
+        way (nor than radius + side margin, nor than it stands now); ``k`` itself when its
+        chord is safe or when none is. Pure pursuit cuts the chord: in a door with a bend,
+        the chord to a 0.6 m look-ahead ran 1.5 cm into the wall corner."""
+        cfg = self.config
+        clear = self._path_clear[self._index:]
+        here = float(self.clearance(np.array([[x, y]]))[0])
+        start = np.array([x, y])
+        for j in range(k, 0, -1):
+            need = min(cfg.robot_radius + cfg.side_margin, here, float(clear[:j + 1].min()))
+            n = max(2, int(math.hypot(*(rest[j] - start)) / 0.025) + 1)
+            t = np.linspace(0.0, 1.0, n)[1:, None]
+            if self.clearance(start * (1.0 - t) + rest[j] * t).min() >= need - 0.01:
+                return j
+        return k   # no chord is safe (off the path): pure pursuit as it is
 
     def remaining(self) -> np.ndarray:
         """The part of the path not yet passed."""
@@ -543,13 +574,19 @@ class PathFollower:
         dr = np.hypot(rest[:, 0] - x, rest[:, 1] - y)
         far = np.nonzero(dr >= lookahead)[0]
         target = rest[far[0]] if len(far) else goal
+        tight = False
+        if self._path_clear is not None and len(rest) > 1:
+            k = int(far[0]) if len(far) else len(rest) - 1
+            j = self._safe_target(x, y, rest, k)
+            tight, target = j < k, rest[j]
         dx, dy = target[0] - x, target[1] - y
         c, s = math.cos(yaw), math.sin(yaw)
         lx, ly = c * dx + s * dy, -s * dx + c * dy
         alpha = math.atan2(ly, lx)
         blocked = free_new < cfg.stop_distance
-        if abs(alpha) > cfg.rotate_in_place or (blocked and abs(alpha) > 0.25):
-            # turning on the spot is always safe for a round footprint
+        if abs(alpha) > cfg.rotate_in_place or ((blocked or tight) and abs(alpha) > 0.25):
+            # turning on the spot is always safe for a round footprint (and where the
+            # look-ahead was cut short, an arc would leave the safe chord)
             return FollowerCommand(0.0, _clip(1.5 * alpha, cfg.max_angular), "rotating", dist_goal)
         if blocked:
             return FollowerCommand(0.0, 0.0, "blocked", dist_goal)
@@ -710,6 +747,7 @@ class Navigator:
                  config: Optional[NavigatorConfig] = None) -> None:
         self.grid = grid
         self.follower = follower or PathFollower()
+        self.follower.clearance = grid.clearance_along
         self.config = config or NavigatorConfig()
         self.goal: Optional[Tuple[float, float, Optional[float]]] = None
         self.replans = 0
