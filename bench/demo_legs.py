@@ -167,7 +167,10 @@ def main() -> int:
             rows.append(run_world(w, args.legs, args.rtf, args.seed, args.timeout, port, legs))
     finally:
         os.killpg(master.pid, signal.SIGINT)
-        master.wait(10)
+        try:
+            master.wait(10)
+        except subprocess.TimeoutExpired:
+            os.killpg(master.pid, signal.SIGKILL)
     for r in rows:
         for leg in r["failed"]:
             print("  %s given up: %s -> %s, %s: %s" % (r["world"], leg.get("from"),
