@@ -36,17 +36,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
 from eval_worlds import shipped  # noqa: E402
+from ros_bench import _free_port  # noqa: E402
 
 _WAIT = re.compile(r"waited for (?:cmd_vel of|subscribers) ([^;]*)")
 _SHARE = re.compile(r"(\S+(?: \(\S+\))?) (\d+)%")
-
-
-def _free_port() -> int:
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 class _Legs:
@@ -76,6 +69,15 @@ def _master() -> Tuple[subprocess.Popen, int]:
             if time.time() > deadline or proc.poll() is not None:
                 raise RuntimeError("rosmaster did not start on port %d" % port)
             time.sleep(0.2)
+
+
+def _stop(proc: subprocess.Popen, wait: float) -> None:
+    """SIGINT to a process group, SIGKILL after ``wait`` seconds."""
+    os.killpg(proc.pid, signal.SIGINT)
+    try:
+        proc.wait(wait)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
 
 
 def _listen(port: int, walker: str, legs: _Legs) -> None:
@@ -112,11 +114,7 @@ def run_world(world: str, n: int, rtf: float, seed: int, timeout: float, port: i
                 print("  %s: %d/%d legs" % (world, done, n), file=sys.stderr, flush=True)
             time.sleep(1.0)
     finally:
-        os.killpg(proc.pid, signal.SIGINT)
-        try:
-            proc.wait(30)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
+        _stop(proc, 30.0)
         log.close()
     with legs.lock:
         got = list(legs.legs[:n])
@@ -166,11 +164,7 @@ def main() -> int:
                   file=sys.stderr, flush=True)
             rows.append(run_world(w, args.legs, args.rtf, args.seed, args.timeout, port, legs))
     finally:
-        os.killpg(master.pid, signal.SIGINT)
-        try:
-            master.wait(10)
-        except subprocess.TimeoutExpired:
-            os.killpg(master.pid, signal.SIGKILL)
+        _stop(master, 10.0)
     for r in rows:
         for leg in r["failed"]:
             print("  %s given up: %s -> %s, %s: %s" % (r["world"], leg.get("from"),
