@@ -109,3 +109,16 @@ def test_the_backlog_gate_holds_for_unread_connections_and_lets_a_stuck_one_go()
     assert g.hold({"a": 0, "b": 80}, 14.0) == []             # not waited for again ...
     assert g.hold({"a": 0, "b": 0}, 14.5) == []              # ... until it has caught up
     assert g.hold({"a": 0, "b": 10}, 14.6) == ["b"]
+
+
+def test_a_controller_slow_by_design_is_waited_for_only_past_its_own_period():
+    g = CommandGate(["slow", "fast"], max_lag=0.15)
+    for k in range(20):                       # 5 Hz and 10 Hz controllers, keeping pace
+        g.command(0, 0.2 * k, 0.3, 0.0, 0.0)
+        g.command(1, 0.1 * k, 0.3, 0.0, 0.0)
+    assert g.lag(0) == pytest.approx(0.3) and g.lag(1) == pytest.approx(0.15)
+    t0, t1 = 0.2 * 19, 0.1 * 19
+    assert g.waiting_for(t0 + 0.25) == [1]     # 0.25 s: late for the 10 Hz one only
+    assert g.waiting_for(t0 + 0.31) == [0, 1]
+    g.command(1, t1 + 0.4, 0.3, 0.0, 0.0)      # a late answer does not raise its lag
+    assert g.lag(1) == pytest.approx(0.15)

@@ -40,6 +40,9 @@ __all__ = ["BacklogGate", "CommandGate", "tcp_unread"]
 Endpoint = Tuple[str, int]   # (IPv4 address, port)
 
 
+_GAPS = 20   # commands whose gaps tell a robot's controller period
+
+
 class CommandGate:
     """When the simulator waits for the robots' controllers (see the module docstring).
 
@@ -49,7 +52,9 @@ class CommandGate:
             holds for it (0 turns the gate off). A little longer than a controller's period
             (0.1 s at path_follower's 10 Hz, 0.05 s at move_base's 20 Hz): a command then
             answers data at most ``max_lag`` minus the period old, as on a real robot. A
-            slower controller only slows the clock to real time between its commands.
+            robot whose controller is slower by design gets 1.5 times its shortest gap
+            between its last 20 commands instead (a 5 Hz controller: 0.3 s), so the clock
+            waits for a late answer, not for the next period of a slow one.
         max_wait: wall seconds the clock holds for one robot before it is released.
 
     Raises:
@@ -69,6 +74,7 @@ class CommandGate:
         self.max_wait = float(max_wait)
         n = len(self.names)
         self._last = [-math.inf] * n          # sim time of each robot's last command
+        self._gaps = [[] for _ in range(n)]   # sim seconds between its last commands
         self._moving = [False] * n            # that command was a motion
         self._released = [False] * n          # waited max_wait for it: not waited for again
         self._since = None  # type: Optional[float]  # wall time the current hold began
@@ -82,6 +88,11 @@ class CommandGate:
 
     def command(self, robot: int, sim_time: float, vx: float, vy: float, w: float) -> None:
         """A command for a robot arrived at this sim time."""
+        gap = float(sim_time) - self._last[robot]
+        if 0.0 < gap < math.inf:
+            gaps = self._gaps[robot]
+            gaps.append(gap)
+            del gaps[:-_GAPS]
         self._last[robot] = float(sim_time)
         self._moving[robot] = bool(vx or vy or w)
         self._released[robot] = False
@@ -90,15 +101,22 @@ class CommandGate:
         """Every robot stopped (a world reset): nobody is waited for."""
         n = len(self.names)
         self._last, self._moving, self._released = [-math.inf] * n, [False] * n, [False] * n
+        self._gaps = [[] for _ in range(n)]
         self._since, self._held = None, False
 
     def waiting_for(self, sim_time: float) -> List[int]:
         """The robots the clock holds for at this sim time (none when the gate is off)."""
         if self.max_lag <= 0.0:
             return []
-        limit = sim_time - self.max_lag
         return [i for i, (t, m, r) in enumerate(zip(self._last, self._moving, self._released))
-                if m and not r and t < limit]
+                if m and not r and t < sim_time - self.lag(i)]
+
+    def lag(self, robot: int) -> float:
+        """Sim seconds this robot's command may age before the clock holds for it."""
+        gaps = self._gaps[robot]
+        if len(gaps) < _GAPS // 2:
+            return self.max_lag
+        return max(self.max_lag, 1.5 * min(gaps))
 
     def hold(self, sim_time: float, wall: float) -> List[str]:
         """Whether to hold the clock now, polled before each step and while holding.
