@@ -8,8 +8,9 @@ topic it publishes. The real-time factor is sim time gained on /clock over a wal
 window. robot_state_publishers are not started (they publish nothing per step). The node waits
 neither for its subscribers nor for late commands here (``~wait_for_subscribers:=false``,
 ``~max_command_lag:=0``; this process, subscribed to every topic, is itself the slowest
-node: with the waits, 10 robots ran at 15.3x instead of 30.4x): this measures what the node
-can send; what a real graph of nodes holds is bench/demo_legs.py's measure.
+node, and its 5 Hz commands are further apart than the 0.15 s lag: with the waits, 10 robots
+ran at 4.5x instead of 30.4x): this measures what the node can send; what a real graph of
+nodes holds is bench/demo_legs.py's measure.
 
 Per robot count, three runs, each in its own process:
 

@@ -12,15 +12,16 @@ clock while its last command was a motion (any non-zero component) received more
 that the robot needs nobody. While a robot holds it, the clock goes on at real time at most:
 a controller that sleeps until its next period (a ``rospy.Rate`` in sim time) still gets there,
 and at real time every ROS controller is meant to keep pace. A robot late for more than
-``max_wait`` wall seconds is *released*: the simulator goes on without it until its next command (its
-controller died, or was stopped with the robot moving, and the velocity watchdog stops the
-robot as it always did), and the release is reported once. The gate keeps counts for the
+``max_wait`` wall seconds is *released*: the simulator goes on without it until its next
+command (its controller died, or was stopped with the robot moving, and the velocity watchdog
+stops the robot as it always did), and the release is reported once. The gate keeps counts for the
 simulator's periodic report: wall time spent waiting, and for which robots.
 
 :class:`BacklogGate` holds the clock while a subscriber has not read what was sent to it
 (Linux, subscribers on this machine): a node that takes the data of sim time t at t + 2 s
 (the socket's receive queue holds the rest) acts on a world 2 s old, however fresh its
-commands. :func:`tcp_unread` reads every local TCP socket's unread byte count from the
+commands. It too lets the clock go on at real time (a callback that waits on sim time, a tf
+look-up with a timeout, finishes) and lets a connection go after ``max_wait``. :func:`tcp_unread` reads every local TCP socket's unread byte count from the
 kernel (sock_diag netlink, one request for all of them: about 0.1 ms).
 
 Plain data in and out; the simulator node is the glue (``~max_command_lag``,
@@ -40,10 +41,63 @@ __all__ = ["BacklogGate", "CommandGate", "tcp_unread"]
 Endpoint = Tuple[str, int]   # (IPv4 address, port)
 
 
-_GAPS = 20   # commands whose gaps tell a robot's controller period
+class _Gate:
+    """What both gates share: each late key (a robot, a connection) is timed on its own and
+    released after ``max_wait`` wall seconds; while any key is late the clock goes on at real
+    time at most; the wall time held is accounted per key."""
+
+    def __init__(self, max_wait: float) -> None:
+        if not (math.isfinite(max_wait) and max_wait > 0.0):
+            raise ConfigError("~max_command_wait: %r is not a positive number of seconds"
+                              % (max_wait,))
+        self.max_wait = float(max_wait)
+        self._late_since = {}  # type: Dict[Hashable, float]  # wall time each became late
+        self._released = set()  # type: set                   # not waited for, for now
+        self._crawl = None  # type: Optional[Tuple[float, float]]  # (wall, sim) it began
+        self._held = []  # type: List[Hashable]               # held for at the last poll
+        self._poll = 0.0                                      # wall time of that poll
+        self.released = []  # type: List[Hashable]            # released by the last poll
+        self.waited = {}  # type: Dict[Hashable, float]       # wall seconds held, per key
+        self.holds = 0                                        # holds begun
+
+    def _decide(self, late: Sequence[Hashable], sim_time: float, wall: float) -> List[Hashable]:
+        for k in self._held:   # the wall time since the last poll was spent holding
+            self.waited[k] = self.waited.get(k, 0.0) + (wall - self._poll)
+        self._held, self.released = [], []
+        late = [k for k in late if k not in self._released]
+        for k in [k for k in self._late_since if k not in late]:
+            del self._late_since[k]
+        keep = []
+        for k in late:
+            if wall - self._late_since.setdefault(k, wall) >= self.max_wait:
+                del self._late_since[k]
+                self._released.add(k)
+                self.released.append(k)
+            else:
+                keep.append(k)
+        if not keep:
+            self._crawl = None
+            return []
+        if self._crawl is None:
+            self._crawl = (wall, sim_time)
+            self.holds += 1
+        if sim_time - self._crawl[1] < wall - self._crawl[0]:   # behind real time: step
+            return []
+        self._held, self._poll = keep, wall
+        return keep
+
+    def suspend(self) -> None:
+        """The simulation is paused: no hold goes on, nothing is late."""
+        self._held, self._crawl = [], None
+        self._late_since.clear()
+
+    def take_report(self) -> Dict[Hashable, float]:
+        """Wall seconds held per key since the last call (and clears them)."""
+        out, self.waited = self.waited, {}
+        return out
 
 
-class CommandGate:
+class CommandGate(_Gate):
     """When the simulator waits for the robots' controllers (see the module docstring).
 
     Args:
@@ -52,9 +106,7 @@ class CommandGate:
             holds for it (0 turns the gate off). A little longer than a controller's period
             (0.1 s at path_follower's 10 Hz, 0.05 s at move_base's 20 Hz): a command then
             answers data at most ``max_lag`` minus the period old, as on a real robot. A
-            robot whose controller is slower by design gets 1.5 times its shortest gap
-            between its last 20 commands instead (a 5 Hz controller: 0.3 s), so the clock
-            waits for a late answer, not for the next period of a slow one.
+            slower controller slows the clock to real time between its commands.
         max_wait: wall seconds the clock holds for one robot before it is released.
 
     Raises:
@@ -66,99 +118,71 @@ class CommandGate:
         if not (math.isfinite(max_lag) and max_lag >= 0.0):
             raise ConfigError("~max_command_lag: %r is not a non-negative number of "
                               "seconds (0 = do not wait for controllers)" % (max_lag,))
-        if not (math.isfinite(max_wait) and max_wait > 0.0):
-            raise ConfigError("~max_command_wait: %r is not a positive number of seconds"
-                              % (max_wait,))
+        super().__init__(max_wait)
         self.names = [n or "<empty>" for n in names]
         self.max_lag = float(max_lag)
-        self.max_wait = float(max_wait)
         n = len(self.names)
         self._last = [-math.inf] * n          # sim time of each robot's last command
-        self._gaps = [[] for _ in range(n)]   # sim seconds between its last commands
         self._moving = [False] * n            # that command was a motion
-        self._released = [False] * n          # waited max_wait for it: not waited for again
-        self._since = None  # type: Optional[float]  # wall time the current hold began
-        self._sim_since = 0.0                 # sim time it began
-        self._held = False                    # the last poll held the clock
-        self._poll = 0.0                      # wall time of that poll
-        self._late = []  # type: List[int]    # the robots held for at that poll
-        self.released = []  # type: List[str] # robots released by the last poll
-        self.waited: Dict[str, float] = {}    # wall seconds held, per robot (for the report)
-        self.holds = 0                        # holds begun
 
     def command(self, robot: int, sim_time: float, vx: float, vy: float, w: float) -> None:
         """A command for a robot arrived at this sim time."""
-        gap = float(sim_time) - self._last[robot]
-        if 0.0 < gap < math.inf:
-            gaps = self._gaps[robot]
-            gaps.append(gap)
-            del gaps[:-_GAPS]
         self._last[robot] = float(sim_time)
         self._moving[robot] = bool(vx or vy or w)
-        self._released[robot] = False
+        self._released.discard(robot)
+        self._late_since.pop(robot, None)   # it answered: a later lateness is timed afresh
 
     def reset(self) -> None:
         """Every robot stopped (a world reset): nobody is waited for."""
         n = len(self.names)
-        self._last, self._moving, self._released = [-math.inf] * n, [False] * n, [False] * n
-        self._gaps = [[] for _ in range(n)]
-        self._since, self._held = None, False
+        self._last, self._moving = [-math.inf] * n, [False] * n
+        self._released.clear()
+        self.suspend()
 
     def waiting_for(self, sim_time: float) -> List[int]:
-        """The robots the clock holds for at this sim time (none when the gate is off)."""
+        """The robots late at this sim time (none when the gate is off)."""
         if self.max_lag <= 0.0:
             return []
-        return [i for i, (t, m, r) in enumerate(zip(self._last, self._moving, self._released))
-                if m and not r and t < sim_time - self.lag(i)]
-
-    def lag(self, robot: int) -> float:
-        """Sim seconds this robot's command may age before the clock holds for it."""
-        gaps = self._gaps[robot]
-        if len(gaps) < _GAPS // 2:
-            return self.max_lag
-        return max(self.max_lag, 1.5 * min(gaps))
+        limit = sim_time - self.max_lag
+        return [i for i, (t, m) in enumerate(zip(self._last, self._moving))
+                if m and t < limit and i not in self._released]
 
     def hold(self, sim_time: float, wall: float) -> List[str]:
-        """Whether to hold the clock now, polled before each step and while holding.
-
-        While a robot is late, the clock goes on at real time at most (a controller that
-        sleeps until a sim time it has not reached yet is never dead-locked), and holds
-        whenever it is ahead of that.
-
-        Returns:
-            The names of the robots the clock holds for (empty: step). When robots have been
-            late for ``max_wait`` wall seconds, they are released: listed in
-            ``self.released`` until the next call, and not waited for again until their
-            next command.
-        """
-        self.released = []  # type: List[str]
-        late = self.waiting_for(sim_time)
-        if self._held:  # the wall time since the last poll was spent holding
-            for i in self._late:
-                self.waited[self.names[i]] = self.waited.get(self.names[i], 0.0) + (
-                    wall - self._poll)
-        self._held = False
-        if not late:
-            self._since = None
-            return []
-        if self._since is None:
-            self._since, self._sim_since = wall, sim_time
-            self.holds += 1
-        elif wall - self._since >= self.max_wait:
-            for i in late:
-                self._released[i] = True
-                self.released.append(self.names[i])
-            self._since = None
-            return []
-        if sim_time - self._sim_since < wall - self._since:  # behind real time: step
-            return []
-        self._held, self._late, self._poll = True, late, wall
-        return [self.names[i] for i in late]
+        """The names of the robots the clock holds for now (empty: step), polled before
+        each step and while holding. Robots late for ``max_wait`` wall seconds are named in
+        ``released`` (until the next call) and not waited for again until their next
+        command."""
+        held = self._decide(self.waiting_for(sim_time), sim_time, wall)
+        self.released = [self.names[i] for i in self.released]
+        return [self.names[i] for i in held]
 
     def take_report(self) -> Dict[str, float]:
-        """Wall seconds held per robot since the last call (and clears them)."""
-        out, self.waited = self.waited, {}
-        return out
+        """Wall seconds held per robot name since the last call (and clears them)."""
+        return {self.names[i]: t for i, t in super().take_report().items()}
+
+
+class BacklogGate(_Gate):
+    """Holds the clock while a subscriber has not read what it was sent (module docstring).
+
+    The simulator asks :meth:`hold` before it steps on, with the unread bytes of each
+    subscriber connection it feeds. A connection unread for ``max_wait`` wall seconds in a
+    row is released (named in ``released``) until it has read everything once: a subscriber
+    that stopped reading (a suspended process) does not stop the simulation.
+
+    Args:
+        max_wait: wall seconds the clock holds for one connection before it is released.
+    """
+
+    def hold(self, unread: Dict[Hashable, int], sim_time: float,
+             wall: float) -> List[Hashable]:
+        """The connections the clock holds for now (empty: step on).
+
+        Args:
+            unread: unread bytes per connection (connections not listed are up to date).
+            sim_time, wall: sim and wall time now.
+        """
+        self._released = {c for c in self._released if unread.get(c, 0) > 0}
+        return self._decide([c for c, n in unread.items() if n > 0], sim_time, wall)
 
 
 _NETLINK_SOCK_DIAG = 4
@@ -199,61 +223,3 @@ def tcp_unread() -> Dict[Tuple[Endpoint, Endpoint], int]:
                 off += (length + 3) & ~3
             if not data:
                 return out
-
-
-class BacklogGate:
-    """Holds the clock while a subscriber has not read what it was sent (module docstring).
-
-    The simulator asks :meth:`hold` before it steps on, with the unread bytes of each
-    subscriber connection it feeds. A connection unread for ``max_wait`` wall seconds in a
-    row is released (named in ``released``) until it has read everything once: a subscriber
-    that stopped reading (a suspended process) does not stop the simulation.
-
-    Args:
-        max_wait: wall seconds the clock holds for one connection before it is released.
-    """
-
-    def __init__(self, max_wait: float = 2.0) -> None:
-        if not (math.isfinite(max_wait) and max_wait > 0.0):
-            raise ConfigError("~max_command_wait: %r is not a positive number of seconds"
-                              % (max_wait,))
-        self.max_wait = float(max_wait)
-        self._since = {}  # type: Dict[Hashable, float]  # wall time each began to lag
-        self._released = set()  # type: set
-        self._held = []  # type: List[Hashable]
-        self._poll = 0.0
-        self.released = []  # type: List[Hashable]
-        self.waited = {}  # type: Dict[Hashable, float]
-
-    def hold(self, unread: Dict[Hashable, int], wall: float) -> List[Hashable]:
-        """The connections the clock holds for (empty: step on).
-
-        Args:
-            unread: unread bytes per connection (connections not listed are up to date).
-            wall: wall time now.
-        """
-        for c in self._held:   # the wall time since the last poll was spent holding
-            self.waited[c] = self.waited.get(c, 0.0) + (wall - self._poll)
-        self.released = []
-        late = []
-        for c, n in unread.items():
-            if n <= 0:
-                self._released.discard(c)
-                self._since.pop(c, None)
-            elif c not in self._released:
-                since = self._since.setdefault(c, wall)
-                if wall - since >= self.max_wait:
-                    self._released.add(c)
-                    self.released.append(c)
-                else:
-                    late.append(c)
-        for c in [c for c in self._since if c not in unread]:
-            del self._since[c]
-        self._released &= set(unread)
-        self._held, self._poll = late, wall
-        return late
-
-    def take_report(self) -> Dict[Hashable, float]:
-        """Wall seconds held per connection since the last call (and clears them)."""
-        out, self.waited = self.waited, {}
-        return out

@@ -758,6 +758,10 @@ class SimulatorNode:
         while not (rospy.is_shutdown() or stop()):
             if self.paused:
                 self.flush()
+                with self.lock:
+                    self.gate.suspend()     # a pause is no wait, and late for nobody
+                if self.backlog is not None:
+                    self.backlog.suspend()
                 time.sleep(0.01)
                 wall0, sim0 = time.perf_counter(), w.clock.now
                 continue
@@ -828,12 +832,12 @@ class SimulatorNode:
             return False
         try:
             unread = self._unread()
-        except OSError as e:
+        except (OSError, struct.error) as e:
             rospy.logwarn("simulator: cannot see what subscribers have read (%s); not waiting "
                           "for them", e)
             self.backlog = None
             return False
-        held = self.backlog.hold(unread, wall)
+        held = self.backlog.hold(unread, self.world.clock.now, wall)
         for sub, topic in self.backlog.released:
             rospy.logwarn("simulator: %s has not read %s for %.1f s of wall time; going on "
                           "without it until it has caught up", sub, topic, self.backlog.max_wait)
