@@ -14,15 +14,16 @@ a controller that sleeps until its next period (a ``rospy.Rate`` in sim time) st
 and at real time every ROS controller is meant to keep pace. A robot late for more than
 ``max_wait`` wall seconds is *released*: the simulator goes on without it until its next
 command (its controller died, or was stopped with the robot moving, and the velocity watchdog
-stops the robot as it always did), and the release is reported once. The gate keeps counts for the
-simulator's periodic report: wall time spent waiting, and for which robots.
+stops the robot as it always did), and the release is reported once. The gate keeps counts
+for the simulator's periodic report: wall time spent waiting, and for which robots.
 
 :class:`BacklogGate` holds the clock while a subscriber has not read what was sent to it
 (Linux, subscribers on this machine): a node that takes the data of sim time t at t + 2 s
 (the socket's receive queue holds the rest) acts on a world 2 s old, however fresh its
 commands. It too lets the clock go on at real time (a callback that waits on sim time, a tf
-look-up with a timeout, finishes) and lets a connection go after ``max_wait``. :func:`tcp_unread` reads every local TCP socket's unread byte count from the
-kernel (sock_diag netlink, one request for all of them: about 0.1 ms).
+look-up with a timeout, finishes) and lets a connection go after ``max_wait``.
+:func:`tcp_unread` reads every local TCP socket's unread byte count from the kernel
+(sock_diag netlink, one request for all of them: about 0.1 ms).
 
 Plain data in and out; the simulator node is the glue (``~max_command_lag``,
 ``~max_command_wait``, ``~wait_for_subscribers``).

@@ -327,7 +327,9 @@ class PlanningGrid:
         """Wall clearance (m) at map-frame points (N, 2), from the map's own cells (finer
         than :meth:`clearance_at`); points off the map read the edge's."""
         pts = np.asarray(pts, dtype=float).reshape(-1, 2)
-        col, row = self.fmap.world_to_cell(pts[:, 0], pts[:, 1])
+        return self._fine_at(*self.fmap.world_to_cell(pts[:, 0], pts[:, 1]))
+
+    def _fine_at(self, col: np.ndarray, row: np.ndarray) -> np.ndarray:
         return self._fine[np.clip(row, 0, self._fine.shape[0] - 1),
                           np.clip(col, 0, self._fine.shape[1] - 1)]
 
@@ -337,8 +339,8 @@ class PlanningGrid:
         n = max(2, int(math.ceil(length / (0.5 * self.resolution))) + 1)
         t = np.linspace(0.0, 1.0, n)[:, None]
         pts = a[None, :] * (1 - t) + b[None, :] * t
-        fine = self.clearance_along(pts)
         col, row = self.fmap.world_to_cell(pts[:, 0], pts[:, 1])
+        fine = self._fine_at(col, row)
         col, row = col // self.factor, row // self.factor
         ok = (col >= 0) & (row >= 0) & (col < self.width) & (row < self.height)
         if not ok.all() or fine.min() < self.config.robot_radius:

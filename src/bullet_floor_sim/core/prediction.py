@@ -269,8 +269,9 @@ class DestinationModel:
             weights.append(step * grid.resolution
                            * (1.0 + weight * 0.5 * (cost[r, c] + cost[rn, cn])))
         n = int(free.sum())
-        # both directions of every edge, so that Dijkstra runs directed: scipy's undirected
-        # mode symmetrises the graph on every call (4.5x the time on malaga_campus)
+        # both directions of every edge, so that Dijkstra runs directed (scipy's undirected
+        # mode builds the symmetric graph on every call; the fields are the same, about 5 %
+        # faster on malaga_campus)
         a, b, wt = np.concatenate(rows), np.concatenate(cols), np.concatenate(weights)
         self._graph = csr_matrix((np.concatenate([wt, wt]), (np.concatenate([a, b]),
                                                              np.concatenate([b, a]))),

@@ -120,7 +120,7 @@ _D2 = struct.Struct("<2d")
 _F7 = struct.Struct("<7f")
 _MAX_FLUSH_WAIT = 0.05     # s: the longest a queued message waits for its send when not pacing
 _MAX_FLUSH_SIM = 0.05      # s of sim time: the same bound while the clock waits for subscribers
-_HOLD_POLL = 0.0005        # s: the sleep between looks while the clock waits for a controller
+_HOLD_POLL = 0.0005        # s: the sleep between looks while the clock waits for a node
 _SENTINELS = (1234.5678125, 2345.6789125)   # unlikely values; each slot must be unique
 
 
@@ -766,7 +766,10 @@ class SimulatorNode:
                 wall0, sim0 = time.perf_counter(), w.clock.now
                 continue
             t0 = time.perf_counter()
-            if self._wait_for_controllers(t0) or self._wait_for_subscribers(t0):
+            if self._controllers_late(t0) or self._subscribers_behind(t0):
+                # send what is queued (a node answers, or waits for, the latest data)
+                self.flush()
+                time.sleep(_HOLD_POLL)
                 continue
             with self.lock:
                 scans = w.step(1)
@@ -808,26 +811,19 @@ class SimulatorNode:
                 rep_wall, rep_sim = now_wall, w.clock.now
                 rep_step, rep_pub = self.time_stepping, self.time_publishing
 
-
-    def _wait_for_controllers(self, wall: float) -> bool:
-        """Hold the clock while a moving robot's controller is behind (core/pacing.py):
-        send what is queued (the controller answers the latest data), sleep a little and
-        say True; False when the world may step."""
+    def _controllers_late(self, wall: float) -> bool:
+        """Whether the clock holds for a moving robot's late controller (core/pacing.py)."""
         with self.lock:
             held = self.gate.hold(self.world.clock.now, wall)
         for name in self.gate.released:
             rospy.logwarn("simulator: waited %.1f s of wall time for a cmd_vel for %s, which is "
                           "moving; going on without it until its next command (is its "
                           "controller alive?)", self.gate.max_wait, name)
-        if not held:
-            return False
-        self.flush()
-        time.sleep(_HOLD_POLL)
-        return True
+        return bool(held)
 
-    def _wait_for_subscribers(self, wall: float) -> bool:
-        """After a send, hold the clock until every subscriber has read it (core/pacing.py),
-        sending what is queued meanwhile; True while holding."""
+    def _subscribers_behind(self, wall: float) -> bool:
+        """After a send, whether the clock holds because a subscriber has not yet read it
+        (core/pacing.py)."""
         if self.backlog is None or not self.out.sent:
             return False
         try:
@@ -843,10 +839,7 @@ class SimulatorNode:
                           "without it until it has caught up", sub, topic, self.backlog.max_wait)
         if not held:
             self.out.sent = False
-            return False
-        self.flush()  # a node may wait for a message still queued here (a pose for a scan)
-        time.sleep(_HOLD_POLL)
-        return True
+        return bool(held)
 
     def _unread(self) -> Dict[Tuple[str, str], int]:
         """Unread bytes per (subscriber, topic) of every connection on this machine."""
