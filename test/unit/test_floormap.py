@@ -9,7 +9,8 @@ import pytest
 from PIL import Image
 
 from bullet_floor_sim.core.errors import MapError
-from bullet_floor_sim.core.floormap import load_map, map_from_grid, merge_rectangles, wall_mesh
+from bullet_floor_sim.core.floormap import (load_map, map_from_grid, merge_rectangles, outline_segments,
+                                            wall_mesh, wall_outline_mesh)
 
 MAP_YAML = """image: {image}
 resolution: {res}
@@ -120,6 +121,41 @@ def test_wall_mesh_extrudes_rectangles():
     assert sorted(set(verts[:, 2])) == [0.0, 2.5]
     with pytest.raises(MapError, match="wall height must be a positive number"):
         wall_mesh(m, 0.0)
+
+
+def test_outline_of_l_shape_is_its_six_edges_only():
+    mask = np.zeros((6, 6), dtype=bool)
+    mask[0:2, 0:6] = True   # the L above: two rectangles share the edge (0,2)-(2,2)
+    mask[2:6, 0:2] = True
+    segs = sorted(map(tuple, outline_segments(mask).tolist()))
+    assert segs == sorted([(0, 0, 6, 0), (2, 2, 6, 2), (0, 6, 2, 6),     # along rows
+                           (0, 0, 0, 6), (2, 2, 2, 6), (6, 0, 6, 2)])    # along columns
+
+
+def test_outline_of_cells_touching_at_a_corner_has_all_eight_sides():
+    mask = np.array([[True, False], [False, True]])
+    segs = outline_segments(mask)
+    # the two squares' sides on the middle lines run on into each other: one segment each
+    assert sorted(map(tuple, segs.tolist())) == sorted([
+        (0, 0, 1, 0), (0, 1, 2, 1), (1, 2, 2, 2), (0, 0, 0, 1), (1, 0, 1, 2), (2, 1, 2, 2)])
+    total = np.abs(segs[:, 2] - segs[:, 0]) + np.abs(segs[:, 3] - segs[:, 1])
+    assert total.sum() == 8
+    assert outline_segments(np.zeros((3, 3), dtype=bool)).shape == (0, 4)
+
+
+def test_wall_outline_mesh_stands_quads_on_the_outline():
+    grid = np.zeros((4, 4), dtype=np.int8)
+    grid[1:3, 1:3] = 100
+    m = map_from_grid(grid, 0.5, (10.0, 20.0, 0.0))
+    verts, idx = wall_outline_mesh(m, 2.5, outline_segments(m.occupied))
+    assert verts.shape == (16, 3) and idx.shape == (24,)    # four sides, no top
+    assert verts[:, 0].min() == pytest.approx(10.5) and verts[:, 0].max() == pytest.approx(11.5)
+    assert verts[:, 1].min() == pytest.approx(20.5) and verts[:, 1].max() == pytest.approx(21.5)
+    tri = verts[idx.reshape(-1, 3)]
+    # every triangle is vertical: its normal has no z component
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    assert np.allclose(normal[:, 2], 0.0) and np.all(np.abs(normal[:, :2]).sum(axis=1) > 0)
+    assert sorted(set(verts[:, 2])) == [0.0, 2.5]
 
 
 def test_unknown_cells_are_not_walls(tmp_path):

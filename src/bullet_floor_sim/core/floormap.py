@@ -30,7 +30,9 @@ __all__ = [
     "load_map",
     "map_from_grid",
     "merge_rectangles",
+    "outline_segments",
     "wall_mesh",
+    "wall_outline_mesh",
 ]
 
 _REQUIRED = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh")
@@ -348,4 +350,56 @@ def wall_mesh(fmap: FloorMap, height: float,
     verts[:, 4:, 1] = y
     verts[:, 4:, 2] = float(height)
     faces = _BOX_FACES[None, :, :] + (8 * np.arange(k, dtype=np.int32))[:, None, None]
+    return verts.reshape(-1, 3), faces.reshape(-1).astype(np.int32)
+
+
+def _runs(lines: np.ndarray) -> List[Tuple[int, int, int]]:
+    """(line, start, end) of every run of True cells along each row of ``lines``, half-open."""
+    padded = np.zeros((lines.shape[0], lines.shape[1] + 2), dtype=np.int8)
+    padded[:, 1:-1] = lines
+    steps = np.diff(padded, axis=1)
+    out = []  # type: List[Tuple[int, int, int]]
+    for line in np.flatnonzero(lines.any(axis=1)):
+        edges = np.flatnonzero(steps[line])
+        out.extend((int(line), int(a), int(b)) for a, b in zip(edges[0::2], edges[1::2]))
+    return out
+
+
+def outline_segments(mask: np.ndarray) -> np.ndarray:
+    """The boundary between the True cells of a 2-D mask and the rest, cells beyond the
+    mask counting as False, as maximal axis-aligned segments.
+
+    Returns:
+        int array (K, 4) of (col0, row0, col1, row1) in cell-corner coordinates: row segments
+        (row0 == row1) first, then column segments.
+    """
+    m = np.asarray(mask, dtype=bool)
+    padded = np.zeros((m.shape[0] + 2, m.shape[1] + 2), dtype=bool)
+    padded[1:-1, 1:-1] = m
+    across_rows = padded[1:, 1:-1] != padded[:-1, 1:-1]        # (rows+1, cols)
+    across_cols = (padded[1:-1, 1:] != padded[1:-1, :-1]).T    # (cols+1, rows)
+    segs = [(c0, r, c1, r) for r, c0, c1 in _runs(across_rows)]
+    segs += [(c, r0, c, r1) for c, r0, r1 in _runs(across_cols)]
+    return np.asarray(segs, dtype=np.int64).reshape(-1, 4)
+
+
+def wall_outline_mesh(fmap: FloorMap, height: float, segments: np.ndarray
+                      ) -> Tuple[np.ndarray, np.ndarray]:
+    """Vertical quads from z=0 to ``height`` on outline segments (``outline_segments``):
+    the walls as a beam or a body meets them, without the faces inside a wall or on top.
+
+    Returns:
+        (vertices float64 (4K, 3), indices int32 (6K,)) in the map frame.
+    """
+    s = np.asarray(segments, dtype=float).reshape(-1, 4) * fmap.resolution
+    x0, y0 = fmap._grid_to_world(s[:, 0], s[:, 1])
+    x1, y1 = fmap._grid_to_world(s[:, 2], s[:, 3])
+    verts = np.zeros((len(s), 4, 3))
+    verts[:, 0, 0], verts[:, 0, 1] = x0, y0
+    verts[:, 1, 0], verts[:, 1, 1] = x1, y1
+    verts[:, 2, :2] = verts[:, 1, :2]
+    verts[:, 3, :2] = verts[:, 0, :2]
+    verts[:, 2:, 2] = float(height)
+    faces = (np.array([[0, 1, 2], [0, 2, 3]], dtype=np.int32)[None, :, :]
+             + (4 * np.arange(len(s), dtype=np.int32))[:, None, None])
     return verts.reshape(-1, 3), faces.reshape(-1).astype(np.int32)

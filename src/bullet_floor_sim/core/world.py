@@ -11,8 +11,10 @@ as arrays (one row per robot). A step, at ``physics_rate`` (100 Hz by default):
    that would penetrate deeper is refused and the robot stops (as Stage does);
 5. odometry and wheel angles are integrated; lidars that are due are cast in one batch.
 
-The walls are ONE static concave triangle mesh extruded from the merged rectangles of the
-map's solid cells (core/solidmap.py: occupied, and unknown unless the world says otherwise).
+The walls are static concave triangle meshes: vertical quads on the outline of the map's solid
+cells (core/solidmap.py: occupied, and unknown unless the world says otherwise). The faces
+inside a wall and on top are left out: a level beam never meets them and a robot meets a side
+face first. On the real maps that halves the triangles and makes a ray 1.6-3x cheaper.
 """
 from __future__ import annotations
 
@@ -28,7 +30,7 @@ import numpy as np
 from . import bullet_capi
 from .config import RobotSpec, WorldConfig, load_world_config, resolve_world
 from .errors import ConfigError, MapError
-from .floormap import FloorMap, load_map, wall_mesh
+from .floormap import FloorMap, load_map, outline_segments, wall_mesh, wall_outline_mesh
 from .paths import worlds_dir
 from .robot import DRIVES, RobotModel, check_command, load_model
 from .sections import Section, check_section, clip_beams, measure_section, pad_sections
@@ -37,8 +39,9 @@ from .solidmap import SolidMap, solid_map
 
 __all__ = ["SimClock", "World", "RobotView", "Snapshot"]
 
-#: PyBullet accepts at most this many vertices per mesh shape (B3_MAX_NUM_VERTICES).
-_MAX_MESH_RECTS = 16000
+#: PyBullet accepts at most 131072 vertices per mesh shape (B3_MAX_NUM_VERTICES): 8 per
+#: wall box, 4 per outline quad.
+_MAX_MESH_RECTS, _MAX_MESH_QUADS = 16000, 32000
 #: Collision filter group and mask of every robot body (PyBullet's for dynamic bodies, set
 #: explicitly); _SELF_GROUP briefly marks one robot for rays that must see only it.
 _ROBOT_GROUP, _ROBOT_MASK, _SELF_GROUP = 1, -1, 4
@@ -181,23 +184,31 @@ class World:
 
     # ----------------------------------------------------------------------------- set-up
     def _build_walls(self, height: float) -> List[int]:
+        """The static wall bodies: collision meshes of the solid cells' outline (what rays
+        and robots meet); with the GUI, visual-only boxes of the merged rectangles too."""
         p = self.client
         solid = self.solid.fmap
-        rects = solid.rectangles()
+        segments = outline_segments(solid.occupied)
         bodies = []
+        for s in range(0, len(segments), _MAX_MESH_QUADS):
+            verts, idx = wall_outline_mesh(solid, height, segments[s:s + _MAX_MESH_QUADS])
+            col = self._mesh_shape(p.createCollisionShape, verts, idx,
+                                   flags=p.GEOM_FORCE_CONCAVE_TRIMESH)
+            bodies.append(p.createMultiBody(baseMass=0, baseCollisionShapeIndex=col))
+        rects = solid.rectangles() if self._gui else []
         for s in range(0, len(rects), _MAX_MESH_RECTS):
             verts, idx = wall_mesh(solid, height, rects[s:s + _MAX_MESH_RECTS])
-            try:
-                col = p.createCollisionShape(p.GEOM_MESH, vertices=verts, indices=idx,
-                                             flags=p.GEOM_FORCE_CONCAVE_TRIMESH)
-                vis = p.createVisualShape(p.GEOM_MESH, vertices=verts, indices=idx,
-                                          rgbaColor=[0.75, 0.75, 0.72, 1.0]) if self._gui else -1
-            except p.error as e:
-                raise MapError("%s: PyBullet refused the wall mesh (%d vertices): %s"
-                               % (self.fmap.yaml_path, len(verts), e)) from None
-            bodies.append(p.createMultiBody(baseMass=0, baseCollisionShapeIndex=col,
-                                            baseVisualShapeIndex=vis))
+            vis = self._mesh_shape(p.createVisualShape, verts, idx,
+                                   rgbaColor=[0.75, 0.75, 0.72, 1.0])
+            p.createMultiBody(baseMass=0, baseCollisionShapeIndex=-1, baseVisualShapeIndex=vis)
         return bodies
+
+    def _mesh_shape(self, create, verts: np.ndarray, idx: np.ndarray, **kw) -> int:
+        try:
+            return create(self.client.GEOM_MESH, vertices=verts, indices=idx, **kw)
+        except self.client.error as e:
+            raise MapError("%s: PyBullet refused the wall mesh (%d vertices): %s"
+                           % (self.fmap.yaml_path, len(verts), e)) from None
 
     def _clearance_field(self) -> np.ndarray:
         """Lower bound of the distance (m) from each cell's points to the nearest wall."""
