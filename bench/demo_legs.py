@@ -119,7 +119,8 @@ def run_world(world: str, n: int, rtf: float, seed: int, timeout: float, port: i
     with legs.lock:
         got = list(legs.legs[:n])
     out = _summary(world, rtf, got, os.path.join(home, "launch.log"))
-    kept = os.path.join(tempfile.gettempdir(), "bfs_demo_legs_%s.log" % world)
+    kept = os.path.join(tempfile.gettempdir(),  # one name per run, so runs can go side by side
+                        "bfs_demo_legs_%s_rtf%g_seed%d.log" % (world, rtf, seed))
     shutil.move(os.path.join(home, "launch.log"), kept)  # the nodes' output, for a look
     shutil.rmtree(home, ignore_errors=True)
     print("  %s: the nodes' output is in %s" % (world, kept), file=sys.stderr)
