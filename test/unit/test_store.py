@@ -332,24 +332,70 @@ def test_journal_roundtrips_bson_types_and_skips_a_torn_line(tmp_path):
     entry = {"op": "insert", "db": "d", "coll": "c",
              "doc": {"_id": bson.ObjectId(), "t": datetime.datetime(2024, 1, 2, 3, 4, 5, 678000),
                      "i": 1, "l": bson.Int64(1), "f": 1.0, "n": {"a": [None, True, "s"]}}}
+    delete = {"op": "delete", "db": "d", "coll": "c", "filter": {"i": {"$gt": 0}}}
     with j.locked():
-        j.append(entry)
-        j.append({"op": "delete", "db": "d", "coll": "c", "filter": {"i": {"$gt": 0}}})
+        j.append(j.encode(entry))
+        size = j.append(j.encode(delete))
+    assert size == os.path.getsize(j.path) and j.count() == 2
     with open(j.path, "ab") as f:
         f.write(b'{"op": "ins')  # a crash in the middle of an append
-    lines, done = j.read()
-    assert done == 0 and [e for _, e in lines] == [
-        entry, {"op": "delete", "db": "d", "coll": "c", "filter": {"i": {"$gt": 0}}}]
+    lines = list(j.entries())
+    assert [e for _, e, _ in lines] == [entry, delete] and lines[1][2] == size
     back = lines[0][1]["doc"]
     assert type(back["l"]) is bson.Int64 and type(back["f"]) is float and back["t"].tzinfo is None
-    j.mark_done(1)
-    assert j.count() == 1
+    with j.progress() as mark:
+        mark(lines[0][2])
+    assert j.done_offset() == lines[0][2] and j.count() == 1
     with j.locked():
-        j.append({"op": "delete", "db": "d", "coll": "c", "filter": {}})
-    lines, done = j.read()
-    assert done == 1 and len(lines) == 4 and lines[2][1] is None  # torn line, now complete
+        j.append(j.encode({"op": "delete", "db": "d", "coll": "c", "filter": {}}))
+    lines = list(j.entries())
+    assert len(lines) == 3 and lines[1][1] is None  # the torn line, now complete: unreadable
+    assert j.count() == 3
     j.clear()
-    assert not j.pending() and j.read() == ([], 0)
+    assert not j.pending() and list(j.entries()) == [] and j.count() == 0
+
+
+def test_journal_count_follows_appends_and_progress_of_other_processes(tmp_path):
+    path = str(tmp_path / "x.jsonl")
+    mine, other = Journal(path), Journal(path)
+    line = mine.encode({"op": "delete", "db": "d", "coll": "c", "filter": {}})
+    with mine.locked():
+        for _ in range(5):
+            mine.append(line)
+    assert mine.count() == 5
+    with other.locked():
+        other.append(line)                       # another process appends ...
+    with other.progress() as mark:
+        mark(2 * len(line))                      # ... and applies two lines
+    assert mine.count() == 4
+    other.clear()                                # a full replay elsewhere, then a new outage:
+    with other.locked():                         # same path, maybe the same inode
+        other.append(other.encode({"op": "insert", "db": "d", "coll": "c",
+                                   "doc": {"_id": bson.ObjectId()}}))
+    assert mine.count() == 1
+
+
+def test_journal_reads_the_line_count_progress_of_earlier_versions(tmp_path):
+    j = Journal(str(tmp_path / "x.jsonl"))
+    line = j.encode({"op": "delete", "db": "d", "coll": "c", "filter": {}})
+    with j.locked():
+        for _ in range(3):
+            j.append(line)
+    with open(j.done_path, "w") as f:
+        f.write("2\n")                           # lines applied, as 0.13 wrote it
+    assert j.done_offset() == 2 * len(line) and j.count() == 1
+
+
+def test_journal_refuses_an_append_past_its_cap(tmp_path):
+    j = Journal(str(tmp_path / "x.jsonl"), max_bytes=200)
+    line = j.encode({"op": "delete", "db": "d", "coll": "c", "filter": {}})
+    n = 0
+    with pytest.raises(StoreError, match=r"journal .*x\.jsonl is full \(\d+ of 200 bytes\)"):
+        with j.locked():
+            while True:
+                j.append(line)
+                n += 1
+    assert n == 199 // len(line) and j.count() == n
 
 
 # -- outages ------------------------------------------------------------------------------------

@@ -2,9 +2,14 @@
 
 One line per write, MongoDB canonical extended JSON (``bson.json_util``), so datetimes,
 ObjectIds and int/long/double survive the round trip exactly. Every append is fsync'd before
-the write call returns. Replay progress (how many leading lines are applied) lives in
-``<journal>.done``; after a full replay both files are removed. Entries the database refuses
-(not an outage: e.g. an invalid update) go to ``<journal minus .jsonl>.rejected.jsonl``.
+the write call returns. Replay progress is the byte offset of the first line not yet applied,
+in ``<journal>.done``; after a full replay both files are removed. Entries set aside (refused by
+the database, or unreadable) go to ``<journal minus .jsonl>.rejected.jsonl`` with the reason.
+
+No operation reads the whole file: a replay streams the lines from the progress offset, and
+the count of waiting lines is cached and brought up to date from the bytes appended or applied
+since (by this or another process). The file is capped at ``max_bytes``: an append that would
+pass the cap raises :class:`JournalFull`.
 
 Several processes may share one journal (one per database): appends and replays hold an
 exclusive ``flock`` on ``<journal>.lock``.
@@ -15,15 +20,23 @@ import contextlib
 import fcntl
 import json
 import os
-from typing import Any, Dict, Iterator, List, Optional, Tuple
+from typing import Any, Dict, Iterator, Optional, Tuple
 
 from bson import json_util
 
 from .base import StoreError
 
-__all__ = ["Journal"]
+__all__ = ["Journal", "JournalFull", "DEFAULT_MAX_BYTES"]
 
 _JSON = json_util.JSONOptions(json_mode=json_util.JSONMode.CANONICAL, tz_aware=False)
+#: The journal's default cap: about 60 hours of one walker's trajectory at 20 Hz (35 MB/h).
+DEFAULT_MAX_BYTES = 2 * 1024 ** 3
+_BLOCK = 1 << 20
+_DONE_FORMAT = b"offset %020d\n"   # fixed width: progress is rewritten in place
+
+
+class JournalFull(StoreError):
+    """An append would take the journal past its cap (the disk budget)."""
 
 
 class Journal:
@@ -31,21 +44,28 @@ class Journal:
 
     Args:
         path: the ``.jsonl`` file; its directory is created on the first append.
+        max_bytes: the cap on the file's size.
     """
 
-    def __init__(self, path: str):
+    def __init__(self, path: str, max_bytes: int = DEFAULT_MAX_BYTES):
         self.path = path
         self.done_path = path + ".done"
         self.lock_path = path + ".lock"
         base = path[:-len(".jsonl")] if path.endswith(".jsonl") else path
         self.rejected_path = base + ".rejected.jsonl"
+        self.max_bytes = int(max_bytes)
+        self._counted: Optional[Tuple[Any, int, int, int]] = None  # file id, done, size, count
 
     def pending(self) -> bool:
         """True when the journal file exists and is not empty (a cheap stat)."""
+        return self.size() > 0
+
+    def size(self) -> int:
+        """The file's size in bytes (0 when there is none)."""
         try:
-            return os.path.getsize(self.path) > 0
+            return os.path.getsize(self.path)
         except OSError:
-            return False
+            return 0
 
     @contextlib.contextmanager
     def locked(self) -> Iterator[None]:
@@ -58,72 +78,102 @@ class Journal:
         finally:
             os.close(fd)  # releases the lock
 
-    def append(self, entry: Dict[str, Any]) -> None:
-        """Append one entry durably (caller holds :meth:`locked`).
+    def encode(self, entry: Dict[str, Any]) -> bytes:
+        """One entry as its journal line."""
+        return json_util.dumps(entry, json_options=_JSON).encode("utf-8") + b"\n"
+
+    def append(self, line: bytes) -> int:
+        """Append one encoded line durably (caller holds :meth:`locked`).
+
+        Returns:
+            The file's size afterwards.
 
         Raises:
-            StoreError: the journal cannot be written (the write is then lost: say so).
+            JournalFull: the line would take the file past ``max_bytes``.
+            OSError: the file cannot be written (disk full, read-only, ...).
         """
-        line = json_util.dumps(entry, json_options=_JSON).encode("utf-8") + b"\n"
-        try:
-            self._makedirs()
-            created = not os.path.exists(self.path)
-            if created:
-                _unlink(self.done_path)  # progress of a journal that no longer exists
-            with open(self.path, "ab+") as f:
-                if f.tell() > 0:
-                    f.seek(-1, os.SEEK_END)
-                    if f.read(1) != b"\n":  # a torn last line from a crash: end it first
-                        f.write(b"\n")
-                f.write(line)
-                f.flush()
-                os.fsync(f.fileno())
-            if created:
-                _fsync_dir(os.path.dirname(self.path))
-        except OSError as e:
-            raise StoreError("store: cannot write the journal %s (%s); the write is lost"
-                             % (self.path, e.strerror or e)) from None
+        self._makedirs()
+        created = not os.path.exists(self.path)
+        if created:
+            _unlink(self.done_path)  # progress of a journal that no longer exists
+        with open(self.path, "ab+") as f:
+            size = f.tell()
+            if size + len(line) + 1 > self.max_bytes:
+                raise JournalFull("store: the journal %s is full (%d of %d bytes)"
+                                  % (self.path, size, self.max_bytes))
+            if size > 0:
+                f.seek(-1, os.SEEK_END)
+                if f.read(1) != b"\n":  # a torn last line from a crash: end it first
+                    f.write(b"\n")
+            f.write(line)
+            f.flush()
+            os.fsync(f.fileno())
+            size = f.tell()
+        if created:
+            _fsync_dir(os.path.dirname(self.path))
+        return size
 
-    def read(self) -> Tuple[List[Tuple[bytes, Optional[Dict[str, Any]]]], int]:
-        """All lines as (raw, entry or None when unreadable) and how many are already applied.
-
-        A last line without its newline (a crash during an append, never acknowledged) is left
-        out.
-        """
+    def entries(self) -> Iterator[Tuple[bytes, Optional[Dict[str, Any]], int]]:
+        """The lines not applied yet, streamed: (raw, entry or None when unreadable, the
+        offset just past the line). A last line without its newline (a crash during an append,
+        never acknowledged) is left out."""
         try:
-            with open(self.path, "rb") as f:
-                data = f.read()
+            f = open(self.path, "rb")
         except FileNotFoundError:
-            return [], 0
-        raw_lines = data.split(b"\n")
-        raw_lines.pop()  # after the final newline: b"", or a torn line
-        lines = []
-        for raw in raw_lines:
-            try:
-                entry = json_util.loads(raw.decode("utf-8"), json_options=_JSON)
-                if not isinstance(entry, dict):
-                    entry = None
-            except ValueError:
-                entry = None
-            lines.append((raw, entry))
-        return lines, min(self._done(), len(lines))
+            return
+        with f:
+            f.seek(self.done_offset())
+            while True:
+                raw = f.readline()
+                if not raw.endswith(b"\n"):
+                    return
+                yield raw[:-1], _decode(raw[:-1]), f.tell()
 
     def count(self) -> int:
-        """How many journalled writes are not applied yet."""
-        lines, done = self.read()
-        return len(lines) - done
-
-    def mark_done(self, n: int) -> None:
-        """Record durably that the first ``n`` lines are applied."""
-        fd = os.open(self.done_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        """How many journalled lines are not applied yet; the cost is in the bytes appended or
+        applied since the last count, not in the journal's length."""
         try:
-            os.write(fd, b"%d\n" % n)
+            ident, size = self._identity()
+        except FileNotFoundError:
+            self._counted = None
+            return 0
+        done = min(self.done_offset(), size)
+        c = self._counted
+        if c is not None and c[0] == ident and c[1] <= done <= c[2] <= size:
+            n = c[3] - self._newlines(c[1], done) + self._newlines(c[2], size)
+        else:
+            n = self._newlines(done, size)
+        self._counted = (ident, done, size, n)
+        return n
+
+    def done_offset(self) -> int:
+        """The byte offset of the first line not applied yet."""
+        try:
+            with open(self.done_path, "rb") as f:
+                text = f.read()
+        except OSError:
+            return 0
+        try:
+            if text.startswith(b"offset "):
+                return int(text[7:].strip())
+            return self._offset_of_line(int(text.strip() or 0))  # a line count (before 0.14)
+        except ValueError:
+            return 0
+
+    @contextlib.contextmanager
+    def progress(self) -> Iterator[Any]:
+        """A function ``mark(offset)`` recording that everything before ``offset`` is applied:
+        written in place at once (a crashed process's successor resumes there), fsync'd when
+        the block ends."""
+        fd = os.open(self.done_path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            yield lambda offset: os.pwrite(fd, _DONE_FORMAT % offset, 0)
             os.fsync(fd)
         finally:
             os.close(fd)
 
     def reject(self, raw: bytes, reason: str) -> None:
-        """Move one entry aside, with the reason, to the rejected file."""
+        """Set one entry aside, with the reason, in the rejected file."""
         self._makedirs()
         line = json.dumps({"reason": reason, "entry": raw.decode("utf-8", "replace")})
         with open(self.rejected_path, "ab") as f:
@@ -135,16 +185,52 @@ class Journal:
         """Remove the journal and its progress (everything in it is applied)."""
         _unlink(self.path)
         _unlink(self.done_path)
+        self._counted = None
 
-    def _done(self) -> int:
+    def _identity(self) -> Tuple[Any, int]:
+        """((inode, first line), size): a journal removed and created again may get the same
+        inode, but not the same first entry (an insert's ObjectId, or whatever came first)."""
+        with open(self.path, "rb") as f:
+            size = os.fstat(f.fileno()).st_size
+            return (os.fstat(f.fileno()).st_ino, f.readline(4096)), size
+
+    def _newlines(self, start: int, end: int) -> int:
+        n = 0
+        if end <= start:
+            return 0
+        with open(self.path, "rb") as f:
+            f.seek(start)
+            left = end - start
+            while left > 0:
+                block = f.read(min(_BLOCK, left))
+                if not block:
+                    break
+                n += block.count(b"\n")
+                left -= len(block)
+        return n
+
+    def _offset_of_line(self, line: int) -> int:
         try:
-            with open(self.done_path, "rb") as f:
-                return int(f.read().strip() or 0)
-        except (OSError, ValueError):
+            with open(self.path, "rb") as f:
+                for _ in range(line):
+                    if not f.readline():
+                        break
+                return f.tell()
+        except FileNotFoundError:
             return 0
 
     def _makedirs(self) -> None:
         os.makedirs(os.path.dirname(self.path) or ".", exist_ok=True)
+
+
+def _decode(raw: bytes) -> Optional[Dict[str, Any]]:
+    """A line's entry, or None for anything that is not a JSON object of BSON values (a torn
+    line, a bad ``$oid``, bytes that are not UTF-8, ...)."""
+    try:
+        entry = json_util.loads(raw.decode("utf-8"), json_options=_JSON)
+    except Exception:  # noqa: BLE001 - json_util raises many kinds; any of them: unreadable
+        return None
+    return entry if isinstance(entry, dict) else None
 
 
 def _unlink(path: str) -> None:

@@ -18,25 +18,44 @@ Reads while the database is unreachable, or while journalled writes cannot be re
 missing writes this store has accepted. After a failure the database is retried at most every
 ``retry_interval`` seconds; in between, writes go straight to the journal and reads fail fast,
 so a ROS callback never waits the server-selection timeout twice in a row.
+
+Errors are sorted by kind. Database-wide (:class:`StoreUnavailable`: unreachable, refused
+credentials, a damaged or locked file, a full disk on the server) keeps every write journalled
+and retries. A refusal of one write (a plain :class:`StoreError`) sets aside that write only,
+and anything else one journalled write provokes (a bad regex, a bad value) sets it aside too:
+the replay moves on. Set-aside writes go to the rejected file with their reason;
+:meth:`Store.replay_rejected` (``rosrun bullet_floor_sim store replay-rejected``) puts them
+back after a fix.
+
+When the journal itself cannot take a write (disk full, its cap reached) the write waits in
+memory (``DEFAULT_MAX_HELD_BYTES``), in order behind the journal, with one error line; past
+that it is lost, and counted (:attr:`Store.lost`).
 """
 from __future__ import annotations
 
+import collections
+import json
 import logging
 import os
 import threading
 import time
-from typing import Any, Callable, Dict, List, Optional, Sequence, Union
+from typing import Any, Callable, Deque, Dict, List, Optional, Sequence, Tuple, Union
 
 import bson
 
 from .base import (Backend, DuplicateKeyError, SortSpec, StoreError, StoreUnavailable,
                    check_names, default_db_dir, default_journal_path, is_operator_update,
                    normalize_sort, redact_uri)
-from .journal import Journal
+from .journal import DEFAULT_MAX_BYTES, Journal, JournalFull
 
-__all__ = ["Store", "open_store"]
+__all__ = ["Store", "open_store", "DEFAULT_MAX_HELD_BYTES"]
 
 LOG = logging.getLogger("bullet_floor_sim.store")
+#: Writes the journal cannot take (disk full, over its cap) wait in memory up to this many
+#: bytes of journal lines; beyond it they are lost, each loss counted in an error line.
+DEFAULT_MAX_HELD_BYTES = 64 * 1024 ** 2
+#: Shares of the journal's cap at which a warning says how full it is.
+_FULL_WARNINGS = (0.5, 0.75, 0.9)
 
 
 class Store:
@@ -51,17 +70,25 @@ class Store:
     """
 
     def __init__(self, uri: str, backend: Backend, journal_path: str,
-                 retry_interval: float = 5.0):
+                 retry_interval: float = 5.0, max_journal_bytes: int = DEFAULT_MAX_BYTES,
+                 max_held_bytes: int = DEFAULT_MAX_HELD_BYTES):
         self.uri = uri
         self.kind = backend.kind
         self.journal_path = journal_path
         self._backend = backend
-        self._journal = Journal(journal_path)
+        self._journal = Journal(journal_path, max_journal_bytes)
         self._retry_interval = retry_interval
         self._lock = threading.RLock()
         self._down: Optional[str] = None  # why the database is unreachable, while it is
         self._next_try = 0.0
         self._closed = False
+        # writes the journal could not take, in order behind it: (line, entry)
+        self._held: Deque[Tuple[bytes, Dict[str, Any]]] = collections.deque()
+        self._held_bytes = 0
+        self._max_held_bytes = int(max_held_bytes)
+        self._lost = 0
+        self._journal_trouble: Optional[str] = None  # why the journal takes no writes
+        self._full_warned = 0.0
         with self._lock:
             self._replay(force=True)
 
@@ -74,9 +101,14 @@ class Store:
 
     @property
     def pending(self) -> int:
-        """How many journalled writes wait for the database."""
+        """How many writes wait for the database (journalled, or held in memory)."""
         with self._lock:
-            return self._journal.count() if self._journal.pending() else 0
+            return self._journal.count() + len(self._held)
+
+    @property
+    def lost(self) -> int:
+        """Writes lost because neither the journal nor the memory queue could take them."""
+        return self._lost
 
     def replay(self) -> bool:
         """Try the database now (ignoring ``retry_interval``) and replay the journal.
@@ -212,14 +244,17 @@ class Store:
     def _waiting(self) -> bool:
         return self._down is not None and time.monotonic() < self._next_try
 
+    def _backlog(self) -> bool:
+        return bool(self._held) or self._journal.pending()
+
     def _write(self, entry: Dict[str, Any]) -> Any:
         _check_bson(entry)
         with self._lock:
             self._check_open()
-            if self._waiting() or (self._journal.pending() and not self._replay()):
+            if self._waiting() or (self._backlog() and not self._replay()):
                 return self._journalled(entry)
             try:
-                result = self._apply(entry, replay=False)
+                result = _guarded(entry, lambda: self._apply(entry, replay=False))
             except StoreUnavailable as e:
                 self._went_down(e)
                 return self._journalled(entry)
@@ -227,19 +262,62 @@ class Store:
             return result
 
     def _journalled(self, entry: Dict[str, Any]) -> None:
-        with self._journal.locked():
-            self._journal.append(entry)
+        """Append to the journal, behind whatever waits in memory; hold in memory when the
+        journal cannot take it."""
+        line = self._journal.encode(entry)
+        try:
+            with self._journal.locked():
+                while self._held:
+                    self._journal.append(self._held[0][0])
+                    self._held_bytes -= len(self._held.popleft()[0])
+                size = self._journal.append(line)
+        except (OSError, JournalFull) as e:
+            self._hold(line, entry, e)
+            return None
+        if self._journal_trouble is not None:
+            LOG.warning("store %s: the journal %s takes writes again%s", redact_uri(self.uri),
+                        self.journal_path, "; %d writes were lost" % self._lost
+                        if self._lost else "")
+            self._journal_trouble = None
+        self._warn_if_filling(size)
         LOG.debug("store %s: journalled %s on %s.%s", redact_uri(self.uri), entry["op"],
                   entry["db"], entry["coll"])
         return None
 
+    def _hold(self, line: bytes, entry: Dict[str, Any], error: Exception) -> None:
+        why = str(error) if isinstance(error, JournalFull) else "cannot write the journal %s (%s)" \
+            % (self.journal_path, getattr(error, "strerror", None) or error)
+        if self._held_bytes + len(line) > self._max_held_bytes:
+            self._lost += 1
+            if self._lost == 1 or self._lost % 1000 == 0:
+                LOG.error("store %s: %s and %d MB of writes already wait in memory: write LOST "
+                          "(%d so far)", redact_uri(self.uri), why, self._held_bytes >> 20,
+                          self._lost)
+            return
+        if self._journal_trouble is None:
+            LOG.error("store %s: %s; holding writes in memory (at most %d MB) until it can",
+                      redact_uri(self.uri), why, self._max_held_bytes >> 20)
+            self._journal_trouble = why
+        self._held.append((line, entry))
+        self._held_bytes += len(line)
+
+    def _warn_if_filling(self, size: int) -> None:
+        share = size / float(self._journal.max_bytes)
+        passed = [f for f in _FULL_WARNINGS if share >= f > self._full_warned]
+        if passed:
+            self._full_warned = passed[-1]
+            LOG.warning("store %s: the journal %s holds %d MB, %d %% of its cap of %d MB; "
+                        "writes beyond the cap wait in memory (%d MB), then are lost",
+                        redact_uri(self.uri), self.journal_path, size >> 20, 100 * share,
+                        self._journal.max_bytes >> 20, self._max_held_bytes >> 20)
+
     def _read(self, fn: Callable[[], Any]) -> Any:
         with self._lock:
             self._check_open()
-            if self._waiting() or (self._journal.pending() and not self._replay()):
+            if self._waiting() or (self._backlog() and not self._replay()):
                 raise StoreUnavailable(self._unreachable())
             try:
-                result = fn()
+                result = _guarded(None, fn)
             except StoreUnavailable as e:
                 self._went_down(e)
                 raise StoreUnavailable(self._unreachable()) from None
@@ -270,32 +348,91 @@ class Store:
         raise StoreError("store: unknown journal operation %r" % (op,))
 
     def _replay(self, force: bool = False) -> bool:
-        """Apply journalled writes in order; True when the journal is empty afterwards."""
-        if not self._journal.pending():
+        """Apply journalled, then held, writes in order; True when none is left."""
+        if not self._backlog():
             return True
         if not force and self._waiting():
             return False
         applied = 0
-        with self._journal.locked():
-            lines, done = self._journal.read()
-            for i in range(done, len(lines)):
-                raw, entry = lines[i]
-                try:
-                    if entry is None or not {"op", "db", "coll"} <= set(entry):
-                        raise StoreError("store: unreadable journal line")
-                    self._apply(entry, replay=True)
-                    applied += 1
-                except StoreUnavailable as e:
-                    self._went_down(e)
-                    return False
-                except StoreError as e:
-                    LOG.error("store %s: the database refused a journalled write (%s); moved "
-                              "it to %s", redact_uri(self.uri), e, self._journal.rejected_path)
-                    self._journal.reject(raw, str(e))
-                self._journal.mark_done(i + 1)
-            self._journal.clear()
+        if self._journal.pending():
+            try:
+                with self._journal.locked(), self._journal.progress() as mark:
+                    for raw, entry, end in self._journal.entries():
+                        ok = self._replay_one(raw, entry)
+                        if ok is None:
+                            return False
+                        applied += ok
+                        mark(end)
+                    self._journal.clear()
+                    self._full_warned = 0.0
+            except OSError as e:
+                self._went_down(StoreUnavailable("store %s: cannot read the journal %s (%s)" % (
+                    redact_uri(self.uri), self.journal_path, e.strerror or e)))
+                return False
+        while self._held:
+            line, entry = self._held[0]
+            ok = self._replay_one(line[:-1], entry)
+            if ok is None:
+                return False
+            applied += ok
+            self._held_bytes -= len(self._held.popleft()[0])
         self._came_up(applied)
         return True
+
+    def _replay_one(self, raw: bytes, entry: Optional[Dict[str, Any]]) -> Optional[int]:
+        """Apply one journalled write: 1 when applied, 0 when set aside (refused by the
+        database, unreadable, or failing in any other way of its own), None when the database
+        is unavailable (nothing is set aside then)."""
+        try:
+            if entry is None or not {"op", "db", "coll"} <= set(entry):
+                raise StoreError("store: unreadable journal line")
+            _guarded(entry, lambda: self._apply(entry, replay=True))
+            return 1
+        except StoreUnavailable as e:
+            self._went_down(e)
+            return None
+        except StoreError as e:
+            why = str(e)
+        try:
+            self._journal.reject(raw, why)
+        except OSError as e:
+            self._went_down(StoreUnavailable("store %s: cannot set a write aside in %s (%s)" % (
+                redact_uri(self.uri), self._journal.rejected_path, e.strerror or e)))
+            return None
+        LOG.error("store %s: set a journalled write aside in %s: %s", redact_uri(self.uri),
+                  self._journal.rejected_path, why)
+        return 0
+
+    def replay_rejected(self) -> Tuple[int, int]:
+        """Put the writes set aside back behind the journal (after a fix: a restored database,
+        a corrected permission) and replay.
+
+        Returns:
+            (writes put back, writes set aside again).
+
+        Raises:
+            StoreError: the rejected file cannot be read or the journal cannot take them.
+        """
+        with self._lock:
+            self._check_open()
+            path = self._journal.rejected_path
+            work = path + ".replaying"
+            back = 0
+            try:
+                with self._journal.locked():
+                    if os.path.exists(path):
+                        os.replace(path, work)   # a replay before may have left one: add to it
+                    lines = _rejected_entries(work)
+                    for line in lines:
+                        self._journal.append(line)
+                    back = len(lines)
+                    if os.path.exists(work):
+                        os.unlink(work)
+            except (OSError, JournalFull) as e:
+                raise StoreError("store %s: cannot put the writes set aside in %s back (%s)"
+                                 % (redact_uri(self.uri), path, e)) from None
+            self._replay(force=True)
+            return back, len(_rejected_entries(path))
 
     def _went_down(self, error: StoreUnavailable) -> None:
         self._next_try = time.monotonic() + self._retry_interval
@@ -314,15 +451,14 @@ class Store:
                      redact_uri(self.uri), replayed, self.journal_path)
 
     def _unreachable(self) -> str:
-        pending = self._journal.count() if self._journal.pending() else 0
         return "%s; %d writes journalled in %s" % (
-            self._down or "store %s: database unreachable" % redact_uri(self.uri), pending,
-            self.journal_path)
+            self._down or "store %s: database unreachable" % redact_uri(self.uri),
+            self._journal.count() + len(self._held), self.journal_path)
 
 
 def open_store(uri: Optional[str] = None, journal_dir: Optional[str] = None,
                timeout: float = 1.5, retry_interval: float = 5.0,
-               synchronous: str = "NORMAL") -> Store:
+               synchronous: str = "NORMAL", max_journal_bytes: int = DEFAULT_MAX_BYTES) -> Store:
     """Open the store named by ``uri`` and replay what its journal holds.
 
     Args:
@@ -332,6 +468,7 @@ def open_store(uri: Optional[str] = None, journal_dir: Optional[str] = None,
         timeout: seconds before an unreachable MongoDB (or a locked SQLite file) counts as down.
         retry_interval: seconds between attempts to reach a database found down.
         synchronous: the embedded backend's SQLite ``synchronous`` pragma.
+        max_journal_bytes: the journal's cap (the disk budget of an outage).
 
     Returns:
         The store. A database that is down does not prevent opening: writes are journalled.
@@ -360,10 +497,38 @@ def open_store(uri: Optional[str] = None, journal_dir: Optional[str] = None,
             raise StoreError("store %s: not a directory" % key)
         backend = EmbeddedBackend(key, timeout=timeout, synchronous=synchronous)
     try:
-        return Store(key, backend, default_journal_path(key, journal_dir), retry_interval)
+        return Store(key, backend, default_journal_path(key, journal_dir), retry_interval,
+                     max_journal_bytes)
     except BaseException:
         backend.close()
         raise
+
+
+def _guarded(entry: Optional[Dict[str, Any]], fn: Callable[[], Any]) -> Any:
+    """Run one backend call; an exception that is not the store's own (a bad regex, a bad
+    value deep in a document) becomes a StoreError naming the operation."""
+    try:
+        return fn()
+    except StoreError:
+        raise
+    except Exception as e:  # noqa: BLE001 - whatever one entry provokes stays with that entry
+        what = "%s on %s.%s" % (entry["op"], entry["db"], entry["coll"]) if entry else "read"
+        raise StoreError("store: %s failed (%s: %s)" % (what, type(e).__name__, e)) from None
+
+
+def _rejected_entries(path: str) -> List[bytes]:
+    """The journal lines kept in a rejected file, in order (unreadable records skipped)."""
+    out = []
+    try:
+        with open(path, "rb") as f:
+            for raw in f:
+                try:
+                    out.append(json.loads(raw)["entry"].encode("utf-8") + b"\n")
+                except (ValueError, KeyError, TypeError, AttributeError):
+                    LOG.error("store: %s: skipped a line that is not a set-aside write", path)
+    except FileNotFoundError:
+        pass
+    return out
 
 
 def _check_filter(filter: Any) -> None:
