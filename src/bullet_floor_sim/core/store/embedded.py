@@ -157,10 +157,10 @@ class EmbeddedBackend(Backend):
             self._drop(db)
             raise StoreUnavailable("store %s: database %s unavailable (%s)"
                                    % (self.directory, db, e)) from None
-        except sqlite3.DatabaseError as e:  # not a database, malformed: not transient
+        except sqlite3.DatabaseError as e:  # not a database, malformed: database-wide
             self._drop(db)
-            raise StoreError("store %s: database %s is damaged (%s)"
-                             % (self.directory, db, e)) from None
+            raise StoreUnavailable("store %s: database %s is damaged (%s); restore or move "
+                                   "the file %s.sqlite3" % (self.directory, db, e, db)) from None
         except (bson.errors.InvalidDocument, bson.errors.InvalidBSON) as e:
             raise StoreError("store %s: cannot store the document (%s)"
                              % (self.directory, e)) from None

@@ -36,7 +36,8 @@ _DONE_FORMAT = b"offset %020d\n"   # fixed width: progress is rewritten in place
 
 
 class JournalFull(StoreError):
-    """An append would take the journal past its cap (the disk budget)."""
+    """An append would take the journal past its cap (the disk budget); the message says
+    "the journal <path> is full (...)" for the store to prefix."""
 
 
 class Journal:
@@ -99,7 +100,7 @@ class Journal:
         with open(self.path, "ab+") as f:
             size = f.tell()
             if size + len(line) + 1 > self.max_bytes:
-                raise JournalFull("store: the journal %s is full (%d of %d bytes)"
+                raise JournalFull("the journal %s is full (%d of %d bytes)"
                                   % (self.path, size, self.max_bytes))
             if size > 0:
                 f.seek(-1, os.SEEK_END)
@@ -134,7 +135,7 @@ class Journal:
         applied since the last count, not in the journal's length."""
         try:
             ident, size = self._identity()
-        except FileNotFoundError:
+        except OSError:  # no journal (or no way to it: nothing in it either)
             self._counted = None
             return 0
         done = min(self.done_offset(), size)

@@ -15,6 +15,11 @@ from .base import (MONGODB_DEFAULT_PORT, Backend, DuplicateKeyError, StoreError,
 
 __all__ = ["MongoBackend"]
 
+#: Server error codes that concern the whole database, not one write: credentials and rights
+#: (18 AuthenticationFailed, 13 Unauthorized), shutdown and elections (91, 189, 10107, 11600,
+#: 11602, 13435), time limits and locks (50, 24, 262), no disk space (14031).
+_DATABASE_WIDE = frozenset((13, 18, 24, 50, 91, 189, 262, 10107, 11600, 11602, 13435, 14031))
+
 
 class MongoBackend(Backend):
     """pymongo calls with pymongo's errors turned into the store's.
@@ -56,6 +61,11 @@ class MongoBackend(Backend):
         except errors.ConnectionFailure as e:  # AutoReconnect, ServerSelectionTimeout, ...
             raise StoreUnavailable("store %s: MongoDB unreachable (%s: %s)" % (
                 redact_uri(self.uri), type(e).__name__, _first_line(e))) from None
+        except errors.OperationFailure as e:
+            if e.code in _DATABASE_WIDE:
+                raise StoreUnavailable("store %s: MongoDB refused the database (%s %s: %s)" % (
+                    redact_uri(self.uri), type(e).__name__, e.code, _first_line(e))) from None
+            raise StoreError("store %s: %s" % (redact_uri(self.uri), _first_line(e))) from None
         except (errors.PyMongoError, bson.errors.BSONError) as e:
             raise StoreError("store %s: %s" % (redact_uri(self.uri), _first_line(e))) from None
 

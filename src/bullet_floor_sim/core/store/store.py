@@ -290,13 +290,13 @@ class Store:
         if self._held_bytes + len(line) > self._max_held_bytes:
             self._lost += 1
             if self._lost == 1 or self._lost % 1000 == 0:
-                LOG.error("store %s: %s and %d MB of writes already wait in memory: write LOST "
-                          "(%d so far)", redact_uri(self.uri), why, self._held_bytes >> 20,
+                LOG.error("store %s: %s and %s of writes already wait in memory: write LOST "
+                          "(%d so far)", redact_uri(self.uri), why, _mb(self._held_bytes),
                           self._lost)
             return
         if self._journal_trouble is None:
-            LOG.error("store %s: %s; holding writes in memory (at most %d MB) until it can",
-                      redact_uri(self.uri), why, self._max_held_bytes >> 20)
+            LOG.error("store %s: %s; holding writes in memory (at most %s) until it can",
+                      redact_uri(self.uri), why, _mb(self._max_held_bytes))
             self._journal_trouble = why
         self._held.append((line, entry))
         self._held_bytes += len(line)
@@ -306,10 +306,10 @@ class Store:
         passed = [f for f in _FULL_WARNINGS if share >= f > self._full_warned]
         if passed:
             self._full_warned = passed[-1]
-            LOG.warning("store %s: the journal %s holds %d MB, %d %% of its cap of %d MB; "
-                        "writes beyond the cap wait in memory (%d MB), then are lost",
-                        redact_uri(self.uri), self.journal_path, size >> 20, 100 * share,
-                        self._journal.max_bytes >> 20, self._max_held_bytes >> 20)
+            LOG.warning("store %s: the journal %s holds %s, %d %% of its cap of %s; writes "
+                        "beyond the cap wait in memory (%s), then are lost",
+                        redact_uri(self.uri), self.journal_path, _mb(size), 100 * share,
+                        _mb(self._journal.max_bytes), _mb(self._max_held_bytes))
 
     def _read(self, fn: Callable[[], Any]) -> Any:
         with self._lock:
@@ -458,7 +458,8 @@ class Store:
 
 def open_store(uri: Optional[str] = None, journal_dir: Optional[str] = None,
                timeout: float = 1.5, retry_interval: float = 5.0,
-               synchronous: str = "NORMAL", max_journal_bytes: int = DEFAULT_MAX_BYTES) -> Store:
+               synchronous: str = "NORMAL", max_journal_bytes: int = DEFAULT_MAX_BYTES,
+               max_held_bytes: int = DEFAULT_MAX_HELD_BYTES) -> Store:
     """Open the store named by ``uri`` and replay what its journal holds.
 
     Args:
@@ -469,6 +470,7 @@ def open_store(uri: Optional[str] = None, journal_dir: Optional[str] = None,
         retry_interval: seconds between attempts to reach a database found down.
         synchronous: the embedded backend's SQLite ``synchronous`` pragma.
         max_journal_bytes: the journal's cap (the disk budget of an outage).
+        max_held_bytes: how much may wait in memory when the journal cannot take writes.
 
     Returns:
         The store. A database that is down does not prevent opening: writes are journalled.
@@ -498,7 +500,7 @@ def open_store(uri: Optional[str] = None, journal_dir: Optional[str] = None,
         backend = EmbeddedBackend(key, timeout=timeout, synchronous=synchronous)
     try:
         return Store(key, backend, default_journal_path(key, journal_dir), retry_interval,
-                     max_journal_bytes)
+                     max_journal_bytes, max_held_bytes)
     except BaseException:
         backend.close()
         raise
@@ -543,6 +545,10 @@ def _check_bson(entry: Dict[str, Any]) -> None:
     except (bson.errors.BSONError, TypeError, OverflowError) as e:
         raise StoreError("store: cannot store %s on %s.%s (%s)"
                          % (entry["op"], entry["db"], entry["coll"], e)) from None
+
+
+def _mb(n: int) -> str:
+    return "%.1f MB" % (n / 1048576.0)
 
 
 def _short(message: str) -> str:
