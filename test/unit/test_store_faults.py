@@ -239,3 +239,28 @@ def test_outage_cost_per_operation_is_bounded(tmp_path):
           % (t100 * 1e3, m100 / 1e3, t1000 * 1e3, m1000 / 1e3))
     assert t1000 < 3 * t100
     assert m1000 - m100 < 20e6
+
+
+def test_store_tool_shows_and_puts_back_set_aside_writes(tmp_path, capsys):
+    from bullet_floor_sim.ros.store_tool import main
+
+    store = embedded(tmp_path)
+    store.insert("d", "c", {"_id": "a", "v": "text"})
+    lock = Locked(str(tmp_path / "db" / "d.sqlite3"))
+    store.update("d", "c", {"_id": "a"}, {"$inc": {"v": 1}})
+    lock.release()
+    assert store.replay()
+    store.update("d", "c", {"_id": "a"}, {"$set": {"v": 1}})     # the fix
+    store.close()
+    where = ["--db", str(tmp_path / "db"), "--journal-dir", str(tmp_path / "journal")]
+    assert main(["status"] + where) == 0
+    out = capsys.readouterr().out
+    assert "(embedded): answers" in out and "0 writes waiting" in out
+    assert "1 writes set aside" in out
+    assert main(["replay-rejected"] + where) == 0
+    assert "put back 1 set-aside writes; 0 set aside again; 0 still waiting" in \
+        capsys.readouterr().out
+    with embedded(tmp_path) as again:
+        assert again.find_one("d", "c", {"_id": "a"})["v"] == 2
+    assert main(["replay-rejected", "--db", "ftp://x"]) == 2
+    assert "unsupported URI scheme" in capsys.readouterr().err
