@@ -12,6 +12,10 @@ holds 41 (the boundary pose is shared with the next chunk).
 * test_3: a recorder of its own whose embedded database is locked by another process (a real
   SQLite lock: the database cannot be written) while 300 poses arrive: its chunks go to the
   journal and are replayed when the lock is released; nothing lost, nothing stored twice.
+* test_4: a database that stalls for 4 s (locked, the recorder waiting on it) while poses
+  stamped with the current time arrive at 20 Hz, max_gap 2 s: one trajectory, every pose.
+* test_5: a recorder killed with SIGKILL; the next one on the same database and topic stores
+  what the first left in its spill file: every pose but at most the last flush window.
 """
 from __future__ import annotations
 
@@ -144,8 +148,9 @@ class RecorderProcess:
         os.makedirs(workdir, exist_ok=True)
         node = os.path.join(rospkg.RosPack().get_path("bullet_floor_sim"), "nodes",
                             "trajectory_recorder")
+        params = dict({"max_gap": 0}, **params)
         args = [sys.executable, node, "__name:=" + name, "_pose_topic:=" + self.topic,
-                "_db:=" + self.db, "_map:=office", "_max_gap:=0"]
+                "_db:=" + self.db, "_map:=office"]
         args += ["_%s:=%s" % kv for kv in sorted(params.items())]
         with open(self.log_path, "wb") as log:
             self.proc = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT,
@@ -172,7 +177,8 @@ class RecorderProcess:
         except subprocess.TimeoutExpired:
             self.proc.kill()
             self.proc.wait()
-            raise AssertionError("%s did not exit within 60 s of %s" % (self.name, sig))
+            raise AssertionError("%s did not exit within 60 s of %s: %s"
+                                 % (self.name, sig, self.log()))
 
     def close(self):
         for s in (self.path.sub, self.batch.sub):
@@ -343,6 +349,74 @@ class Trajectories(unittest.TestCase):
             self.assertGreaterEqual(int(replayed.group(1)), 15)
         finally:
             rec.close()
+
+
+    def test_4_a_database_stall_is_not_a_gap(self):
+        rec = RecorderProcess("rec_stall", os.path.join(self.tmp, "stall"), period=1.0,
+                              max_gap=2.0, db_timeout=10.0)
+        try:
+            published = []
+
+            def live(seconds):
+                end = time.monotonic() + seconds
+                while time.monotonic() < end:
+                    msg, _ = scripted(len(published))
+                    msg.header.stamp = rospy.Time.now()
+                    rec.pub.publish(msg)
+                    published.append(pose_tuple(msg))
+                    time.sleep(0.05)
+
+            live(2.5)
+            blocker = sqlite3.connect(os.path.join(rec.db, DATABASE + ".sqlite3"),
+                                      isolation_level=None, timeout=30)
+            blocker.execute("BEGIN EXCLUSIVE")
+            try:
+                live(4.0)                      # the recorder's store waits on the lock
+            finally:
+                blocker.execute("ROLLBACK")
+                blocker.close()
+            live(2.0)
+            wait_for(path_ends_at(rec.path, published[-1][0]), "rec_stall's live path")
+            self.assertEqual(rec.stop(signal.SIGINT), 0, rec.log())
+            chunks, _ = stored(rec.db, rec.journal_dir)
+            joined = join_chunks(chunks)
+            self.assertEqual([(j.complete, chunks[-1].closed_by) for j in joined],
+                             [(True, "end")], rec.log())
+            self.assertEqual(joined[0].poses, published)
+            self.assertNotIn("no pose for", rec.log())
+        finally:
+            rec.close()
+
+    def test_5_sigkill_loses_at_most_the_flush_window(self):
+        work = os.path.join(self.tmp, "kill")
+        rec = RecorderProcess("rec_kill", work, period=100.0, flush_every=0.5)
+        try:
+            published = publish(rec.pub, 0, 100)
+            wait_for(path_ends_at(rec.path, published[-1][0]), "rec_kill's live path")
+            time.sleep(1.5)                    # a flush (the timer ticks at 2 Hz)
+            published += publish(rec.pub, 100, 105)
+            rec.proc.kill()                    # SIGKILL: no shutdown hook runs
+            rec.proc.wait()
+        finally:
+            rec.close()
+        again = RecorderProcess("rec_kill", work, period=100.0, flush_every=0.5)
+        try:
+            self.assertEqual(again.stop(signal.SIGINT), 0, again.log())
+            self.assertIn("recovered 1 chunks", again.log())
+            chunks, _ = stored(again.db, again.journal_dir)
+            self.assertEqual([(c.sequence_id, c.complete, c.closed_by) for c in chunks],
+                             [(0, True, "recovered")])
+            kept = chunks[0].poses
+            self.assertGreaterEqual(len(kept), 100)          # all but the last flush window
+            self.assertEqual(kept, published[:len(kept)])
+        finally:
+            again.close()
+
+
+def pose_tuple(m):
+    s = m.header.stamp
+    return (s.secs * NS + s.nsecs, m.pose.position.x, m.pose.position.y, 0.0, 0.0, 0.0,
+            m.pose.orientation.z, m.pose.orientation.w)
 
 
 if __name__ == "__main__":

@@ -234,6 +234,11 @@ class Chunker:
         return self._uuid
 
     @property
+    def sequence_id(self) -> int:
+        """The open chunk's number within its trajectory."""
+        return self._seq
+
+    @property
     def open_poses(self) -> List[Pose]:
         """The poses of the open chunk (do not modify)."""
         return self._poses

@@ -9,9 +9,15 @@ a trajectory on ``~trajectories/batch``, the last one of each trajectory (``comp
 ``~trajectories/complete`` (together: exactly what is stored). ``~path`` (nav_msgs/Path,
 latched) shows the open chunk, ``~path_rate`` times a second.
 
-On shutdown (SIGINT/SIGTERM from roslaunch, or Ctrl-C) the open chunk is stored, marked
-complete, before the node exits. If the database is down, chunks are journalled and replayed
-when it is back (core/store): nothing is lost.
+Closed chunks are stored by a worker thread (core/recording.py), never by the subscriber, so
+a slow or stalled database delays storing, not reception. The open chunk, and each closed one
+until it is stored, is appended to a spill file every ``~flush_every`` seconds; a recorder
+killed outright (SIGKILL, OOM) loses at most that window: the next recorder on the same
+database and topic stores what the spill holds (closed_by "recovered"). On shutdown
+(SIGINT/SIGTERM from roslaunch, or Ctrl-C) the open chunk is stored, marked complete, before
+the node exits. If the database is down, chunks are journalled and replayed when it is back
+(core/store). A trajectory ends after ``~max_gap`` seconds without a pose, measured on the
+poses' stamps (on arrival times when the publisher stamps with another clock).
 
 Parameters: ``~pose_topic`` (pose), ``~db`` ("" = ``$ROS_HOME/bullet_floor_sim/db``; or
 ``mongodb://host:port/``), ``~period`` 30 s, ``~split`` period|region, ``~max_poses`` 20000,
@@ -22,12 +28,15 @@ simulator's ``/simulator/world``, else office), ``~rois_file``
 answers within ``~rois_wait`` 2 s), ``~rois_config`` (""), ``~frame_id`` map,
 ``~path_rate`` 2 Hz (0: no live path), ``~db_timeout`` 1.5 s (an unreachable database
 counts as down after that long), ``~db_retry_interval`` 5 s (how often a database found down
-is tried again).
+is tried again), ``~flush_every`` 2 s and ``~spill_dir`` (default
+``$ROS_HOME/bullet_floor_sim/spill``).
 """
 from __future__ import annotations
 
+import hashlib
 import logging
 import math
+import os
 import sys
 import threading
 from typing import List, Optional, Sequence
@@ -40,8 +49,10 @@ from std_msgs.msg import Header
 from ..core.config import load_world_config, resolve_world
 from ..core.errors import BulletFloorSimError
 from ..core.paths import worlds_dir
+from ..core.recording import ChunkQueue, ChunkSpill
 from ..core.rois import Roi, load_rois
-from ..core.store import StoreError, insert_message, open_store
+from ..core.store import StoreError, StoreUnavailable, insert_message, open_store, ros_home
+from ..core.store.base import redact_uri
 from ..core.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_GAP, DEFAULT_MAX_POSES,
                                DEFAULT_PERIOD, STORED_TYPE, Chunk, Chunker, RegionLocator,
                                chunk_fields, ensure_indexes)
@@ -164,6 +175,9 @@ class RecorderNode:
                                 timeout=float(gp("~db_timeout", 1.5)),
                                 retry_interval=float(gp("~db_retry_interval", 5.0)))
         ensure_indexes(self.store)
+        self.topic = rospy.resolve_name(str(gp("~pose_topic", "pose")))
+        self.spill = ChunkSpill(self._spill_path(str(gp("~spill_dir", ""))),
+                                float(gp("~flush_every", 2.0)))
         self.lock = threading.Lock()
         self.finished = False
         self.live: List[PoseStamped] = []
@@ -174,22 +188,50 @@ class RecorderNode:
         self.received = 0
         self.rejected = 0
         self.last_rx: Optional[rospy.Time] = None
+        self.last_stamp_ns: Optional[int] = None   # newest pose stamp, when on this clock
         self.batch_pub = rospy.Publisher("~trajectories/batch", Trajectory, queue_size=100)
         self.complete_pub = rospy.Publisher("~trajectories/complete", Trajectory,
                                             queue_size=100)
         self.path_pub = rospy.Publisher("~path", Path, queue_size=1, latch=True)
-        self.topic = rospy.resolve_name(str(gp("~pose_topic", "pose")))
+        self._recover()
+        self.queue = ChunkQueue(self._store, "trajectory_recorder")
         # queue_size None: rospy keeps every message (a bounded queue drops the oldest).
         self.sub = rospy.Subscriber(self.topic, PoseStamped, self._on_pose, queue_size=None)
         rate = float(gp("~path_rate", 2.0))
-        self.timer = rospy.Timer(rospy.Duration(1.0 / rate if rate > 0 else 1.0), self._tick)
+        # reset: a clock that jumps back (the simulator restarted) does not stop the timer
+        self.timer = rospy.Timer(rospy.Duration(1.0 / rate if rate > 0 else 1.0), self._tick,
+                                 reset=True)
         self.path_rate = rate
         rospy.loginfo("trajectory_recorder: %s -> %s %s.%s (map %s, split %s, period %.1f s, "
-                      "max %d poses/chunk%s)", self.topic, self.store.uri, DATABASE,
+                      "max %d poses/chunk%s)", self.topic, redact_uri(self.store.uri), DATABASE,
                       COLLECTION, self.map_name, split, self.chunker.period,
                       self.chunker.max_poses, self.rois_source)
 
     # -- set-up -------------------------------------------------------------------------------
+    def _spill_path(self, directory: str) -> str:
+        """One spill file per database and pose topic (what the next recorder there reads)."""
+        directory = directory or os.path.join(ros_home(), "bullet_floor_sim", "spill")
+        key = hashlib.sha1(("%s\0%s" % (self.store.uri, self.topic)).encode("utf-8"))
+        return os.path.join(directory, key.hexdigest()[:16] + ".jsonl")
+
+    def _recover(self) -> None:
+        """Store what a recorder killed before its time left in the spill file."""
+        chunks = self.spill.recover()
+        kept = 0
+        for chunk in chunks:
+            try:
+                if self.store.find_one(DATABASE, COLLECTION, {"uuid": chunk.uuid,
+                                                              "sequence_id": chunk.sequence_id}):
+                    continue   # it reached the store just before the kill
+            except StoreUnavailable:
+                pass           # journalled, and so is this: the journal keeps both
+            self._store(chunk, None)
+            kept += 1
+        if chunks:
+            rospy.logwarn("trajectory_recorder: recovered %d chunks (%d poses) a previous "
+                          "recorder on %s left unstored in %s", kept,
+                          sum(len(c.poses) for c in chunks), self.topic, self.spill.path)
+
     def _world(self):
         # ~world, else the running simulator's world (sim.launch sets /simulator/world)
         world = (str(rospy.get_param("~world", "")) or str(rospy.get_param("/simulator/world", ""))
@@ -239,29 +281,48 @@ class RecorderNode:
                 return
             self.received += 1
             self.last_rx = rospy.Time.now()
+            self._note_stamp(pose[0])
             closed = self.chunker.add(pose)
             if closed:
                 self.live = [msg]
                 for chunk in closed:
-                    self._store(chunk)
+                    self._hand_over(chunk)
             else:
                 self.live.append(msg)
             self.live_dirty = True
+            c = self.chunker
+            self.spill.track(c.uuid, c.sequence_id, c.region, c.open_poses)
+
+    def _note_stamp(self, t_ns: int) -> None:
+        """Keep the newest stamp when it is on this node's clock (within the gap of it), so
+        the silence that ends a trajectory is measured on the poses' own stamps."""
+        rx = self.last_rx.secs * _NS + self.last_rx.nsecs
+        if abs(rx - t_ns) <= max(self.chunker.max_gap, 1.0) * _NS:
+            self.last_stamp_ns = t_ns
+        else:
+            self.last_stamp_ns = None
+
+    def _silence(self, now: rospy.Time) -> float:
+        """Seconds since the newest pose: by its stamp, or (a publisher on another clock) by
+        when it arrived."""
+        now_ns = now.secs * _NS + now.nsecs
+        if self.last_stamp_ns is not None:
+            return (now_ns - self.last_stamp_ns) / 1e9
+        return (now - self.last_rx).to_sec()
 
     def _tick(self, event) -> None:
         with self.lock:
             if self.finished:
                 return
             now = rospy.Time.now()
-            # The gap is measured on this node's clock (when poses arrived), so a publisher
-            # stamping with another clock cannot end trajectories here.
+            self.spill.flush_if_due()
             gap = self.chunker.max_gap
             if (gap > 0 and self.last_rx is not None and not self.last_rx.is_zero()
-                    and self.chunker.uuid is not None and (now - self.last_rx).to_sec() > gap):
+                    and self.chunker.uuid is not None and self._silence(now) > gap):
                 ended = self.chunker.finish("gap")
                 rospy.loginfo("trajectory_recorder: no pose for %.1f s: trajectory %s ended "
                               "after %d chunks", gap, ended.uuid, ended.sequence_id + 1)
-                self._store(ended)
+                self._hand_over(ended)
                 self.live = []
                 self.live_dirty = True
             if not self.live_dirty or self.path_rate <= 0:
@@ -271,29 +332,39 @@ class RecorderNode:
         self.path_pub.publish(path)
 
     # -- storing ------------------------------------------------------------------------------
-    def _store(self, chunk: Chunk) -> None:
-        """Store one chunk (journalled if the database is down) and publish it (lock held)."""
+    def _hand_over(self, chunk: Chunk) -> None:
+        """A closed chunk to the spill file and the store queue (lock held)."""
+        chunk.frame_id = self.frame_id
+        self.header_seq += 1
+        self.spill.closed(chunk)
+        self.queue.put(chunk, self.header_seq)
+
+    def _store(self, chunk: Chunk, header_seq: Optional[int]) -> None:
+        """Store one chunk (journalled if the database is down) and publish it: the queue's
+        worker, never the subscriber thread."""
         now = rospy.Time.now()
         stamp_ns = now.secs * _NS + now.nsecs
-        self.header_seq += 1
         chunk.frame_id = self.frame_id
         meta = {"map": self.map_name, "taken": "online", "closed_by": chunk.closed_by}
         if chunk.region is not None or self.chunker.split == "region":
             meta["region"] = chunk.region
+        seq = header_seq if header_seq is not None else 0
         try:
             insert_message(self.store, DATABASE, COLLECTION,
-                           chunk_fields(chunk, stamp_ns, self.header_seq), STORED_TYPE,
+                           chunk_fields(chunk, stamp_ns, seq), STORED_TYPE,
                            meta=meta, inserted_by=rospy.get_name(), now=stamp_ns / 1e9,
                            stamp_ns=stamp_ns)
-        except StoreError as e:  # not an outage (those are journalled): the chunk is lost
+        except StoreError as e:  # the database refused this document (outages are journalled)
             rospy.logerr("trajectory_recorder: chunk %d of %s (%d poses) NOT stored: %s",
                          chunk.sequence_id, chunk.uuid, len(chunk.poses), e)
+            self.spill.stored(chunk)
             return
+        self.spill.stored(chunk)
         self.stored_chunks += 1
         self.stored_poses += len(chunk.poses)
         pub = self.complete_pub if chunk.complete else self.batch_pub
         if pub.get_num_connections() > 0:
-            pub.publish(chunk_to_msg(chunk, now, self.header_seq))
+            pub.publish(chunk_to_msg(chunk, now, seq))
 
     def shutdown(self, reason: str = "") -> None:
         """Store the open chunk (complete) and close the store; safe to call twice."""
@@ -305,9 +376,15 @@ class RecorderNode:
             self.sub.unregister()
             last = self.chunker.finish()
             if last is not None:
-                self._store(last)
-            pending = self.store.pending
-            self.store.close()
+                self._hand_over(last)
+        if self.queue.close(60.0):
+            self.spill.remove()       # everything is stored or journalled
+        else:
+            self.spill.flush()
+            rospy.logerr("trajectory_recorder: the store did not take the last chunks within "
+                         "60 s; they stay in %s for the next recorder", self.spill.path)
+        pending = self.store.pending
+        self.store.close()
         rospy.loginfo("trajectory_recorder: %s: stored %d chunks (%d poses incl. shared "
                       "boundaries) from %d poses received", reason or "shutdown",
                       self.stored_chunks, self.stored_poses, self.received)

@@ -1,0 +1,119 @@
+"""core/recording.py: the spill file a killed recorder leaves, and the store worker."""
+from __future__ import annotations
+
+import threading
+import time
+
+from bullet_floor_sim.core.recording import ChunkQueue, ChunkSpill
+from bullet_floor_sim.core.trajectory import Chunker
+
+NS = 1000000000
+
+
+def pose(k):
+    return (1000 * NS + k * 50000000, 0.1 * k, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+
+
+class Clock:
+    def __init__(self):
+        self.t = 0.0
+
+    def __call__(self):
+        return self.t
+
+
+def record(chunker, spill, poses):
+    """What the recorder does per pose; returns the chunks closed."""
+    closed = []
+    for p in poses:
+        for c in chunker.add(p):
+            spill.closed(c)
+            closed.append(c)
+        spill.track(chunker.uuid, chunker.sequence_id, chunker.region, chunker.open_poses)
+    return closed
+
+
+def test_a_killed_recorder_leaves_its_unstored_and_open_chunks(tmp_path):
+    path = str(tmp_path / "spill" / "x.jsonl")
+    clock = Clock()
+    spill = ChunkSpill(path, flush_every=2.0, clock=clock)
+    chunker = Chunker(period=1.0, new_uuid=lambda: "u1")
+    closed = record(chunker, spill, [pose(k) for k in range(30)])   # chunk 0 closes at pose 20
+    assert [(c.sequence_id, len(c.poses)) for c in closed] == [(0, 21)]
+    spill.flush_if_due()
+    assert not (tmp_path / "spill").exists()       # not due yet: nothing written
+    clock.t = 2.0
+    spill.flush_if_due()
+    record(chunker, spill, [pose(k) for k in range(30, 35)])          # after the flush: lost
+    # the process dies here; the next recorder reads the file
+    back = ChunkSpill(path).recover()
+    assert [(c.uuid, c.sequence_id, c.complete, c.closed_by) for c in back] == [
+        ("u1", 0, False, "period"), ("u1", 1, True, "recovered")]
+    assert back[0].poses == [pose(k) for k in range(21)]
+    assert back[1].poses == [pose(k) for k in range(20, 30)]           # the boundary pose too
+    assert ChunkSpill(path).recover() == []                            # taken: emptied
+
+
+def test_stored_chunks_leave_the_file_and_only_the_open_chunk_stays(tmp_path):
+    path = str(tmp_path / "x.jsonl")
+    spill = ChunkSpill(path, flush_every=0.0)
+    chunker = Chunker(period=1.0, new_uuid=lambda: "u2")
+    closed = record(chunker, spill, [pose(k) for k in range(45)])     # closes 0 and 1
+    spill.flush()
+    spill.stored(closed[0])
+    spill.flush()
+    size_before = len(open(path).read())
+    spill.stored(closed[1])                                            # nothing else waits
+    record(chunker, spill, [pose(45)])
+    spill.flush()
+    assert len(open(path).read()) < size_before
+    back = ChunkSpill(path).recover()
+    assert [(c.sequence_id, c.closed_by) for c in back] == [(2, "recovered")]
+    assert back[0].poses == [pose(k) for k in range(40, 46)]
+
+
+def test_a_torn_last_line_is_skipped(tmp_path):
+    path = str(tmp_path / "x.jsonl")
+    spill = ChunkSpill(path, flush_every=0.0)
+    chunker = Chunker(period=100.0, new_uuid=lambda: "u3")
+    record(chunker, spill, [pose(k) for k in range(5)])
+    spill.flush()
+    with open(path, "a") as f:
+        f.write('{"poses": [[1, 2')                                     # killed mid-write
+    back = ChunkSpill(path).recover()
+    assert len(back) == 1 and back[0].poses == [pose(k) for k in range(5)]
+
+
+def test_a_clean_shutdown_removes_the_spill(tmp_path):
+    path = tmp_path / "x.jsonl"
+    spill = ChunkSpill(str(path), flush_every=0.0)
+    chunker = Chunker(period=100.0, new_uuid=lambda: "u4")
+    record(chunker, spill, [pose(k) for k in range(5)])
+    spill.flush()
+    assert path.exists()
+    spill.remove()
+    assert not path.exists() and ChunkSpill(str(path)).recover() == []
+
+
+def test_the_queue_stores_in_order_without_blocking_the_caller():
+    chunker = Chunker(period=1.0, new_uuid=lambda: "u5")
+    chunks = []
+    for k in range(100):
+        chunks.extend(chunker.add(pose(k)))
+    release = threading.Event()
+    done = []
+
+    def store(chunk, context):
+        release.wait(10)                 # a stalled database
+        if chunk.sequence_id == 2:
+            raise RuntimeError("one bad chunk")
+        done.append((chunk.sequence_id, context))
+
+    q = ChunkQueue(store, "test")
+    t0 = time.monotonic()
+    for i, c in enumerate(chunks):
+        q.put(c, i)
+    assert time.monotonic() - t0 < 0.5 and q.waiting == len(chunks) == 4
+    release.set()
+    assert q.close(10.0)
+    assert done == [(0, 0), (1, 1), (3, 3)]      # in order; the bad one logged, the rest went on
