@@ -264,3 +264,26 @@ def test_store_tool_shows_and_puts_back_set_aside_writes(tmp_path, capsys):
         assert again.find_one("d", "c", {"_id": "a"})["v"] == 2
     assert main(["replay-rejected", "--db", "ftp://x"]) == 2
     assert "unsupported URI scheme" in capsys.readouterr().err
+
+
+# -- URIs with a password -----------------------------------------------------------------------
+
+def test_command_line_tools_never_show_a_password(tmp_path, capsys, monkeypatch):
+    from mongo_server import free_port
+
+    from bullet_floor_sim.ros import rois, store_tool, trajectories
+
+    monkeypatch.setenv("ROS_HOME", str(tmp_path))
+    uri = "mongodb://reader:s3cret@127.0.0.1:%d/" % free_port()     # nothing listens there
+    runs = [(trajectories.main, ["export", "--db", uri]),
+            (trajectories.main, ["import", "--db", uri, "--map", "office", str(tmp_path / "x")]),
+            (rois.main, ["export", "--db", uri, "--map", "office"]),
+            (store_tool.main, ["status", "--db", uri])]
+    (tmp_path / "x").write_text("")
+    for main, argv in runs:
+        main(argv)
+        out = capsys.readouterr()
+        text = out.out + out.err
+        assert "s3cret" not in text and "reader:***@127.0.0.1" in text, (argv, text)
+    with open_store(uri, journal_dir=str(tmp_path), timeout=0.1) as s:
+        assert s.shown_uri == uri.replace("s3cret", "***") and "s3cret" not in repr(s)

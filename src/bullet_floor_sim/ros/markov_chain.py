@@ -125,7 +125,7 @@ def _rois_from_store(uri: str, map_name: Optional[str], config: str):
 
     store = open_store(uri or None)
     try:
-        where = "%s %s.%s" % (store.uri, ROI_DATABASE, ROI_COLLECTION)
+        where = "%s %s.%s" % (store.shown_uri, ROI_DATABASE, ROI_COLLECTION)
         if map_name is None:
             maps = sorted({str(d.get("map_name")) for d in store.find(
                 ROI_DATABASE, ROI_COLLECTION, {"config": config})})

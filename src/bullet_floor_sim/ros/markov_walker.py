@@ -365,7 +365,7 @@ class MarkovWalkerNode:
             n = store_chain(self.store, chain, extra={"built_by": rospy.get_name(),
                                                       "built_at": ros_datetime()})
             rospy.loginfo("markov_walker: chain stored in %s (markov_chain_db.%s, %d regions)",
-                          self.store.uri, chain.to_documents()["collection"], n)
+                          self.store.shown_uri, chain.to_documents()["collection"], n)
         except (StoreError, ValueError) as e:
             self.complain("store", "markov_walker: cannot store the chain: %s" % e)
 

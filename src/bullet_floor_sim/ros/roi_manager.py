@@ -120,8 +120,8 @@ class RoiManagerNode:
                                             if seed_rois else "office"))
         db = str(rospy.get_param("~db", ""))
         self.store = open_store(db or None)
-        rospy.loginfo("roi_manager: ROIs of map %s in %s (%s)", self.map_name, self.store.uri,
-                      self.store.kind)
+        rospy.loginfo("roi_manager: ROIs of map %s in %s (%s)", self.map_name,
+                      self.store.shown_uri, self.store.kind)
         self.rois_db = rs.RoiStore(self.store, self.map_name, inserted_by=rospy.get_name())
         self.lock = threading.RLock()
         self.rois: Dict[Key, Roi] = {}

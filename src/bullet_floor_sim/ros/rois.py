@@ -57,14 +57,14 @@ def export(args: argparse.Namespace) -> int:
         if not map_name:
             maps = sorted({d["map_name"] for d in store.find(DATABASE, COLLECTION, {})
                            if "map_name" in d})
-            map_name = _only("map", maps, "--map", "store %s" % store.uri)
+            map_name = _only("map", maps, "--map", "store %s" % store.shown_uri)
         rdb = RoiStore(store, map_name)
         config = args.config or _only("config", rdb.configs(), "--config",
-                                      "map %s in store %s" % (map_name, store.uri))
+                                      "map %s in store %s" % (map_name, store.shown_uri))
         rois = rdb.current(config)
         if not rois:
             raise BulletFloorSimError("map %s config %s in store %s: no ROIs (deleted or never "
-                                      "stored)" % (map_name, config, store.uri))
+                                      "stored)" % (map_name, config, store.shown_uri))
     if args.output == "-":
         with tempfile.TemporaryDirectory() as tmp:
             path = os.path.join(tmp, "rois.yaml")

@@ -28,7 +28,6 @@ from typing import Optional, Sequence
 
 from ..core.errors import BulletFloorSimError
 from ..core.store import Store, open_store
-from ..core.store.base import redact_uri
 from ..core.store.journal import Journal
 from .cli import Parser, UsageError
 
@@ -58,7 +57,7 @@ def _status(store: Store) -> str:
         with open(journal.rejected_path, "rb") as f:
             rejected = sum(1 for _ in f)
     return ("database %s (%s): %s\njournal %s: %d writes waiting, %.1f MB\nrejected %s: %d "
-            "writes set aside" % (redact_uri(store.uri), store.kind,
+            "writes set aside" % (store.shown_uri, store.kind,
                                   "answers" if store.available else "DOWN",
                                   store.journal_path, store.pending, journal.size() / 1048576.0,
                                   journal.rejected_path, rejected))

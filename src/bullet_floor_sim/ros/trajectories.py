@@ -165,7 +165,7 @@ def _export(store: Store, args: argparse.Namespace, since: Optional[int],
     else:
         n, poses = export_chunks(store, sys.stdout, args.map_name, since, until)
         sys.stdout.flush()
-    _note("exported %d chunks (%d poses) from %s in %.2f s" % (n, poses, store.uri,
+    _note("exported %d chunks (%d poses) from %s in %.2f s" % (n, poses, store.shown_uri,
                                                                time.monotonic() - t0))
 
 
@@ -248,7 +248,7 @@ def _import(store: Store, args: argparse.Namespace) -> None:
             raise BulletFloorSimError("%s: cannot read (%s)" % (name, e.strerror or e))
     stored, skipped, split = import_lines(store, lines, args.map_name, args.max_poses)
     _note("imported %d chunks into %s (map %s) in %.2f s; %d already stored, skipped; %d split"
-          % (stored, store.uri, args.map_name, time.monotonic() - t0, skipped, split))
+          % (stored, store.shown_uri, args.map_name, time.monotonic() - t0, skipped, split))
     if store.pending:
         _note("the database is unreachable: %d writes journalled in %s, replayed when it is "
               "back" % (store.pending, store.journal_path))

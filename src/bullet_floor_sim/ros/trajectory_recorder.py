@@ -52,7 +52,6 @@ from ..core.paths import worlds_dir
 from ..core.recording import ChunkQueue, ChunkSpill
 from ..core.rois import Roi, load_rois
 from ..core.store import StoreError, StoreUnavailable, insert_message, open_store, ros_home
-from ..core.store.base import redact_uri
 from ..core.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_GAP, DEFAULT_MAX_POSES,
                                DEFAULT_PERIOD, STORED_TYPE, Chunk, Chunker, RegionLocator,
                                chunk_fields, ensure_indexes)
@@ -203,7 +202,7 @@ class RecorderNode:
                                  reset=True)
         self.path_rate = rate
         rospy.loginfo("trajectory_recorder: %s -> %s %s.%s (map %s, split %s, period %.1f s, "
-                      "max %d poses/chunk%s)", self.topic, redact_uri(self.store.uri), DATABASE,
+                      "max %d poses/chunk%s)", self.topic, self.store.shown_uri, DATABASE,
                       COLLECTION, self.map_name, split, self.chunker.period,
                       self.chunker.max_poses, self.rois_source)
 

@@ -311,7 +311,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         rospy.logfatal("trajectory_viewer: %s", " ".join(str(e).split()))
         return 1
     rospy.loginfo("trajectory_viewer: %d trajectories shown (%s) from %s",
-                  len(node.shown), node.selection.describe(), node.store.uri)
+                  len(node.shown), node.selection.describe(), node.store.shown_uri)
     rospy.spin()
     node.store.close()
     return 0

@@ -95,6 +95,11 @@ class Store:
     # -- state ----------------------------------------------------------------------------------
 
     @property
+    def shown_uri(self) -> str:
+        """The URI as logs and messages show it: any password replaced by ``***``."""
+        return redact_uri(self.uri)
+
+    @property
     def available(self) -> bool:
         """False after an operation found the database unreachable, until one reaches it."""
         return self._down is None
