@@ -287,3 +287,23 @@ def test_command_line_tools_never_show_a_password(tmp_path, capsys, monkeypatch)
         assert "s3cret" not in text and "reader:***@127.0.0.1" in text, (argv, text)
     with open_store(uri, journal_dir=str(tmp_path), timeout=0.1) as s:
         assert s.shown_uri == uri.replace("s3cret", "***") and "s3cret" not in repr(s)
+
+
+def test_an_export_that_fails_leaves_the_old_file_whole(tmp_path, capsys, monkeypatch):
+    from mongo_server import free_port
+
+    from bullet_floor_sim.ros import trajectories
+
+    monkeypatch.setenv("ROS_HOME", str(tmp_path))
+    out = tmp_path / "trajectories.jsonl"
+    out.write_text('{"an": "earlier export"}\n')
+    uri = "mongodb://127.0.0.1:%d/" % free_port()               # the database is down
+    assert trajectories.main(["export", "--db", uri, "--out", str(out)]) == 2
+    assert "unreachable" in capsys.readouterr().err
+    assert out.read_text() == '{"an": "earlier export"}\n'
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []   # no leftovers
+    store = embedded(tmp_path)
+    store.insert("message_store", "people_trajectory", {"x": 1})    # not a chunk: refused
+    store.close()
+    assert trajectories.main(["export", "--db", str(tmp_path / "db"), "--out", str(out)]) == 2
+    assert out.read_text() == '{"an": "earlier export"}\n'

@@ -16,10 +16,11 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 from typing import Any, Dict, Optional
 
 import numpy as np
+
+from .files import atomic_file
 
 __all__ = ["map_cache_dir", "map_key", "load_entry", "store_entry"]
 
@@ -64,14 +65,9 @@ def store_entry(key: str, arrays: Dict[str, np.ndarray], meta: Dict[str, Any]) -
     cache = map_cache_dir()
     if not cache:
         return
-    tmp = ""
     try:
         os.makedirs(cache, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=cache, prefix=".tmp-", suffix=".npz")
-        with os.fdopen(fd, "wb") as f:
+        with atomic_file(os.path.join(cache, key + ".npz"), "wb", fsync=False) as f:
             np.savez(f, meta=np.array(json.dumps(meta)), **arrays)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, os.path.join(cache, key + ".npz"))
     except OSError:
-        if tmp and os.path.exists(tmp):
-            os.unlink(tmp)
+        pass

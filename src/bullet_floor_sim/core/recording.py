@@ -24,6 +24,7 @@ import threading
 import time
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
+from .files import atomic_file
 from .trajectory import Chunk, Pose
 
 __all__ = ["ChunkQueue", "ChunkSpill"]
@@ -166,10 +167,8 @@ class ChunkSpill:
                                                      self._open_region]}))
         try:
             _makedirs(self.path)
-            tmp = self.path + ".tmp"
-            with open(tmp, "w") as f:
+            with atomic_file(self.path, fsync=False) as f:
                 f.write("\n".join(self._lines) + "\n" if self._lines else "")
-            os.replace(tmp, self.path)
             self._lines = []
         except OSError as e:
             self._failed(e)

@@ -26,6 +26,7 @@ from typing import Dict, List, Tuple, Type
 import numpy as np
 
 from .config import DriveConfig
+from .files import atomic_file
 from .errors import CommandError, RobotModelError
 from .paths import package_root
 
@@ -139,16 +140,8 @@ def _cached_model(cache: str, model: str, key: str):
 
 
 def _write_atomic(path: str, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), prefix=".tmp-")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    with atomic_file(path, fsync=False) as f:
+        f.write(text)
 
 
 def _store_urdf(cache: str, stem: str, xml: str) -> str:

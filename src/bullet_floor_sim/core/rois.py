@@ -26,6 +26,7 @@ from shapely.geometry import LinearRing, Point, Polygon
 from shapely.validation import explain_validity
 
 from .errors import BulletFloorSimError
+from .files import atomic_file
 from .yamlio import read_yaml
 
 __all__ = [
@@ -109,7 +110,7 @@ def save_rois(rois: Sequence[Roi], path: str) -> None:
     for entry in doc["rois"]:
         lines.append("  - " + yaml.safe_dump(entry, default_flow_style=True, sort_keys=False,
                                              width=float("inf")).strip())
-    with open(path, "w") as f:
+    with atomic_file(path) as f:
         f.write("\n".join(lines) + "\n")
 
 

@@ -38,6 +38,7 @@ from dataclasses import replace
 from typing import Dict, IO, Iterable, List, Optional, Sequence, Tuple
 
 from ..core.errors import BulletFloorSimError
+from ..core.files import atomic_file
 from ..core.plotting import draw_map, pyplot
 from ..core.store import Store, insert_message, open_store
 from ..core.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_POSES, STORED_TYPE, Chunk,
@@ -158,7 +159,7 @@ def _export(store: Store, args: argparse.Namespace, since: Optional[int],
     t0 = time.monotonic()
     if args.out:
         try:
-            with open(args.out, "w") as f:
+            with atomic_file(args.out) as f:  # an old file stays whole if the query fails
                 n, poses = export_chunks(store, f, args.map_name, since, until)
         except OSError as e:
             raise BulletFloorSimError("%s: cannot write (%s)" % (args.out, e.strerror or e))
