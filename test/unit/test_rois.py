@@ -118,6 +118,14 @@ def test_not_yaml(tmp_path):
         load_rois(path)
 
 
+def test_binary_file_is_named(tmp_path):
+    path = tmp_path / "rois.yaml"
+    path.write_bytes(b"map_name: m\n" + bytes(range(128, 256)))
+    with pytest.raises(RoiError, match=r"rois\.yaml: not a text ROI file \(byte 0x80 at offset "
+                                       r"12 is not UTF-8\)$"):
+        load_rois(str(path))
+
+
 def test_too_few_vertices(tmp_path):
     path = write(tmp_path, 'map_name: m\nconfig: "1"\nrois:\n'
                  '  - {id: "k3", type: office, points: [[0, 0], [1, 0]]}\n')

@@ -22,8 +22,8 @@ def read_yaml(path: str, kind: str, error: Type[BulletFloorSimError]) -> Any:
         The parsed document (any YAML value; callers check its shape).
 
     Raises:
-        error: ``<path>: <kind> file not found``, ``<path>: cannot read <kind> file: <why>``
-            or ``<path>: not valid YAML (line N)``.
+        error: ``<path>: <kind> file not found``, ``<path>: cannot read <kind> file: <why>``,
+            ``<path>: not a text <kind> file (...)`` or ``<path>: not valid YAML (line N)``.
     """
     try:
         with open(path, "r") as f:
@@ -32,6 +32,9 @@ def read_yaml(path: str, kind: str, error: Type[BulletFloorSimError]) -> Any:
         raise error("%s: %s file not found" % (path, kind)) from None
     except OSError as e:
         raise error("%s: cannot read %s file: %s" % (path, kind, e.strerror)) from None
+    except UnicodeDecodeError as e:
+        raise error("%s: not a text %s file (byte 0x%02x at offset %d is not UTF-8)"
+                    % (path, kind, e.object[e.start], e.start)) from None
     except yaml.YAMLError as e:
         line = getattr(getattr(e, "problem_mark", None), "line", None)
         where = " (line %d)" % (line + 1) if line is not None else ""

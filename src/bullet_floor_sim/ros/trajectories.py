@@ -247,6 +247,9 @@ def _import(store: Store, args: argparse.Namespace) -> None:
                 lines.extend(_numbered(f, name))
         except OSError as e:
             raise BulletFloorSimError("%s: cannot read (%s)" % (name, e.strerror or e))
+        except UnicodeDecodeError as e:
+            raise BulletFloorSimError("%s: not a text file (byte 0x%02x is not UTF-8)"
+                                      % (name, e.object[e.start]))
     stored, skipped, split = import_lines(store, lines, args.map_name, args.max_poses)
     _note("imported %d chunks into %s (map %s) in %.2f s; %d already stored, skipped; %d split"
           % (stored, store.shown_uri, args.map_name, time.monotonic() - t0, skipped, split))
