@@ -542,3 +542,26 @@ def test_cli_imports_without_rospy():
     code = ("import sys; import bullet_floor_sim.ros.trajectories, "
             "bullet_floor_sim.core.trajectory; sys.exit('rospy' in sys.modules)")
     assert subprocess.call([sys.executable, "-c", code]) == 0
+
+
+def test_chunks_stay_under_the_byte_cap_and_longer_ones_are_refused():
+    import bson
+
+    from bullet_floor_sim.core.store import message_document
+    from bullet_floor_sim.core.trajectory import (MAX_CHUNK_BYTES, check_max_poses,
+                                                  max_poses_within)
+
+    most = max_poses_within("map")
+    poses = [(1795510000 * 10 ** 9 + 50000000 * k, 1.0 + k, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+             for k in range(most)]
+    chunk = Chunk.from_poses("u" * 36, 7, poses, True)
+    doc = message_document(chunk_fields(chunk, chunk.end_ns, 3), STORED_TYPE,
+                           meta={"map": "office", "taken": "online", "closed_by": "size"},
+                           inserted_by="/trajectory_recorder")
+    size = len(bson.encode(doc))
+    assert MAX_CHUNK_BYTES * 0.85 < size < MAX_CHUNK_BYTES      # tight, and under
+    check_max_poses(most, "map")
+    with pytest.raises(TrajectoryError, match=r"max_poses %d: .* at most %d$" % (most + 1, most)):
+        check_max_poses(most + 1, "map")
+    assert max_poses_within("a_much_longer_frame_name_for_the_poses") < most
+    assert cli.main(["import", "--map", "office", "--max-poses", "1000000"]) == 2

@@ -88,6 +88,8 @@ DEFAULT_PERIOD = 30.0
 # MongoDB's 16 MB document limit (and 100 s of a 200 Hz pose stream).
 DEFAULT_MAX_POSES = 20000
 DEFAULT_MAX_GAP = 10.0
+#: The most a stored chunk may weigh as BSON: half of MongoDB's 16 MB document limit.
+MAX_CHUNK_BYTES = 8 * 1024 * 1024
 # Indexes the recorder (and the readers) create: (uuid, sequence_id) and sequence_id let the
 # embedded store answer latest(uuid, sequence_id) and chunk lookups from the index alone;
 # start time and map serve users' own queries.
@@ -419,6 +421,31 @@ class RegionLocator:
 def _time_doc(t_ns: int) -> Dict[str, int]:
     secs, nsecs = divmod(int(t_ns), _NS)
     return {"secs": secs, "nsecs": nsecs}
+
+
+def max_poses_within(frame_id: str, limit: int = MAX_CHUNK_BYTES) -> int:
+    """The most poses a chunk in ``frame_id`` may hold and stay under ``limit`` bytes of BSON
+    (each pose as :func:`chunk_fields` stores it, with a 6-digit array index)."""
+    import bson
+
+    pose = (2 ** 40 * _NS, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+    one = chunk_fields(Chunk.from_poses("u" * 36, 0, [pose], True, frame_id=frame_id))
+    doc = bson.encode({"trajectory": {"999999": one["trajectory"][0]}})
+    fixed = len(bson.encode(one)) + 4096        # the rest of the chunk and its _meta
+    return max(2, (limit - fixed) // (len(doc) - 5))
+
+
+def check_max_poses(max_poses: int, frame_id: str = "map") -> None:
+    """Refuse a chunk length whose chunks would outweigh :data:`MAX_CHUNK_BYTES`.
+
+    Raises:
+        TrajectoryError: naming the most poses allowed.
+    """
+    most = max_poses_within(frame_id)
+    if max_poses > most:
+        raise TrajectoryError("max_poses %d: a chunk that long in frame %r would pass %d MB of "
+                              "BSON (MongoDB refuses documents over 16 MB); at most %d"
+                              % (max_poses, frame_id, MAX_CHUNK_BYTES >> 20, most))
 
 
 def chunk_fields(chunk: Chunk, stamp_ns: int = 0, seq: int = 0) -> Dict[str, Any]:

@@ -42,9 +42,9 @@ from ..core.files import atomic_file
 from ..core.plotting import draw_map, pyplot
 from ..core.store import Store, insert_message, open_store
 from ..core.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_POSES, STORED_TYPE, Chunk,
-                               chunk_fields, chunk_from_document, chunk_from_json,
-                               document_to_json, ensure_indexes, iter_documents,
-                               join_chunks, parse_time, split_poses)
+                               check_max_poses, chunk_fields, chunk_from_document,
+                               chunk_from_json, document_to_json, ensure_indexes,
+                               iter_documents, join_chunks, parse_time, split_poses)
 from .cli import Parser, UsageError
 
 __all__ = ["main", "export_chunks", "import_lines", "plot_trajectories"]
@@ -109,6 +109,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                 raise UsageError("import needs --map NAME: the map the trajectories belong to")
             if args.max_poses < 2:
                 raise UsageError("--max-poses must be >= 2, got %d" % args.max_poses)
+            check_max_poses(args.max_poses)
         if args.command == "plot" and not args.cell > 0:
             raise UsageError("--cell must be a positive number of metres, got %s" % args.cell)
         with open_store(args.db or None) as store:

@@ -54,7 +54,7 @@ from ..core.rois import Roi, load_rois
 from ..core.store import StoreError, StoreUnavailable, insert_message, open_store, ros_home
 from ..core.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_GAP, DEFAULT_MAX_POSES,
                                DEFAULT_PERIOD, STORED_TYPE, Chunk, Chunker, RegionLocator,
-                               chunk_fields, ensure_indexes)
+                               check_max_poses, chunk_fields, ensure_indexes)
 from ..msg import Trajectory
 
 __all__ = ["main", "RecorderNode", "RospyLogHandler", "chunk_to_msg", "forward_store_log",
@@ -170,6 +170,7 @@ class RecorderNode:
                                max_poses=int(gp("~max_poses", DEFAULT_MAX_POSES)),
                                max_gap=float(gp("~max_gap", DEFAULT_MAX_GAP)),
                                region_of=RegionLocator(rois) if rois else None)
+        check_max_poses(self.chunker.max_poses, self.frame_id)
         self.store = open_store(str(gp("~db", "")) or None,
                                 timeout=float(gp("~db_timeout", 1.5)),
                                 retry_interval=float(gp("~db_retry_interval", 5.0)))
