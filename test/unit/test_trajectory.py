@@ -565,3 +565,28 @@ def test_chunks_stay_under_the_byte_cap_and_longer_ones_are_refused():
         check_max_poses(most + 1, "map")
     assert max_poses_within("a_much_longer_frame_name_for_the_poses") < most
     assert cli.main(["import", "--map", "office", "--max-poses", "1000000"]) == 2
+
+
+def test_the_viewer_keeps_the_newest_whole_trajectories_within_its_pose_budget():
+    from bullet_floor_sim.ros.trajectory_viewer import newest
+
+    def traj(uuid, start_s, n):
+        poses = [pose_from_xy_yaw((start_s + 0.05 * k) * 1e9, 0.1 * k, 0.0, 0.0)
+                 for k in range(n)]
+        half = n // 2
+        return [Chunk.from_poses(uuid, 0, poses[:half + 1], False),
+                Chunk.from_poses(uuid, 1, poses[half:], True)]
+
+    chunks = {(c.uuid, c.sequence_id): c
+              for c in traj("a", 0, 100) + traj("b", 100, 40) + traj("c", 200, 60)}
+    sizes = {"a": 101, "b": 41, "c": 61}                # the boundary pose counts twice
+    assert sum(len(c.poses) for c in chunks.values()) == sum(sizes.values())
+
+    def kept(last_n, max_poses):
+        return sorted({u for u, _ in newest(chunks, last_n, max_poses)})
+
+    assert kept(0, 1000) == ["a", "b", "c"]
+    assert kept(0, 61 + 41) == ["b", "c"]            # c and b fit, a does not
+    assert kept(0, 61 + 40) == ["c"]
+    assert kept(0, 10) == ["c"]                      # the newest is always shown, whole
+    assert kept(1, 1000) == ["c"] and kept(2, 1000) == ["b", "c"]

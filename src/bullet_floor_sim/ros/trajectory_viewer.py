@@ -21,6 +21,10 @@ New chunks appear without polling: the viewer subscribes to the recorder's
 from the store (so the map filter applies). ``~refresh_period`` > 0 also re-reads everything
 that often (seconds), e.g. to see imported trajectories. Other parameters: ``~db``,
 ``~db_timeout`` 1.5, ``~frame_id`` map, ``~line_width`` 0.05 m, ``~max_points`` 10000.
+
+Memory stays bounded: the viewer holds at most ``~max_poses`` (100000) poses, the newest whole
+trajectories that fit (about 1.4 h of one walker at 20 Hz); older ones leave the view, with
+one log line.
 """
 from __future__ import annotations
 
@@ -46,7 +50,8 @@ from ..msg import Trajectory
 from ..srv import SelectTrajectories, SelectTrajectoriesResponse
 from .trajectory_recorder import forward_store_log, pose_msgs
 
-__all__ = ["main", "ViewerNode", "Selection", "decimate", "time_colour", "trajectory_colour"]
+__all__ = ["main", "ViewerNode", "Selection", "decimate", "newest", "time_colour",
+           "trajectory_colour"]
 
 _NS = 1000000000
 COLOR_BY = ("time", "trajectory")
@@ -98,6 +103,30 @@ class Selection:
         return ", ".join(parts)
 
 
+def newest(chunks: Dict[Tuple[str, int], Chunk], last_n: int, max_poses: int
+           ) -> Dict[Tuple[str, int], Chunk]:
+    """The chunks of the trajectories that end last: at most ``last_n`` trajectories (0: no
+    limit) and, newest first, as many whole trajectories as fit in ``max_poses`` poses (the
+    newest one always)."""
+    ends: Dict[str, int] = {}
+    sizes: Dict[str, int] = {}
+    for c in chunks.values():
+        ends[c.uuid] = max(ends.get(c.uuid, 0), c.end_ns)
+        sizes[c.uuid] = sizes.get(c.uuid, 0) + len(c.poses)
+    order = sorted(ends, key=lambda u: (ends[u], u), reverse=True)
+    if last_n > 0:
+        order = order[:last_n]
+    keep, total = set(), 0
+    for u in order:
+        if keep and total + sizes[u] > max_poses:
+            break
+        keep.add(u)
+        total += sizes[u]
+    if len(keep) == len(ends):
+        return chunks
+    return {k: c for k, c in chunks.items() if c.uuid in keep}
+
+
 def decimate(poses: Sequence, max_points: int) -> List:
     """At most ``max_points`` poses, evenly spaced, the first and last always kept."""
     n = len(poses)
@@ -138,6 +167,10 @@ class ViewerNode:
         self.max_points = int(gp("~max_points", 10000))
         if self.max_points < 2:
             raise BulletFloorSimError("~max_points %d: must be >= 2" % self.max_points)
+        self.max_poses = int(gp("~max_poses", 100000))
+        if self.max_poses < 1:
+            raise BulletFloorSimError("~max_poses %d: must be >= 1" % self.max_poses)
+        self.capped = False
         self.selection = Selection(str(gp("~map", "")), float(gp("~since", 0.0)),
                                    float(gp("~until", 0.0)), int(gp("~last_n", 0)),
                                    str(gp("~color_by", "time")), bool(gp("~paths", False)))
@@ -165,7 +198,17 @@ class ViewerNode:
     # -- loading ------------------------------------------------------------------------------
     def _reload(self, sel: Selection) -> Dict[Tuple[str, int], Chunk]:
         chunks = select_chunks(self.store, sel.map_name, sel.since_ns, sel.until_ns, sel.last_n)
-        return {(c.uuid, c.sequence_id): c for c in chunks}
+        return self._cap({(c.uuid, c.sequence_id): c for c in chunks}, sel.last_n)
+
+    def _cap(self, chunks: Dict[Tuple[str, int], Chunk], last_n: int
+             ) -> Dict[Tuple[str, int], Chunk]:
+        kept = newest(chunks, last_n, self.max_poses)
+        if len(kept) < len(chunks) and not self.capped:
+            self.capped = True
+            rospy.loginfo("trajectory_viewer: showing the newest trajectories that fit in "
+                          "~max_poses %d poses; older ones are dropped from view (narrow the "
+                          "selection with ~since/~until/~last_n to see them)", self.max_poses)
+        return kept
 
     def _reload_or_warn(self) -> None:
         try:
@@ -213,18 +256,8 @@ class ViewerNode:
                     return
                 self.chunks[(c.uuid, c.sequence_id)] = c
             if self.chunks:
-                self._apply_last_n()
+                self.chunks = self._cap(self.chunks, sel.last_n)
                 self._publish()
-
-    def _apply_last_n(self) -> None:
-        n = self.selection.last_n
-        if n <= 0:
-            return
-        ends: Dict[str, int] = {}
-        for c in self.chunks.values():
-            ends[c.uuid] = max(ends.get(c.uuid, 0), c.end_ns)
-        keep = set(sorted(ends, key=lambda u: (ends[u], u))[-n:])
-        self.chunks = {k: c for k, c in self.chunks.items() if c.uuid in keep}
 
     # -- output -------------------------------------------------------------------------------
     def _publish(self) -> None:
