@@ -2,6 +2,7 @@
 markov_chain command line, against hand-computed values (no ROS)."""
 from __future__ import annotations
 
+import datetime
 import json
 import os
 from fractions import Fraction as F
@@ -11,6 +12,7 @@ import pytest
 from scipy.stats import chisquare
 
 from bullet_floor_sim.core.markov import (
+    STALE_BUILD_S,
     ChainError,
     MarkovChain,
     chain_collection,
@@ -512,15 +514,35 @@ def test_store_chain_roundtrip(store):
 
 
 def test_store_chain_replaces_the_previous_chain_of_that_map_only(store):
-    store_chain(store, corridor_and_offices())
-    store_chain(store, corridor_and_offices(), map_name="other")
+    t0 = datetime.datetime(2026, 1, 1, 12, 0, 0)
+    store_chain(store, corridor_and_offices(), now=t0)
+    store_chain(store, corridor_and_offices(), map_name="other", now=t0)
     two = MarkovChain.from_rois(rois_of(box(0, 0, 1, 1), box(1, 0, 2, 1), ids=["A", "B"]))
-    assert store_chain(store, two, extra={"built_by": "/test", "ID_region": "ignored"}) == 2
+    later = t0 + datetime.timedelta(seconds=STALE_BUILD_S + 1)
+    assert store_chain(store, two, extra={"built_by": "/test", "ID_region": "ignored"},
+                       now=later) == 2
     docs = store.find("markov_chain_db", "roi_proba_connexions_m")
     assert sorted(d["ID_region"] for d in docs) == ["A", "B"]
     assert {d["built_by"] for d in docs} == {"/test"}
     assert load_chain(store, "m").row("A") == pytest.approx({"A": 0.5, "B": 0.5})
     assert load_chain(store, "other").ids == ["C", "O1", "O2", "O3"]
+
+
+def test_two_writers_rebuilding_one_map_keep_each_others_fresh_builds(store):
+    t0 = datetime.datetime(2026, 1, 1, 12, 0, 0)
+    first = corridor_and_offices()
+    second = MarkovChain.from_rois(rois_of(box(0, 0, 1, 1), box(1, 0, 2, 1), ids=["A", "B"]))
+    store_chain(store, first, now=t0)
+    store_chain(store, second, now=t0 + datetime.timedelta(seconds=1))   # the other walker
+    docs = store.find("markov_chain_db", "roi_proba_connexions_m")
+    assert len({d["build_id"] for d in docs}) == 2 and len(docs) == 6    # neither deleted
+    marker = store.find_one("markov_chain_db", "chain_builds", {"_id": "m"})
+    assert marker["build_id"] == docs[-1]["build_id"]
+    assert load_chain(store, "m").ids == ["A", "B"]                      # the marker's build
+    store_chain(store, first, now=t0 + datetime.timedelta(seconds=STALE_BUILD_S + 5))
+    docs = store.find("markov_chain_db", "roi_proba_connexions_m")
+    assert len({d["build_id"] for d in docs}) == 1 and len(docs) == 4    # stale ones gone
+    assert load_chain(store, "m").ids == ["C", "O1", "O2", "O3"]
 
 
 def test_load_chain_errors(store):
@@ -596,13 +618,16 @@ def test_read_rois_takes_the_current_version_of_each(store):
     assert chain.row("2") == pytest.approx({"2": 0.5, "1": 0.5})
 
 
-def test_load_chain_reads_the_newest_build_while_both_are_there(store):
+def test_load_chain_reads_the_marked_build_while_another_is_being_written(store):
     store_chain(store, corridor_and_offices())
-    # the moment between store_chain's inserts and its delete: both builds present
-    for doc in MarkovChain.from_rois(rois_of(box(0, 0, 1, 1), ids=["A"])).to_documents()[
-            "documents"]:
-        store.insert("markov_chain_db", "roi_proba_connexions_m", dict(doc, build_id="new"))
-    assert load_chain(store, "m").ids == ["A"]
+    # a writer half-way through its inserts (the marker not updated yet): the old build, whole
+    doc = MarkovChain.from_rois(rois_of(box(0, 0, 1, 1), box(1, 0, 2, 1), ids=["A", "B"])
+                                ).to_documents()["documents"][0]
+    store.insert("markov_chain_db", "roi_proba_connexions_m", dict(doc, build_id="new"))
+    assert load_chain(store, "m").ids == ["C", "O1", "O2", "O3"]
+    store.delete("markov_chain_db", "chain_builds", {})     # no marker (an earlier version):
+    with pytest.raises(ChainError, match="'A' leads to 'B', which has no document"):
+        load_chain(store, "m")                              # the newest build is read
 
 
 def test_cli_reads_rois_from_the_store(tmp_path, capsys, monkeypatch):

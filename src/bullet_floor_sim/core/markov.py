@@ -28,6 +28,7 @@ ones an edit broke.
 """
 from __future__ import annotations
 
+import datetime
 import uuid
 from dataclasses import dataclass, field
 from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Set, Tuple, Union
@@ -50,6 +51,8 @@ __all__ = [
     "transition_matrix",
     "chain_collection",
     "store_chain",
+    "STALE_BUILD_S",
+    "BUILDS_COLLECTION",
     "load_chain",
     "rois_from_documents",
     "usable_rois",
@@ -519,22 +522,33 @@ class MarkovChain:
 # --------------------------------------------------------------------------------------------
 
 
+#: The collection of per-map markers naming each map's current chain build.
+BUILDS_COLLECTION = "chain_builds"
+#: Builds other than the current one are deleted once they are this old: two walkers that
+#: rebuild one map's chain at once then never delete each other's fresh documents.
+STALE_BUILD_S = 60.0
+
+
 def store_chain(store: Any, chain: MarkovChain, map_name: Optional[str] = None,
-                extra: Optional[Mapping[str, Any]] = None) -> int:
+                extra: Optional[Mapping[str, Any]] = None,
+                now: Optional[datetime.datetime] = None) -> int:
     """Write the chain to a store, replacing the map's previous chain.
 
     The seed emptied the collection and then inserted one document per region. Here the new
-    documents (all tagged with one fresh ``build_id``) go in first and every other document is
-    deleted after, so a reader never finds the collection empty; in between it may see both
-    builds (:func:`load_chain` then reads the newest).
+    documents (all tagged with one fresh ``build_id`` and ``built_at``) go in first, then the
+    map's marker in ``markov_chain_db.chain_builds`` (``_id`` the map) names this build, and
+    builds other than this one older than :data:`STALE_BUILD_S` are deleted. A reader never
+    finds the collection empty, and two writers rebuilding one map at once keep both builds
+    for a while (the marker names the last) instead of deleting each other's.
 
     Args:
         store: a :class:`~bullet_floor_sim.core.store.Store` (or anything with its
-            ``delete``/``insert``).
+            ``delete``/``insert``/``update``).
         chain: the chain.
         map_name: the map whose collection to use (default: ``chain.map_name``).
         extra: more fields for every document (e.g. ``{"built_by": "/markov_walker"}``);
             they never override the chain's own fields.
+        now: the build time (default: now, UTC).
 
     Returns:
         The number of documents written (journalled while the database is down).
@@ -546,17 +560,26 @@ def store_chain(store: Any, chain: MarkovChain, map_name: Optional[str] = None,
     stored = chain.to_documents(map_name)
     db, coll = stored["database"], stored["collection"]
     build = uuid.uuid4().hex
+    at = (now or datetime.datetime.utcnow()).replace(microsecond=0, tzinfo=None)
     for doc in stored["documents"]:
-        doc["build_id"] = build
+        doc["build_id"], doc["built_at"] = build, at
         if extra:
             doc = dict(doc, **{k: v for k, v in extra.items() if k not in doc})
         store.insert(db, coll, doc)
-    store.delete(db, coll, {"build_id": {"$ne": build}})
+    name = stored["documents"][0]["map_name"] if stored["documents"] else coll
+    store.update(db, BUILDS_COLLECTION, {"_id": name},
+                 {"$set": {"build_id": build, "built_at": at, "collection": coll}},
+                 upsert=True)
+    stale = at - datetime.timedelta(seconds=STALE_BUILD_S)
+    store.delete(db, coll, {"build_id": {"$ne": build},
+                            "$or": [{"built_at": {"$lt": stale}},
+                                    {"built_at": {"$exists": False}}]})
     return len(stored["documents"])
 
 
 def load_chain(store: Any, map_name: str) -> MarkovChain:
-    """Read back the chain :func:`store_chain` wrote for a map.
+    """Read back the chain :func:`store_chain` wrote for a map: the build its marker names
+    (else, the newest build in the collection).
 
     Raises:
         ChainError: no chain is stored for the map, or its documents are malformed (the
@@ -568,8 +591,12 @@ def load_chain(store: Any, map_name: str) -> MarkovChain:
     docs = store.find(DATABASE, coll, {}, sort=[("_id", 1)])
     if not docs:
         raise ChainError("%s: no chain stored for map %r" % (where, map_name))
-    newest = docs[-1].get("build_id")  # store_chain's insert-then-delete window: newest build
-    docs = [d for d in docs if d.get("build_id") == newest]
+    marker = store.find_one(DATABASE, BUILDS_COLLECTION, {"_id": map_name}) or {}
+    builds = {d.get("build_id") for d in docs}
+    current = marker.get("build_id")
+    if current not in builds:
+        current = docs[-1].get("build_id")  # no marker (an older writer): the newest build
+    docs = [d for d in docs if d.get("build_id") == current]
     ids = []  # type: List[str]
     rows = []  # type: List[List[Tuple[str, float]]]
     for doc in docs:
