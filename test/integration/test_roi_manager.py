@@ -7,13 +7,15 @@ answer with worlds/office/rois.yaml exactly; an interactive-marker feedback mess
 vertex changes the stored ROI (a new version, the old one kept) and /soma/roi_markers; the
 menu's Delete Point / Add ROI / Delete ROI; a drag still unsaved when SIGINT arrives is saved
 before exit; a restart keeps every edit (no reseeding from the file); `rois export` writes
-what the store holds and `rois import` of an edited file reaches the running node.
+what the store holds and `rois import` of an edited file reaches the running node; a drag
+the database refuses (an SQLite trigger) is retried, and saved once it accepts.
 """
 from __future__ import annotations
 
 import os
 import shutil
 import signal
+import sqlite3
 import subprocess
 import tempfile
 import time
@@ -196,6 +198,23 @@ class RoiManagerTest(unittest.TestCase):
         self.assertIn("17", got)
         self.assertNotIn("16", got)
         self.assertEqual(len(got), 16)  # 15 from the file (none reseeded) + ROI 17
+
+    def test_6_a_save_the_store_refuses_is_retried_not_called_invalid(self):
+        before = vertices(self.newest("10")["10"])
+        refuse = sqlite3.connect(os.path.join(self.db, "somadata.sqlite3"), isolation_level=None)
+        refuse.execute('CREATE TRIGGER bfs_refuse BEFORE INSERT ON "docs:roi" '
+                       "BEGIN SELECT RAISE(ABORT, 'refused by the test'); END")
+        try:
+            self.move("10_0", before[0][0] + 0.25, before[0][1])
+            time.sleep(2.0)        # debounced, tried, refused by the database
+            self.assertEqual(vertices(self.newest("10")["10"]), before)
+        finally:
+            refuse.execute("DROP TRIGGER bfs_refuse")
+            refuse.close()
+        # the saver retries (every 5 s) without another drag: the edit reaches the store
+        moved = (before[0][0] + 0.25, before[0][1])
+        wait_for(lambda: vertices(self.newest("10")["10"])[0] == moved, 15,
+                 "the refused edit, retried")
 
     def test_5_export_and_import(self):
         out = os.path.join(self.tmp, "export.yaml")

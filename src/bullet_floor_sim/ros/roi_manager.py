@@ -11,7 +11,9 @@
 * Drags are saved once the vertex rests for ``~save_quiet`` s (and at the latest
   ``~save_max_wait`` s into a long drag), each as a new version; menu edits are saved at
   once; pending edits are saved at shutdown. A polygon made self-intersecting by a drag is
-  not saved (warning) until it is valid again.
+  not saved (warning) until it is valid again. An edit the store refuses (not an outage:
+  those are journalled) is reported as a store error and retried every 5 s; nothing one
+  save raises stops the saver.
 * ``/soma/roi_markers`` (latched MarkerArray: outline and "id: type" label of every ROI) and
   ``/soma/rois_changed`` (std_msgs/String: the config, after every saved change).
 * ``/soma/map`` (latched OccupancyGrid of the world's map, as soma_map_manager publishes it),
@@ -44,8 +46,8 @@ from bullet_floor_sim.core.config import load_world_config, resolve_world
 from bullet_floor_sim.core.errors import BulletFloorSimError
 from bullet_floor_sim.core.floormap import load_map
 from bullet_floor_sim.core.paths import worlds_dir
-from bullet_floor_sim.core.rois import Roi, centroid, check_bounds, load_rois
-from bullet_floor_sim.core.store import StoreUnavailable, open_store
+from bullet_floor_sim.core.rois import Roi, RoiError, centroid, check_bounds, load_rois
+from bullet_floor_sim.core.store import StoreError, StoreUnavailable, open_store
 from bullet_floor_sim.msg import SOMAROIObject
 from bullet_floor_sim.ros.convert import occupancy_grid
 from bullet_floor_sim.srv import (MapInfo, MapInfoResponse, SOMAQueryROIs,
@@ -101,6 +103,10 @@ def type_color(roi_type: str, alpha: float = 1.0) -> ColorRGBA:
 # --------------------------------------------------------------------------------------------
 
 
+#: Seconds between attempts to save an edit the store refused.
+_RETRY_S = 5.0
+
+
 class RoiManagerNode:
     """The ROI manager; see the module docstring."""
 
@@ -127,6 +133,7 @@ class RoiManagerNode:
         self.rois: Dict[Key, Roi] = {}
         self.known: Dict[Key, int] = {}        # newest stored version we know of
         self.invalid: Dict[Key, str] = {}      # edits not saved: the polygon is invalid
+        self.unsaved: Dict[Key, str] = {}      # edits the store refused: retried
         self.servers: Dict[str, InteractiveMarkerServer] = {}
         self.menus: Dict[str, MenuHandler] = {}
         self.menu_actions: Dict[str, Dict[int, Tuple[str, str]]] = {}
@@ -350,14 +357,23 @@ class RoiManagerNode:
             return False
         try:
             version = self.rois_db.save(roi)
-        except BulletFloorSimError as e:
+        except RoiError as e:
             if self.invalid.get(key) != str(e):
                 rospy.logwarn("roi_manager: not saved: %s; move the vertex so that the "
                               "polygon is valid again", e)
             self.invalid[key] = str(e)
             return False
+        except (StoreError, OSError) as e:   # the store's fault, not the polygon's: retried
+            if key not in self.unsaved:
+                rospy.logerr("roi_manager: ROI %s of config %s not saved, the store failed: "
+                             "%s; retrying every %.0f s", key[1], key[0], e, _RETRY_S)
+            self.unsaved[key] = str(e)
+            return False
         if self.invalid.pop(key, None):
             rospy.loginfo("roi_manager: ROI %s of config %s is valid again", key[1], key[0])
+        if self.unsaved.pop(key, None):
+            rospy.loginfo("roi_manager: ROI %s of config %s saved after retrying", key[1],
+                          key[0])
         self.known[key] = version
         self._changed(key[0])
         return True
@@ -367,14 +383,26 @@ class RoiManagerNode:
         self.changed_pub.publish(String(data=config))
 
     def _run(self) -> None:
+        """The saver: debounced drags, retries of refused saves, the periodic sync. Nothing
+        one pass raises ends it."""
         next_sync = time.monotonic() + self.sync_period
+        next_retry = time.monotonic() + _RETRY_S
         while not self._stop.wait(0.1):
-            with self.lock:
-                for key in self.debouncer.due(time.monotonic()):
-                    self._save(key)
-            if self.sync_period > 0 and time.monotonic() >= next_sync:
-                next_sync = time.monotonic() + self.sync_period
-                self._sync()
+            try:
+                now = time.monotonic()
+                with self.lock:
+                    due = list(self.debouncer.due(now))
+                    if now >= next_retry:
+                        next_retry = now + _RETRY_S
+                        due += [k for k in self.unsaved if k not in due]
+                    for key in due:
+                        self._save(key)
+                if self.sync_period > 0 and time.monotonic() >= next_sync:
+                    next_sync = time.monotonic() + self.sync_period
+                    self._sync()
+            except Exception as e:  # noqa: BLE001 - the saver outlives any one failure
+                rospy.logerr_throttle(30.0, "roi_manager: saver: %s: %s (retrying)",
+                                      type(e).__name__, e)
 
     def _sync(self) -> None:
         """Pick up ROI versions written by others (e.g. ``rois import``)."""
@@ -383,7 +411,7 @@ class RoiManagerNode:
         except StoreUnavailable:
             return
         with self.lock:
-            busy = set(self.debouncer.pending()) | set(self.invalid)
+            busy = set(self.debouncer.pending()) | set(self.invalid) | set(self.unsaved)
             changed = {k for k, v in stored.items()
                        if v > self.known.get(k, 0) and k not in busy}
             if not changed:
@@ -407,8 +435,11 @@ class RoiManagerNode:
     def _shutdown(self) -> None:
         self._stop.set()
         with self.lock:
-            for key in self.debouncer.drain():
+            for key in list(self.debouncer.drain()) + list(self.unsaved):
                 self._save(key)
+            for key, why in self.unsaved.items():
+                rospy.logerr("roi_manager: ROI %s of config %s NOT saved at shutdown: %s",
+                             key[1], key[0], why)
             self.store.close()
 
     # -- rviz -----------------------------------------------------------------------------------

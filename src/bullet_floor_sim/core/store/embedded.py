@@ -144,6 +144,9 @@ class EmbeddedBackend(Backend):
                 raise
             return result
         except sqlite3.IntegrityError as e:
+            if "UNIQUE" not in str(e):   # a constraint or trigger of the database refused it
+                raise StoreError("store %s: database %s refused the write (%s)"
+                                 % (self.directory, db, e)) from None
             raise DuplicateKeyError("store %s: duplicate _id in %s (%s)"
                                     % (self.directory, db, e)) from None
         except sqlite3.OperationalError as e:
