@@ -258,3 +258,31 @@ def test_debouncer_saves_after_quiet_time_and_after_max_wait():
     assert d.drain() == ["e"] and d.pending() == []
     with pytest.raises(ValueError, match="quiet <= max_wait"):
         Debouncer(quiet=2.0, max_wait=1.0)
+
+
+def test_the_newest_rois_are_answered_from_memory_while_the_database_is_down(tmp_path, clock):
+    import sqlite3
+
+    from bullet_floor_sim.core.store import StoreUnavailable, open_store
+
+    store = open_store(str(tmp_path / "db"), journal_dir=str(tmp_path / "j"), timeout=0.05,
+                       retry_interval=0.0)
+    rs = RoiStore(store, "office", inserted_by="/test", clock=clock)
+    rs.save(square("1", 0, 0))
+    rs.save(square("2", 2, 0))
+    assert [r.id for r in rs.current("1")] == ["1", "2"] and rs.from_memory == 0
+    lock = sqlite3.connect(str(tmp_path / "db" / (DATABASE + ".sqlite3")), isolation_level=None)
+    lock.execute("BEGIN EXCLUSIVE")                       # the database is down
+    rs.save(square("2", 5, 5))                            # journalled
+    rs.delete("1", "1")                                   # journalled too
+    assert [(r.id, r.vertices[0]) for r in rs.current("1")] == [("2", (4.5, 4.5))]
+    newest = rs.query(RoiQuery(query_type=0, returnmostrecent=True, roiconfigs=["1"]))
+    assert [d["id"] for d in newest["rois"]] == ["2"] and rs.from_memory >= 2
+    with pytest.raises(StoreUnavailable):
+        rs.query(RoiQuery(query_type=0))                  # the history is not in memory
+    lock.execute("ROLLBACK")
+    lock.close()
+    assert store.replay()
+    assert [(r.id, r.vertices[0]) for r in RoiStore(store, "office").current("1")] == [
+        ("2", (4.5, 4.5))]
+    store.close()
