@@ -108,7 +108,10 @@ class MongoServer:
 
         os.makedirs(self.workdir, exist_ok=True)
         with open(self.log_path, "ab") as log:
-            self.proc = subprocess.Popen(self._command(), stdout=log, stderr=subprocess.STDOUT)
+            # its own session: a signal to the caller's process group (roslaunch stopping a
+            # test node) does not take the server down with it
+            self.proc = subprocess.Popen(self._command(), stdout=log, stderr=subprocess.STDOUT,
+                                         start_new_session=True)
         deadline = time.monotonic() + timeout
         while True:
             if self.proc.poll() is not None:
