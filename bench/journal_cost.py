@@ -121,13 +121,13 @@ def measure(n: int, reps: int, replay_max: int, tmp: str) -> Dict[str, float]:
     return out
 
 
-def main() -> int:
+def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--sizes", type=int, nargs="+", default=[1000, 10000, 100000])
     p.add_argument("--reps", type=int, default=5)
     p.add_argument("--replay-max", type=int, default=10000,
                    help="replay the whole journal (timed) up to this size")
-    args = p.parse_args()
+    args = p.parse_args(argv)
     tmp = tempfile.mkdtemp(prefix="journal_cost-")
     rows = []
     try:

@@ -21,6 +21,8 @@ Target: < 20 ms.
   is a MongoDB emulator in Python whose inserts scan the whole collection (about 20 s per
   1,000 documents at 10,000), so it gets 1,000 versions (2 x 50 x 10, in memory) and its
   numbers say nothing about MongoDB's speed; ``mongo_versions`` in the BENCH line says which.
+* the journal's cost per operation during an outage at 10^3, 10^4 and 10^5 journalled writes
+  (bench/journal_cost.py; ``BENCH journal n=...`` lines).
 * montydb-sqlite (reference, not in the BENCH line; ``--no-montydb`` skips it): montydb
   2.5.6's own sqlite storage, which has no indexes and no aggregation: find(map) sorted +
   dedupe in Python.
@@ -137,6 +139,8 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--no-montydb", action="store_true",
                         help="skip the montydb-sqlite reference row (about 20 s)")
+    parser.add_argument("--journal-sizes", type=int, nargs="*", default=[1000, 10000, 100000],
+                        help="journal lengths for the outage cost table (none: skip it)")
     args = parser.parse_args()
     from mongo_server import MongoServer, find_launcher
 
@@ -183,6 +187,10 @@ def main() -> int:
     def fmt(x: Optional[float], digits: int) -> str:
         return "na" if x is None else "%.*f" % (digits, x)
 
+    if args.journal_sizes:
+        import journal_cost
+
+        journal_cost.main(["--sizes"] + [str(n) for n in args.journal_sizes])
     print("BENCH store insert_per_s_embedded=%s query_ms_embedded=%s insert_per_s_mongo=%s "
           "query_ms_mongo=%s mongo_server=%s mongo_versions=%s" % (
               fmt(rows[0][3], 0), fmt(rows[0][4], 2), fmt(mongo[0], 0), fmt(mongo[1], 2),

@@ -214,8 +214,9 @@ class MarkovWalkerNode:
         rospy.Subscriber("pose", PoseStamped, self._on_pose, queue_size=5)
         rospy.Subscriber(str(gp("~rois_changed_topic", "/soma/rois_changed")), String,
                          self._on_rois_changed, queue_size=5)
-        rospy.Timer(rospy.Duration(1.0), self._publish_region)
-        rospy.Timer(rospy.Duration(self.requery_period), lambda _: self.refresh.set())
+        rospy.Timer(rospy.Duration(1.0), self._publish_region, reset=True)
+        rospy.Timer(rospy.Duration(self.requery_period), lambda _: self.refresh.set(),
+                    reset=True)
         rospy.on_shutdown(self._on_shutdown)
         self.refresh.set()
         threading.Thread(target=self._refresh_loop, name="rois", daemon=True).start()

@@ -193,7 +193,7 @@ class ViewerNode:
         self.next_refresh = 0.0
         with self.lock:
             self._reload_or_warn()
-        self.timer = rospy.Timer(rospy.Duration(2.0), self._tick)
+        self.timer = rospy.Timer(rospy.Duration(2.0), self._tick, reset=True)
 
     # -- loading ------------------------------------------------------------------------------
     def _reload(self, sel: Selection) -> Dict[Tuple[str, int], Chunk]:
