@@ -51,7 +51,10 @@ def test_a_killed_recorder_leaves_its_unstored_and_open_chunks(tmp_path):
         ("u1", 0, False, "period"), ("u1", 1, True, "recovered")]
     assert back[0].poses == [pose(k) for k in range(21)]
     assert back[1].poses == [pose(k) for k in range(20, 30)]           # the boundary pose too
-    assert ChunkSpill(path).recover() == []                            # taken: emptied
+    again = ChunkSpill(path)
+    assert again.recover() == back                 # kept until they are stored ...
+    again.remove()
+    assert ChunkSpill(path).recover() == []        # ... and then gone
 
 
 def test_stored_chunks_leave_the_file_and_only_the_open_chunk_stays(tmp_path):
@@ -70,6 +73,24 @@ def test_stored_chunks_leave_the_file_and_only_the_open_chunk_stays(tmp_path):
     back = ChunkSpill(path).recover()
     assert [(c.sequence_id, c.closed_by) for c in back] == [(2, "recovered")]
     assert back[0].poses == [pose(k) for k in range(40, 46)]
+
+
+def test_the_open_chunk_survives_the_rewrite_when_no_pose_follows(tmp_path):
+    """A database stall: the closed chunk is stored late, after the open chunk's poses were
+    flushed, and no pose comes after (the walker stands): the rewrite keeps those poses."""
+    path = str(tmp_path / "x.jsonl")
+    spill = ChunkSpill(path, flush_every=0.0)
+    chunker = Chunker(period=1.0, new_uuid=lambda: "u6")
+    closed = record(chunker, spill, [pose(k) for k in range(50)])     # chunks 0, 1 closed
+    spill.flush()
+    for c in closed:
+        spill.stored(c)                                                # then the rewrite
+    back = ChunkSpill(path).recover()
+    assert [(c.sequence_id, c.closed_by) for c in back] == [(2, "recovered")]
+    assert back[0].poses == [pose(k) for k in range(40, 50)]
+    record(chunker, spill, [pose(50)])                                 # and it goes on
+    spill.flush()
+    assert ChunkSpill(path).recover()[0].poses == [pose(k) for k in range(40, 51)]
 
 
 def test_a_torn_last_line_is_skipped(tmp_path):
@@ -117,3 +138,25 @@ def test_the_queue_stores_in_order_without_blocking_the_caller():
     release.set()
     assert q.close(10.0)
     assert done == [(0, 0), (1, 1), (3, 3)]      # in order; the bad one logged, the rest went on
+
+
+def test_a_chunk_is_stored_under_the_same_id_every_time(tmp_path):
+    import bson
+
+    from bullet_floor_sim.core.store import DuplicateKeyError, open_store
+    from bullet_floor_sim.core.trajectory import Chunk, chunk_id
+
+    a = Chunk.from_poses("u7", 3, [pose(k) for k in range(5)], False)
+    again = Chunk.from_poses("u7", 3, [pose(k) for k in range(5)], True)    # recovered
+    other = Chunk.from_poses("u7", 4, [pose(k) for k in range(4, 9)], False)
+    assert chunk_id(a) == chunk_id(again) != chunk_id(other)
+    assert isinstance(chunk_id(a), bson.ObjectId)
+    assert chunk_id(a).generation_time.timestamp() == pose(0)[0] // NS   # its start second
+    with open_store(str(tmp_path / "db"), journal_dir=str(tmp_path / "j")) as store:
+        store.insert("d", "c", {"_id": chunk_id(a)})
+        try:
+            store.insert("d", "c", {"_id": chunk_id(again)})
+        except DuplicateKeyError:
+            pass
+        else:
+            raise AssertionError("a chunk stored twice")

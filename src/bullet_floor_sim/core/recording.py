@@ -16,6 +16,7 @@ stored, the file is rewritten with the open chunk alone.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import os
@@ -51,6 +52,7 @@ class ChunkSpill:
         self._lines: List[str] = []      # written at the next flush
         self._open: Optional[_Key] = None
         self._open_region: Optional[str] = None
+        self._open_poses: Sequence[Pose] = ()   # the open chunk's poses (the chunker's list)
         self._written = 0                # poses of the open chunk already in _lines or the file
         self._unstored: Dict[_Key, Tuple[List[Pose], Optional[str], str, bool]] = {}
         self._last_flush = clock()
@@ -64,6 +66,7 @@ class ChunkSpill:
             if uuid is None:
                 self._open = None
                 return
+            self._open_poses = poses
             if self._open != (uuid, seq):
                 self._open, self._open_region, self._written = (uuid, seq), region, 0
                 self._lines.append(json.dumps({"chunk": [uuid, seq, region]}))
@@ -110,11 +113,9 @@ class ChunkSpill:
             self._last_flush = self._clock()
             if not self._lines:
                 return
-            text = "\n".join(self._lines) + "\n"
+            text = ("\n".join(self._lines) + "\n").encode("utf-8")
             try:
-                _makedirs(self.path)
-                with open(self.path, "a") as f:
-                    f.write(text)
+                _append_whole(self.path, text)
             except OSError as e:
                 self._failed(e)
                 return
@@ -135,8 +136,9 @@ class ChunkSpill:
     # -- recovery -------------------------------------------------------------------------------
     def recover(self) -> List[Chunk]:
         """The chunks a previous recorder left unstored, in order: those it had closed as
-        they were, its open one complete and closed by "recovered"; the file is then
-        emptied. Unreadable lines are skipped (a line torn by the kill is the last one)."""
+        they were, its open one complete and closed by "recovered". The file stays until
+        :meth:`remove` (call it once they are stored: a recorder killed while recovering
+        leaves them for the next). Unreadable lines are skipped (a line torn by a kill)."""
         chunks: Dict[_Key, Dict[str, Any]] = {}
         order: List[_Key] = []
         current: Optional[_Key] = None
@@ -154,17 +156,20 @@ class ChunkSpill:
             closed_by, complete = c["closed"] or ("recovered", True)
             out.append(Chunk.from_poses(key[0], key[1], c["poses"], complete,
                                         region=c["region"], closed_by=closed_by))
-        self.remove()
         return out
 
     # -- internals ------------------------------------------------------------------------------
     def _rewrite_open(self) -> None:
-        """The file holds what is not stored yet: here, at most the open chunk (lock held)."""
+        """The file holds what is not stored yet: here, at most the open chunk, with its poses
+        so far (lock held)."""
         self._lines = []
-        self._written = 0      # the open chunk's poses go to the file again
         if self._open is not None:
+            poses = list(self._open_poses)
             self._lines.append(json.dumps({"chunk": [self._open[0], self._open[1],
                                                      self._open_region]}))
+            if poses:
+                self._lines.append(json.dumps({"poses": [list(p) for p in poses]}))
+            self._written = len(poses)
         try:
             _makedirs(self.path)
             with atomic_file(self.path, fsync=False) as f:
@@ -206,6 +211,24 @@ def _read_line(line: str, chunks: Dict[_Key, Dict[str, Any]], order: List[_Key],
     return current
 
 
+def _append_whole(path: str, data: bytes) -> None:
+    """Append ``data``, or (on an error part-way, a full disk) leave the file as it was."""
+    _makedirs(path)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
+    try:
+        size = os.fstat(fd).st_size
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(fd, view):]
+        except OSError:
+            with contextlib.suppress(OSError):
+                os.ftruncate(fd, size)
+            raise
+    finally:
+        os.close(fd)
+
+
 def _makedirs(path: str) -> None:
     os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
 
@@ -223,6 +246,7 @@ class ChunkQueue:
         self._store = store
         self._name = name
         self._queue: "queue.Queue[Optional[Tuple[Chunk, Any]]]" = queue.Queue()
+        self._abandoned = False
         self._thread = threading.Thread(target=self._run, name=name + "-store", daemon=True)
         self._thread.start()
 
@@ -236,10 +260,12 @@ class ChunkQueue:
         return self._queue.unfinished_tasks
 
     def close(self, timeout: float = 30.0) -> bool:
-        """Store what is queued, then stop the worker; True when it finished in time."""
+        """Store what is queued, then stop the worker; True when it finished in time. After a
+        timeout the worker stores no further chunk (the one in hand it finishes)."""
         self._queue.put(None)
         self._thread.join(timeout)
-        return not self._thread.is_alive()
+        self._abandoned = self._thread.is_alive()
+        return not self._abandoned
 
     def _run(self) -> None:
         while True:
@@ -247,6 +273,8 @@ class ChunkQueue:
             try:
                 if item is None:
                     return
+                if self._abandoned:
+                    continue
                 try:
                     self._store(*item)
                 except Exception:  # noqa: BLE001 - the worker must outlive one bad chunk

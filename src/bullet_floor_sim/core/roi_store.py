@@ -241,7 +241,8 @@ class RoiStore:
             if self._cache is None:
                 raise
             self.from_memory += 1
-            docs = [self._cache[k] for k in sorted(self._cache)]
+            cached = list(self._cache.items())   # the saver thread may add to it meanwhile
+            docs = [d for _, d in sorted(cached, key=lambda kv: (str(kv[0][0]), str(kv[0][1])))]
         return [d for d in docs if config is None or d.get("config") == config]
 
     def current(self, config: Optional[str] = None) -> List[Roi]:

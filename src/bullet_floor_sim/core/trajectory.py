@@ -36,8 +36,10 @@ No rospy here: the ROS glue turns PoseStamped messages into pose tuples.
 from __future__ import annotations
 
 import decimal
+import hashlib
 import json
 import math
+import struct
 import uuid as uuidlib
 from dataclasses import dataclass, field
 from typing import Any, Callable, Dict, Iterable, Iterator, List, Optional, Sequence, Tuple
@@ -66,6 +68,7 @@ __all__ = [
     "split_poses",
     "join_chunks",
     "chunk_fields",
+    "chunk_id",
     "chunk_from_document",
     "chunk_to_json",
     "chunk_from_json",
@@ -421,6 +424,17 @@ class RegionLocator:
 def _time_doc(t_ns: int) -> Dict[str, int]:
     secs, nsecs = divmod(int(t_ns), _NS)
     return {"secs": secs, "nsecs": nsecs}
+
+
+def chunk_id(chunk: Chunk) -> Any:
+    """The ``_id`` a chunk is stored under, the same every time it is stored (a recorder
+    recovering what a killed one left cannot store it twice): an ObjectId whose seconds are
+    the chunk's start and whose other 8 bytes hash (uuid, sequence_id)."""
+    import bson
+
+    secs = (int(chunk.start_ns) // _NS) & 0xFFFFFFFF
+    digest = hashlib.sha1(("%s/%d" % (chunk.uuid, chunk.sequence_id)).encode("utf-8"))
+    return bson.ObjectId(struct.pack(">I", secs) + digest.digest()[:8])
 
 
 def max_poses_within(frame_id: str, limit: int = MAX_CHUNK_BYTES) -> int:

@@ -51,10 +51,11 @@ from ..core.errors import BulletFloorSimError
 from ..core.paths import worlds_dir
 from ..core.recording import ChunkQueue, ChunkSpill
 from ..core.rois import Roi, load_rois
-from ..core.store import StoreError, StoreUnavailable, insert_message, open_store, ros_home
+from ..core.store import (DuplicateKeyError, StoreError, message_document, open_store,
+                          ros_home)
 from ..core.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_GAP, DEFAULT_MAX_POSES,
                                DEFAULT_PERIOD, STORED_TYPE, Chunk, Chunker, RegionLocator,
-                               check_max_poses, chunk_fields, ensure_indexes)
+                               check_max_poses, chunk_fields, chunk_id, ensure_indexes)
 from ..msg import Trajectory
 
 __all__ = ["main", "RecorderNode", "RospyLogHandler", "chunk_to_msg", "forward_store_log",
@@ -189,6 +190,7 @@ class RecorderNode:
         self.rejected = 0
         self.last_rx: Optional[rospy.Time] = None
         self.last_stamp_ns: Optional[int] = None   # newest pose stamp, when on this clock
+        self.unconfirmed: List[Chunk] = []   # stored, but held in the store's memory
         self.batch_pub = rospy.Publisher("~trajectories/batch", Trajectory, queue_size=100)
         self.complete_pub = rospy.Publisher("~trajectories/complete", Trajectory,
                                             queue_size=100)
@@ -215,22 +217,17 @@ class RecorderNode:
         return os.path.join(directory, key.hexdigest()[:16] + ".jsonl")
 
     def _recover(self) -> None:
-        """Store what a recorder killed before its time left in the spill file."""
+        """Store what a recorder killed before its time left in the spill file. A chunk's
+        ``_id`` is the same every time it is stored (core/trajectory.chunk_id), so one that
+        reached the store (or its journal) before the kill is not stored twice."""
         chunks = self.spill.recover()
-        kept = 0
-        for chunk in chunks:
-            try:
-                if self.store.find_one(DATABASE, COLLECTION, {"uuid": chunk.uuid,
-                                                              "sequence_id": chunk.sequence_id}):
-                    continue   # it reached the store just before the kill
-            except StoreUnavailable:
-                pass           # journalled, and so is this: the journal keeps both
-            self._store(chunk, None)
-            kept += 1
+        kept = [c for c in chunks if self._store(c, None) != "duplicate"]
+        if self.store.held == 0:
+            self.spill.remove()
         if chunks:
             rospy.logwarn("trajectory_recorder: recovered %d chunks (%d poses) a previous "
-                          "recorder on %s left unstored in %s", kept,
-                          sum(len(c.poses) for c in chunks), self.topic, self.spill.path)
+                          "recorder on %s left unstored in %s", len(kept),
+                          sum(len(c.poses) for c in kept), self.topic, self.spill.path)
 
     def _world(self):
         # ~world, else the running simulator's world (sim.launch sets /simulator/world)
@@ -339,9 +336,10 @@ class RecorderNode:
         self.spill.closed(chunk)
         self.queue.put(chunk, self.header_seq)
 
-    def _store(self, chunk: Chunk, header_seq: Optional[int]) -> None:
+    def _store(self, chunk: Chunk, header_seq: Optional[int]) -> str:
         """Store one chunk (journalled if the database is down) and publish it: the queue's
-        worker, never the subscriber thread."""
+        worker, never the subscriber thread. Returns "stored", "duplicate", "refused" or
+        "closed"."""
         now = rospy.Time.now()
         stamp_ns = now.secs * _NS + now.nsecs
         chunk.frame_id = self.frame_id
@@ -349,22 +347,39 @@ class RecorderNode:
         if chunk.region is not None or self.chunker.split == "region":
             meta["region"] = chunk.region
         seq = header_seq if header_seq is not None else 0
+        doc = message_document(chunk_fields(chunk, stamp_ns, seq), STORED_TYPE, meta=meta,
+                               inserted_by=rospy.get_name(), now=stamp_ns / 1e9,
+                               stamp_ns=stamp_ns)
+        doc["_id"] = chunk_id(chunk)
         try:
-            insert_message(self.store, DATABASE, COLLECTION,
-                           chunk_fields(chunk, stamp_ns, seq), STORED_TYPE,
-                           meta=meta, inserted_by=rospy.get_name(), now=stamp_ns / 1e9,
-                           stamp_ns=stamp_ns)
-        except StoreError as e:  # the database refused this document (outages are journalled)
-            rospy.logerr("trajectory_recorder: chunk %d of %s (%d poses) NOT stored: %s",
-                         chunk.sequence_id, chunk.uuid, len(chunk.poses), e)
-            self.spill.stored(chunk)
-            return
-        self.spill.stored(chunk)
+            self.store.insert(DATABASE, COLLECTION, doc)
+        except DuplicateKeyError:  # stored before (a recovered chunk): nothing to do
+            self._confirm(chunk)
+            return "duplicate"
+        except StoreError as e:
+            if self.store.closed:  # shutting down: the spill file keeps it for the next
+                return "closed"
+            rospy.logerr("trajectory_recorder: chunk %d of %s (%d poses) NOT stored, the "
+                         "database refused it: %s", chunk.sequence_id, chunk.uuid,
+                         len(chunk.poses), e)
+            self._confirm(chunk)
+            return "refused"
+        self._confirm(chunk)
         self.stored_chunks += 1
         self.stored_poses += len(chunk.poses)
         pub = self.complete_pub if chunk.complete else self.batch_pub
         if pub.get_num_connections() > 0:
             pub.publish(chunk_to_msg(chunk, now, seq))
+        return "stored"
+
+    def _confirm(self, chunk: Chunk) -> None:
+        """Let the spill file drop a chunk once its write is durable: in the database or the
+        journal, not only in the store's memory (a full disk); then every earlier one too."""
+        self.unconfirmed.append(chunk)
+        if self.store.held == 0:
+            for c in self.unconfirmed:
+                self.spill.stored(c)
+            self.unconfirmed = []
 
     def shutdown(self, reason: str = "") -> None:
         """Store the open chunk (complete) and close the store; safe to call twice."""
@@ -377,12 +392,15 @@ class RecorderNode:
             last = self.chunker.finish()
             if last is not None:
                 self._hand_over(last)
-        if self.queue.close(60.0):
+        finished = self.queue.close(60.0)   # on a timeout the worker takes no more chunks
+        if finished and self.store.held == 0:
             self.spill.remove()       # everything is stored or journalled
         else:
             self.spill.flush()
-            rospy.logerr("trajectory_recorder: the store did not take the last chunks within "
-                         "60 s; they stay in %s for the next recorder", self.spill.path)
+            rospy.logerr("trajectory_recorder: %s; the chunks stay in %s for the next "
+                         "recorder", "the store did not take the last chunks within 60 s"
+                         if not finished else "the journal cannot take %d writes"
+                         % self.store.held, self.spill.path)
         pending = self.store.pending
         self.store.close()
         rospy.loginfo("trajectory_recorder: %s: stored %d chunks (%d poses incl. shared "

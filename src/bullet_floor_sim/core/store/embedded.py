@@ -160,6 +160,8 @@ class EmbeddedBackend(Backend):
             self._drop(db)
             raise StoreUnavailable("store %s: database %s unavailable (%s)"
                                    % (self.directory, db, e)) from None
+        except (sqlite3.ProgrammingError, sqlite3.DataError, sqlite3.InterfaceError) as e:
+            raise StoreError("store %s: database %s: %s" % (self.directory, db, e)) from None
         except sqlite3.DatabaseError as e:  # not a database, malformed: database-wide
             self._drop(db)
             raise StoreUnavailable("store %s: database %s is damaged (%s); restore or move "

@@ -20,6 +20,7 @@ import contextlib
 import fcntl
 import json
 import os
+import uuid
 from typing import Any, Dict, Iterator, Optional, Tuple
 
 from bson import json_util
@@ -95,20 +96,32 @@ class Journal:
         """
         self._makedirs()
         created = not os.path.exists(self.path)
-        if created:
-            _unlink(self.done_path)  # progress of a journal that no longer exists
+        if created:   # a header naming this journal (its identity), and progress past it
+            header = json.dumps({"journal": uuid.uuid4().hex}).encode("utf-8") + b"\n"
+            fd = os.open(self.done_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+            try:
+                os.write(fd, _DONE_FORMAT % len(header))
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+            line = header + line
         with open(self.path, "ab+") as f:
             size = f.tell()
             if size + len(line) + 1 > self.max_bytes:
                 raise JournalFull("the journal %s is full (%d of %d bytes)"
                                   % (self.path, size, self.max_bytes))
-            if size > 0:
-                f.seek(-1, os.SEEK_END)
-                if f.read(1) != b"\n":  # a torn last line from a crash: end it first
-                    f.write(b"\n")
-            f.write(line)
-            f.flush()
-            os.fsync(f.fileno())
+            try:
+                if size > 0:
+                    f.seek(-1, os.SEEK_END)
+                    if f.read(1) != b"\n":  # a torn last line from a crash: end it first
+                        f.write(b"\n")
+                f.write(line)
+                f.flush()
+                os.fsync(f.fileno())
+            except OSError:   # nothing of it stays: the caller keeps the write elsewhere
+                with contextlib.suppress(OSError):
+                    f.truncate(size)
+                raise
             size = f.tell()
         if created:
             _fsync_dir(os.path.dirname(self.path))
@@ -128,22 +141,26 @@ class Journal:
                 raw = f.readline()
                 if not raw.endswith(b"\n"):
                     return
-                yield raw[:-1], _decode(raw[:-1]), f.tell()
+                entry = _decode(raw[:-1])
+                if entry is not None and "journal" in entry and "op" not in entry:
+                    continue   # the header (read when the progress file was lost)
+                yield raw[:-1], entry, f.tell()
 
     def count(self) -> int:
         """How many journalled lines are not applied yet; the cost is in the bytes appended or
         applied since the last count, not in the journal's length."""
         try:
-            ident, size = self._identity()
-        except OSError:  # no journal (or no way to it: nothing in it either)
+            with open(self.path, "rb") as f:
+                ident, size = self._identity(f)
+                done = min(self.done_offset(), size)
+                c = self._counted
+                if c is not None and c[0] == ident and c[1] <= done <= c[2] <= size:
+                    n = c[3] - _newlines(f, c[1], done) + _newlines(f, c[2], size)
+                else:
+                    n = _newlines(f, done, size)
+        except OSError:  # no journal (or it went between two calls): nothing waits in it
             self._counted = None
             return 0
-        done = min(self.done_offset(), size)
-        c = self._counted
-        if c is not None and c[0] == ident and c[1] <= done <= c[2] <= size:
-            n = c[3] - self._newlines(c[1], done) + self._newlines(c[2], size)
-        else:
-            n = self._newlines(done, size)
         self._counted = (ident, done, size, n)
         return n
 
@@ -168,6 +185,11 @@ class Journal:
         the block ends."""
         fd = os.open(self.done_path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
+            if os.fstat(fd).st_size < len(_DONE_FORMAT % 0):
+                # its full size now, before anything is applied: later marks rewrite these
+                # bytes in place and need no new disk space
+                os.pwrite(fd, _DONE_FORMAT % self.done_offset(), 0)
+                os.fsync(fd)
             yield lambda offset: os.pwrite(fd, _DONE_FORMAT % offset, 0)
             os.fsync(fd)
         finally:
@@ -188,27 +210,13 @@ class Journal:
         _unlink(self.done_path)
         self._counted = None
 
-    def _identity(self) -> Tuple[Any, int]:
+    @staticmethod
+    def _identity(f: Any) -> Tuple[Any, int]:
         """((inode, first line), size): a journal removed and created again may get the same
-        inode, but not the same first entry (an insert's ObjectId, or whatever came first)."""
-        with open(self.path, "rb") as f:
-            size = os.fstat(f.fileno()).st_size
-            return (os.fstat(f.fileno()).st_ino, f.readline(4096)), size
-
-    def _newlines(self, start: int, end: int) -> int:
-        n = 0
-        if end <= start:
-            return 0
-        with open(self.path, "rb") as f:
-            f.seek(start)
-            left = end - start
-            while left > 0:
-                block = f.read(min(_BLOCK, left))
-                if not block:
-                    break
-                n += block.count(b"\n")
-                left -= len(block)
-        return n
+        inode, but not the same first line (its header's random id)."""
+        st = os.fstat(f.fileno())
+        f.seek(0)
+        return (st.st_ino, f.readline(4096)), st.st_size
 
     def _offset_of_line(self, line: int) -> int:
         try:
@@ -222,6 +230,19 @@ class Journal:
 
     def _makedirs(self) -> None:
         os.makedirs(os.path.dirname(self.path) or ".", exist_ok=True)
+
+
+def _newlines(f: Any, start: int, end: int) -> int:
+    n = 0
+    f.seek(start)
+    left = end - start
+    while left > 0:
+        block = f.read(min(_BLOCK, left))
+        if not block:
+            break
+        n += block.count(b"\n")
+        left -= len(block)
+    return n
 
 
 def _decode(raw: bytes) -> Optional[Dict[str, Any]]:

@@ -17,8 +17,9 @@ __all__ = ["MongoBackend"]
 
 #: Server error codes that concern the whole database, not one write: credentials and rights
 #: (18 AuthenticationFailed, 13 Unauthorized), shutdown and elections (91, 189, 10107, 11600,
-#: 11602, 13435), time limits and locks (50, 24, 262), no disk space (14031).
-_DATABASE_WIDE = frozenset((13, 18, 24, 50, 91, 189, 262, 10107, 11600, 11602, 13435, 14031))
+#: 11602, 13435), lock timeouts (24), no disk space (14031). A time limit (50, 262) is one
+#: operation's: a write that keeps hitting it is set aside rather than holding the journal.
+_DATABASE_WIDE = frozenset((13, 18, 24, 91, 189, 10107, 11600, 11602, 13435, 14031))
 
 
 class MongoBackend(Backend):

@@ -111,6 +111,16 @@ class Store:
             return self._journal.count() + len(self._held)
 
     @property
+    def held(self) -> int:
+        """Writes accepted but only in memory (the journal could not take them): not durable
+        until the journal or the database has them."""
+        return len(self._held)
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    @property
     def lost(self) -> int:
         """Writes lost because neither the journal nor the memory queue could take them."""
         return self._lost
@@ -126,10 +136,22 @@ class Store:
             return self._replay(force=True)
 
     def close(self) -> None:
-        """Close the backend; journalled writes stay on disk for the next store."""
+        """Close the backend; journalled writes stay on disk for the next store. Writes held
+        in memory get one more try at the journal; those it still refuses are lost, and
+        counted in an error line."""
         with self._lock:
             if not self._closed:
                 self._closed = True
+                if self._held:
+                    try:
+                        with self._journal.locked():
+                            while self._held:
+                                self._journal.append(self._held[0][0])
+                                self._held_bytes -= len(self._held.popleft()[0])
+                    except (OSError, JournalFull) as e:
+                        LOG.error("store %s: closing with %d writes the journal %s cannot "
+                                  "take (%s): LOST", self.shown_uri, len(self._held),
+                                  self.journal_path, e)
                 self._backend.close()
 
     def __enter__(self) -> "Store":
@@ -363,7 +385,7 @@ class Store:
             try:
                 with self._journal.locked(), self._journal.progress() as mark:
                     for raw, entry, end in self._journal.entries():
-                        ok = self._replay_one(raw, entry)
+                        ok = self._replay_one(raw, entry, journal_locked=True)
                         if ok is None:
                             return False
                         applied += ok
@@ -376,7 +398,7 @@ class Store:
                 return False
         while self._held:
             line, entry = self._held[0]
-            ok = self._replay_one(line[:-1], entry)
+            ok = self._replay_one(line[:-1], entry, journal_locked=False)
             if ok is None:
                 return False
             applied += ok
@@ -384,7 +406,8 @@ class Store:
         self._came_up(applied)
         return True
 
-    def _replay_one(self, raw: bytes, entry: Optional[Dict[str, Any]]) -> Optional[int]:
+    def _replay_one(self, raw: bytes, entry: Optional[Dict[str, Any]],
+                    journal_locked: bool) -> Optional[int]:
         """Apply one journalled write: 1 when applied, 0 when set aside (refused by the
         database, unreadable, or failing in any other way of its own), None when the database
         is unavailable (nothing is set aside then)."""
@@ -399,7 +422,11 @@ class Store:
         except StoreError as e:
             why = str(e)
         try:
-            self._journal.reject(raw, why)
+            if journal_locked:
+                self._journal.reject(raw, why)
+            else:   # a held write: the rejected file is shared with other processes
+                with self._journal.locked():
+                    self._journal.reject(raw, why)
         except OSError as e:
             self._went_down(StoreUnavailable("store %s: cannot set a write aside in %s (%s)" % (
                 redact_uri(self.uri), self._journal.rejected_path, e.strerror or e)))
@@ -421,18 +448,13 @@ class Store:
         with self._lock:
             self._check_open()
             path = self._journal.rejected_path
-            work = path + ".replaying"
-            back = 0
             try:
                 with self._journal.locked():
-                    if os.path.exists(path):
-                        os.replace(path, work)   # a replay before may have left one: add to it
-                    lines = _rejected_entries(work)
-                    for line in lines:
-                        self._journal.append(line)
+                    lines = _rejected_entries(path)
+                    if lines:   # one append: all of them go back, or none
+                        self._journal.append(b"".join(lines))
+                        os.unlink(path)
                     back = len(lines)
-                    if os.path.exists(work):
-                        os.unlink(work)
             except (OSError, JournalFull) as e:
                 raise StoreError("store %s: cannot put the writes set aside in %s back (%s)"
                                  % (redact_uri(self.uri), path, e)) from None
