@@ -384,6 +384,8 @@ class Trajectories(unittest.TestCase):
                              [(True, "end")], rec.log())
             self.assertEqual(joined[0].poses, published)
             self.assertNotIn("no pose for", rec.log())
+            rospy.loginfo("stall: %d poses in %d chunks, one trajectory", len(published),
+                          len(chunks))
         finally:
             rec.close()
 
@@ -409,6 +411,8 @@ class Trajectories(unittest.TestCase):
             kept = chunks[0].poses
             self.assertGreaterEqual(len(kept), 100)          # all but the last flush window
             self.assertEqual(kept, published[:len(kept)])
+            rospy.loginfo("sigkill: %d of %d published poses recovered", len(kept),
+                          len(published))
         finally:
             again.close()
 
