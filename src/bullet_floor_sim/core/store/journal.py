@@ -1,9 +1,12 @@
 """The write journal: an append-only JSON-lines file of writes the database has not seen yet.
 
 One line per write, MongoDB canonical extended JSON (``bson.json_util``), so datetimes,
-ObjectIds and int/long/double survive the round trip exactly. Every append is fsync'd before
-the write call returns. Replay progress is the byte offset of the first line not yet applied,
-in ``<journal>.done``; after a full replay both files are removed. Entries set aside (refused by
+ObjectIds and int/long/double survive the round trip exactly, after a header line with a
+random id (``{"journal": ...}``: the file's identity). Every append is fsync'd before the write
+call returns; one that fails is truncated away. Replay progress is the byte offset of the
+first line not yet applied, in ``<journal>.done`` (fixed width, rewritten in place; journals
+of 0.13 kept a line count there, which is still read); after a full replay both files are
+removed. Entries set aside (refused by
 the database, or unreadable) go to ``<journal minus .jsonl>.rejected.jsonl`` with the reason.
 
 No operation reads the whole file: a replay streams the lines from the progress offset, and
@@ -12,7 +15,8 @@ since (by this or another process). The file is capped at ``max_bytes``: an appe
 pass the cap raises :class:`JournalFull`.
 
 Several processes may share one journal (one per database): appends and replays hold an
-exclusive ``flock`` on ``<journal>.lock``.
+exclusive ``flock`` on ``<journal>.lock`` (per open file: a process that holds it must not
+take it again).
 """
 from __future__ import annotations
 
