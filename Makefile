@@ -33,6 +33,7 @@ integration-test:
 
 lint:
 	$(ROSENV) catkin_lint -q -W2 --strict --pkg bullet_floor_sim
+	$(VENV_PY) -m ruff check --quiet .
 
 # The main job: demo.launch on the office world (walker, observer, ROIs, trajectories), with
 # rviz when a display is available (headless otherwise). Ctrl-C stops it.

@@ -6,7 +6,7 @@ setup(**generate_distutils_setup(
     packages=[
         "bullet_floor_sim",
         "bullet_floor_sim.core",
-        "bullet_floor_sim.core.store",
+        "bullet_floor_sim.data.store",
         "bullet_floor_sim.ros",
     ],
     package_dir={"": "src"},

@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
 """Choose the prediction parameters across worlds, leaving the scored world out.
 
-Runs the evaluation (core/evaluation.py, what ``make eval`` runs) once per shipped world with
+Runs the evaluation (people/evaluation.py, what ``make eval`` runs) once per shipped world with
 the default parameters and keeps, for every completed leg, the moments the predictor was asked
 at (start region, start, position, velocity at 10/25/50/75/90 % of the leg, from tracker and
 ground-truth tracks). Each candidate parameter set then scores those same moments
-(:func:`~bullet_floor_sim.core.evaluation.rescore`: the posterior the predictor would have
+(:func:`~bullet_floor_sim.people.evaluation.rescore`: the posterior the predictor would have
 given). For each world, the set with the best score on the *other* worlds is chosen and its
 score on the left-out world reported; the parameter set shipped is the one the folds agree
 on (each parameter's value most folds chose). The score is the mean top-1 accuracy over
@@ -31,9 +31,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 sys.path.insert(0, HERE)
 
-from bullet_floor_sim.core.evaluation import (FRACTIONS, PIPELINES, EvalConfig,  # noqa: E402
+from bullet_floor_sim.people.evaluation import (FRACTIONS, PIPELINES, EvalConfig,  # noqa: E402
                                               EvalResult, LegScore, rescore, run, world_model)
-from bullet_floor_sim.core.prediction import PredictionConfig  # noqa: E402
+from bullet_floor_sim.people.prediction import PredictionConfig  # noqa: E402
 from eval_worlds import shipped  # noqa: E402
 
 GRID = {"beta": (2.0, 3.0, 5.0, 8.0), "length_exponent": (0.0, 0.5, 1.0, 1.5),

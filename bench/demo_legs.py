@@ -10,7 +10,7 @@ Prints a table and one line per world:
         waited_max=<largest share of wall time the simulator held its clock for one node>
 
 ``rtf`` is sim time over wall time from the first leg's end to the last's; ``waited`` is read
-from the simulator's own report lines (core/pacing.py): the mean share of the wall time it held
+from the simulator's own report lines (sim/pacing.py): the mean share of the wall time it held
 its clock for the slowest controller (cmd_vel) or subscriber. The table lists the three it
 waited for most. Each given-up leg is printed with its reason.
 

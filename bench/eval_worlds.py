@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The destination-prediction study on every shipped world, one table (``make eval``).
 
-Runs core/evaluation.py (the code ``evaluate_prediction`` runs) on each world under worlds/
+Runs people/evaluation.py (the code ``evaluate_prediction`` runs) on each world under worlds/
 with the same legs and seed, one world after the other in this process, so the real-time
 factors are measured side by side. Prints one row per world and an ``EVAL world=<name> ...``
 line each. ``margin`` is the predictor's least lead in top-1 over the better of the two
@@ -20,8 +20,8 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 
-from bullet_floor_sim.core.evaluation import FRACTIONS, EvalConfig, run  # noqa: E402
-from bullet_floor_sim.core.paths import worlds_dir  # noqa: E402
+from bullet_floor_sim.people.evaluation import FRACTIONS, EvalConfig, run  # noqa: E402
+from bullet_floor_sim.paths import worlds_dir  # noqa: E402
 
 COLUMNS = ("world", "legs", "given_up", "trk25", "trk50", "trk75", "gt25", "gt50", "gt75",
            "markov50", "heading50", "margin", "tracked", "rtf")

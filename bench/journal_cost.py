@@ -68,7 +68,7 @@ def _best(fn: Callable[[], None], reps: int) -> float:
 
 
 def measure(n: int, reps: int, replay_max: int, tmp: str) -> Dict[str, float]:
-    from bullet_floor_sim.core.store import StoreUnavailable, open_store
+    from bullet_floor_sim.data.store import StoreUnavailable, open_store
 
     root = os.path.join(tmp, str(n))
     store = open_store(os.path.join(root, "db"), journal_dir=os.path.join(root, "j"),

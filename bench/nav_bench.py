@@ -24,7 +24,8 @@ workspace's, which resets the package path); otherwise it is reported as ``na``.
 Real-time factors (``--rtf-builtin``, ``--rtf-stock``): 4 for both. At 4 the stock stack
 (amcl, costmaps, DWA at 10 Hz sim) keeps up on a 2-core machine with no tf or control-loop
 warnings; at 6 move_base logs tf extrapolation errors ("Could not transform the global plan")
-and missed control-loop rates. Builtin 4 is the rostest's. About 3 minutes for both one-robot modes, 4 for the two-robot ones.
+and missed control-loop rates. Builtin 4 is the rostest's. About 3 minutes for both one-robot
+modes, 4 for the two-robot ones.
 
 The stock mode needs config/*.yaml as tuned for this simulator (amcl beam model: the
 likelihood field biases the estimate into the walls by up to a map cell; DWA goal latch at
@@ -72,10 +73,10 @@ def room_goals(n: int, seed: int, world: str = "office",
     Rooms are visited in a shuffled order, reshuffled when all have been used; never the same
     room twice in a row (nor the room holding ``start`` first). ``only``: ROI ids to use.
     """
-    from bullet_floor_sim.core.floormap import load_map
-    from bullet_floor_sim.core.paths import worlds_dir
-    from bullet_floor_sim.core.planner import PlanningGrid
-    from bullet_floor_sim.core.rois import centroid, load_rois, roi_at
+    from bullet_floor_sim.sim.floormap import load_map
+    from bullet_floor_sim.paths import worlds_dir
+    from bullet_floor_sim.nav.planner import PlanningGrid
+    from bullet_floor_sim.data.rois import centroid, load_rois, roi_at
 
     wdir = os.path.join(worlds_dir(), world)
     grid = PlanningGrid(load_map(os.path.join(wdir, "map.yaml")))

@@ -7,7 +7,7 @@ Prints a table and ends with one machine-readable line:
     BENCH sim_real world=malaga_campus rtf_10=<x> office_rtf_10=<x> ratio=<x> load_s=<x>
 
 The second line is the 10-robot case on the largest real SLAM map beside office's, run one
-after the other in this run (a world loads from the map cache, core/mapcache.py, as every
+after the other in this run (a world loads from the map cache, sim/mapcache.py, as every
 load after the first does).
 
 Setup of every case: the office world, physics at 100 Hz, every robot with one 360-beam lidar
@@ -38,10 +38,10 @@ def _world(n_robots: int, seed: int = 7, name: str = "office"):
 
     import numpy as np
 
-    from bullet_floor_sim.core.config import LaserConfig, RobotSpec, load_world_config, resolve_world
-    from bullet_floor_sim.core.floormap import load_map
-    from bullet_floor_sim.core.paths import worlds_dir
-    from bullet_floor_sim.core.world import World
+    from bullet_floor_sim.sim.config import LaserConfig, RobotSpec, load_world_config, resolve_world
+    from bullet_floor_sim.sim.floormap import load_map
+    from bullet_floor_sim.paths import worlds_dir
+    from bullet_floor_sim.sim.world import World
 
     cfg = load_world_config(resolve_world(name, worlds_dir()))
     fmap = load_map(cfg.map_yaml)
@@ -92,7 +92,7 @@ def run_case(n_robots: int, sim_seconds: float, name: str = "office") -> dict:
            "stalls": int(world.stall_count.sum()),
            "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
     out.update(_ray_overhead(world))
-    from bullet_floor_sim.core import bullet_capi
+    from bullet_floor_sim.sim import bullet_capi
     out["ray_path"] = bullet_capi.status()
     return out
 
@@ -110,7 +110,7 @@ def _ray_overhead(world, reps: int = 20) -> dict:
     """
     import numpy as np
 
-    from bullet_floor_sim.core.sensors import MAX_RAYS_PER_BATCH as B
+    from bullet_floor_sim.sim.sensors import MAX_RAYS_PER_BATCH as B
 
     due = np.arange(world.n)
     plan = world.lidar.plan(due, world.pose, world._bounds)
@@ -141,7 +141,8 @@ def _ray_overhead(world, reps: int = 20) -> dict:
 def _case(n_robots: int, sim_seconds: float, env: dict, name: str = "office") -> dict:
     """One case in a process of its own (its peak RSS is its own)."""
     proc = subprocess.run([sys.executable, __file__, "--case", str(n_robots), "--sim-seconds",
-                           str(sim_seconds), "--world", name], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                           str(sim_seconds), "--world", name], stdout=subprocess.PIPE,
+                          stderr=subprocess.DEVNULL,
                           universal_newlines=True, check=True, env=env)
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
@@ -159,7 +160,7 @@ def main() -> int:
         return 0
     cases = [(1, 60.0), (10, 20.0), (50, 5.0)]
     results = {}
-    # every case with a model cache of its own (core/robot.py): the first load of the run
+    # every case with a model cache of its own (sim/robot.py): the first load of the run
     # expands the xacro (cold, as on the first launch after an install or a model edit), the
     # cases load it from the cache (warm, as every launch after that)
     with tempfile.TemporaryDirectory(prefix="bfs-bench-") as cache:

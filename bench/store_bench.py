@@ -52,7 +52,7 @@ TARGET_MS = 20.0
 
 def roi_documents(versions: int = VERSIONS, seed: int = 3) -> List[Dict[str, Any]]:
     """len(MAPS) x ROIS x versions SOMA ROI versions as mongodb_store stores them, shuffled."""
-    from bullet_floor_sim.core.store import message_document
+    from bullet_floor_sim.data.store import message_document
 
     rng = random.Random(seed)
     docs = []
@@ -93,7 +93,7 @@ def timed_query(query: Callable[[], List[Dict[str, Any]]], versions: int, runs: 
 
 def bench_store(uri: str, journal_dir: str, versions: int, runs: int = 20) -> Tuple[float, float]:
     """(inserts per second, query ms) through this package's Store."""
-    from bullet_floor_sim.core.store import open_store
+    from bullet_floor_sim.data.store import open_store
 
     docs = roi_documents(versions)
     with open_store(uri, journal_dir=journal_dir) as store:

@@ -44,9 +44,9 @@ REPO = os.path.normpath(os.path.join(HERE, ".."))
 if importlib.util.find_spec("bullet_floor_sim") is None:  # else the workspace's (with msgs)
     sys.path.insert(0, os.path.join(REPO, "src"))
 
-from bullet_floor_sim.core.rois import load_rois  # noqa: E402
-from bullet_floor_sim.core.store import insert_message, open_store  # noqa: E402
-from bullet_floor_sim.core.trajectory import (  # noqa: E402
+from bullet_floor_sim.data.rois import load_rois  # noqa: E402
+from bullet_floor_sim.data.store import insert_message, open_store  # noqa: E402
+from bullet_floor_sim.data.trajectory import (  # noqa: E402
     COLLECTION, DATABASE, STORED_TYPE, Chunker, RegionLocator, chunk_fields, ensure_indexes)
 
 NS = 1000000000
@@ -119,7 +119,7 @@ def pose_messages(streams: List[List]) -> Optional[Tuple[List[List], Callable]]:
         import rospy
         from geometry_msgs.msg import PoseStamped
 
-        from bullet_floor_sim.ros.trajectory_recorder import pose_of_msg
+        from bullet_floor_sim.ros.convert import pose_of_msg
     except ImportError:
         return None
     out = []

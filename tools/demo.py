@@ -18,8 +18,8 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 
 import numpy as np  # noqa: E402
 
-from bullet_floor_sim.core.errors import BulletFloorSimError  # noqa: E402
-from bullet_floor_sim.core.world import World  # noqa: E402
+from bullet_floor_sim.errors import BulletFloorSimError  # noqa: E402
+from bullet_floor_sim.sim.world import World  # noqa: E402
 
 
 def main() -> int:

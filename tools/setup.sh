@@ -28,7 +28,7 @@ case "${ID}:${VERSION_CODENAME:-}" in
   debian:bookworm|debian:trixie)
     ROS_SETUP=""
     APT_PKGS=(ros-base-dev catkin rosbash python3-venv python3-numpy python3-scipy python3-yaml python3-pil
-      python3-lxml python3-rospy python3-rostest python3-rosbag python3-roslaunch python3-rosunit
+      python3-lxml python3-rospy python3-rostest librostest-dev python3-rosbag python3-roslaunch python3-rosunit
       python3-tf2-ros python3-actionlib python3-interactive-markers python3-genpy
       ros-message-generation ros-message-runtime ros-robot-state-publisher
       ros-std-msgs python3-std-msgs ros-geometry-msgs python3-geometry-msgs ros-nav-msgs

@@ -1,5 +1,7 @@
-"""bullet_floor_sim: a PyBullet office-floor simulator for ROS 1.
+"""bullet_floor_sim: a PyBullet simulator of a building's floor for ROS 1.
 
-The pure core (``bullet_floor_sim.core``) never imports rospy; ROS glue lives in
-``bullet_floor_sim.ros``.
+The pure core never imports rospy: ``sim`` (the floor, robots, sensors, clock), ``nav``
+(planning and path following), ``people`` (walker, tracker, prediction, following,
+evaluation) and ``data`` (regions, trajectories, stores), over the shared ``errors``,
+``files``, ``paths`` and ``yamlio``. The ROS glue, one module per node, lives in ``ros``.
 """

@@ -14,7 +14,6 @@ import threading
 import unittest
 
 import actionlib
-import numpy as np
 import rospy
 import rostest
 from actionlib_msgs.msg import GoalStatus
@@ -25,10 +24,10 @@ from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 from scipy.ndimage import distance_transform_edt
 
-from bullet_floor_sim.core.floormap import load_map
-from bullet_floor_sim.core.paths import worlds_dir
-from bullet_floor_sim.core.planner import PlanningGrid
-from bullet_floor_sim.core.rois import centroid, load_rois
+from bullet_floor_sim.sim.floormap import load_map
+from bullet_floor_sim.paths import worlds_dir
+from bullet_floor_sim.nav.planner import PlanningGrid
+from bullet_floor_sim.data.rois import centroid, load_rois
 
 HULL_RADIUS = 0.32
 OFFICE = os.path.join(worlds_dir(), "office")

@@ -27,10 +27,10 @@ import yaml
 from std_msgs.msg import String
 from visualization_msgs.msg import InteractiveMarkerFeedback, Marker, MarkerArray
 
-from bullet_floor_sim.core.paths import worlds_dir
-from bullet_floor_sim.core.roi_store import RoiStore
-from bullet_floor_sim.core.rois import load_rois
-from bullet_floor_sim.core.store import open_store
+from bullet_floor_sim.paths import worlds_dir
+from bullet_floor_sim.data.roi_store import RoiStore
+from bullet_floor_sim.data.rois import load_rois
+from bullet_floor_sim.data.store import open_store
 from bullet_floor_sim.srv import MapInfo, SOMAQueryROIs
 
 from helpers import wait_for

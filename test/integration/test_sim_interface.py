@@ -109,8 +109,10 @@ class SimInterface(unittest.TestCase):
         d_od = _dist(od0, od1)
         self.assertGreater(d_gt, 0.4)
         self.assertAlmostEqual(d_od, d_gt, delta=0.05 * d_gt + 0.01)
-        turn_gt = math.remainder(yaw_of(gt1.pose.pose.orientation) - yaw_of(gt0.pose.pose.orientation), 2 * math.pi)
-        turn_od = math.remainder(yaw_of(od1.pose.pose.orientation) - yaw_of(od0.pose.pose.orientation), 2 * math.pi)
+        turn_gt = math.remainder(yaw_of(gt1.pose.pose.orientation)
+                                 - yaw_of(gt0.pose.pose.orientation), 2 * math.pi)
+        turn_od = math.remainder(yaw_of(od1.pose.pose.orientation)
+                                 - yaw_of(od0.pose.pose.orientation), 2 * math.pi)
         self.assertGreater(turn_gt, 0.2)
         self.assertAlmostEqual(turn_od, turn_gt, delta=0.05)
 
@@ -168,8 +170,8 @@ class SimInterface(unittest.TestCase):
         read it through params.map_handling)."""
         import dataclasses
 
-        from bullet_floor_sim.core.config import load_world_config, resolve_world
-        from bullet_floor_sim.core.paths import worlds_dir
+        from bullet_floor_sim.sim.config import load_world_config, resolve_world
+        from bullet_floor_sim.paths import worlds_dir
         from bullet_floor_sim.ros.params import MAP_HANDLING_PARAM, map_handling
 
         world = load_world_config(resolve_world("simple", worlds_dir()))

@@ -26,8 +26,8 @@ import rospy
 import rostest
 from geometry_msgs.msg import PoseStamped
 
-from bullet_floor_sim.core.store import open_store
-from bullet_floor_sim.core.trajectory import join_chunks, select_chunks
+from bullet_floor_sim.data.store import open_store
+from bullet_floor_sim.data.trajectory import join_chunks, select_chunks
 from bullet_floor_sim.msg import Trajectory
 
 sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("bullet_floor_sim"), "test", "unit"))

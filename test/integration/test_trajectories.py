@@ -41,9 +41,9 @@ from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path
 from visualization_msgs.msg import Marker, MarkerArray
 
-from bullet_floor_sim.core.store import default_journal_path, open_store
-from bullet_floor_sim.core.store.journal import Journal
-from bullet_floor_sim.core.trajectory import (COLLECTION, DATABASE, STORED_TYPE, join_chunks,
+from bullet_floor_sim.data.store import default_journal_path, open_store
+from bullet_floor_sim.data.store.journal import Journal
+from bullet_floor_sim.data.trajectory import (COLLECTION, DATABASE, STORED_TYPE, join_chunks,
                                               path_length, select_chunks)
 from bullet_floor_sim.msg import Trajectory
 from bullet_floor_sim.srv import SelectTrajectories, SelectTrajectoriesRequest

@@ -3,7 +3,7 @@
 
 * it reaches at least 4 distinct regions, each leg's target is a region the chain allows from
   where the leg started, and a reached goal leaves the robot inside its target region;
-* every ``~current_region`` message names the region that ``core.rois.roi_at`` gives for the
+* every ``~current_region`` message names the region that ``data.rois.roi_at`` gives for the
   ground-truth pose (``/pose``) at that moment, and the topic runs at 1 Hz;
 * the leg log lines ("leg 7: office 7 -> corridor 1 in 23.4 s; dwelling 1.2 s") reach /rosout;
 * the chain is published (an arrow per transition, width 0.4 x probability) and stored in
@@ -19,7 +19,6 @@ import os
 import re
 import tempfile
 import threading
-import time
 import unittest
 
 import numpy as np
@@ -30,11 +29,11 @@ from rosgraph_msgs.msg import Log
 from std_msgs.msg import String
 from visualization_msgs.msg import Marker, MarkerArray
 
-from bullet_floor_sim.core.markov import MarkovChain, load_chain
-from bullet_floor_sim.core.paths import worlds_dir
-from bullet_floor_sim.core.roi_store import RoiStore
-from bullet_floor_sim.core.rois import load_rois, roi_at
-from bullet_floor_sim.core.store import open_store
+from bullet_floor_sim.people.markov import MarkovChain, load_chain
+from bullet_floor_sim.paths import worlds_dir
+from bullet_floor_sim.data.roi_store import RoiStore
+from bullet_floor_sim.data.rois import load_rois, roi_at
+from bullet_floor_sim.data.store import open_store
 
 from helpers import wait_for
 

@@ -1,4 +1,4 @@
-"""Ray tests through PyBullet's C API (core/bullet_capi.py) against pybullet.rayTestBatch."""
+"""Ray tests through PyBullet's C API (sim/bullet_capi.py) against pybullet.rayTestBatch."""
 from __future__ import annotations
 
 import dataclasses
@@ -11,11 +11,11 @@ import pybullet
 import pytest
 from pybullet_utils import bullet_client
 
-from bullet_floor_sim.core import bullet_capi
-from bullet_floor_sim.core.config import LaserConfig, RobotSpec, load_world_config, resolve_world
-from bullet_floor_sim.core.paths import worlds_dir
-from bullet_floor_sim.core.sensors import cast_rays
-from bullet_floor_sim.core.world import World
+from bullet_floor_sim.sim import bullet_capi
+from bullet_floor_sim.sim.config import LaserConfig, RobotSpec, load_world_config, resolve_world
+from bullet_floor_sim.paths import worlds_dir
+from bullet_floor_sim.sim.sensors import cast_rays
+from bullet_floor_sim.sim.world import World
 
 SRC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "src")
 
@@ -113,8 +113,8 @@ def test_switched_off_by_the_environment_falls_back_to_raytestbatch():
     code = (
         "import sys, numpy as np, pybullet\n"
         "from pybullet_utils import bullet_client\n"
-        "from bullet_floor_sim.core import bullet_capi\n"
-        "from bullet_floor_sim.core.sensors import cast_rays\n"
+        "from bullet_floor_sim.sim import bullet_capi\n"
+        "from bullet_floor_sim.sim.sensors import cast_rays\n"
         "c = bullet_client.BulletClient(connection_mode=pybullet.DIRECT)\n"
         "c.createMultiBody(0, c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=[1, 1, 1]))\n"
         "f, i = cast_rays(c, np.array([[5.0, 0, 0]]), np.array([[-5.0, 0, 0]]), 1)\n"

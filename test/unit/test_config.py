@@ -8,11 +8,11 @@ import sys
 
 import pytest
 
-from bullet_floor_sim.core.config import load_world_config, resolve_world
-from bullet_floor_sim.core.errors import ConfigError, RobotModelError
-from bullet_floor_sim.core.paths import package_root, worlds_dir
-from bullet_floor_sim.core.robot import expand_xacro, load_model
-from bullet_floor_sim.core.world import World
+from bullet_floor_sim.sim.config import load_world_config, resolve_world
+from bullet_floor_sim.errors import ConfigError, RobotModelError
+from bullet_floor_sim.paths import package_root, worlds_dir
+from bullet_floor_sim.sim.robot import expand_xacro, load_model
+from bullet_floor_sim.sim.world import World
 
 ROOT = package_root()
 
@@ -96,7 +96,7 @@ def test_xacro_prefix_names_every_link_and_joint():
 
 
 def test_expanded_models_are_cached_by_content(tmp_path, monkeypatch):
-    import bullet_floor_sim.core.robot as robot
+    import bullet_floor_sim.sim.robot as robot
 
     urdf = tmp_path / "urdf"
     shutil.copytree(os.path.join(ROOT, "urdf"), str(urdf))
@@ -145,9 +145,9 @@ def test_model_frames_and_sizes_from_urdf():
 
 
 def test_core_imports_without_rospy():
-    code = ("import sys; import bullet_floor_sim.core.world, bullet_floor_sim.core.floormap, "
-            "bullet_floor_sim.core.sensors, bullet_floor_sim.core.robot, "
-            "bullet_floor_sim.core.config; "
+    code = ("import sys; import bullet_floor_sim.sim.world, bullet_floor_sim.sim.floormap, "
+            "bullet_floor_sim.sim.sensors, bullet_floor_sim.sim.robot, "
+            "bullet_floor_sim.sim.config; "
             "bad = [m for m in ('rospy', 'tf2_ros', 'actionlib', 'rosgraph') if m in sys.modules]; "
             "print(bad); sys.exit(1 if bad else 0)")
     env = dict(os.environ, PYTHONPATH=os.path.join(ROOT, "src"))

@@ -2,8 +2,8 @@
 message classes only: no roscore)."""
 import pytest
 
-from bullet_floor_sim.core.follow import search_plan
-from bullet_floor_sim.core.prediction import Prediction
+from bullet_floor_sim.people.follow import search_plan
+from bullet_floor_sim.people.prediction import Prediction
 
 dp = pytest.importorskip("bullet_floor_sim.ros.destination_predictor")
 

@@ -5,9 +5,9 @@ import re
 
 import pytest
 
-from bullet_floor_sim.core import evaluation as ev
-from bullet_floor_sim.core.prediction import Prediction
-from bullet_floor_sim.core.walker import Leg
+from bullet_floor_sim.people import evaluation as ev
+from bullet_floor_sim.people.prediction import Prediction
+from bullet_floor_sim.people.walker import Leg
 from bullet_floor_sim.ros import evaluate_prediction
 
 
@@ -110,7 +110,7 @@ def test_cli_bad_arguments_are_one_line(capsys):
 
 
 def test_rescore_with_the_runs_own_parameters_gives_the_live_scores():
-    from bullet_floor_sim.core.prediction import PredictionConfig
+    from bullet_floor_sim.people.prediction import PredictionConfig
 
     r = ev.run(ev.EvalConfig(legs=3, seed=2, world="office"))
     model = ev.world_model("office", PredictionConfig())

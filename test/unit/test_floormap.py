@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from bullet_floor_sim.core.errors import MapError
-from bullet_floor_sim.core.floormap import (load_map, map_from_grid, merge_rectangles, outline_segments,
+from bullet_floor_sim.errors import MapError
+from bullet_floor_sim.sim.floormap import (load_map, map_from_grid, merge_rectangles, outline_segments,
                                             wall_mesh, wall_outline_mesh)
 
 MAP_YAML = """image: {image}

@@ -1,14 +1,14 @@
-"""core/follow.py: the observer's follow / search decisions, on a hand-made map."""
+"""people/follow.py: the observer's follow / search decisions, on a hand-made map."""
 import math
 
 import numpy as np
 import pytest
 
-from bullet_floor_sim.core.floormap import map_from_grid
-from bullet_floor_sim.core.follow import (FollowBehaviour, FollowConfig, FollowError,
+from bullet_floor_sim.sim.floormap import map_from_grid
+from bullet_floor_sim.people.follow import (FollowBehaviour, FollowConfig, FollowError,
                                           in_view, pick_target, search_plan, search_point,
                                           standoff_point)
-from bullet_floor_sim.core.planner import PlanningGrid, give_way_point
+from bullet_floor_sim.nav.planner import PlanningGrid, give_way_point
 
 RES = 0.05
 
@@ -133,7 +133,8 @@ def test_search_plan_takes_the_likely_regions_most_likely_first():
     assert [r for r, _ in search_plan(even, lambda r: [], (0, 0), 3, 0.05, "2")] == [
         "2", "1", "3"]
     # the most likely region always, however unlikely
-    assert search_plan({"1": 0.01, "2": 0.01}, lambda r: goals.get(r, []), (0, 0), 3, 0.5) == [("1", (0.0, 0.0))]
+    got = search_plan({"1": 0.01, "2": 0.01}, lambda r: goals.get(r, []), (0, 0), 3, 0.5)
+    assert got == [("1", (0.0, 0.0))]
 
 
 def test_lost_without_prediction_is_idle():

@@ -104,3 +104,20 @@ def test_demo_builtin_and_auto():
     nodes, _ = load("demo.launch")  # nav:=auto: nav_bringup decides at run time
     assert set(nodes) == {"/nav_bringup"}
     assert "demo.launch" in nodes["/nav_bringup"].args
+
+
+@pytest.mark.parametrize("name", ["demo.launch", "navigation.launch", "two_robots.launch"])
+def test_nav_bringup_forwards_every_launch_arg(name):
+    """nav:=auto re-runs the file through nav_bringup: every arg the user can give must be in
+    its args (an arg left out would silently fall back to its default)."""
+    import re
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(os.path.join(LAUNCH, name)).getroot()
+    declared = {a.get("name") for a in root.findall("arg") if a.get("value") is None}
+    bringup = [n for n in root.iter("node") if n.get("type") == "nav_bringup"]
+    assert len(bringup) == 1
+    forwarded = dict(re.findall(r"(\w+):=(\$\(arg \w+\)|\S+)", bringup[0].get("args")))
+    assert forwarded.pop("nav") == "auto"
+    assert set(forwarded) == declared - {"nav"}
+    assert all(v == "$(arg %s)" % k for k, v in forwarded.items())

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.stats import chisquare
 
-from bullet_floor_sim.core.markov import (
+from bullet_floor_sim.people.markov import (
     STALE_BUILD_S,
     ChainError,
     MarkovChain,
@@ -26,9 +26,9 @@ from bullet_floor_sim.core.markov import (
     usable_rois,
     vertex_adjacency,
 )
-from bullet_floor_sim.core.roi_store import RoiStore
-from bullet_floor_sim.core.rois import Roi, RoiError, load_rois
-from bullet_floor_sim.core.store import insert_message, open_store
+from bullet_floor_sim.data.roi_store import RoiStore
+from bullet_floor_sim.data.rois import Roi, RoiError, load_rois
+from bullet_floor_sim.data.store import insert_message, open_store
 from bullet_floor_sim.ros.markov_chain import main
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")

@@ -1,10 +1,10 @@
-"""core/pacing.py: when the simulator's clock waits for the robots' controllers."""
+"""sim/pacing.py: when the simulator's clock waits for the robots' controllers."""
 import math
 
 import pytest
 
-from bullet_floor_sim.core.errors import ConfigError
-from bullet_floor_sim.core.pacing import BacklogGate, CommandGate, tcp_unread
+from bullet_floor_sim.errors import ConfigError
+from bullet_floor_sim.sim.pacing import BacklogGate, CommandGate, tcp_unread
 
 
 def test_a_moving_robot_holds_the_clock_once_its_command_is_older_than_the_lag():

@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 from scipy.ndimage import distance_transform_edt
 
-from bullet_floor_sim.core.config import load_world_config, resolve_world
-from bullet_floor_sim.core.floormap import map_from_grid
-from bullet_floor_sim.core.paths import worlds_dir
-from bullet_floor_sim.core.planner import (FollowerConfig, Navigator, NavigatorConfig,
+from bullet_floor_sim.sim.config import load_world_config, resolve_world
+from bullet_floor_sim.sim.floormap import map_from_grid
+from bullet_floor_sim.paths import worlds_dir
+from bullet_floor_sim.nav.planner import (FollowerConfig, Navigator, NavigatorConfig,
                                            PathFollower, PlanError,
                                            PlannerConfig, PlanningGrid, obstacles_in_base,
                                            path_length)
-from bullet_floor_sim.core.world import World
+from bullet_floor_sim.sim.world import World
 
 RES = 0.05
 
@@ -176,7 +176,7 @@ def test_navigator_aborts_when_blocked_for_good():
     world = World(dataclasses.replace(cfg, robots=robots), seed=1)
     try:
         grid = PlanningGrid(world.fmap)
-        from bullet_floor_sim.core.planner import NavigatorConfig
+        from bullet_floor_sim.nav.planner import NavigatorConfig
         nav = Navigator(grid, config=NavigatorConfig(blocked_timeout=5.0, sidestep=0.0))
         # the goal is right behind the parked robot, in a 4 m tall room: the path goes around
         # it, so block the way round with the goal itself inside the parked robot's reach
@@ -192,7 +192,7 @@ def test_navigator_notices_a_stall_and_plans_again():
     ahead): after stall_time the navigator stops, counts a stall and plans again."""
     g = np.zeros((80, 200), dtype=np.int8)
     g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
-    from bullet_floor_sim.core.planner import NavigatorConfig
+    from bullet_floor_sim.nav.planner import NavigatorConfig
     nav = Navigator(PlanningGrid(map_from_grid(g, 0.05)), config=NavigatorConfig(stall_time=1.5))
     nav.start((1.0, 2.0, 0.0), (8.0, 2.0, 0.0), 0.0)
     states = []

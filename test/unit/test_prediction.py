@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 from shapely.geometry import Point
 
-from bullet_floor_sim.core.floormap import load_map, map_from_grid
-from bullet_floor_sim.core.markov import MarkovChain
-from bullet_floor_sim.core.planner import PlanError, PlanningGrid
-from bullet_floor_sim.core.prediction import (DestinationModel, OnlinePredictor, Prediction,
+from bullet_floor_sim.sim.floormap import load_map, map_from_grid
+from bullet_floor_sim.people.markov import MarkovChain
+from bullet_floor_sim.nav.planner import PlanError, PlanningGrid
+from bullet_floor_sim.people.prediction import (DestinationModel, OnlinePredictor, Prediction,
                                               PredictorPool,
                                               PredictionConfig, PredictionError, log_loss, top1)
-from bullet_floor_sim.core.rois import Roi, load_rois, roi_polygon
+from bullet_floor_sim.data.rois import Roi, load_rois, roi_polygon
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
 OFFICE = os.path.join(ROOT, "worlds", "office")
@@ -168,8 +168,8 @@ def test_leg_length_term_by_hand(world):
     """length_exponent 1: each goal point's term is divided by its leg length L = V(S)
     (at least goal_spacing). From S = (7.05, 5.75) the corridor's goal lies 7 m along the
     centre line; B's goal is 3.8 m up through B's door from x = 14.05 on it: 10.8 m and a
-    little for the turn, plus the inflation cost of the door. Nothing observed: the prior x 1/L; walking, the same progress
-    ratios as without the term, times the ratio of the lengths."""
+    little for the turn, plus the inflation cost of the door. Nothing observed: the prior x 1/L;
+    walking, the same progress ratios as without the term, times the ratio of the lengths."""
     m1 = DestinationModel(*world, PredictionConfig(length_exponent=1.0), goal_points=GOALS)
     m0 = DestinationModel(*world, PredictionConfig(length_exponent=0.0), goal_points=GOALS)
     s = (7.05, 5.75)

@@ -1,11 +1,11 @@
-"""core/recording.py: the spill file a killed recorder leaves, and the store worker."""
+"""data/recording.py: the spill file a killed recorder leaves, and the store worker."""
 from __future__ import annotations
 
 import threading
 import time
 
-from bullet_floor_sim.core.recording import ChunkQueue, ChunkSpill
-from bullet_floor_sim.core.trajectory import Chunker
+from bullet_floor_sim.data.recording import ChunkQueue, ChunkSpill
+from bullet_floor_sim.data.trajectory import Chunker
 
 NS = 1000000000
 
@@ -143,8 +143,8 @@ def test_the_queue_stores_in_order_without_blocking_the_caller():
 def test_a_chunk_is_stored_under_the_same_id_every_time(tmp_path):
     import bson
 
-    from bullet_floor_sim.core.store import DuplicateKeyError, open_store
-    from bullet_floor_sim.core.trajectory import Chunk, chunk_id
+    from bullet_floor_sim.data.store import DuplicateKeyError, open_store
+    from bullet_floor_sim.data.trajectory import Chunk, chunk_id
 
     a = Chunk.from_poses("u7", 3, [pose(k) for k in range(5)], False)
     again = Chunk.from_poses("u7", 3, [pose(k) for k in range(5)], True)    # recovered

@@ -1,4 +1,4 @@
-"""core/roi_store: SOMA-layout ROI versions, SOMA query semantics, rviz edits, debouncing.
+"""data/roi_store: SOMA-layout ROI versions, SOMA query semantics, rviz edits, debouncing.
 
 Runs against the embedded store and, where a MongoDB wire-protocol server can be started (see
 mongo_server.py), against it too.
@@ -11,11 +11,11 @@ import uuid
 
 import pytest
 
-from bullet_floor_sim.core.roi_store import (COLLECTION, DATABASE, STORED_TYPE, Debouncer,
+from bullet_floor_sim.data.roi_store import (COLLECTION, DATABASE, STORED_TYPE, Debouncer,
                                               RoiQuery, RoiStore, add_point, delete_point,
                                               move_vertex, new_roi, next_roi_id,
                                               roi_from_document, roi_to_fields)
-from bullet_floor_sim.core.rois import Roi, RoiError, load_rois
+from bullet_floor_sim.data.rois import Roi, RoiError, load_rois
 
 from test_store import mongo_launcher, mongo_server, store  # noqa: F401 (fixtures)
 
@@ -263,7 +263,7 @@ def test_debouncer_saves_after_quiet_time_and_after_max_wait():
 def test_the_newest_rois_are_answered_from_memory_while_the_database_is_down(tmp_path, clock):
     import sqlite3
 
-    from bullet_floor_sim.core.store import StoreUnavailable, open_store
+    from bullet_floor_sim.data.store import StoreUnavailable, open_store
 
     store = open_store(str(tmp_path / "db"), journal_dir=str(tmp_path / "j"), timeout=0.05,
                        retry_interval=0.0)

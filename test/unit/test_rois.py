@@ -9,8 +9,8 @@ import pytest
 import yaml
 from shapely.geometry import Point
 
-from bullet_floor_sim.core.errors import BulletFloorSimError
-from bullet_floor_sim.core.rois import (
+from bullet_floor_sim.errors import BulletFloorSimError
+from bullet_floor_sim.data.rois import (
     Roi,
     RoiError,
     centroid,
@@ -256,7 +256,7 @@ def test_check_bounds_warns_per_roi():
 
 
 def test_office_rois_inside_office_map():
-    from bullet_floor_sim.core.floormap import load_map
+    from bullet_floor_sim.sim.floormap import load_map
 
     fmap = load_map(os.path.join(ROOT, "worlds", "office", "map.yaml"))
     assert check_bounds(load_rois(OFFICE_ROIS), fmap.bounds()) == []

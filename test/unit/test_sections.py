@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from bullet_floor_sim.core.sections import Section, check_section, clip_beams, measure_section
+from bullet_floor_sim.sim.sections import Section, check_section, clip_beams, measure_section
 
 
 def polygon_probe(parts):

@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bullet_floor_sim.core.errors import ConfigError
-from bullet_floor_sim.core.floormap import map_from_grid
-from bullet_floor_sim.core.solidmap import MapHandling, solid_map
+from bullet_floor_sim.errors import ConfigError
+from bullet_floor_sim.sim.floormap import map_from_grid
+from bullet_floor_sim.sim.solidmap import MapHandling, solid_map
 
 RES = 0.05
 

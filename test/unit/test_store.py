@@ -19,10 +19,10 @@ import warnings
 import bson
 import pytest
 
-from bullet_floor_sim.core.store import (DuplicateKeyError, StoreError, StoreUnavailable,
+from bullet_floor_sim.data.store import (DuplicateKeyError, StoreError, StoreUnavailable,
                                          default_db_dir, default_journal_path, insert_message,
                                          message_document, open_store, stored_class_for)
-from bullet_floor_sim.core.store.journal import Journal
+from bullet_floor_sim.data.store.journal import Journal
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from mongo_server import ENABLE_HINT, MongoServer, find_launcher, free_port  # noqa: E402
@@ -302,7 +302,7 @@ def test_bad_uris(tmp_path):
 def test_store_imports_without_rospy():
     import subprocess
 
-    code = ("import sys, bullet_floor_sim.core.store as s; s.open_store; "
+    code = ("import sys, bullet_floor_sim.data.store as s; s.open_store; "
             "bad = [m for m in ('rospy', 'rosgraph', 'genpy') if m in sys.modules]; "
             "print(bad); sys.exit(1 if bad else 0)")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))

@@ -16,8 +16,8 @@ import tracemalloc
 
 import pytest
 
-from bullet_floor_sim.core.store import StoreError, StoreUnavailable, open_store
-from bullet_floor_sim.core.store.journal import Journal
+from bullet_floor_sim.data.store import StoreError, StoreUnavailable, open_store
+from bullet_floor_sim.data.store.journal import Journal
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from mongo_server import ENABLE_HINT, MongoServer, find_launcher  # noqa: E402
@@ -139,7 +139,7 @@ def test_mongodb_stopped_keeps_the_journal_and_replays_exactly_once(tmp_path):
 def test_mongodb_credentials_refused_are_database_wide():
     from pymongo import errors as pe
 
-    from bullet_floor_sim.core.store.mongo import MongoBackend
+    from bullet_floor_sim.data.store.mongo import MongoBackend
 
     backend = MongoBackend("mongodb://u:secret@127.0.0.1:1/")
 

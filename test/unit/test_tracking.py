@@ -11,14 +11,14 @@ import sys
 import numpy as np
 import pytest
 
-from bullet_floor_sim.core.config import load_world_config, resolve_world
-from bullet_floor_sim.core.floormap import map_from_grid
-from bullet_floor_sim.core.paths import worlds_dir
-from bullet_floor_sim.core.solidmap import MapHandling
-from bullet_floor_sim.core.tracking import (Detection, PoseHistory, StaticMap, Tracker, TrackerConfig,
+from bullet_floor_sim.sim.config import load_world_config, resolve_world
+from bullet_floor_sim.sim.floormap import map_from_grid
+from bullet_floor_sim.paths import worlds_dir
+from bullet_floor_sim.sim.solidmap import MapHandling
+from bullet_floor_sim.people.tracking import (Detection, PoseHistory, StaticMap, Tracker, TrackerConfig,
                                             TrackingError, cluster, detect, detect_scan,
                                             scan_points)
-from bullet_floor_sim.core.world import World
+from bullet_floor_sim.sim.world import World
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 from simple_room import BOXES, expected_range  # noqa: E402

@@ -13,9 +13,9 @@ import warnings
 
 import pytest
 
-from bullet_floor_sim.core.rois import Roi, load_rois, roi_at
-from bullet_floor_sim.core.store import open_store
-from bullet_floor_sim.core.trajectory import (COLLECTION, DATABASE, STORED_TYPE, Chunk,
+from bullet_floor_sim.data.rois import Roi, load_rois, roi_at
+from bullet_floor_sim.data.store import open_store
+from bullet_floor_sim.data.trajectory import (COLLECTION, DATABASE, STORED_TYPE, Chunk,
                                               Chunker, RegionLocator, TrajectoryError,
                                               chunk_fields, chunk_from_document,
                                               chunk_from_json, chunk_to_json, displacement,
@@ -303,7 +303,7 @@ def db_pair(request, tmp_path, monkeypatch):
 
 
 def record(store, chunks, map_name="office"):
-    from bullet_floor_sim.core.store import insert_message
+    from bullet_floor_sim.data.store import insert_message
 
     ensure_indexes(store)
     for c in chunks:
@@ -377,7 +377,7 @@ def test_iter_documents_reads_trajectory_after_trajectory(tmp_path, monkeypatch,
     """Every selected chunk exactly once: trajectories in order of their first pose, each in
     sequence_id order; reads of one chunk (10 poses a read) or of up to 16; a trajectory with
     a sequence_id missing in the middle; map and time limits; last_n."""
-    import bullet_floor_sim.core.trajectory as traj
+    import bullet_floor_sim.data.trajectory as traj
 
     monkeypatch.setattr(traj, "_PAGE_POSES", page_poses)
     chunks = []
@@ -540,15 +540,15 @@ def test_cli_imports_without_rospy():
     import subprocess
 
     code = ("import sys; import bullet_floor_sim.ros.trajectories, "
-            "bullet_floor_sim.core.trajectory; sys.exit('rospy' in sys.modules)")
+            "bullet_floor_sim.data.trajectory; sys.exit('rospy' in sys.modules)")
     assert subprocess.call([sys.executable, "-c", code]) == 0
 
 
 def test_chunks_stay_under_the_byte_cap_and_longer_ones_are_refused():
     import bson
 
-    from bullet_floor_sim.core.store import message_document
-    from bullet_floor_sim.core.trajectory import (MAX_CHUNK_BYTES, check_max_poses,
+    from bullet_floor_sim.data.store import message_document
+    from bullet_floor_sim.data.trajectory import (MAX_CHUNK_BYTES, check_max_poses,
                                                   max_poses_within)
 
     most = max_poses_within("map")

@@ -11,11 +11,11 @@ from scipy.ndimage import distance_transform_edt
 from scipy.stats import chisquare
 from shapely.geometry import Point
 
-from bullet_floor_sim.core.floormap import load_map, map_from_grid
-from bullet_floor_sim.core.markov import MarkovChain
-from bullet_floor_sim.core.planner import PlanningGrid
-from bullet_floor_sim.core.rois import Roi, RoiError, load_rois, roi_at, roi_polygon
-from bullet_floor_sim.core.walker import (GoalSampler, Leg, RegionIndex, Walker, WalkerConfig,
+from bullet_floor_sim.sim.floormap import load_map, map_from_grid
+from bullet_floor_sim.people.markov import MarkovChain
+from bullet_floor_sim.nav.planner import PlanningGrid
+from bullet_floor_sim.data.rois import Roi, RoiError, load_rois, roi_at, roi_polygon
+from bullet_floor_sim.people.walker import (GoalSampler, Leg, RegionIndex, Walker, WalkerConfig,
                                           WalkerError, anchor, region_label, walkable_regions)
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
@@ -359,7 +359,8 @@ def test_roi_from_msg_and_chain_markers():
     from visualization_msgs.msg import Marker
 
     from bullet_floor_sim.msg import SOMAROIObject
-    from bullet_floor_sim.ros.markov_walker import chain_markers, roi_from_msg
+    from bullet_floor_sim.ros.markov_walker import chain_markers
+    from bullet_floor_sim.ros.soma import roi_from_msg
 
     msg = SOMAROIObject(id="a", config="1", type="office", map_name="m")
     for x, y in [(0, 0), (2, 0), (2, 2), (0, 2), (0, 0)]:

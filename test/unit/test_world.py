@@ -14,12 +14,12 @@ import sys
 import numpy as np
 import pytest
 
-from bullet_floor_sim.core.config import (DriveConfig, LaserConfig, OdometryConfig, RobotSpec,
+from bullet_floor_sim.sim.config import (DriveConfig, LaserConfig, OdometryConfig, RobotSpec,
                                           load_world_config, resolve_world)
-from bullet_floor_sim.core.errors import CommandError
-from bullet_floor_sim.core.paths import worlds_dir
-from bullet_floor_sim.core.sensors import cast_rays
-from bullet_floor_sim.core.world import SimClock, World
+from bullet_floor_sim.errors import CommandError
+from bullet_floor_sim.paths import worlds_dir
+from bullet_floor_sim.sim.sensors import cast_rays
+from bullet_floor_sim.sim.world import SimClock, World
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 from simple_room import (SCITOS_R, expected_range, near_corner, octagon_offset,  # noqa: E402
@@ -279,7 +279,7 @@ def test_a_robot_pushed_by_another_can_still_turn_and_back_away():
 
 
 def test_odometry_error_statistics():
-    from bullet_floor_sim.core.sensors import Odometry
+    from bullet_floor_sim.sim.sensors import Odometry
 
     n = 4000
     cfg = OdometryConfig(noise_trans=0.02, noise_rot=0.0, noise_rot_per_m=0.01, drift_yaw=0.0)
@@ -297,7 +297,7 @@ def test_odometry_error_statistics():
 
 
 def test_odometry_drift_is_systematic():
-    from bullet_floor_sim.core.sensors import Odometry
+    from bullet_floor_sim.sim.sensors import Odometry
 
     cfg = OdometryConfig(noise_trans=0.0, noise_rot=0.0, noise_rot_per_m=0.0, drift_yaw=0.02)
     odo = Odometry([cfg], np.random.default_rng(0))
@@ -343,11 +343,11 @@ def test_scans_at_laser_rate(one_robot):
 
 
 def test_scans_over_the_ray_limit_are_split_and_exact():
-    from bullet_floor_sim.core import sensors
+    from bullet_floor_sim.sim import sensors
 
     # 3 robots x 7200 beams = 21,600 rays: split into calls of the world's chunk size (4000
     # through the C API, 1000 through rayTestBatch); every scan still exact
-    from bullet_floor_sim.core import world as world_mod
+    from bullet_floor_sim.sim import world as world_mod
     fine = LaserConfig(fov=360.0, resolution=0.05, noise_std=0.0)
     poses = [(1.0, 1.0, 0.0), (2.5, 3.0, 1.0), (5.0, 2.5, -2.0)]
     w = simple_world([RobotSpec(name="r%d" % i, pose=p, laser=fine, odometry=STILL)
@@ -408,7 +408,7 @@ def test_scans_equal_every_beam_cast_in_the_full_scene(lift):
     # lidar that has not moved), then again only the beams that may meet a robot, and shortens
     # rays from the previous scan: none of it may change a range. With gui=True it casts every
     # beam in the full scene (lift=False), still shortening rays.
-    from bullet_floor_sim.core.sensors import cast_rays as cast
+    from bullet_floor_sim.sim.sensors import cast_rays as cast
 
     poses = [(1.0, 1.0, 0.3), (1.0, 3.0, -0.5), (2.5, 2.0, 2.0), (3.5, 3.2, 3.0), (5.2, 1.0, 1.6),
              (5.2, 3.0, -2.0)]
@@ -467,8 +467,9 @@ def test_scans_equal_every_beam_cast_in_the_full_scene(lift):
 
 def test_small_worlds_step_in_floats_exactly_as_numpy_does(monkeypatch):
     # up to sensors.SMALL_N robots, drives, integration, wheels and odometry step in plain
-    # floats; the result must be the numpy path's (same formulas, same random draws)
-    from bullet_floor_sim.core import sensors, world as world_mod
+    # floats, and collision windows of up to world._SMALL_PAIRS pairs are computed in them;
+    # the result must be the numpy paths' (same formulas, same random draws)
+    from bullet_floor_sim.sim import sensors, world as world_mod
 
     noisy = OdometryConfig(noise_trans=0.05, noise_rot=0.05, noise_rot_per_m=0.02, drift_yaw=0.01)
     specs = [RobotSpec(name="d", pose=(1.5, 1.0, 0.0), laser=EXACT, odometry=noisy),
@@ -494,6 +495,7 @@ def test_small_worlds_step_in_floats_exactly_as_numpy_does(monkeypatch):
     floats = run()
     monkeypatch.setattr(sensors, "SMALL_N", 0)
     monkeypatch.setattr(world_mod, "SMALL_N", 0)
+    monkeypatch.setattr(world_mod, "_SMALL_PAIRS", 0)   # the numpy collision window too
     arrays = run()
     for a, b in zip(floats, arrays):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)

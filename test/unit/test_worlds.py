@@ -404,12 +404,12 @@ def test_the_real_worlds_are_shipped():
 
 @pytest.mark.parametrize("name", SHIPPED)
 def test_every_world_loads_and_every_region_is_walkable(name):
-    from bullet_floor_sim.core.config import load_world_config
-    from bullet_floor_sim.core.markov import MarkovChain, usable_rois
-    from bullet_floor_sim.core.planner import PlanningGrid
-    from bullet_floor_sim.core.rois import load_rois
-    from bullet_floor_sim.core.walker import GoalSampler, WalkerConfig, walkable_regions
-    from bullet_floor_sim.core.world import World
+    from bullet_floor_sim.sim.config import load_world_config
+    from bullet_floor_sim.people.markov import MarkovChain, usable_rois
+    from bullet_floor_sim.nav.planner import PlanningGrid
+    from bullet_floor_sim.data.rois import load_rois
+    from bullet_floor_sim.people.walker import GoalSampler, WalkerConfig, walkable_regions
+    from bullet_floor_sim.sim.world import World
 
     cfg = load_world_config(str(ROOT / "worlds" / name / "world.yaml"))
     world = World(cfg, seed=1)

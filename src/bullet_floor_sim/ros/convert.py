@@ -2,13 +2,19 @@
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, List, Sequence
 
 import numpy as np
 import rospy
+from geometry_msgs.msg import Point, Pose, PoseStamped, Quaternion
 from nav_msgs.msg import MapMetaData, OccupancyGrid
+from std_msgs.msg import Header
 
-from bullet_floor_sim.core.floormap import FloorMap, map_from_grid
+from ..data.trajectory import Chunk
+from ..msg import Trajectory
+from ..sim.floormap import FloorMap, map_from_grid
+
+_NS = 1000000000
 
 
 def yaw(q: Any) -> float:
@@ -41,3 +47,36 @@ def occupancy_grid(fmap: FloorMap, frame_id: str = "map",
     grid.info = info
     grid.data = fmap.grid.ravel().tolist()
     return grid
+
+
+def pose_of_msg(msg: PoseStamped):
+    """A PoseStamped as data/trajectory's pose tuple (t_ns, x, y, z, qx, qy, qz, qw)."""
+    s = msg.header.stamp
+    p = msg.pose.position
+    q = msg.pose.orientation
+    return (s.secs * _NS + s.nsecs, p.x, p.y, p.z, q.x, q.y, q.z, q.w)
+
+
+def _time(t_ns: int) -> rospy.Time:
+    secs, nsecs = divmod(int(t_ns), _NS)
+    return rospy.Time(secs, nsecs)
+
+
+def pose_msgs(poses: Sequence, frame_id: str) -> List[PoseStamped]:
+    """Pose tuples as PoseStamped messages."""
+    out = []
+    for t, x, y, z, qx, qy, qz, qw in poses:
+        out.append(PoseStamped(Header(0, _time(t), frame_id),
+                               Pose(Point(x, y, z), Quaternion(qx, qy, qz, qw))))
+    return out
+
+
+def chunk_to_msg(chunk: Chunk, stamp: rospy.Time, seq: int = 0):
+    """A chunk as a bullet_floor_sim/Trajectory message (human_trajectory's fields)."""
+    return Trajectory(header=Header(seq, stamp, chunk.frame_id), uuid=chunk.uuid,
+                      trajectory=pose_msgs(chunk.poses, chunk.frame_id), robot=[],
+                      start_time=_time(chunk.start_ns), end_time=_time(chunk.end_ns),
+                      trajectory_length=chunk.trajectory_length, complete=chunk.complete,
+                      sequence_id=chunk.sequence_id,
+                      trajectory_displacement=chunk.trajectory_displacement,
+                      displacement_pose_ratio=chunk.displacement_pose_ratio)

@@ -1,7 +1,7 @@
 """The destination predictor node: where is the tracked entity heading?
 
 On every track update (``tracks``, bullet_floor_sim/TrackArray from people_tracker) it feeds
-each track's position and velocity to an online predictor (core/prediction.py; a new track
+each track's position and velocity to an online predictor (people/prediction.py; a new track
 that appears soon after and near where another was lost takes over that track's leg:
 PredictorPool, ``~handover_time``, ``~handover_speed``): the track's legs are segmented by
 its dwells, and for the current leg a posterior over destination regions
@@ -21,7 +21,7 @@ Parameters: ``~config`` ("1"), ``~rois_yaml`` (""), ``~tol`` (0.2), ``~mode`` (v
 ``~robot_radius`` (0.34, planning grid inflation), ``~beta`` and the other core
 PredictionConfig fields as ``~<field>``, ``~query_service``, ``~rois_changed_topic``,
 ``~map_topic``, ``~search_regions`` (3) and ``~search_min_probability`` (0.05): which regions
-get a search point in ``points`` (core/follow.search_plan).
+get a search point in ``points`` (people/follow.search_plan).
 """
 from __future__ import annotations
 
@@ -35,17 +35,18 @@ from nav_msgs.msg import OccupancyGrid
 from std_msgs.msg import ColorRGBA, String
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..core.errors import BulletFloorSimError
-from ..core.follow import FollowConfig, search_plan
-from ..core.markov import MarkovChain, usable_rois
-from ..core.planner import PlannerConfig, PlanningGrid
-from ..core.prediction import DestinationModel, PredictionConfig, PredictorPool
-from ..core.rois import Roi, load_rois
-from ..core.walker import GoalSampler, walkable_regions
+from ..errors import BulletFloorSimError
+from ..people.follow import FollowConfig, search_plan
+from ..people.markov import MarkovChain, usable_rois
+from ..nav.planner import PlannerConfig, PlanningGrid
+from ..people.prediction import DestinationModel, PredictionConfig, PredictorPool
+from ..data.rois import Roi, load_rois
+from ..people.walker import GoalSampler, walkable_regions
 from ..msg import Destination, TrackArray
-from .markov_walker import roi_from_msg
+from .soma import query_rois
 from .params import config_from_params, map_handling
 from .convert import grid_from_msg
+from .node import run_node
 
 __all__ = ["main", "DestinationPredictorNode", "destination_msg"]
 
@@ -53,7 +54,7 @@ __all__ = ["main", "DestinationPredictorNode", "destination_msg"]
 def destination_msg(track_id: int, prediction, header, best_point=(0.0, 0.0),
                     search=()) -> Destination:
     """A Destination message of a core Prediction (regions most likely first); ``best_point``:
-    where to look for the entity in the best region; ``search``: core/follow.search_plan's
+    where to look for the entity in the best region; ``search``: people/follow.search_plan's
     (region, point) pairs, most likely first (``points``)."""
     m = Destination()
     m.header = header
@@ -79,7 +80,7 @@ def destination_msg(track_id: int, prediction, header, best_point=(0.0, 0.0),
 
 
 class DestinationPredictorNode:
-    """Tracks in, destination distributions out; the model lives in core/prediction.py."""
+    """Tracks in, destination distributions out; the model lives in people/prediction.py."""
 
     def __init__(self) -> None:
         gp = rospy.get_param
@@ -88,7 +89,7 @@ class DestinationPredictorNode:
         self.tol = float(gp("~tol", 0.2))
         self.mode = str(gp("~mode", "vertex"))
         self.query_service = str(gp("~query_service", "/soma/query_rois"))
-        self.planner_cfg = PlannerConfig(robot_radius=float(gp("~robot_radius", 0.34)))
+        self.planner_cfg = PlannerConfig(robot_radius=float(gp("~robot_radius", PlannerConfig.robot_radius)))
         self.config = config_from_params(PredictionConfig())
         defaults = FollowConfig()
         self.search_regions = int(gp("~search_regions", defaults.search_regions))
@@ -125,18 +126,13 @@ class DestinationPredictorNode:
     def _fetch_rois(self) -> Optional[List[Roi]]:
         if self.rois_yaml:
             return load_rois(self.rois_yaml)
-        from ..srv import SOMAQueryROIs
-
         try:
-            rospy.wait_for_service(self.query_service, timeout=2.0)
-            answer = rospy.ServiceProxy(self.query_service, SOMAQueryROIs)(
-                query_type=0, returnmostrecent=True, roiconfigs=[self.roi_config])
+            return query_rois(self.query_service, self.roi_config, 2.0)
         except (rospy.ROSException, rospy.ServiceException) as e:
             rospy.logwarn_throttle(30.0, "destination_predictor: no ROIs from %s (%s): start "
                                    "the ROI manager or set ~rois_yaml; retrying",
                                    self.query_service, " ".join(str(e).split()))
             return None
-        return [roi_from_msg(m) for m in answer.rois if m.config == self.roi_config]
 
     def _model_loop(self) -> None:
         """(Re)build the model when the map or the ROIs change (the cost-to-go fields take a
@@ -226,14 +222,7 @@ class DestinationPredictorNode:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of ``rosrun bullet_floor_sim destination_predictor``."""
-    rospy.init_node("destination_predictor")
-    try:
-        DestinationPredictorNode()
-    except BulletFloorSimError as e:
-        rospy.logfatal(str(e))
-        return 2
-    rospy.spin()
-    return 0
+    return run_node("destination_predictor", DestinationPredictorNode, argv)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """``rosrun bullet_floor_sim evaluate_prediction --legs N --seed S``: the prediction study.
 
-Runs the demo's observer scenario headless and faster than real time (core/evaluation.py: the
+Runs the demo's observer scenario headless and faster than real time (people/evaluation.py: the
 walker robot walks N legs by the Markov chain, the observer robot tracks it with its lidar,
 follows it, and predicts where each leg ends), then prints, for the predictor and the two
 baselines (Markov prior alone; nearest region along the current heading), the top-1 accuracy
@@ -21,8 +21,8 @@ import os
 import sys
 from typing import List, Optional
 
-from ..core.errors import BulletFloorSimError
-from ..core.evaluation import EvalConfig, FRACTIONS, format_table, plot, run
+from ..errors import BulletFloorSimError
+from ..people.evaluation import EvalConfig, FRACTIONS, format_table, plot, run
 from .cli import Parser, UsageError
 
 __all__ = ["main"]

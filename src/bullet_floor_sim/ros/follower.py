@@ -7,7 +7,7 @@ stand-off point ``~distance`` metres from the target, facing it, re-planned as t
 when the track is lost for ``~lost_after`` seconds it goes to where the predictor says the
 target is heading (``destination``: the best region's point nearest the track), looks round
 there, and goes on to the next likely regions of ``destination``'s ``points`` in turn.
-core/follow.py makes the decisions.
+people/follow.py makes the decisions.
 
 Topics: ``tracks`` (in, bullet_floor_sim/TrackArray), ``destination`` (in,
 bullet_floor_sim/Destination), ``base_pose_ground_truth`` (in, with ``~pose_source``
@@ -37,12 +37,13 @@ from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid, Odometry
 from std_msgs.msg import String
 
-from ..core.errors import BulletFloorSimError
-from ..core.follow import FollowBehaviour, FollowConfig, pick_target
-from ..core.planner import PlannerConfig, PlanningGrid
+from ..errors import BulletFloorSimError
+from ..people.follow import FollowBehaviour, FollowConfig, pick_target
+from ..nav.planner import PlannerConfig, PlanningGrid
 from ..msg import Destination, TrackArray
 from .params import config_from_params, map_handling
 from .convert import grid_from_msg, yaw as yaw_of
+from .node import run_node
 
 __all__ = ["main", "FollowerNode"]
 
@@ -64,7 +65,7 @@ class FollowerNode:
         self.frame = str(gp("~global_frame", "map"))
         self.base_frame = str(gp("~base_frame", "base_footprint"))
         self.config = config_from_params(FollowConfig())
-        self.planner_cfg = PlannerConfig(robot_radius=float(gp("~robot_radius", 0.34)))
+        self.planner_cfg = PlannerConfig(robot_radius=float(gp("~robot_radius", PlannerConfig.robot_radius)))
         self.rate = float(gp("~rate", 5.0))
         self.lock = threading.Lock()
         self.behaviour: Optional[FollowBehaviour] = None
@@ -181,14 +182,7 @@ class FollowerNode:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of ``rosrun bullet_floor_sim follower``."""
-    rospy.init_node("follower")
-    try:
-        node = FollowerNode()
-    except BulletFloorSimError as e:
-        rospy.logfatal(str(e))
-        return 2
-    node.run()
-    return 0
+    return run_node("follower", FollowerNode, argv)
 
 
 if __name__ == "__main__":

@@ -25,11 +25,11 @@ import math
 import sys
 from typing import Optional, Sequence
 
-from ..core.errors import BulletFloorSimError
-from ..core.markov import (MODES, ROI_COLLECTION, ROI_DATABASE, MarkovChain, read_rois,
+from ..errors import BulletFloorSimError
+from ..people.markov import (MODES, ROI_COLLECTION, ROI_DATABASE, MarkovChain, read_rois,
                            usable_rois)
-from ..core.plotting import draw_map, pyplot
-from ..core.rois import Roi, check_bounds, load_rois, roi_polygon
+from ..people.plotting import draw_map, pyplot
+from ..data.rois import Roi, check_bounds, load_rois, roi_polygon
 from .cli import Parser, UsageError
 
 __all__ = ["main", "plot_chain"]
@@ -83,7 +83,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                                       min_shared=args.min_shared)
         fmap = None
         if args.map_yaml:
-            from ..core.floormap import load_map
+            from ..sim.floormap import load_map
 
             fmap = load_map(args.map_yaml)
             for w in check_bounds(rois, fmap.bounds()):
@@ -120,8 +120,8 @@ def _rois_from_store(uri: str, map_name: Optional[str], config: str):
         StoreError: the store cannot be opened or read (StoreUnavailable when it is down).
         RoiError: no ROIs are stored for the map and config.
     """
-    from ..core.rois import RoiError
-    from ..core.store import open_store
+    from ..data.rois import RoiError
+    from ..data.store import open_store
 
     store = open_store(uri or None)
     try:

@@ -2,10 +2,10 @@
 
 It asks the ROI manager for the regions (``/soma/query_rois``, SOMAQueryROIs: the most recent
 version of each ROI of ``~config``; the map name from ``/soma/map_info``), builds the Markov
-chain by the seed rules (core/markov.py), writes it to the store (database
+chain by the seed rules (people/markov.py), writes it to the store (database
 ``markov_chain_db``, collection ``roi_proba_connexions_<map>``), and walks forever: draw the
 next region from the one the robot is in, send a MoveBaseAction goal at a random point well
-inside it (free on the inflated map and reachable: core/walker.py), wait up to
+inside it (free on the inflated map and reachable: people/walker.py), wait up to
 ``~goal_timeout``, dwell a random time, repeat; a failed leg is followed by a new draw. The
 chain is rebuilt when ``/soma/rois_changed`` says the ROIs changed, and from a re-query every
 ``~requery_period`` seconds (when the ROIs differ).
@@ -23,7 +23,7 @@ Topics (in the node's namespace, ``~`` = ``markov_walker/``):
   anchors, shaft width proportional to its probability, and a label per region with P(stay).
 
 Parameters: ``~seed`` (-1: random, logged so a run can be repeated), ``~goal_timeout`` (120 s
-sim time; see core.walker.WalkerConfig), ``~dwell_min``/``~dwell_max`` (5/20 s), ``~margin``
+sim time; see people.walker.WalkerConfig), ``~dwell_min``/``~dwell_max`` (5/20 s), ``~margin``
 (0.5 m inside the polygon), ``~clearance`` (0.45 m from walls), ``~robot_radius`` (0.34),
 ``~action`` (``move_base``, relative to the namespace), ``~config`` ("1"), ``~map_name`` (""
 = ask ``/soma/map_info``), ``~tol`` (0.2), ``~mode`` (vertex|edge), ``~min_shared`` (0.8),
@@ -53,31 +53,22 @@ from nav_msgs.msg import OccupancyGrid
 from std_msgs.msg import ColorRGBA, String
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..core.errors import BulletFloorSimError
-from ..core.markov import MODES, MarkovChain, store_chain, usable_rois
-from ..core.planner import PlannerConfig, PlanningGrid
-from ..core.rois import Roi
-from ..core.walker import (GoalSampler, Leg, RegionIndex, Walker, WalkerConfig, WalkerError,
+from ..errors import BulletFloorSimError
+from ..people.markov import MODES, MarkovChain, store_chain, usable_rois
+from ..nav.planner import PlannerConfig, PlanningGrid
+from ..data.rois import Roi
+from ..people.walker import (GoalSampler, Leg, RegionIndex, Walker, WalkerConfig, WalkerError,
                            anchor, region_label, walkable_regions)
 from .convert import yaw as yaw_of
 from .params import map_handling
+from .soma import query_rois
+from .node import run_node
 
-__all__ = ["main", "MarkovWalkerNode", "roi_from_msg", "chain_markers"]
+__all__ = ["main", "MarkovWalkerNode", "chain_markers"]
 
 _STATES = {GoalStatus.SUCCEEDED: "succeeded", GoalStatus.ABORTED: "aborted",
            GoalStatus.REJECTED: "rejected", GoalStatus.PREEMPTED: "preempted",
            GoalStatus.RECALLED: "preempted", GoalStatus.LOST: "lost"}
-
-
-def roi_from_msg(msg: Any) -> Roi:
-    """A core Roi from a SOMAROIObject (vertices: posearray.poses[k].position.x/y; a closing
-    vertex equal to the first is dropped). Not validated (see markov.usable_rois)."""
-    vertices = [(float(p.position.x), float(p.position.y)) for p in msg.posearray.poses]
-    if len(vertices) > 1 and vertices[0] == vertices[-1]:
-        vertices.pop()
-    return Roi(id=str(msg.id), config=str(msg.config), type=str(msg.type),
-               map_name=str(msg.map_name), vertices=vertices)
-
 
 
 def chain_markers(chain: MarkovChain, rois: Sequence[Roi], frame_id: str, stamp: Any,
@@ -154,7 +145,7 @@ class _Complaints:
 
 
 class MarkovWalkerNode:
-    """Wiring: services, topics and the action client around core.walker.Walker."""
+    """Wiring: services, topics and the action client around people.walker.Walker."""
 
     def __init__(self) -> None:
         gp = rospy.get_param
@@ -172,7 +163,7 @@ class MarkovWalkerNode:
         if self.mode not in MODES:
             raise WalkerError("~mode must be one of %s, got %r" % ("/".join(MODES), self.mode))
         self.min_shared = float(gp("~min_shared", 0.8))
-        self.robot_radius = float(gp("~robot_radius", 0.34))
+        self.robot_radius = float(gp("~robot_radius", PlannerConfig.robot_radius))
         self.query_service = str(gp("~query_service", "/soma/query_rois"))
         self.map_info_service = str(gp("~map_info_service", "/soma/map_info"))
         self.requery_period = float(gp("~requery_period", 30.0))
@@ -227,7 +218,7 @@ class MarkovWalkerNode:
         return PlannerConfig(robot_radius=self.robot_radius)
 
     def _use_map_file(self, path: str) -> None:
-        from ..core.floormap import load_map
+        from ..sim.floormap import load_map
 
         self._set_grid(PlanningGrid(load_map(path), self._planner_config(),
                                     handling=map_handling()), path)
@@ -279,7 +270,7 @@ class MarkovWalkerNode:
                 self.refresh.set()
 
     def _fetch_rois(self) -> Optional[List[Roi]]:
-        from ..srv import MapInfo, SOMAQueryROIs
+        from ..srv import MapInfo
 
         if not self.map_name:
             try:
@@ -288,9 +279,7 @@ class MarkovWalkerNode:
             except (rospy.ROSException, rospy.ServiceException):
                 pass  # the ROIs' own map name is used
         try:
-            rospy.wait_for_service(self.query_service, timeout=2.0)
-            answer = rospy.ServiceProxy(self.query_service, SOMAQueryROIs)(
-                query_type=0, returnmostrecent=True, roiconfigs=[self.roi_config])
+            rois = query_rois(self.query_service, self.roi_config, 2.0)
         except rospy.ROSException:
             self.complain("rois", "markov_walker: no ROI service %s (SOMAQueryROIs): start the "
                           "ROI manager (roslaunch bullet_floor_sim rois.launch); retrying"
@@ -300,7 +289,6 @@ class MarkovWalkerNode:
             self.complain("rois", "markov_walker: %s failed: %s; retrying"
                           % (self.query_service, " ".join(str(e).split())))
             return None
-        rois = [roi_from_msg(m) for m in answer.rois if m.config == self.roi_config]
         maps = sorted({r.map_name for r in rois})
         if not self.map_name and len(maps) > 1:
             self.complain("rois", "markov_walker: ROIs of config %s on several maps (%s): set "
@@ -358,7 +346,7 @@ class MarkovWalkerNode:
     def _store_chain(self, chain: MarkovChain) -> None:
         if not self.store_enabled:
             return
-        from ..core.store import StoreError, open_store, ros_datetime
+        from ..data.store import StoreError, open_store, ros_datetime
 
         try:
             if self.store is None:
@@ -525,17 +513,7 @@ def _id_key(region: str) -> Tuple[int, Any]:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of ``rosrun bullet_floor_sim markov_walker``."""
-    rospy.init_node("markov_walker", argv=list(sys.argv if argv is None else argv))
-    try:
-        node = MarkovWalkerNode()
-    except BulletFloorSimError as e:
-        rospy.logfatal("markov_walker: %s", e)
-        return 2
-    try:
-        node.run()
-    except rospy.ROSInterruptException:
-        pass
-    return 0
+    return run_node("markov_walker", MarkovWalkerNode, argv)
 
 
 if __name__ == "__main__":

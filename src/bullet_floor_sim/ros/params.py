@@ -6,8 +6,8 @@ from typing import Any, Optional, TypeVar
 
 import rospy
 
-from ..core.errors import ConfigError
-from ..core.solidmap import MapHandling
+from ..errors import ConfigError
+from ..sim.solidmap import MapHandling
 
 __all__ = ["config_from_params", "map_handling", "set_map_handling", "MAP_HANDLING_PARAM"]
 

@@ -1,4 +1,4 @@
-"""The embedded navigation default: a move_base-compatible action server over core/planner.py.
+"""The embedded navigation default: a move_base-compatible action server over nav/planner.py.
 
 Run it in a robot's namespace (``<group ns="robot1">``), or at the root for a robot with an empty
 name. Like move_base it serves ``move_base`` (move_base_msgs/MoveBaseAction: feedback with the
@@ -13,7 +13,7 @@ Parameters (defaults suit a Scitos A5): ``~robot_radius`` 0.34, ``~inflation_rad
 ``~planning_resolution`` 0.1, ``~max_linear`` 0.6, ``~max_angular`` 1.2,
 ``~xy_goal_tolerance`` 0.15, ``~yaw_goal_tolerance`` 0.15, ``~controller_frequency`` 10,
 ``~blocked_timeout`` 30, ``~progress_timeout`` 60, ``~give_way`` false (true: when blocked
-where no path passes, retreat to a wider place, wait and go on: core/planner.Navigator),
+where no path passes, retreat to a wider place, wait and go on: nav/planner.Navigator),
 ``~global_frame`` map, ``~map_topic`` /map.
 """
 from __future__ import annotations
@@ -34,23 +34,24 @@ from move_base_msgs.msg import (MoveBaseAction, MoveBaseActionGoal, MoveBaseFeed
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
 from sensor_msgs.msg import LaserScan
 
-from ..core.planner import (FollowerConfig, Navigator, NavigatorConfig, PlanError,
+from ..nav.planner import (FollowerConfig, Navigator, NavigatorConfig, PlanError,
                             PlannerConfig, PlanningGrid, PathFollower, obstacles_in_base,
                             path_length)
 from .convert import grid_from_msg, yaw as yaw_of
 from .params import map_handling
+from .node import run_node
 
 __all__ = ["main", "PathFollowerNode"]
 
 
 
 class PathFollowerNode:
-    """Action server + control loop; the planning itself lives in core/planner.py."""
+    """Action server + control loop; the planning itself lives in nav/planner.py."""
 
     def __init__(self) -> None:
         gp = rospy.get_param
         self.planner_cfg = PlannerConfig(
-            robot_radius=float(gp("~robot_radius", 0.34)),
+            robot_radius=float(gp("~robot_radius", PlannerConfig.robot_radius)),
             inflation_radius=float(gp("~inflation_radius", 0.6)),
             resolution=float(gp("~planning_resolution", 0.1)))
         self.follower_cfg = FollowerConfig(
@@ -85,6 +86,8 @@ class PathFollowerNode:
         self.server = actionlib.SimpleActionServer("move_base", MoveBaseAction,
                                                    execute_cb=self._execute, auto_start=False)
         self.server.start()
+        rospy.loginfo("path_follower: serving %s (embedded navigation, ground-truth "
+                      "localisation)", rospy.resolve_name("move_base"))
 
     # -- inputs ------------------------------------------------------------------------------
     def _on_map(self, msg: OccupancyGrid) -> None:
@@ -228,12 +231,7 @@ class PathFollowerNode:
 
 def main(argv: Optional[List[str]] = None) -> int:
     """Entry point of ``rosrun bullet_floor_sim path_follower``."""
-    rospy.init_node("path_follower")
-    PathFollowerNode()
-    rospy.loginfo("path_follower: serving %s (embedded navigation, ground-truth localisation)",
-                  rospy.resolve_name("move_base"))
-    rospy.spin()
-    return 0
+    return run_node("path_follower", PathFollowerNode, argv)
 
 
 if __name__ == "__main__":

@@ -4,7 +4,7 @@ Run it in the observing robot's namespace (``<group ns="robot2">``). On every ``
 places the scan in the map frame with the robot's localised pose, drops the points the static
 map explains, clusters the rest, keeps clusters of person/robot size and tracks them with a
 constant-velocity Kalman filter (gating, global nearest-neighbour association, birth after a
-few hits, death after ``max_age`` unseen): core/tracking.py. No ground truth of the tracked
+few hits, death after ``max_age`` unseen): people/tracking.py. No ground truth of the tracked
 entity is used.
 
 Pose source (``~pose_source``):
@@ -24,7 +24,7 @@ Topics (``~`` = ``people_tracker/``): ``base_scan`` (in), ``base_pose_ground_tru
 per track). The map comes from ``~map_topic`` (``/map``, latched).
 
 Parameters: ``~pose_source`` (amcl | ground_truth), ``~global_frame`` (map), ``~map_topic``,
-and the core/tracking.py TrackerConfig fields as ``~<field>`` (e.g. ``~max_age``).
+and the people/tracking.py TrackerConfig fields as ``~<field>`` (e.g. ``~max_age``).
 """
 from __future__ import annotations
 
@@ -41,13 +41,14 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..core.errors import BulletFloorSimError
-from ..core.tracking import (PoseHistory, StaticMap, Tracker, TrackerConfig, detect,
+from ..errors import BulletFloorSimError
+from ..people.tracking import (PoseHistory, StaticMap, Tracker, TrackerConfig, detect,
                              scan_points)
 from ..msg import Track as TrackMsg
 from ..msg import TrackArray
 from .params import config_from_params, map_handling
 from .convert import grid_from_msg, yaw as yaw_of
+from .node import run_node
 
 __all__ = ["main", "PeopleTrackerNode", "POSE_SOURCES"]
 
@@ -56,7 +57,7 @@ POSE_SOURCES = ("amcl", "ground_truth")
 
 
 class PeopleTrackerNode:
-    """Scan in, tracks out; the detection and tracking live in core/tracking.py."""
+    """Scan in, tracks out; the detection and tracking live in people/tracking.py."""
 
     def __init__(self) -> None:
         gp = rospy.get_param
@@ -84,6 +85,8 @@ class PeopleTrackerNode:
         if self.source == "ground_truth":
             rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_gt, queue_size=20)
         rospy.Subscriber("base_scan", LaserScan, self._on_scan, queue_size=1)
+        rospy.loginfo("people_tracker: tracking in %s (pose from %s)",
+                      rospy.resolve_name("base_scan"), self.source)
 
     def _on_map(self, msg: OccupancyGrid) -> None:
         try:
@@ -223,16 +226,7 @@ class PeopleTrackerNode:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of ``rosrun bullet_floor_sim people_tracker``."""
-    rospy.init_node("people_tracker")
-    try:
-        node = PeopleTrackerNode()
-    except BulletFloorSimError as e:
-        rospy.logfatal(str(e))
-        return 2
-    rospy.loginfo("people_tracker: tracking in %s (pose from %s)", rospy.resolve_name("base_scan"),
-                  node.source)
-    rospy.spin()
-    return 0
+    return run_node("people_tracker", PeopleTrackerNode, argv)
 
 
 if __name__ == "__main__":

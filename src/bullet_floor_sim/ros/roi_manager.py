@@ -3,7 +3,7 @@
 ``rosrun bullet_floor_sim roi_manager _world:=office _db:=URI``
 
 * ``/soma/map_info`` (MapInfo) and ``/soma/query_rois`` (SOMAQueryROIs), SOMA's names and
-  fields, answered from the store (:mod:`bullet_floor_sim.core.roi_store`).
+  fields, answered from the store (:mod:`bullet_floor_sim.data.roi_store`).
 * One InteractiveMarkerServer per config at ``soma_roi/<config>`` (feedback on
   ``/soma_roi/<config>/feedback``): a sphere per vertex named ``<roi id>_<vertex index>`` with
   a MOVE_PLANE control, an outline ``<roi id>_outline``, and a right-click menu Add Point /
@@ -41,15 +41,16 @@ from std_msgs.msg import ColorRGBA, Header, String
 from visualization_msgs.msg import (InteractiveMarker, InteractiveMarkerControl,
                                     InteractiveMarkerFeedback, Marker, MarkerArray)
 
-from bullet_floor_sim.core import roi_store as rs
-from bullet_floor_sim.core.config import load_world_config, resolve_world
-from bullet_floor_sim.core.errors import BulletFloorSimError
-from bullet_floor_sim.core.floormap import load_map
-from bullet_floor_sim.core.paths import worlds_dir
-from bullet_floor_sim.core.rois import Roi, RoiError, centroid, check_bounds, load_rois
-from bullet_floor_sim.core.store import StoreError, StoreUnavailable, open_store
+from bullet_floor_sim.data import roi_store as rs
+from bullet_floor_sim.sim.config import load_world_config, resolve_world
+from bullet_floor_sim.errors import BulletFloorSimError
+from bullet_floor_sim.sim.floormap import load_map
+from bullet_floor_sim.paths import worlds_dir
+from bullet_floor_sim.data.rois import Roi, RoiError, centroid, check_bounds, load_rois
+from bullet_floor_sim.data.store import StoreError, StoreUnavailable, open_store
 from bullet_floor_sim.msg import SOMAROIObject
 from bullet_floor_sim.ros.convert import occupancy_grid
+from bullet_floor_sim.ros.node import run_node
 from bullet_floor_sim.srv import (MapInfo, MapInfoResponse, SOMAQueryROIs,
                                   SOMAQueryROIsResponse)
 
@@ -471,14 +472,7 @@ class RoiManagerNode:
 
 def main(argv: Optional[List[str]] = None) -> int:
     """Entry point of ``rosrun bullet_floor_sim roi_manager``."""
-    rospy.init_node("soma_roi_manager")
-    try:
-        RoiManagerNode()
-    except BulletFloorSimError as e:
-        rospy.logfatal("roi_manager: %s", e)
-        return 1
-    rospy.spin()
-    return 0
+    return run_node("soma_roi_manager", RoiManagerNode, argv)
 
 
 if __name__ == "__main__":

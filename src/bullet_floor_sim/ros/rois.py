@@ -18,10 +18,10 @@ import sys
 import tempfile
 from typing import List, Optional
 
-from bullet_floor_sim.core.errors import BulletFloorSimError
-from bullet_floor_sim.core.roi_store import COLLECTION, DATABASE, RoiStore
-from bullet_floor_sim.core.rois import load_rois, save_rois
-from bullet_floor_sim.core.store import open_store
+from bullet_floor_sim.errors import BulletFloorSimError
+from bullet_floor_sim.data.roi_store import COLLECTION, DATABASE, RoiStore
+from bullet_floor_sim.data.rois import load_rois, save_rois
+from bullet_floor_sim.data.store import open_store
 
 
 def _parser() -> argparse.ArgumentParser:

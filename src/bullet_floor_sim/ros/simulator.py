@@ -24,7 +24,7 @@ with the robot's prefixed URDF, so any number of robots works from one launch fi
 ``~max_command_lag`` (0.15 s of sim time: while a moving robot's last ``cmd_vel`` is older,
 the clock goes no faster than real time, so a navigation node that cannot keep pace with
 ``rtf:=0`` slows the simulator instead of driving on stale commands; 0 = never wait;
-core/pacing.py), ``~wait_for_subscribers`` (true: after each send the clock holds until every
+sim/pacing.py), ``~wait_for_subscribers`` (true: after each send the clock holds until every
 subscriber on this machine has read it, so no node works from data queued seconds behind; Linux
 only), ``~max_command_wait`` (2.0 s of wall time: a robot late for that long, or a subscriber
 that has not read for that long, is let go, with a warning naming it, until it is back).
@@ -57,13 +57,13 @@ from std_msgs.msg import Float64
 from std_srvs.srv import Empty, EmptyResponse
 from tf2_msgs.msg import TFMessage
 
-from ..core import bullet_capi
-from ..core.config import load_world_config, resolve_world
-from ..core.errors import BulletFloorSimError, CommandError, ConfigError
-from ..core.pacing import BacklogGate, CommandGate, tcp_unread
-from ..core.paths import worlds_dir
-from ..core.robot import expand_xacro
-from ..core.world import World
+from ..sim import bullet_capi
+from ..sim.config import load_world_config, resolve_world
+from ..errors import BulletFloorSimError, CommandError, ConfigError
+from ..sim.pacing import BacklogGate, CommandGate, tcp_unread
+from ..paths import worlds_dir
+from ..sim.robot import expand_xacro
+from ..sim.world import World
 from .params import set_map_handling
 
 __all__ = ["main", "SimulatorNode"]
@@ -299,7 +299,7 @@ def _check_wires() -> None:
     pairs = [("odom", "base_footprint"), ("map", "r2/odom")]
     same(_TfWire(pairs).pack(stamp.secs, stamp.nsecs, [pose, vel]),
          TFMessage(transforms=[_transform(a, b, p, stamp) for (a, b), p in zip(pairs, [pose, vel])]))
-    from ..core.sensors import Scan
+    from ..sim.sensors import Scan
 
     ranges = np.array([0.5, np.inf, -np.inf, 2.25], dtype=np.float32)
     scan = Scan(robot=0, stamp_ns=stamp.to_nsec(), ranges=ranges, angle_min=-1.5,
@@ -335,6 +335,10 @@ class _Outbox:
         self._queues: Dict[object, list] = {}   # connection -> [messages, bytes sent of the first]
         self.publishers: List[rospy.Publisher] = []
         self.sent = False   # bytes went out since the owner last cleared this
+        self.raw = raw_sockets_usable()
+        if not self.raw:
+            rospy.logwarn("simulator: this rospy's connections have no socket/done attributes; "
+                          "every message goes through rospy's blocking write_data instead")
 
     def publisher(self, topic: str, cls, queue_size: int) -> rospy.Publisher:
         """A publisher for ``put``: rospy connections without rospy's per-connection queue."""
@@ -361,10 +365,10 @@ class _Outbox:
         for c in pub.impl.connections:
             q = queues.get(c)
             if q is None:
-                if hasattr(c, "_connection"):
-                    # a rospy QueuedConnection: someone else in this process made a publisher
-                    # on this topic with a queue, and its thread writes to the socket: go
-                    # through it
+                if hasattr(c, "_connection") or not self.raw:
+                    # a rospy QueuedConnection (someone else in this process made a publisher
+                    # on this topic with a queue, and its thread writes to the socket), or a
+                    # rospy whose connections this outbox does not know: go through rospy
                     try:
                         c.write_data(data)
                     except Exception:  # noqa: BLE001  (rospy drops such connections itself)
@@ -424,6 +428,19 @@ class _Outbox:
         return not msgs
 
 
+def raw_sockets_usable() -> bool:
+    """Whether rospy's TCPROS connections have what ``_Outbox`` writes through: the
+    ``socket`` and ``done`` attributes its constructor sets, and ``write_data``."""
+    from rospy.impl.tcpros_base import TCPROSTransport
+
+    names = set()
+    for cls in TCPROSTransport.__mro__:     # done is set by rospy.transport.Transport
+        init = cls.__dict__.get("__init__")
+        if init is not None and hasattr(init, "__code__"):
+            names.update(init.__code__.co_names)
+    return "socket" in names and "done" in names and hasattr(TCPROSTransport, "write_data")
+
+
 try:   # rospy internals: the setter of rospy's time, used when this node owns the clock
     from rospy.rostime import _set_rostime
 except ImportError:
@@ -461,8 +478,9 @@ class StopSignals:
     non-reentrant lock; rospy's shutdown then closes all topics and waits for the topic
     manager's lock, which rospy's registration thread holds while it waits for the connection
     lock the interrupted main thread still has: a deadlock (2-3 runs in 20 of sim.launch in
-    worlds/simple with scan subscribers; the rostests and nav_bench saw it too). Both rospy and roslaunch ignore every later signal once shutdown
-    has begun, so roslaunch's SIGTERM did nothing either and only SIGKILL ended the node.
+    worlds/simple with scan subscribers; the rostests and nav_bench saw it too). Both rospy and
+    roslaunch ignore every later signal once shutdown has begun, so roslaunch's SIGTERM did
+    nothing either and only SIGKILL ended the node.
 
     Here the first signal sets ``signum``; the loop sees it between steps, where it holds no
     lock, and shuts down from there. A second signal exits at once (shutdown itself is stuck).
@@ -512,7 +530,7 @@ class SimulatorNode:
         report_period: wall seconds between logs (and messages on ~real_time_factor_achieved
             and ~publishing_share) of the achieved real-time factor and the wall time spent
             building and sending messages as a share of the time spent stepping the world.
-        gate: when the clock waits for the robots' controllers (core/pacing.py; default: a
+        gate: when the clock waits for the robots' controllers (sim/pacing.py; default: a
             moving robot's command may be 0.15 s of sim time old, a wait lasts at most 2 s).
         backlog: when the clock waits for subscribers to read what was sent (None: never).
     """
@@ -812,7 +830,7 @@ class SimulatorNode:
                 rep_step, rep_pub = self.time_stepping, self.time_publishing
 
     def _controllers_late(self, wall: float) -> bool:
-        """Whether the clock holds for a moving robot's late controller (core/pacing.py)."""
+        """Whether the clock holds for a moving robot's late controller (sim/pacing.py)."""
         with self.lock:
             held = self.gate.hold(self.world.clock.now, wall)
         for name in self.gate.released:
@@ -823,7 +841,7 @@ class SimulatorNode:
 
     def _subscribers_behind(self, wall: float) -> bool:
         """After a send, whether the clock holds because a subscriber has not yet read it
-        (core/pacing.py)."""
+        (sim/pacing.py)."""
         if self.backlog is None or not self.out.sent:
             return False
         try:

@@ -26,9 +26,9 @@ import os
 import sys
 from typing import Optional, Sequence
 
-from ..core.errors import BulletFloorSimError
-from ..core.store import Store, open_store
-from ..core.store.journal import Journal
+from ..errors import BulletFloorSimError
+from ..data.store import Store, open_store
+from ..data.store.journal import Journal
 from .cli import Parser, UsageError
 
 __all__ = ["main"]

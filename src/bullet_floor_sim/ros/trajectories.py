@@ -37,11 +37,11 @@ import time
 from dataclasses import replace
 from typing import Dict, IO, Iterable, List, Optional, Sequence, Tuple
 
-from ..core.errors import BulletFloorSimError
-from ..core.files import atomic_file
-from ..core.plotting import draw_map, pyplot
-from ..core.store import Store, insert_message, open_store
-from ..core.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_POSES, STORED_TYPE, Chunk,
+from ..errors import BulletFloorSimError
+from ..files import atomic_file
+from ..people.plotting import draw_map, pyplot
+from ..data.store import Store, insert_message, open_store
+from ..data.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_POSES, STORED_TYPE, Chunk,
                                check_max_poses, chunk_fields, chunk_from_document,
                                chunk_from_json, document_to_json, ensure_indexes,
                                iter_documents, join_chunks, parse_time, split_poses)
@@ -262,9 +262,9 @@ def _import(store: Store, args: argparse.Namespace) -> None:
 # -- plot -------------------------------------------------------------------------------------
 
 def _map_for_plot(args: argparse.Namespace):
-    from ..core.config import load_world_config, resolve_world
-    from ..core.floormap import load_map
-    from ..core.paths import worlds_dir
+    from ..sim.config import load_world_config, resolve_world
+    from ..sim.floormap import load_map
+    from ..paths import worlds_dir
 
     if args.map_yaml:
         return load_map(args.map_yaml)

@@ -1,4 +1,4 @@
-"""Trajectory recorder: every pose of a walker, chunked (core/trajectory.py) and stored.
+"""Trajectory recorder: every pose of a walker, chunked (data/trajectory.py) and stored.
 
 Subscribes to ``~pose_topic`` (geometry_msgs/PoseStamped in ``map``, e.g. the simulator's
 ground truth ``/robot1/pose``), records every pose, and stores each chunk as a
@@ -9,14 +9,14 @@ a trajectory on ``~trajectories/batch``, the last one of each trajectory (``comp
 ``~trajectories/complete`` (together: exactly what is stored). ``~path`` (nav_msgs/Path,
 latched) shows the open chunk, ``~path_rate`` times a second.
 
-Closed chunks are stored by a worker thread (core/recording.py), never by the subscriber, so
+Closed chunks are stored by a worker thread (data/recording.py), never by the subscriber, so
 a slow or stalled database delays storing, not reception. The open chunk, and each closed one
 until it is stored, is appended to a spill file every ``~flush_every`` seconds; a recorder
 killed outright (SIGKILL, OOM) loses at most that window: the next recorder on the same
 database and topic stores what the spill holds (closed_by "recovered"). On shutdown
 (SIGINT/SIGTERM from roslaunch, or Ctrl-C) the open chunk is stored, marked complete, before
 the node exits. If the database is down, chunks are journalled and replayed when it is back
-(core/store). A trajectory ends after ``~max_gap`` seconds without a pose, measured on the
+(data/store). A trajectory ends after ``~max_gap`` seconds without a pose, measured on the
 poses' stamps (on arrival times when the publisher stamps with another clock).
 
 Parameters: ``~pose_topic`` (pose), ``~db`` ("" = ``$ROS_HOME/bullet_floor_sim/db``; or
@@ -34,7 +34,6 @@ is tried again), ``~flush_every`` 2 s and ``~spill_dir`` (default
 from __future__ import annotations
 
 import hashlib
-import logging
 import math
 import os
 import sys
@@ -42,82 +41,28 @@ import threading
 from typing import List, Optional, Sequence
 
 import rospy
-from geometry_msgs.msg import Point, Pose, PoseStamped, Quaternion
+from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path
 from std_msgs.msg import Header
 
-from ..core.config import load_world_config, resolve_world
-from ..core.errors import BulletFloorSimError
-from ..core.paths import worlds_dir
-from ..core.recording import ChunkQueue, ChunkSpill
-from ..core.rois import Roi, load_rois
-from ..core.store import (DuplicateKeyError, StoreError, message_document, open_store,
+from ..sim.config import load_world_config, resolve_world
+from ..errors import BulletFloorSimError
+from ..paths import worlds_dir
+from ..data.recording import ChunkQueue, ChunkSpill
+from ..data.rois import Roi, load_rois
+from ..data.store import (DuplicateKeyError, StoreError, message_document, open_store,
                           ros_home)
-from ..core.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_GAP, DEFAULT_MAX_POSES,
+from ..data.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_GAP, DEFAULT_MAX_POSES,
                                DEFAULT_PERIOD, STORED_TYPE, Chunk, Chunker, RegionLocator,
                                check_max_poses, chunk_fields, chunk_id, ensure_indexes)
 from ..msg import Trajectory
+from .convert import chunk_to_msg, pose_of_msg
+from .node import forward_store_log, run_node
+from .soma import query_rois
 
-__all__ = ["main", "RecorderNode", "RospyLogHandler", "chunk_to_msg", "forward_store_log",
-           "pose_msgs", "pose_of_msg"]
+__all__ = ["main", "RecorderNode"]
 
 _NS = 1000000000
-
-
-def pose_of_msg(msg: PoseStamped):
-    """A PoseStamped as core/trajectory's pose tuple (t_ns, x, y, z, qx, qy, qz, qw)."""
-    s = msg.header.stamp
-    p = msg.pose.position
-    q = msg.pose.orientation
-    return (s.secs * _NS + s.nsecs, p.x, p.y, p.z, q.x, q.y, q.z, q.w)
-
-
-def _time(t_ns: int) -> rospy.Time:
-    secs, nsecs = divmod(int(t_ns), _NS)
-    return rospy.Time(secs, nsecs)
-
-
-def pose_msgs(poses: Sequence, frame_id: str) -> List[PoseStamped]:
-    """Pose tuples as PoseStamped messages."""
-    out = []
-    for t, x, y, z, qx, qy, qz, qw in poses:
-        out.append(PoseStamped(Header(0, _time(t), frame_id),
-                               Pose(Point(x, y, z), Quaternion(qx, qy, qz, qw))))
-    return out
-
-
-def chunk_to_msg(chunk: Chunk, stamp: rospy.Time, seq: int = 0):
-    """A chunk as a bullet_floor_sim/Trajectory message (human_trajectory's fields)."""
-    return Trajectory(header=Header(seq, stamp, chunk.frame_id), uuid=chunk.uuid,
-                      trajectory=pose_msgs(chunk.poses, chunk.frame_id), robot=[],
-                      start_time=_time(chunk.start_ns), end_time=_time(chunk.end_ns),
-                      trajectory_length=chunk.trajectory_length, complete=chunk.complete,
-                      sequence_id=chunk.sequence_id,
-                      trajectory_displacement=chunk.trajectory_displacement,
-                      displacement_pose_ratio=chunk.displacement_pose_ratio)
-
-
-class RospyLogHandler(logging.Handler):
-    """Forwards Python ``logging`` records (the store's outage and replay messages) to rospy,
-    so they reach the node's screen output and /rosout."""
-
-    def emit(self, record: logging.LogRecord) -> None:
-        msg = self.format(record)
-        if record.levelno >= logging.ERROR:
-            rospy.logerr(msg)
-        elif record.levelno >= logging.WARNING:
-            rospy.logwarn(msg)
-        else:
-            rospy.loginfo(msg)
-
-
-def forward_store_log() -> None:
-    """Send the store's log (logger ``bullet_floor_sim.store``, INFO and up) to rospy."""
-    log = logging.getLogger("bullet_floor_sim.store")
-    if not any(isinstance(h, RospyLogHandler) for h in log.handlers):
-        log.addHandler(RospyLogHandler())
-        log.setLevel(logging.INFO)
-        log.propagate = False
 
 
 def rois_from_service(name: str, wait: float, map_name: str, config: str) -> List[Roi]:
@@ -126,30 +71,19 @@ def rois_from_service(name: str, wait: float, map_name: str, config: str) -> Lis
     Returns:
         The ROIs, or [] when the service does not answer within ``wait`` seconds or has none.
     """
-    from ..srv import SOMAQueryROIs, SOMAQueryROIsRequest
-
     try:
-        rospy.wait_for_service(name, timeout=wait)
+        rois = query_rois(name, config, wait)
     except rospy.ROSException:
-        return []
-    try:
-        resp = rospy.ServiceProxy(name, SOMAQueryROIs)(SOMAQueryROIsRequest(
-            query_type=0, returnmostrecent=True, roiconfigs=[config] if config else []))
-    except (rospy.ServiceException, rospy.ROSException) as e:
+        return []   # no ROI manager: the ROI file is used
+    except rospy.ServiceException as e:
         rospy.logwarn("trajectory_recorder: ROI service %s failed (%s); using the ROI file",
                       name, e)
         return []
-    rois = []
-    for r in resp.rois:
-        if map_name and r.map_name != map_name:
-            continue
-        rois.append(Roi(r.id, r.config, r.type, r.map_name,
-                        [(p.position.x, p.position.y) for p in r.posearray.poses]))
-    return rois
+    return [r for r in rois if not map_name or r.map_name == map_name]
 
 
 class RecorderNode:
-    """Parameters, subscriptions and the store; the chunking lives in core/trajectory.py.
+    """Parameters, subscriptions and the store; the chunking lives in data/trajectory.py.
 
     Raises:
         BulletFloorSimError: a bad parameter, an unreadable world or ROI file, or a store URI
@@ -157,6 +91,7 @@ class RecorderNode:
     """
 
     def __init__(self) -> None:
+        forward_store_log()
         gp = rospy.get_param
         self.frame_id = str(gp("~frame_id", "map")).lstrip("/")
         split = str(gp("~split", "period"))
@@ -208,6 +143,13 @@ class RecorderNode:
                       "max %d poses/chunk%s)", self.topic, self.store.shown_uri, DATABASE,
                       COLLECTION, self.map_name, split, self.chunker.period,
                       self.chunker.max_poses, self.rois_source)
+        # The hook stores the open chunk; rospy calls it from the SIGINT/SIGTERM handler
+        # before the node goes down. close() (after spinning) waits for it.
+        rospy.on_shutdown(self.close)
+
+    def close(self) -> None:
+        """Store the open chunk (complete) and close the store: :meth:`shutdown`."""
+        self.shutdown("shutdown")
 
     # -- set-up -------------------------------------------------------------------------------
     def _spill_path(self, directory: str) -> str:
@@ -218,7 +160,7 @@ class RecorderNode:
 
     def _recover(self) -> None:
         """Store what a recorder killed before its time left in the spill file. A chunk's
-        ``_id`` is the same every time it is stored (core/trajectory.chunk_id), so one that
+        ``_id`` is the same every time it is stored (data/trajectory.chunk_id), so one that
         reached the store (or its journal) before the kill is not stored twice."""
         chunks = self.spill.recover()
         kept = [c for c in chunks if self._store(c, None) != "duplicate"]
@@ -414,19 +356,8 @@ class RecorderNode:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of ``rosrun bullet_floor_sim trajectory_recorder``."""
-    rospy.init_node("trajectory_recorder")
-    forward_store_log()
-    try:
-        node = RecorderNode()
-    except (BulletFloorSimError, ValueError) as e:
-        rospy.logfatal("trajectory_recorder: %s", " ".join(str(e).split()))
-        return 1
-    # The hook stores the open chunk; rospy calls it from the SIGINT/SIGTERM handler before
-    # the node goes down. Calling shutdown() again after spin() returns waits for it.
-    rospy.on_shutdown(lambda: node.shutdown("shutdown"))
-    rospy.spin()
-    node.shutdown("shutdown")
-    return 0
+    return run_node("trajectory_recorder", RecorderNode, argv,
+                    errors=(BulletFloorSimError, ValueError))
 
 
 if __name__ == "__main__":

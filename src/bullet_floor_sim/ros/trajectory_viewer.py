@@ -42,13 +42,14 @@ from nav_msgs.msg import Path
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..core.errors import BulletFloorSimError
-from ..core.store import StoreError, open_store
-from ..core.trajectory import (COLLECTION, DATABASE, Chunk, Joined, chunk_from_document,
+from ..errors import BulletFloorSimError
+from ..data.store import StoreError, open_store
+from ..data.trajectory import (COLLECTION, DATABASE, Chunk, Joined, chunk_from_document,
                                ensure_indexes, join_chunks, select_chunks)
 from ..msg import Trajectory
 from ..srv import SelectTrajectories, SelectTrajectoriesResponse
-from .trajectory_recorder import forward_store_log, pose_msgs
+from .convert import pose_msgs
+from .node import forward_store_log, run_node
 
 __all__ = ["main", "ViewerNode", "Selection", "decimate", "newest", "time_colour",
            "trajectory_colour"]
@@ -161,6 +162,7 @@ class ViewerNode:
     """
 
     def __init__(self) -> None:
+        forward_store_log()
         gp = rospy.get_param
         self.frame_id = str(gp("~frame_id", "map"))
         self.line_width = float(gp("~line_width", 0.05))
@@ -194,6 +196,12 @@ class ViewerNode:
         with self.lock:
             self._reload_or_warn()
         self.timer = rospy.Timer(rospy.Duration(2.0), self._tick, reset=True)
+        rospy.loginfo("trajectory_viewer: %d trajectories shown (%s) from %s",
+                      len(self.shown), self.selection.describe(), self.store.shown_uri)
+
+    def close(self) -> None:
+        """The store's held writes get their last try (see data/store)."""
+        self.store.close()
 
     # -- loading ------------------------------------------------------------------------------
     def _reload(self, sel: Selection) -> Dict[Tuple[str, int], Chunk]:
@@ -336,18 +344,8 @@ class ViewerNode:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of ``rosrun bullet_floor_sim trajectory_viewer``."""
-    rospy.init_node("trajectory_viewer")
-    forward_store_log()
-    try:
-        node = ViewerNode()
-    except (BulletFloorSimError, ValueError) as e:
-        rospy.logfatal("trajectory_viewer: %s", " ".join(str(e).split()))
-        return 1
-    rospy.loginfo("trajectory_viewer: %d trajectories shown (%s) from %s",
-                  len(node.shown), node.selection.describe(), node.store.shown_uri)
-    rospy.spin()
-    node.store.close()
-    return 0
+    return run_node("trajectory_viewer", ViewerNode, argv,
+                    errors=(BulletFloorSimError, ValueError))
 
 
 if __name__ == "__main__":

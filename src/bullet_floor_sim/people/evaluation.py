@@ -1,11 +1,11 @@
 """The destination-prediction study: how much of a leg must be seen before its goal is right.
 
 :func:`run` plays the demo's observer scenario in one process, headless and as fast as the CPU
-allows: the world's first robot walks region to region by the Markov chain (core/walker.py,
+allows: the world's first robot walks region to region by the Markov chain (people/walker.py,
 driven by the embedded navigator, as ``markov_walker`` + ``path_follower`` do), the second
-robot detects and tracks it with its own lidar (core/tracking.py, localised from ground truth),
-follows it and searches the predicted region when it loses it (core/follow.py), and the
-predictor (core/prediction.py) estimates the destination of the current leg on every track
+robot detects and tracks it with its own lidar (people/tracking.py, localised from ground truth),
+follows it and searches the predicted region when it loses it (people/follow.py), and the
+predictor (people/prediction.py) estimates the destination of the current leg on every track
 update. The same predictor also runs on the walker's ground-truth trajectory, so that tracking
 error and prediction error can be told apart.
 
@@ -33,15 +33,15 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .errors import BulletFloorSimError
+from ..errors import BulletFloorSimError
 from .follow import FollowBehaviour, FollowConfig, pick_target, search_plan
 from .markov import MarkovChain, usable_rois
-from .planner import (Navigator, NavigatorConfig, PathFollower, PlanError, PlanningGrid,
+from ..nav.planner import (Navigator, NavigatorConfig, PathFollower, PlanError, PlanningGrid,
                       obstacles_in_base)
 from .plotting import pyplot
 from .prediction import (DestinationModel, OnlinePredictor, PredictionConfig, PredictorPool,
                          log_loss, posterior_or_prior, top1)
-from .rois import load_rois
+from ..data.rois import load_rois
 from .tracking import StaticMap, Tracker, TrackerConfig, detect, scan_points
 from .walker import GoalSampler, Walker, WalkerConfig, WalkerError, walkable_regions
 
@@ -217,7 +217,7 @@ def run(config: Optional[EvalConfig] = None,
     Raises:
         EvaluationError: the world has fewer than two robots or no usable ROIs.
     """
-    from .world import World
+    from ..sim.world import World
 
     cfg = config or EvalConfig()
     cfg.check()
@@ -246,7 +246,7 @@ def world_model(world_name: str, prediction: Optional[PredictionConfig] = None
                 ) -> DestinationModel:
     """The destination model :func:`run` builds for a world (its regions the walker can
     reach, their chain, its planning grid) with the given prediction parameters."""
-    from .world import World
+    from ..sim.world import World
 
     world = World.from_name(world_name, seed=0, physics_rate=100.0)
     try:
@@ -275,7 +275,7 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
     pred_gt = OnlinePredictor(model)
     pred_trk = PredictorPool(model)
     laser = [world.models[i].laser_pose for i in range(world.n)]  # (x, y, z, yaw) in base
-    W, O = cfg.walker, cfg.observer
+    W, OBS = cfg.walker, cfg.observer
     steps = max(1, int(round(1.0 / (world.clock.dt * cfg.control_rate))))
     max_t = cfg.max_sim_time if cfg.max_sim_time is not None else 150.0 * cfg.legs
     body = float(world.radius[W])  # the walker's footprint radius
@@ -302,8 +302,8 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
         t = world.clock.now
         world.update_odometry()
         pose_w = world.view(W, refresh=False)
-        pose_o = world.view(O, refresh=False)
-        scan_w, scan_o = scans_by_robot.get(W), scans_by_robot.get(O)
+        pose_o = world.view(OBS, refresh=False)
+        scan_w, scan_o = scans_by_robot.get(W), scans_by_robot.get(OBS)
 
         # -- the walker (markov_walker + path_follower) ------------------------------------
         obst_w = _obstacles(scan_w, laser[W])
@@ -353,7 +353,7 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
 
         # -- the observer: detect, track, predict, follow ------------------------------------
         ox, oy, oyaw = pose_o.pose
-        lx, ly, lyaw = _laser_in_map(pose_o.pose, laser[O])
+        lx, ly, lyaw = _laser_in_map(pose_o.pose, laser[OBS])
         tracks = []
         if scan_o is not None:
             pts = scan_points(scan_o.ranges, scan_o.angle_min, scan_o.angle_increment,
@@ -390,7 +390,7 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
             false_ticks += 1
 
         # -- the follower ----------------------------------------------------------------------
-        obst_o = _obstacles(scan_o, laser[O])
+        obst_o = _obstacles(scan_o, laser[OBS])
         if cfg.follow:
             tgt = None if target is None else (target.x, target.y, target.vx, target.vy)
             dec = follow.update(t, pose_o.pose, tgt, search or None, obs_goal_done)
@@ -405,12 +405,12 @@ def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
         if obs_goal_active:
             st = nav_observer.update(pose_o.pose, obst_o, t)
             if st.state == "active":
-                world.command(O, st.v, 0.0, st.w)
+                world.command(OBS, st.v, 0.0, st.w)
             else:
-                world.command(O, 0.0, 0.0, 0.0)
+                world.command(OBS, 0.0, 0.0, 0.0)
                 obs_goal_active, obs_goal_done = False, True
         else:
-            world.command(O, 0.0, 0.0, 0.0)
+            world.command(OBS, 0.0, 0.0, 0.0)
 
     return EvalResult(config=cfg, legs=completed, failed_legs=failed,
                       sim_time=world.clock.now - t0, wall_time=time.time() - t_wall,

@@ -22,8 +22,8 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .errors import MapError
-from .yamlio import read_yaml
+from ..errors import MapError
+from ..yamlio import read_yaml
 
 __all__ = [
     "FloorMap",
@@ -63,7 +63,7 @@ class FloorMap:
     free_thresh: float = 0.196
     mode: str = "trinary"
     _rects: List[Tuple[int, int, int, int]] = field(default_factory=list, repr=False, compare=False)
-    # derived grids kept with the map (core/solidmap.py keeps its answer per handling here)
+    # derived grids kept with the map (sim/solidmap.py keeps its answer per handling here)
     _derived: Dict[Any, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @property

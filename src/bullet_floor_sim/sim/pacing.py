@@ -33,9 +33,9 @@ from __future__ import annotations
 import math
 import socket
 import struct
-from typing import Dict, Hashable, List, Optional, Sequence, Tuple
+from typing import Dict, Hashable, List, Sequence, Tuple
 
-from .errors import ConfigError
+from ..errors import ConfigError
 
 __all__ = ["BacklogGate", "CommandGate", "tcp_unread"]
 

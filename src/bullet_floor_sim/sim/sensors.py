@@ -14,6 +14,7 @@ import numpy as np
 
 from . import bullet_capi
 from .config import BatteryConfig, LaserConfig, OdometryConfig
+from ..geometry import wrap_angle, wrap_angles
 
 _BODY = operator.itemgetter(0)
 _FRACTION = operator.itemgetter(2)
@@ -381,7 +382,7 @@ class Odometry:
         c, s = np.cos(old[:, 2]), np.sin(old[:, 2])
         bx = c * dxw + s * dyw
         by = -s * dxw + c * dyw
-        dth = _wrap(new[:, 2] - old[:, 2])
+        dth = wrap_angles(new[:, 2] - old[:, 2])
         if self.noisy:
             dist = np.hypot(bx, by)
             n = self.rng.standard_normal((len(dist), 2))
@@ -395,7 +396,7 @@ class Odometry:
         c, s = np.cos(yaw), np.sin(yaw)
         self.pose[:, 0] += c * bx - s * by
         self.pose[:, 1] += s * bx + c * by
-        self.pose[:, 2] = _wrap(yaw + dth)
+        self.pose[:, 2] = wrap_angles(yaw + dth)
 
     def _update_small(self, old: list, new: list) -> None:
         """``update`` in plain floats, robot by robot (for a few robots numpy's per-call cost
@@ -406,7 +407,7 @@ class Odometry:
             dxw, dyw = nw[0] - o[0], nw[1] - o[1]
             c, s = math.cos(o[2]), math.sin(o[2])
             bx, by = c * dxw + s * dyw, -s * dxw + c * dyw
-            dth = (nw[2] - o[2] + math.pi) % (2.0 * math.pi) - math.pi
+            dth = wrap_angle(nw[2] - o[2])
             if noise is not None:
                 dist = math.hypot(bx, by)
                 if dist > 0:
@@ -417,7 +418,7 @@ class Odometry:
                     + self.drift[i] * dist
             c, s = math.cos(p[2]), math.sin(p[2])
             out.append((p[0] + c * bx - s * by, p[1] + s * bx + c * by,
-                        (p[2] + dth + math.pi) % (2.0 * math.pi) - math.pi))
+                        wrap_angle(p[2] + dth)))
         self.pose[:] = out
 
     def reset(self, robots: Optional[Sequence[int]] = None) -> None:
@@ -448,5 +449,3 @@ class Battery:
         self.t0[list(robots)] = now_ns
 
 
-def _wrap(a: np.ndarray) -> np.ndarray:
-    return (a + np.pi) % (2.0 * np.pi) - np.pi

@@ -3,7 +3,7 @@
 This is what moves the simulated human (and any robot when the stock navigation stack is not
 installed). It localises from ground truth: it is legs, not a SLAM system.
 
-* :class:`PlanningGrid` turns a :class:`~bullet_floor_sim.core.floormap.FloorMap` into a
+* :class:`PlanningGrid` turns a :class:`~bullet_floor_sim.sim.floormap.FloorMap` into a
   coarser planning grid. A cell is *lethal* when the robot's footprint circle centred on the
   cell's centre could touch a wall (or unknown space); free cells near walls carry a cost that
   decays exponentially with clearance, as costmap_2d's inflation layer does, so paths keep
@@ -27,9 +27,10 @@ from typing import Callable, Iterable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .errors import BulletFloorSimError
-from .floormap import FloorMap
-from .solidmap import MapHandling, solid_map
+from ..errors import BulletFloorSimError
+from ..sim.floormap import FloorMap
+from ..sim.solidmap import MapHandling, solid_map
+from ..geometry import wrap_angle
 
 __all__ = [
     "PlanError",
@@ -62,7 +63,7 @@ class PlannerConfig:
         cost_weight: how much a fully inflated cell adds to the length of a step (x1 + w).
         resolution: planning cell size (m); rounded to a multiple of the map resolution.
         unknown_is_obstacle: unknown (-1) areas are walls for planning (``unknown: wall`` of
-            core/solidmap.py: unseen slivers inside an open hall are floor); False: floor.
+            sim/solidmap.py: unseen slivers inside an open hall are floor); False: floor.
         path_spacing: spacing (m) of the resampled output path.
     """
 
@@ -92,7 +93,7 @@ class PlanningGrid:
         k = max(1, int(round(cfg.resolution / fmap.resolution)))
         self.factor = k
         self.resolution = fmap.resolution * k
-        # what is solid is decided as the simulator decides it (core/solidmap.py): occupied
+        # what is solid is decided as the simulator decides it (sim/solidmap.py): occupied
         # cells, unknown areas but not the unseen slivers of an open hall, slits closed
         if handling is None:
             handling = MapHandling(unknown="wall" if cfg.unknown_is_obstacle else "free")
@@ -552,7 +553,7 @@ class PathFollower:
             self._index = len(self.path) - 1
             if self.goal_yaw is None:
                 return FollowerCommand(0.0, 0.0, "done", dist_goal)
-            err = _wrap(self.goal_yaw - yaw)
+            err = wrap_angle(self.goal_yaw - yaw)
             if abs(err) <= cfg.yaw_tolerance:
                 return FollowerCommand(0.0, 0.0, "done", dist_goal)
             w = _clip(2.0 * err, cfg.max_angular)
@@ -611,8 +612,6 @@ def _to_map(pose: Sequence[float], pts: np.ndarray) -> np.ndarray:
     return np.stack([x + c * pts[:, 0] - s * pts[:, 1], y + s * pts[:, 0] + c * pts[:, 1]], axis=1)
 
 
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def _clip(v: float, limit: float) -> float:
@@ -834,7 +833,7 @@ class Navigator:
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
         if ((abs(v) < 0.02 and abs(w) < 0.1) or ref is None
                 or math.hypot(x - ref[1], y - ref[2]) > 0.02
-                or abs(_wrap(yaw - ref[3])) > 0.05):
+                or abs(wrap_angle(yaw - ref[3])) > 0.05):
             self._still_since = (now, x, y, yaw)
             return False
         if now - ref[0] >= self.config.stall_time:

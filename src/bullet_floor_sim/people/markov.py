@@ -23,7 +23,7 @@ chain, :func:`load_chain` reads it back.
 ROIs come from the store as the ROI manager keeps them (:mod:`.roi_store`, SOMA's layout:
 database ``somadata``, collection ``roi``, one document per ROI version): :func:`read_rois`
 gives the current ROIs of a map and config; :func:`rois_from_documents` turns SOMAROIObject
-documents into :class:`~bullet_floor_sim.core.rois.Roi`; :func:`usable_rois` leaves out the
+documents into :class:`~bullet_floor_sim.data.rois.Roi`; :func:`usable_rois` leaves out the
 ones an edit broke.
 """
 from __future__ import annotations
@@ -35,8 +35,8 @@ from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Set, 
 
 import numpy as np
 
-from .errors import BulletFloorSimError
-from .rois import Roi, RoiError, one_map_and_config, validate_roi, validate_rois
+from ..errors import BulletFloorSimError
+from ..data.rois import Roi, RoiError, one_map_and_config, validate_roi, validate_rois
 
 __all__ = [
     "DATABASE",
@@ -60,7 +60,7 @@ __all__ = [
 ]
 
 DATABASE = "markov_chain_db"
-ROI_DATABASE = "somadata"  # where SOMA's soma_roi_manager (and core/roi_store) keeps ROIs
+ROI_DATABASE = "somadata"  # where SOMA's soma_roi_manager (and data/roi_store) keeps ROIs
 ROI_COLLECTION = "roi"
 MODES = ("vertex", "edge")
 _SLACK = 1e-9  # metres: |dx| = 0.2 written in decimal must count as within tol = 0.2
@@ -542,7 +542,7 @@ def store_chain(store: Any, chain: MarkovChain, map_name: Optional[str] = None,
     for a while (the marker names the last) instead of deleting each other's.
 
     Args:
-        store: a :class:`~bullet_floor_sim.core.store.Store` (or anything with its
+        store: a :class:`~bullet_floor_sim.data.store.Store` (or anything with its
             ``delete``/``insert``/``update``).
         chain: the chain.
         map_name: the map whose collection to use (default: ``chain.map_name``).
@@ -700,10 +700,10 @@ def usable_rois(rois: Iterable[Roi]) -> Tuple[List[Roi], List[str]]:
 def read_rois(store: Any, map_name: str, config: str = "1") -> List[Roi]:
     """The current ROIs of a map and config in the ROI store: the newest version of each ROI
     (by ``_meta.version``), deleted ROIs left out, as the ROI manager answers
-    ``/soma/query_rois`` (:class:`~bullet_floor_sim.core.roi_store.RoiStore`).
+    ``/soma/query_rois`` (:class:`~bullet_floor_sim.data.roi_store.RoiStore`).
 
     Args:
-        store: a :class:`~bullet_floor_sim.core.store.Store`.
+        store: a :class:`~bullet_floor_sim.data.store.Store`.
         map_name: the map.
         config: the ROI config (SOMA's ``config``).
 
@@ -714,7 +714,7 @@ def read_rois(store: Any, map_name: str, config: str = "1") -> List[Roi]:
         RoiError: a stored document is malformed.
         StoreUnavailable: the database is unreachable.
     """
-    from .roi_store import RoiStore
+    from ..data.roi_store import RoiStore
 
     return RoiStore(store, map_name).current(config)
 

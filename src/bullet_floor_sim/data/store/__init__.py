@@ -1,6 +1,6 @@
 """Document storage: one small interface, a MongoDB backend and an embedded one.
 
-    from bullet_floor_sim.core.store import open_store, insert_message
+    from bullet_floor_sim.data.store import open_store, insert_message
 
     with open_store("mongodb://localhost:62345/") as store:   # or a directory, or None
         _id = insert_message(store, "message_store", "soma_roi", fields,

@@ -1,7 +1,7 @@
 """The Markov walker's decisions, without ROS (DESIGN section 5).
 
 A stand-in human wanders between regions of interest: from the region it is in, it draws the
-next region from the :class:`~bullet_floor_sim.core.markov.MarkovChain`, drives to a random
+next region from the :class:`~bullet_floor_sim.people.markov.MarkovChain`, drives to a random
 point well inside that region, dwells there a random time, and repeats. This module decides
 *where* and *how long*; ``bullet_floor_sim.ros.markov_walker`` talks to move_base.
 
@@ -26,10 +26,10 @@ from typing import Any, Dict, List, Optional, Sequence, Set, Tuple
 
 import numpy as np
 
-from .errors import BulletFloorSimError
+from ..errors import BulletFloorSimError
 from .markov import MarkovChain
-from .planner import PlanningGrid
-from .rois import Roi, RoiError, random_point_inside, roi_polygon
+from ..nav.planner import PlanningGrid
+from ..data.rois import Roi, RoiError, random_point_inside, roi_polygon
 
 __all__ = [
     "WalkerError",

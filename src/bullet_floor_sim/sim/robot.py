@@ -26,9 +26,9 @@ from typing import Dict, List, Tuple, Type
 import numpy as np
 
 from .config import DriveConfig
-from .files import atomic_file
-from .errors import CommandError, RobotModelError
-from .paths import package_root
+from ..files import atomic_file
+from ..errors import CommandError, RobotModelError
+from ..paths import package_root
 
 __all__ = [
     "RobotModel",

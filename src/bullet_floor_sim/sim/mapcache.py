@@ -1,4 +1,4 @@
-"""The disk cache of what a map's solid cells cost to derive (core/solidmap.py).
+"""The disk cache of what a map's solid cells cost to derive (sim/solidmap.py).
 
 Deriving a big SLAM map's solid cells, their distance field and the rectangles the wall mesh
 is made of takes about a second (malaga_faculty, 1644 x 1457 cells: 0.2 + 0.35 + 0.6 s);
@@ -20,11 +20,11 @@ from typing import Any, Dict, Optional
 
 import numpy as np
 
-from .files import atomic_file
+from ..files import atomic_file
 
 __all__ = ["map_cache_dir", "map_key", "load_entry", "store_entry"]
 
-_FORMAT = "solid-v1"   # bump when core/solidmap.py or merge_rectangles derives differently
+_FORMAT = "solid-v1"   # bump when sim/solidmap.py or merge_rectangles derives differently
 
 
 def map_cache_dir() -> str:

@@ -44,7 +44,7 @@ import uuid as uuidlib
 from dataclasses import dataclass, field
 from typing import Any, Callable, Dict, Iterable, Iterator, List, Optional, Sequence, Tuple
 
-from .errors import BulletFloorSimError
+from ..errors import BulletFloorSimError
 
 __all__ = [
     "DATABASE",

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from typing import Any, Tuple
 
-from .errors import BulletFloorSimError
+from ..errors import BulletFloorSimError
 
 __all__ = ["pyplot", "draw_map"]
 

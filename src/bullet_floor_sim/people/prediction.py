@@ -8,7 +8,7 @@ efficient path to p on the inflated map. Having seen it walk from S to its curre
 
     P(g | S..Q)  ∝  P(g | r0) · mean_{p ∈ goals(g)} exp(−β (V_p(Q) − V_p(S))) / L_p^α
 
-where V_p is the cost-to-go to p on the :class:`~bullet_floor_sim.core.planner.PlanningGrid`
+where V_p is the cost-to-go to p on the :class:`~bullet_floor_sim.nav.planner.PlanningGrid`
 with the planner's step cost (step length in metres × (1 + cost_weight × mean cell cost),
 lethal cells impassable, 8-connected without corner cutting). The cost of the observed path
 S..Q is the same under every hypothesis and cancels. V_p(S) − V_p(Q) is the *progress* made
@@ -24,7 +24,7 @@ corridor region loses to the region beyond it at every moment, since only the re
 points ahead of Q stay consistent while the next region's all do.
 
 * goals(g) is a fixed set of acceptable goal points in the region, as the walker's
-  :class:`~bullet_floor_sim.core.walker.GoalSampler` accepts them (inside the polygon with a
+  :class:`~bullet_floor_sim.people.walker.GoalSampler` accepts them (inside the polygon with a
   margin, with ``clearance`` to every wall): a lattice of ``goal_spacing``, spread-thinned to
   ``max_goals_per_region``; or, per region, the points given as ``goal_points``.
 * The V fields are computed once, one Dijkstra per goal point (scipy.sparse.csgraph) over the
@@ -51,14 +51,15 @@ import math
 import os
 import time
 from dataclasses import dataclass
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Dict, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .errors import BulletFloorSimError
+from ..errors import BulletFloorSimError
 from .markov import MarkovChain
-from .planner import PlanningGrid
-from .rois import Roi, roi_polygon
+from ..nav.planner import PlanningGrid
+from ..data.rois import Roi, roi_polygon
+from ..geometry import wrap_angle
 from .walker import RegionIndex, anchor
 
 __all__ = [
@@ -557,7 +558,7 @@ class DestinationModel:
 
             def deviation(g: str) -> float:
                 ax, ay = anchor(self.index.by_id[g])
-                return abs(_wrap(math.atan2(ay - y, ax - x) - heading))
+                return abs(wrap_angle(math.atan2(ay - y, ax - x) - heading))
             chosen = min(candidates, key=deviation)
         eps = self.config.heading_epsilon
         rest = eps / (len(prior) - 1)
@@ -796,8 +797,6 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
 
 
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def _quote(s: Any) -> str:

@@ -25,9 +25,9 @@ import yaml
 from shapely.geometry import LinearRing, Point, Polygon
 from shapely.validation import explain_validity
 
-from .errors import BulletFloorSimError
-from .files import atomic_file
-from .yamlio import read_yaml
+from ..errors import BulletFloorSimError
+from ..files import atomic_file
+from ..yamlio import read_yaml
 
 __all__ = [
     "RoiError",

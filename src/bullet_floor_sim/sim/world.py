@@ -12,7 +12,7 @@ as arrays (one row per robot). A step, at ``physics_rate`` (100 Hz by default):
 5. odometry and wheel angles are integrated; lidars that are due are cast in one batch.
 
 The walls are static concave triangle meshes: vertical quads on the outline of the map's solid
-cells (core/solidmap.py: occupied, and unknown unless the world says otherwise). The faces
+cells (sim/solidmap.py: occupied, and unknown unless the world says otherwise). The faces
 inside a wall and on top are left out: a level beam never meets them and a robot meets a side
 face first. On the real maps that halves the triangles and makes a ray 1.6-3x cheaper.
 """
@@ -29,9 +29,10 @@ import numpy as np
 
 from . import bullet_capi
 from .config import RobotSpec, WorldConfig, load_world_config, resolve_world
-from .errors import ConfigError, MapError
+from ..errors import ConfigError, MapError
 from .floormap import FloorMap, load_map, outline_segments, wall_mesh, wall_outline_mesh
-from .paths import worlds_dir
+from ..paths import worlds_dir
+from ..geometry import wrap_angle
 from .robot import DRIVES, RobotModel, check_command, load_model
 from .sections import Section, check_section, clip_beams, measure_section, pad_sections
 from .sensors import MAX_RAYS_PER_BATCH, SMALL_N, Battery, Lidar, Odometry, Scan, cast_rays
@@ -423,7 +424,7 @@ class World:
         half = 0.5 * self.wheel_sep[robot]
         r = self.wheel_radius[robot]
         tv, tw = self._travel[robot]
-        return RobotView(pose=(x, y, _wrap_angle(yaw)),
+        return RobotView(pose=(x, y, wrap_angle(yaw)),
                          velocity=tuple(float(c) for c in self.vel[robot]),
                          odom_pose=tuple(float(c) for c in self.odometry.pose[robot]),
                          wheel_positions=(float((tv - half * tw) / r), float((tv + half * tw) / r)),
@@ -1078,5 +1079,3 @@ def _ray_chunk() -> int:
     return _RAY_CHUNK_CAPI if bullet_capi.available() else _RAY_CHUNK_TUPLES
 
 
-def _wrap_angle(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi

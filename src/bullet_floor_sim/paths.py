@@ -11,14 +11,14 @@ __all__ = ["package_root", "worlds_dir"]
 def package_root() -> str:
     """Absolute path of the bullet_floor_sim package directory (the one with package.xml).
 
-    Looks beside the sources first (src/bullet_floor_sim/core -> repo root), then asks rospkg
+    Looks beside the sources first (src/bullet_floor_sim -> repo root), then asks rospkg
     (installed layouts, share/bullet_floor_sim).
 
     Raises:
         RuntimeError: the package cannot be found.
     """
     here = os.path.dirname(os.path.abspath(__file__))
-    src_root = os.path.normpath(os.path.join(here, "..", "..", ".."))
+    src_root = os.path.normpath(os.path.join(here, "..", ".."))
     if os.path.isfile(os.path.join(src_root, "package.xml")):
         return src_root
     try:

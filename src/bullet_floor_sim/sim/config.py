@@ -6,8 +6,8 @@ names the file, the section and the key (as flatland's EnsureAccessedAllKeys doe
     map: map.yaml            # map_server map, relative to world.yaml
     wall_height: 2.0
     rois: rois.yaml
-    unknown: wall            # wall | free: what unknown map cells are (core/solidmap.py)
-    clean: {close_gaps: 0.15, speckle: 0.0, unknown_slivers: 0.3}   # core/solidmap.py
+    unknown: wall            # wall | free: what unknown map cells are (sim/solidmap.py)
+    clean: {close_gaps: 0.15, speckle: 0.0, unknown_slivers: 0.3}   # sim/solidmap.py
     robots:
       - name: robot1
         model: scitos_a5     # urdf/<model>.urdf.xacro
@@ -26,9 +26,9 @@ from dataclasses import dataclass, field, fields
 from typing import Any, Dict, List, Optional, Tuple, Type, TypeVar
 
 
-from .errors import ConfigError
+from ..errors import ConfigError
 from .solidmap import MapHandling
-from .yamlio import read_yaml
+from ..yamlio import read_yaml
 
 __all__ = [
     "DriveConfig",
@@ -257,7 +257,7 @@ def load_world_config(path: str) -> WorldConfig:
 
 
 def _parse_map_handling(doc: Dict[str, Any], path: str) -> MapHandling:
-    """The ``unknown`` key and the ``clean`` section (core/solidmap.py says what they do)."""
+    """The ``unknown`` key and the ``clean`` section (sim/solidmap.py says what they do)."""
     default = MapHandling()
     clean = doc.get("clean", {}) or {}
     if not isinstance(clean, dict):

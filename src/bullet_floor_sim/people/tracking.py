@@ -26,9 +26,10 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from .errors import BulletFloorSimError
-from .floormap import FloorMap
-from .solidmap import MapHandling, solid_map
+from ..errors import BulletFloorSimError
+from ..sim.floormap import FloorMap
+from ..sim.solidmap import MapHandling, solid_map
+from ..geometry import wrap_angle
 
 __all__ = [
     "TrackingError",
@@ -137,7 +138,7 @@ def _number(cfg: TrackerConfig, name: str, low: float, strict: bool) -> None:
 
 class StaticMap:
     """What the floor map explains: the distance from every cell to the nearest solid cell
-    (occupied, or unknown under ``unknown: wall``; core/solidmap.py), centre to centre.
+    (occupied, or unknown under ``unknown: wall``; sim/solidmap.py), centre to centre.
 
     Args:
         fmap: the floor map.
@@ -159,7 +160,7 @@ class StaticMap:
                                 % (tolerance,))
         self.fmap = fmap
         self.tolerance = float(tolerance)
-        # solid as the simulator makes it (core/solidmap.py): an unseen sliver of an open hall
+        # solid as the simulator makes it (sim/solidmap.py): an unseen sliver of an open hall
         # is floor where a person can stand, not a wall that explains scan points
         static = solid_map(fmap, handling or MapHandling()).fmap.occupied
         if static.any():
@@ -588,7 +589,7 @@ class PoseHistory:
             return None
         (xa, ya, aa), (xb, yb, ab) = self._pose[k - 1], self._pose[k]
         f = (t - ts[k - 1]) / (ts[k] - ts[k - 1])
-        da = math.atan2(math.sin(ab - aa), math.cos(ab - aa))
+        da = wrap_angle(ab - aa)
         return xa + f * (xb - xa), ya + f * (yb - ya), aa + f * da
 
 

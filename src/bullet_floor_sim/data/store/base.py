@@ -12,7 +12,7 @@ import os
 import re
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
-from ..errors import BulletFloorSimError
+from ...errors import BulletFloorSimError
 
 __all__ = [
     "StoreError",

@@ -26,7 +26,7 @@ robot leaves the building through such a gap:
 
 Everything it changes is counted in :attr:`SolidMap.report` (the simulator logs it); the
 user's map file is never rewritten, and map_server still serves it as it is. The solid cells,
-their distance field and the wall rectangles are kept on disk (core/mapcache.py), so a big map
+their distance field and the wall rectangles are kept on disk (sim/mapcache.py), so a big map
 costs its second of derivation once.
 """
 from __future__ import annotations
@@ -37,7 +37,7 @@ from typing import List, Optional
 
 import numpy as np
 
-from .errors import ConfigError
+from ..errors import ConfigError
 from .floormap import FloorMap
 from .mapcache import load_entry, map_cache_dir, map_key, store_entry
 

@@ -25,7 +25,7 @@ import threading
 import time
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
-from .files import atomic_file
+from ..files import atomic_file
 from .trajectory import Chunk, Pose
 
 __all__ = ["ChunkQueue", "ChunkSpill"]

@@ -42,8 +42,9 @@ from typing import Callable, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .errors import BulletFloorSimError
-from .planner import PlanError, PlanningGrid, give_way_point
+from ..errors import BulletFloorSimError
+from ..nav.planner import PlanError, PlanningGrid, give_way_point
+from ..geometry import wrap_angle
 
 _GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps to give_way
 
@@ -145,7 +146,7 @@ def standoff_point(grid: PlanningGrid, target: Sequence[float], robot: Sequence[
             if grid.is_free(x, y):
                 if first is None:
                     first = (x, y)
-                if (radius == distance and abs(_wrap(a - own)) <= 0.5 * math.pi + 1e-9
+                if (radius == distance and abs(wrap_angle(a - own)) <= 0.5 * math.pi + 1e-9
                         and grid.clearance_at(x, y) >= roomy):
                     return x, y
         if first is not None:
@@ -232,7 +233,7 @@ class FollowBehaviour:
             return FollowDecision("search")
         if self._search_phase == "go" and goal_done:
             self._search_phase = "look"
-            return FollowDecision("search", (rx, ry, _wrap(ryaw + cfg.search_turn)),
+            return FollowDecision("search", (rx, ry, wrap_angle(ryaw + cfg.search_turn)),
                                   "at region %s's search point: looking round"
                                   % self._search[self._search_index][0])
         if self._search_phase == "look" and goal_done:
@@ -255,7 +256,7 @@ class FollowBehaviour:
             if math.hypot(tx - yx, ty - yy) < cfg.distance and t - yt < cfg.give_way_hold:
                 self.last_seen, self.last_target, self.mode = t, (tx, ty), "give_way"
                 facing = math.atan2(ty - ry, tx - rx)
-                if goal_done and abs(_wrap(facing - ryaw)) > 0.5:
+                if goal_done and abs(wrap_angle(facing - ryaw)) > 0.5:
                     return FollowDecision("give_way", (rx, ry, facing), "facing the target")
                 return FollowDecision("give_way")
             self._yield = None
@@ -343,7 +344,7 @@ class FollowBehaviour:
                 return FollowDecision("follow", (gx, gy, math.atan2(ty - gy, tx - gx)),
                                       "out of the narrow passage at (%.2f, %.2f)" % (rx, ry))
         if not first and dist <= cfg.distance + cfg.slack and not moving:
-            if abs(_wrap(facing - ryaw)) > 0.5 and (goal_done or moved > cfg.replan_distance):
+            if abs(wrap_angle(facing - ryaw)) > 0.5 and (goal_done or moved > cfg.replan_distance):
                 self._goal_target, self._goal_time = (tx, ty), t
                 return FollowDecision("follow", (rx, ry, facing), "turning to face the target")
             return FollowDecision("follow")
@@ -357,7 +358,7 @@ class FollowBehaviour:
         direction = None
         if approaching and dist < cfg.distance + cfg.slack:
             heading = math.atan2(vy, vx)
-            side = 1.0 if _wrap(facing + math.pi - heading) >= 0 else -1.0
+            side = 1.0 if wrap_angle(facing + math.pi - heading) >= 0 else -1.0
             direction = heading + side * math.pi / 2
         point = standoff_point(self.grid, (tx, ty), (rx, ry), cfg.distance, direction,
                                cfg.roomy)
@@ -431,8 +432,6 @@ def _as_plan(destination) -> List[Tuple[str, Tuple[float, float]]]:
     return [(str(r), (float(p[0]), float(p[1]))) for r, p in destination]
 
 
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def in_view(observer: Sequence[float], laser_offset: Sequence[float], point: Sequence[float],
@@ -445,5 +444,5 @@ def in_view(observer: Sequence[float], laser_offset: Sequence[float], point: Seq
     dx, dy = float(point[0]) - lx, float(point[1]) - ly
     if math.hypot(dx, dy) > max_range:
         return False
-    return abs(_wrap(math.atan2(dy, dx) - yaw - laser_offset[2])) <= 0.5 * fov + 1e-9
+    return abs(wrap_angle(math.atan2(dy, dx) - yaw - laser_offset[2])) <= 0.5 * fov + 1e-9
 

@@ -1,1 +1,0 @@
-"""Pure simulation core: plain data in, plain data out, no rospy anywhere below here."""

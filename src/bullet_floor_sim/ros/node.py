@@ -1,0 +1,81 @@
+"""The life of every long-running node, in one place.
+
+``run_node`` starts rospy, builds the node object, and then either calls its ``run()`` (a node
+with a loop of its own) or spins; at the end it calls the node's ``close()`` if it has one. A
+project error while building (a bad parameter, an unreadable file, a store that cannot be
+opened: :class:`~bullet_floor_sim.errors.BulletFloorSimError`) is one fatal log line naming
+the node, and exit status 1. The command-line tools (rois, markov_chain, trajectories, store,
+evaluate_prediction) are not nodes: they exit 2 on bad arguments, as argparse does.
+"""
+from __future__ import annotations
+
+import logging
+import sys
+from typing import Any, Callable, Optional, Sequence
+
+import rospy
+
+from ..errors import BulletFloorSimError
+
+__all__ = ["run_node", "one_line", "forward_store_log", "RospyLogHandler"]
+
+
+def one_line(e: BaseException) -> str:
+    """An error's message with its whitespace (newlines from a YAML parser...) folded."""
+    return " ".join(str(e).split())
+
+
+def run_node(name: str, make: Callable[[], Any], argv: Optional[Sequence[str]] = None,
+             errors: tuple = (BulletFloorSimError,), **init: Any) -> int:
+    """Run node ``name`` built by ``make()`` until ROS shuts down; the process's exit status.
+
+    Args:
+        name: the node name (rospy.init_node) and the prefix of the fatal line.
+        make: builds the node object; it may have ``run()`` (else rospy.spin() is used) and
+            ``close()`` (called once at the end, after a failure too).
+        argv: passed to rospy.init_node (remappings, __name:=).
+        errors: the exceptions of ``make`` that are the user's to fix (one fatal line, 1).
+        init: further rospy.init_node keywords.
+    """
+    rospy.init_node(name, argv=list(sys.argv if argv is None else argv), **init)
+    try:
+        node = make()
+    except errors as e:
+        rospy.logfatal("%s: %s", name, one_line(e))
+        return 1
+    try:
+        run = getattr(node, "run", None)
+        if run is not None:
+            run()
+        else:
+            rospy.spin()
+    except rospy.ROSInterruptException:
+        pass
+    finally:
+        close = getattr(node, "close", None)
+        if close is not None:
+            close()
+    return 0
+
+
+class RospyLogHandler(logging.Handler):
+    """Forwards Python ``logging`` records (the store's outage and replay messages) to rospy,
+    so they reach the node's screen output and /rosout."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        msg = self.format(record)
+        if record.levelno >= logging.ERROR:
+            rospy.logerr(msg)
+        elif record.levelno >= logging.WARNING:
+            rospy.logwarn(msg)
+        else:
+            rospy.loginfo(msg)
+
+
+def forward_store_log() -> None:
+    """Send the store's log (logger ``bullet_floor_sim.store``, INFO and up) to rospy."""
+    log = logging.getLogger("bullet_floor_sim.store")
+    if not any(isinstance(h, RospyLogHandler) for h in log.handlers):
+        log.addHandler(RospyLogHandler())
+        log.setLevel(logging.INFO)
+        log.propagate = False
