@@ -306,16 +306,27 @@ class World:
         a = np.linspace(-np.pi, np.pi, directions, endpoint=False)
         u = np.column_stack((np.cos(a), np.sin(a), np.zeros_like(a)))
         out = []
-        p.setCollisionFilterGroupMask(self.bodies[i], -1, _SELF_GROUP, _ROBOT_MASK)
-        try:
+        with self._only(i):
             for z in heights:
                 c = np.array([x, y, z])
                 frac, ids = cast_rays(p, c + u * far, np.broadcast_to(c, u.shape), 1,
                                       mask=_SELF_GROUP)
                 out.append(float(np.where(ids == self.bodies[i], far * (1.0 - frac), 0.0).max()))
-        finally:
-            p.setCollisionFilterGroupMask(self.bodies[i], -1, _ROBOT_GROUP, _ROBOT_MASK)
         return out
+
+    @contextlib.contextmanager
+    def _only(self, i: int, all_links: bool = False) -> Iterator[None]:
+        """Within: rays cast with ``mask=_SELF_GROUP`` see robot i's base (with
+        ``all_links``, its wheels and other links too) and nothing else."""
+        p = self.client
+        links = range(-1, p.getNumJoints(self.bodies[i])) if all_links else (-1,)
+        for link in links:
+            p.setCollisionFilterGroupMask(self.bodies[i], link, _SELF_GROUP, _ROBOT_MASK)
+        try:
+            yield
+        finally:
+            for link in links:
+                p.setCollisionFilterGroupMask(self.bodies[i], link, _ROBOT_GROUP, _ROBOT_MASK)
 
     def _body_radius(self, i: int, cache: dict) -> float:
         """Radius about base_footprint, in xy, of a circle containing the whole body: the
@@ -951,18 +962,12 @@ class World:
                             normal[k] = ((c * nx + s * ny) / h, (c * ny - s * nx) / h)
             return dist, normal
 
-        links = range(-1, p.getNumJoints(b))
-        for link in links:
-            p.setCollisionFilterGroupMask(b, link, _SELF_GROUP, _ROBOT_MASK)
-        try:
+        with self._only(j, all_links=True):   # the section is the whole robot's
             reach = float(self.radius[j])
             sec = measure_section(probe, reach)
             if sec is None:
                 return None, "no convex section found: beams cast in Bullet"
             ok, summary = check_section(sec, probe, reach)
-        finally:
-            for link in links:
-                p.setCollisionFilterGroupMask(b, link, _ROBOT_GROUP, _ROBOT_MASK)
         if not ok:
             return None, "section disagrees with Bullet (%s): beams cast in Bullet" % summary
         return sec, "convex section, %s" % summary
@@ -1020,11 +1025,8 @@ class World:
             reach = 2.0 * float(self.radius[i]) + 1.0
             outside = plan.origins.copy()
             outside[:, :2] += plan.dirs * reach
-            p.setCollisionFilterGroupMask(self.bodies[i], -1, _SELF_GROUP, _ROBOT_MASK)
-            try:
+            with self._only(i):
                 frac, ids = cast_rays(p, outside, plan.origins, 1, mask=_SELF_GROUP)
-            finally:
-                p.setCollisionFilterGroupMask(self.bodies[i], -1, _ROBOT_GROUP, _ROBOT_MASK)
             exit_dist = np.where(ids == self.bodies[i], reach * (1.0 - frac) + _SELF_EXIT_EPS, 0.0)
             done[key] = exit_dist
             self.lidar.set_self_exit(i, exit_dist)
