@@ -1,7 +1,7 @@
 """Trajectories: a pose stream cut into stored chunks, their metrics, documents and JSON lines.
 
 A *trajectory* is one uninterrupted pose stream of one walker (one ``uuid``). It is stored as
-*chunks*, each a human_trajectory ``Trajectory`` message (DESIGN section 6):
+*chunks*, each a human_trajectory ``Trajectory`` message (the human_trajectory package's format):
 
 * :class:`Chunker` closes a chunk every ``period`` seconds of stamp time (``split="period"``),
   or when the pose enters another region (``split="region"``; ``period`` then also closes a

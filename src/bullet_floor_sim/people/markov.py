@@ -1,4 +1,4 @@
-"""The Markov chain over regions of interest that the walker follows (DESIGN section 5).
+"""The Markov chain over regions of interest that the walker follows, by the seed project's rule.
 
 Adjacency, the seed rule (``mode="vertex"``): two ROIs are connected when some vertex of one
 lies within ``tol`` (0.2 m) of some vertex of the other in x AND in y (|dx| <= tol and

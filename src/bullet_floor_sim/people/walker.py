@@ -1,4 +1,4 @@
-"""The Markov walker's decisions, without ROS (DESIGN section 5).
+"""The Markov walker's decisions, without ROS, by the seed project's rule.
 
 A stand-in human wanders between regions of interest: from the region it is in, it draws the
 next region from the :class:`~bullet_floor_sim.people.markov.MarkovChain`, drives to a random
