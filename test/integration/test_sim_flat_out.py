@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """rostest node: the simulator at rtf 0 (as fast as it can) in worlds/simple.
 
-Flat out, the node queues messages per connection and sends them in batches (see _Outbox in
+Flat out, the node queues messages per connection and sends them in batches (see Outbox in
 ros/simulator.py). A subscriber that keeps up must still get every message, in order: the
 header seq of each topic goes up by exactly one, the stamps by exactly the topic's period.
 Messages are taken as rospy.AnyMsg (the header read from the raw bytes) so this process keeps

@@ -2,7 +2,7 @@
 from rospy.impl.tcpros_base import TCPROSTransport, TCPROSTransportProtocol
 from std_msgs.msg import String
 
-from bullet_floor_sim.ros.simulator import raw_sockets_usable
+from bullet_floor_sim.ros.sim.outbox import raw_sockets_usable
 
 
 def test_the_installed_rospy_has_the_connection_attributes_the_outbox_writes_through():

@@ -33,23 +33,16 @@ Services: ``~reset``, ``~pause``, ``~unpause`` (std_srvs/Empty).
 from __future__ import annotations
 
 import dataclasses
-import io
 import math
-import os
-import signal
-import socket
 import struct
-import subprocess
 import sys
 import threading
 import time
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Callable, List, Optional, Sequence, Union
 
-import numpy as np
 
 import rospy
-from geometry_msgs.msg import (PoseStamped, PoseWithCovarianceStamped, TransformStamped,
-                               Twist)
+from geometry_msgs.msg import (PoseStamped, PoseWithCovarianceStamped, Twist)
 from nav_msgs.msg import MapMetaData, OccupancyGrid, Odometry
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import BatteryState, JointState, LaserScan
@@ -60,451 +53,22 @@ from tf2_msgs.msg import TFMessage
 from ..sim import bullet_capi
 from ..sim.config import load_world_config, resolve_world
 from ..errors import BulletFloorSimError, CommandError, ConfigError
-from ..sim.pacing import BacklogGate, CommandGate, tcp_unread
+from ..sim.pacing import BacklogGate, CommandGate, tcp_unread, waits_line
 from ..paths import worlds_dir
-from ..sim.robot import expand_xacro
 from ..sim.world import World
 from .params import set_map_handling
+from .sim.frames import gt_tf_robots, map_to_odom
+from .sim.outbox import Outbox
+from .sim.rsp import RobotStatePublishers
+from .sim.signals import StopSignals, set_rostime, stop_listening_to_own_clock
+from .sim.wire import (II, U32, BatteryWire, JointsWire, OdomWire, PoseWire, ScanWire, TfWire,
+                       check_wires, quaternion, ros_time)
 
 __all__ = ["main", "SimulatorNode"]
 
-
-def _stamp(ns: int) -> rospy.Time:
-    return rospy.Time(ns // 1_000_000_000, ns % 1_000_000_000)
-
-
-def _quat(yaw: float):
-    return 0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0)
-
-
-def _odometry(frame: str, child: str, pose, velocity, stamp) -> Odometry:
-    """nav_msgs/Odometry of a planar pose (x, y, yaw) and body velocity (vx, vy, w)."""
-    m = Odometry()
-    m.header.stamp = stamp
-    m.header.frame_id = frame
-    m.child_frame_id = child
-    p = m.pose.pose
-    p.position.x, p.position.y = pose[0], pose[1]
-    p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w = _quat(pose[2])
-    m.twist.twist.linear.x, m.twist.twist.linear.y = velocity[0], velocity[1]
-    m.twist.twist.angular.z = velocity[2]
-    return m
-
-
-def _transform(parent: str, child: str, pose, stamp) -> TransformStamped:
-    """A planar transform (x, y, yaw) from ``parent`` to ``child``."""
-    t = TransformStamped()
-    t.header.stamp = stamp
-    t.header.frame_id = parent
-    t.child_frame_id = child
-    t.transform.translation.x, t.transform.translation.y = pose[0], pose[1]
-    r = t.transform.rotation
-    r.x, r.y, r.z, r.w = _quat(pose[2])
-    return t
-
-
-# ------------------------------------------------------------------------------ wire format
-# A robot costs ~270 messages per sim second. Through rospy each is a genpy build and
-# serialisation (15-20 us) and, per subscriber, a hand-off to that connection's writer thread
-# (QueuedConnection.write_data ends in time.sleep(0): a GIL switch per message, two thirds of
-# the node's time in bench/ros_bench.py). Here each message kind has a template of its wire
-# bytes, built once by genpy and patched with struct.pack_into (checked against genpy at
-# start-up, see _check_wires), and _Outbox sends them in batches without blocking.
-
-_U32 = struct.Struct("<I")
-_II = struct.Struct("<II")
-_HDR = struct.Struct("<III")        # std_msgs/Header seq, stamp.secs, stamp.nsecs
-_D7 = struct.Struct("<7d")          # Pose: position xyz, orientation xyzw
-_D6 = struct.Struct("<6d")          # Twist: linear xyz, angular xyz
-_D2 = struct.Struct("<2d")
-_F7 = struct.Struct("<7f")
 _MAX_FLUSH_WAIT = 0.05     # s: the longest a queued message waits for its send when not pacing
 _MAX_FLUSH_SIM = 0.05      # s of sim time: the same bound while the clock waits for subscribers
 _HOLD_POLL = 0.0005        # s: the sleep between looks while the clock waits for a node
-_SENTINELS = (1234.5678125, 2345.6789125)   # unlikely values; each slot must be unique
-
-
-def _wire(msg) -> bytes:
-    """What rospy sends for ``msg``: its length (uint32), then the serialised message."""
-    b = io.BytesIO()
-    msg.serialize(b)
-    data = b.getvalue()
-    return _U32.pack(len(data)) + data
-
-
-def _at(data: bytes, fmt: str, value: float) -> int:
-    """Offset of the single place where ``value`` packed as ``fmt`` occurs in ``data``."""
-    key = struct.pack(fmt, value)
-    i = data.find(key)
-    if i < 0 or data.find(key, i + 1) >= 0:
-        raise RuntimeError("simulator: message template has no unique slot for %r" % value)
-    return i
-
-
-class _OdomWire:
-    """nav_msgs/Odometry of a planar pose and body velocity between two fixed frames."""
-
-    def __init__(self, frame: str, child: str) -> None:
-        t = _wire(_odometry(frame, child, (_SENTINELS[0], 0.0, 0.0), (_SENTINELS[1], 0.0, 0.0),
-                            rospy.Time(1, 0)))
-        self.buf = bytearray(t)
-        self.pose_at = _at(t, "<d", _SENTINELS[0])
-        self.twist_at = _at(t, "<d", _SENTINELS[1])
-
-    def pack(self, seq: int, secs: int, nsecs: int, pose, vel) -> bytes:
-        b = self.buf
-        h = 0.5 * pose[2]
-        _HDR.pack_into(b, 4, seq, secs, nsecs)
-        _D7.pack_into(b, self.pose_at, pose[0], pose[1], 0.0, 0.0, 0.0, math.sin(h), math.cos(h))
-        _D6.pack_into(b, self.twist_at, vel[0], vel[1], 0.0, 0.0, 0.0, vel[2])
-        return bytes(b)
-
-
-class _PoseWire:
-    """geometry_msgs/PoseStamped of a planar pose in a fixed frame."""
-
-    def __init__(self, frame: str) -> None:
-        m = PoseStamped()
-        m.header.frame_id = frame
-        m.pose.position.x = _SENTINELS[0]
-        m.pose.orientation.w = 1.0
-        t = _wire(m)
-        self.buf = bytearray(t)
-        self.pose_at = _at(t, "<d", _SENTINELS[0])
-
-    def pack(self, seq: int, secs: int, nsecs: int, pose) -> bytes:
-        b = self.buf
-        h = 0.5 * pose[2]
-        _HDR.pack_into(b, 4, seq, secs, nsecs)
-        _D7.pack_into(b, self.pose_at, pose[0], pose[1], 0.0, 0.0, 0.0, math.sin(h), math.cos(h))
-        return bytes(b)
-
-
-class _TfWire:
-    """tf2_msgs/TFMessage of planar transforms between fixed frame pairs, one stamp for all."""
-
-    def __init__(self, pairs: List[Tuple[str, str]]) -> None:
-        self.parts = []
-        for parent, child in pairs:
-            b = io.BytesIO()
-            _transform(parent, child, (_SENTINELS[0], 0.0, 0.0), rospy.Time(1, 0)).serialize(b)
-            t = b.getvalue()
-            self.parts.append((bytearray(t), _at(t, "<d", _SENTINELS[0])))
-        self.head = _U32.pack(4 + sum(len(t) for t, _ in self.parts)) + _U32.pack(len(pairs))
-
-    def pack(self, secs: int, nsecs: int, poses) -> bytes:
-        out = [self.head]
-        for (b, at), pose in zip(self.parts, poses):
-            h = 0.5 * pose[2]
-            _II.pack_into(b, 4, secs, nsecs)          # the header's seq (0) comes first
-            _D7.pack_into(b, at, pose[0], pose[1], 0.0, 0.0, 0.0, math.sin(h), math.cos(h))
-            out.append(bytes(b))
-        return b"".join(out)
-
-
-class _ScanWire:
-    """sensor_msgs/LaserScan of one robot's lidar (geometry fixed, ranges float32)."""
-
-    def __init__(self, frame: str, s) -> None:
-        m = LaserScan()
-        m.header.frame_id = frame
-        m.angle_min, m.angle_max, m.angle_increment = s.angle_min, s.angle_max, s.angle_increment
-        m.scan_time = s.scan_time
-        m.range_min, m.range_max = s.range_min, s.range_max
-        self.key = (s.angle_min, s.angle_max, s.angle_increment, s.scan_time, s.range_min,
-                    s.range_max)
-        self.head = bytearray(_wire(m)[:-8])    # without the empty ranges and intensities
-
-    def pack(self, seq: int, secs: int, nsecs: int, ranges: np.ndarray) -> bytes:
-        r = ranges.astype("<f4", copy=False).tobytes()
-        h = self.head
-        _U32.pack_into(h, 0, len(h) + len(r) + 4)
-        _HDR.pack_into(h, 4, seq, secs, nsecs)
-        return b"".join((h, _U32.pack(len(ranges)), r, b"\0\0\0\0"))
-
-
-class _JointsWire:
-    """sensor_msgs/JointState of the two wheels (positions, velocities; no efforts)."""
-
-    def __init__(self, names: List[str]) -> None:
-        m = JointState()
-        m.name = list(names)
-        m.position = [_SENTINELS[0], 0.0]
-        m.velocity = [_SENTINELS[1], 0.0]
-        t = _wire(m)
-        self.buf = bytearray(t)
-        self.pos_at = _at(t, "<d", _SENTINELS[0])
-        self.vel_at = _at(t, "<d", _SENTINELS[1])
-
-    def pack(self, seq: int, secs: int, nsecs: int, pos, vel) -> bytes:
-        b = self.buf
-        _HDR.pack_into(b, 4, seq, secs, nsecs)
-        _D2.pack_into(b, self.pos_at, pos[0], pos[1])
-        _D2.pack_into(b, self.vel_at, vel[0], vel[1])
-        return bytes(b)
-
-
-def _battery(stamp, volt: float, pct: float, charge: float, capacity: float) -> BatteryState:
-    b = BatteryState()
-    b.header.stamp = stamp
-    b.voltage, b.percentage, b.charge = volt, pct, charge
-    b.capacity = b.design_capacity = capacity
-    b.current = float("nan")
-    b.power_supply_status = BatteryState.POWER_SUPPLY_STATUS_DISCHARGING
-    b.power_supply_technology = BatteryState.POWER_SUPPLY_TECHNOLOGY_UNKNOWN
-    b.present = True
-    return b
-
-
-class _BatteryWire:
-    """sensor_msgs/BatteryState: voltage, charge and percentage change, the rest is fixed."""
-
-    def __init__(self, capacity: float) -> None:
-        t = _wire(_battery(rospy.Time(1, 0), _SENTINELS[0], 0.0, 0.0, capacity))
-        self.capacity = capacity
-        self.buf = bytearray(t)
-        self.at = _at(t, "<f", _SENTINELS[0])   # voltage .. percentage: seven float32
-
-    def pack(self, seq: int, secs: int, nsecs: int, volt: float, pct: float,
-             charge: float) -> bytes:
-        b = self.buf
-        _HDR.pack_into(b, 4, seq, secs, nsecs)
-        _F7.pack_into(b, self.at, volt, 0.0, math.nan, charge, self.capacity, self.capacity,
-                      pct)
-        return bytes(b)
-
-
-def _check_wires() -> None:
-    """Every template against genpy's serialisation of the same message (start-up check).
-
-    Raises:
-        RuntimeError: a template writes different bytes than genpy (a message definition
-            differs from the one these templates were written for).
-    """
-    stamp = rospy.Time(1234567, 89012345)
-    pose, vel = (1.25, -3.5, 2.75), (0.4, 0.1, -0.3)
-
-    def same(mine: bytes, msg, seq: int = 7) -> None:
-        if hasattr(msg, "header"):
-            msg.header.seq = seq
-        if mine != _wire(msg):
-            raise RuntimeError("simulator: wire template for %s differs from genpy" % msg._type)
-
-    same(_OdomWire("a/odom", "a/base_footprint").pack(7, stamp.secs, stamp.nsecs, pose, vel),
-         _odometry("a/odom", "a/base_footprint", pose, vel, stamp))
-    ps = PoseStamped()
-    ps.header.stamp, ps.header.frame_id = stamp, "map"
-    ps.pose = _odometry("map", "", pose, vel, stamp).pose.pose
-    same(_PoseWire("map").pack(7, stamp.secs, stamp.nsecs, pose), ps)
-    pairs = [("odom", "base_footprint"), ("map", "r2/odom")]
-    same(_TfWire(pairs).pack(stamp.secs, stamp.nsecs, [pose, vel]),
-         TFMessage(transforms=[_transform(a, b, p, stamp) for (a, b), p in zip(pairs, [pose, vel])]))
-    from ..sim.sensors import Scan
-
-    ranges = np.array([0.5, np.inf, -np.inf, 2.25], dtype=np.float32)
-    scan = Scan(robot=0, stamp_ns=stamp.to_nsec(), ranges=ranges, angle_min=-1.5,
-                angle_max=1.5, angle_increment=1.0, range_min=0.1, range_max=30.0,
-                scan_time=0.1)
-    m = LaserScan()
-    m.header.stamp, m.header.frame_id = stamp, "base_laser_link"
-    m.angle_min, m.angle_max, m.angle_increment = -1.5, 1.5, 1.0
-    m.scan_time, m.range_min, m.range_max = 0.1, 0.1, 30.0
-    m.ranges = ranges.tolist()
-    same(_ScanWire("base_laser_link", scan).pack(7, stamp.secs, stamp.nsecs, ranges), m)
-    js = JointState()
-    js.header.stamp, js.name = stamp, ["l", "r"]
-    js.position, js.velocity = [1.5, -2.5], [0.25, 0.5]
-    same(_JointsWire(["l", "r"]).pack(7, stamp.secs, stamp.nsecs, (1.5, -2.5), (0.25, 0.5)), js)
-    same(_BatteryWire(60.0).pack(7, stamp.secs, stamp.nsecs, 28.1, 0.75, 45.0),
-         _battery(stamp, 28.1, 0.75, 45.0, 60.0))
-
-
-class _Outbox:
-    """Batched, non-blocking delivery of wire bytes to the subscribers of some publishers.
-
-    rospy hands every message to one writer thread per subscriber. Here messages wait per
-    connection and leave in one non-blocking ``send`` per connection per ``flush`` (or as
-    soon as a connection has the publisher's queue size waiting); a subscriber that does not
-    keep up loses its oldest messages beyond that queue size (as with rospy's queue) and
-    never stalls the simulation. Main thread only. Publishers
-    used here are created without a rospy queue (raw connections) and never publish through
-    rospy, so nothing else writes to their sockets.
-    """
-
-    def __init__(self) -> None:
-        self._queues: Dict[object, list] = {}   # connection -> [messages, bytes sent of the first]
-        self.publishers: List[rospy.Publisher] = []
-        self.sent = False   # bytes went out since the owner last cleared this
-        self.raw = raw_sockets_usable()
-        if not self.raw:
-            rospy.logwarn("simulator: this rospy's connections have no socket/done attributes; "
-                          "every message goes through rospy's blocking write_data instead")
-
-    def publisher(self, topic: str, cls, queue_size: int) -> rospy.Publisher:
-        """A publisher for ``put``: rospy connections without rospy's per-connection queue."""
-        import warnings
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")     # rospy warns about a missing queue_size
-            pub = rospy.Publisher(topic, cls, queue_size=None)
-        pub._bfs_queue_size = queue_size
-        self.publishers.append(pub)
-        return pub
-
-    @staticmethod
-    def wanted(pub: rospy.Publisher) -> bool:
-        """Whether anyone subscribes (build nothing otherwise)."""
-        return bool(pub.impl.connections)
-
-    def put(self, pub: rospy.Publisher, data: bytes) -> None:
-        """Queue ``data`` (from a *Wire ``pack``) for every current subscriber of ``pub``.
-        A queue that reaches the publisher's queue size is sent at once; only what its
-        socket does not take then is dropped, oldest first."""
-        limit = pub._bfs_queue_size
-        queues = self._queues
-        for c in pub.impl.connections:
-            q = queues.get(c)
-            if q is None:
-                if hasattr(c, "_connection") or not self.raw:
-                    # a rospy QueuedConnection (someone else in this process made a publisher
-                    # on this topic with a queue, and its thread writes to the socket), or a
-                    # rospy whose connections this outbox does not know: go through rospy
-                    try:
-                        c.write_data(data)
-                    except Exception:  # noqa: BLE001  (rospy drops such connections itself)
-                        pass
-                    continue
-                q = queues[c] = [[], 0]
-                _no_delay(c)
-            msgs = q[0]
-            msgs.append(data)
-            if len(msgs) > limit and not self._send(c, q):
-                del msgs[1 if q[1] else 0]      # drop the oldest not yet being sent
-
-    def flush(self) -> None:
-        """Send what each connection's socket takes now; keep the rest for the next flush."""
-        for c, q in list(self._queues.items()):
-            if q[0]:
-                self._send(c, q)
-            elif getattr(c, "done", True):
-                del self._queues[c]
-
-    def _send(self, c, q: list) -> bool:
-        """One non-blocking send of a connection's queue; whether the queue is short again."""
-        msgs = q[0]
-        sock = getattr(c, "socket", None)
-        if getattr(c, "done", True) or sock is None:
-            del msgs[:]
-            self._queues.pop(c, None)
-            return True
-        data = msgs[0] if len(msgs) == 1 else b"".join(msgs)
-        try:
-            n = sock.send(memoryview(data)[q[1]:] if q[1] else data, socket.MSG_DONTWAIT)
-        except (BlockingIOError, InterruptedError):
-            return False
-        except OSError:                     # subscriber gone: rospy's own clean-up
-            del msgs[:]
-            self._queues.pop(c, None)
-            try:
-                c.close()
-            except Exception:  # noqa: BLE001  (already closing)
-                pass
-            return True
-        self.sent = True
-        left = n + q[1]
-        if left == len(data):
-            k = len(msgs)
-            del msgs[:]
-            left = 0
-        else:
-            k = 0
-            while left >= len(msgs[k]):
-                left -= len(msgs[k])
-                k += 1
-            del msgs[:k]
-        q[1] = left
-        c.stat_bytes = getattr(c, "stat_bytes", 0) + n
-        c.stat_num_msg = getattr(c, "stat_num_msg", 0) + k
-        return not msgs
-
-
-def raw_sockets_usable() -> bool:
-    """Whether rospy's TCPROS connections have what ``_Outbox`` writes through: the
-    ``socket`` and ``done`` attributes its constructor sets, and ``write_data``."""
-    from rospy.impl.tcpros_base import TCPROSTransport
-
-    names = set()
-    for cls in TCPROSTransport.__mro__:     # done is set by rospy.transport.Transport
-        init = cls.__dict__.get("__init__")
-        if init is not None and hasattr(init, "__code__"):
-            names.update(init.__code__.co_names)
-    return "socket" in names and "done" in names and hasattr(TCPROSTransport, "write_data")
-
-
-try:   # rospy internals: the setter of rospy's time, used when this node owns the clock
-    from rospy.rostime import _set_rostime
-except ImportError:
-    _set_rostime = None
-
-
-def _stop_listening_to_own_clock() -> bool:
-    """Under /use_sim_time, rospy subscribes every node to /clock, the simulator included:
-    each /clock message would cross a TCP connection back into this process (a thread hand-off
-    and a deserialisation per step). The simulator owns the clock, so it drops that
-    subscription and sets rospy's time itself each step (rospy internals, checked here).
-
-    Returns:
-        True when rospy's time is now set by this node.
-    """
-    try:
-        from rospy.impl import simtime
-    except ImportError:
-        return False
-    sub = getattr(simtime, "_clock_sub", None)
-    if sub is None or _set_rostime is None:
-        return False
-    sub.unregister()
-    simtime._clock_sub = None
-    return True
-
-
-class StopSignals:
-    """SIGINT/SIGTERM handlers that only record the request; the main loop acts on it.
-
-    rospy's own handlers (and roslaunch's ``rl_signal``, which any roslaunch ``Process`` made in
-    this process installs) run the whole shutdown inside the handler: in the main thread, at
-    whatever bytecode it was interrupted. The simulator's main thread spends much of its time in
-    ``Publisher.publish`` -> ``QueuedConnection.write_data``, holding that connection's
-    non-reentrant lock; rospy's shutdown then closes all topics and waits for the topic
-    manager's lock, which rospy's registration thread holds while it waits for the connection
-    lock the interrupted main thread still has: a deadlock (2-3 runs in 20 of sim.launch in
-    worlds/simple with scan subscribers; the rostests and nav_bench saw it too). Both rospy and
-    roslaunch ignore every later signal once shutdown has begun, so roslaunch's SIGTERM did
-    nothing either and only SIGKILL ended the node.
-
-    Here the first signal sets ``signum``; the loop sees it between steps, where it holds no
-    lock, and shuts down from there. A second signal exits at once (shutdown itself is stuck).
-    """
-
-    def __init__(self) -> None:
-        self.signum: Optional[int] = None
-
-    def install(self) -> "StopSignals":
-        """Take over SIGINT and SIGTERM (call from the main thread, after rospy.init_node
-        with ``disable_signals=True``)."""
-        for s in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(s, self._handle)
-        return self
-
-    def _handle(self, signum: int, _frame) -> None:
-        if self.signum is not None:
-            os.write(2, b"simulator: second signal during shutdown, exiting now\n")
-            os._exit(128 + signum)
-        self.signum = signum  # a plain assignment: safe whatever the main thread holds
-
-    def __call__(self) -> bool:
-        """True once a stop signal arrived."""
-        return self.signum is not None
 
 
 class SimulatorNode:
@@ -542,14 +106,13 @@ class SimulatorNode:
                  send_share: float = 0.1, report_period: float = 10.0,
                  gate: Optional[CommandGate] = None,
                  backlog: Optional[BacklogGate] = None) -> None:
-        _check_wires()
+        check_wires()
         self.world = world
         self.gate = gate or CommandGate([s.name for s in world.specs])
         self.backlog = backlog
         self._flush_sim = 0.0        # sim time of the last flush
-        self._peers = {}  # type: Dict[object, Tuple[Any, Tuple[str, str]]]
-        self.gt_tf = _gt_tf_robots(ground_truth_tf, [s.name for s in world.specs])
-        self.own_time = _stop_listening_to_own_clock()
+        self.gt_tf = gt_tf_robots(ground_truth_tf, [s.name for s in world.specs])
+        self.own_time = stop_listening_to_own_clock()
         self.rtf = rtf
         self.lock = threading.Lock()
         self.paused = False
@@ -566,7 +129,7 @@ class SimulatorNode:
         self.report_period = report_period
         step = world.clock.step_ns
         self.every = {k: max(1, int(round(1e9 / v / step))) for k, v in rates.items()}
-        self.out = _Outbox()
+        self.out = Outbox()
         pub = self.out.publisher
         self.robots = []
         for i, spec in enumerate(world.specs):
@@ -580,11 +143,11 @@ class SimulatorNode:
                 "pose": pub(ns + "/pose", PoseStamped, 10),
                 "battery": pub(ns + "/battery_state", BatteryState, 2),
                 "joints": pub(ns + "/joint_states", JointState, 10),
-                "odom_wire": _OdomWire(pre + "odom", pre + "base_footprint"),
-                "gt_wire": _OdomWire("map", pre + "base_footprint"),
-                "pose_wire": _PoseWire("map"),
-                "joints_wire": _JointsWire([pre + j for j in world.models[i].wheel_joints]),
-                "battery_wire": _BatteryWire(spec.battery.capacity_ah),
+                "odom_wire": OdomWire(pre + "odom", pre + "base_footprint"),
+                "gt_wire": OdomWire("map", pre + "base_footprint"),
+                "pose_wire": PoseWire("map"),
+                "joints_wire": JointsWire([pre + j for j in world.models[i].wheel_joints]),
+                "battery_wire": BatteryWire(spec.battery.capacity_ah),
                 "scan_wire": None,
                 "seq": {"odom": 0, "gt": 0, "pose": 0, "joints": 0, "battery": 0, "scan": 0},
             }
@@ -594,7 +157,7 @@ class SimulatorNode:
         self.tf_pub = pub("/tf", TFMessage, 100)
         pairs = [(r["prefix"] + "odom", r["prefix"] + "base_footprint") for r in self.robots]
         pairs += [("map", self.robots[i]["prefix"] + "odom") for i in self.gt_tf]
-        self.tf_wire = _TfWire(pairs)
+        self.tf_wire = TfWire(pairs)
         self.rtf_pub = rospy.Publisher("~real_time_factor_achieved", Float64, queue_size=1)
         self.share_pub = rospy.Publisher("~publishing_share", Float64, queue_size=1)
         self._clock_wall = -math.inf      # wall time of the last /clock
@@ -636,10 +199,10 @@ class SimulatorNode:
         for spec, pub in zip(self.world.specs, self.initialpose):
             m = PoseWithCovarianceStamped()
             m.header.frame_id = "map"
-            m.header.stamp = _stamp(self.world.clock.now_ns)
+            m.header.stamp = ros_time(self.world.clock.now_ns)
             m.pose.pose.position.x, m.pose.pose.position.y = spec.pose[0], spec.pose[1]
             q = m.pose.pose.orientation
-            q.x, q.y, q.z, q.w = _quat(spec.pose[2])
+            q.x, q.y, q.z, q.w = quaternion(spec.pose[2])
             cov = [0.0] * 36
             cov[0] = cov[7] = 0.05 ** 2
             cov[35] = 0.05 ** 2
@@ -658,12 +221,12 @@ class SimulatorNode:
     def _publish_map(self) -> None:
         fmap = self.world.fmap
         info = MapMetaData()
-        info.map_load_time = _stamp(self.world.clock.now_ns)
+        info.map_load_time = ros_time(self.world.clock.now_ns)
         info.resolution = fmap.resolution
         info.width, info.height = fmap.width, fmap.height
         info.origin.position.x, info.origin.position.y = fmap.origin[0], fmap.origin[1]
         (info.origin.orientation.x, info.origin.orientation.y, info.origin.orientation.z,
-         info.origin.orientation.w) = _quat(fmap.origin[2])
+         info.origin.orientation.w) = quaternion(fmap.origin[2])
         grid = OccupancyGrid()
         grid.header.frame_id = "map"
         grid.header.stamp = info.map_load_time
@@ -677,9 +240,9 @@ class SimulatorNode:
     def _publish_clock(self, now_ns: int) -> None:
         secs, nsecs = divmod(now_ns, 1_000_000_000)
         if self.own_time:
-            _set_rostime(rospy.Time(secs, nsecs))
+            set_rostime(rospy.Time(secs, nsecs))
         if self.out.wanted(self.clock_pub):
-            self.out.put(self.clock_pub, _U32.pack(8) + _II.pack(secs, nsecs))
+            self.out.put(self.clock_pub, U32.pack(8) + II.pack(secs, nsecs))
         self._clock_behind = False
 
     def publish(self, scans) -> None:
@@ -707,7 +270,7 @@ class SimulatorNode:
             wire = r["scan_wire"]
             if wire is None or wire.key != (s.angle_min, s.angle_max, s.angle_increment,
                                             s.scan_time, s.range_min, s.range_max):
-                wire = r["scan_wire"] = _ScanWire(r["prefix"] + "base_laser_link", s)
+                wire = r["scan_wire"] = ScanWire(r["prefix"] + "base_laser_link", s)
             r["seq"]["scan"] += 1
             secs, nsecs = divmod(s.stamp_ns, 1_000_000_000)
             out.put(r["scan"], wire.pack(r["seq"]["scan"], secs, nsecs, s.ranges))
@@ -748,7 +311,7 @@ class SimulatorNode:
         if odom_due and wanted(self.tf_pub):
             poses = odom
             if self.gt_tf:
-                poses = odom + [_map_to_odom(pose[i], odom[i]) for i in self.gt_tf]
+                poses = odom + [map_to_odom(pose[i], odom[i]) for i in self.gt_tf]
             out.put(self.tf_pub, self.tf_wire.pack(secs, nsecs, poses))
 
     def flush(self) -> None:
@@ -822,7 +385,9 @@ class SimulatorNode:
                               "%.0f%% stepping, %.0f%% publishing%s", achieved,
                               self.rtf if self.rtf > 0 else "as fast as possible",
                               100.0 * stepping / wall, 100.0 * publishing / wall,
-                              self._waits_line(wall))
+                              waits_line(self.gate.take_report(),
+                                         self.backlog.take_report() if self.backlog is not None else None,
+                                         wall))
                 self.rtf_pub.publish(Float64(achieved))
                 self.share_pub.publish(Float64(share))
                 report_at = now_wall + self.report_period
@@ -845,7 +410,7 @@ class SimulatorNode:
         if self.backlog is None or not self.out.sent:
             return False
         try:
-            unread = self._unread()
+            unread = self.out.unread(tcp_unread())
         except (OSError, struct.error) as e:
             rospy.logwarn("simulator: cannot see what subscribers have read (%s); not waiting "
                           "for them", e)
@@ -859,131 +424,6 @@ class SimulatorNode:
             self.out.sent = False
         return bool(held)
 
-    def _unread(self) -> Dict[Tuple[str, str], int]:
-        """Unread bytes per (subscriber, topic) of every connection on this machine."""
-        unread = tcp_unread()
-        for c in [c for c in self._peers if getattr(c, "done", True)]:
-            del self._peers[c]
-        out = {}  # type: Dict[Tuple[str, str], int]
-        for pub in self.out.publishers:
-            for c in pub.impl.connections:
-                peer = self._peers.get(c)
-                if peer is None:
-                    peer = self._peers[c] = _peer_key(c, pub.resolved_name)
-                if peer[0] is not None:
-                    out[peer[1]] = max(out.get(peer[1], 0), unread.get(peer[0], 0))
-        return out
-
-    def _waits_line(self, wall: float) -> str:
-        """The report's account of the wall time spent waiting for controllers and
-        subscribers, slowest first; empty when nobody was waited for."""
-        line = ""
-        waited = sorted(self.gate.take_report().items(), key=lambda kv: -kv[1])
-        if waited:
-            line += "; waited for cmd_vel of %s" % ", ".join(
-                "%s %.0f%%" % (n, 100.0 * t / wall) for n, t in waited)
-        if self.backlog is not None:
-            subs = sorted(self.backlog.take_report().items(), key=lambda kv: -kv[1])[:3]
-            if subs:
-                line += "; waited for subscribers %s" % ", ".join(
-                    "%s (%s) %.0f%%" % (s, t, 100.0 * w / wall) for (s, t), w in subs)
-        return line
-
-
-def _no_delay(c) -> None:
-    """TCP_NODELAY on a subscriber's socket: the batches here are small and end on a message,
-    and Nagle's algorithm held each one back until the peer's delayed ACK (up to 40 ms of
-    wall time), while the clock waited for the subscriber to read it."""
-    sock = getattr(c, "socket", None)
-    try:
-        if sock is not None and sock.family in (socket.AF_INET, socket.AF_INET6):
-            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-    except OSError:
-        pass
-
-
-def _peer_key(c, topic: str) -> Tuple[Any, Tuple[str, str]]:
-    """(the subscriber's socket as tcp_unread keys it, or None when it cannot be seen;
-    (subscriber, topic)) of a publisher-side connection."""
-    label = (str(getattr(c, "endpoint_id", "") or "?"), topic)
-    sock = getattr(c, "socket", None)
-    try:
-        if sock is None or sock.family != socket.AF_INET:
-            return None, label
-        return (sock.getpeername(), sock.getsockname()), label
-    except OSError:
-        return None, label
-
-
-def _map_to_odom(truth, odom) -> Tuple[float, float, float]:
-    """map -> N/odom that makes odom -> base_footprint land on the ground truth (what
-    fake_localization does); only when no localisation node (amcl) publishes it."""
-    xg, yg, thg = truth
-    xo, yo, tho = odom
-    th = thg - tho
-    c, s = math.cos(th), math.sin(th)
-    return xg - (c * xo - s * yo), yg - (s * xo + c * yo), th
-
-
-class RobotStatePublishers:
-    """One robot_state_publisher per robot, in its namespace, with the prefixed URDF.
-
-    Plain child processes in the simulator's process group (what roslaunch and a terminal
-    signal), so they stop with it, and stopped here within ``timeout`` when it stops. Not
-    roslaunch's scriptapi: that installs signal handlers doing the whole shutdown inside the
-    handler and waits up to 15 s per child.
-    """
-
-    def __init__(self, world: World) -> None:
-        import rospkg
-        from roslib.packages import find_node
-
-        exe = find_node("robot_state_publisher", "robot_state_publisher")
-        if not exe:
-            raise BulletFloorSimError("robot_state_publisher is not installed "
-                                      "(set ~robot_state_publishers false to run without it)")
-        log_dir = os.path.join(rospkg.get_log_dir(), str(rospy.get_param("/run_id", "")))
-        os.makedirs(log_dir, exist_ok=True)
-        self.procs: List[subprocess.Popen] = []
-        for spec in world.specs:
-            ns = "/" + spec.name if spec.name else "/"
-            rospy.set_param((ns.rstrip("/") or "") + "/robot_description",
-                            expand_xacro(spec.model, spec.prefix))
-            tag = (spec.name or "") + ("-" if spec.name else "") + "robot_state_publisher"
-            env = dict(os.environ, ROS_NAMESPACE=ns)
-            with open(os.path.join(log_dir, tag + "-stdout.log"), "ab") as out:
-                self.procs.append(subprocess.Popen(
-                    [exe[0], "__name:=robot_state_publisher",
-                     "__log:=" + os.path.join(log_dir, tag + ".log")],
-                    env=env, stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
-                    close_fds=True))
-
-    def stop(self, timeout: float = 1.0) -> None:
-        """SIGINT every child still running, SIGKILL what is left after ``timeout`` s."""
-        for p in self.procs:
-            if p.poll() is None:
-                p.send_signal(signal.SIGINT)
-        deadline = time.monotonic() + timeout
-        for p in self.procs:
-            try:
-                p.wait(max(0.0, deadline - time.monotonic()))
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
-
-
-def _gt_tf_robots(setting: Any, names: List[str]) -> List[int]:
-    """Indices of the robots whose map -> N/odom comes from ground truth (``~ground_truth_tf``:
-    a bool, or a list of robot names)."""
-    if isinstance(setting, (list, tuple)):
-        unknown = sorted(set(map(str, setting)) - set(names))
-        if unknown:
-            raise ConfigError("~ground_truth_tf: no robot named %s (robots: %s)"
-                              % (", ".join(unknown), ", ".join(n or "<empty>" for n in names)))
-        return [i for i, n in enumerate(names) if n in set(map(str, setting))]
-    if isinstance(setting, str):  # a launch-file string such as "true"/"false"
-        setting = setting.strip().lower() in ("true", "1", "yes")
-    return list(range(len(names))) if setting else []
 
 
 def main(argv: Optional[List[str]] = None) -> int:

@@ -33,11 +33,11 @@ from __future__ import annotations
 import math
 import socket
 import struct
-from typing import Dict, Hashable, List, Sequence, Tuple
+from typing import Dict, Hashable, List, Optional, Sequence, Tuple
 
 from ..errors import ConfigError
 
-__all__ = ["BacklogGate", "CommandGate", "tcp_unread"]
+__all__ = ["BacklogGate", "CommandGate", "tcp_unread", "waits_line"]
 
 Endpoint = Tuple[str, int]   # (IPv4 address, port)
 
@@ -224,3 +224,21 @@ def tcp_unread() -> Dict[Tuple[Endpoint, Endpoint], int]:
                 off += (length + 3) & ~3
             if not data:
                 return out
+
+
+def waits_line(commands: Dict[str, float], subscribers: Optional[Dict[Tuple[str, str], float]],
+               wall: float) -> str:
+    """The report's account of the wall time the clock waited for controllers
+    (CommandGate.take_report) and subscribers (BacklogGate.take_report, None when it does
+    not wait for them) over ``wall`` seconds, slowest first; empty when nobody was waited for."""
+    line = ""
+    waited = sorted(commands.items(), key=lambda kv: -kv[1])
+    if waited:
+        line += "; waited for cmd_vel of %s" % ", ".join(
+            "%s %.0f%%" % (n, 100.0 * t / wall) for n, t in waited)
+    if subscribers is not None:
+        subs = sorted(subscribers.items(), key=lambda kv: -kv[1])[:3]
+        if subs:
+            line += "; waited for subscribers %s" % ", ".join(
+                "%s (%s) %.0f%%" % (s, t, 100.0 * w / wall) for (s, t), w in subs)
+    return line
