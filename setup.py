@@ -5,9 +5,13 @@ from catkin_pkg.python_setup import generate_distutils_setup
 setup(**generate_distutils_setup(
     packages=[
         "bullet_floor_sim",
-        "bullet_floor_sim.core",
+        "bullet_floor_sim.data",
         "bullet_floor_sim.data.store",
+        "bullet_floor_sim.nav",
+        "bullet_floor_sim.people",
         "bullet_floor_sim.ros",
+        "bullet_floor_sim.ros.sim",
+        "bullet_floor_sim.sim",
     ],
     package_dir={"": "src"},
 ))

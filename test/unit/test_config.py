@@ -184,3 +184,17 @@ def test_two_checkouts_keep_their_own_cached_model(tmp_path, monkeypatch):
     assert os.path.exists(first.urdf_path) and os.path.exists(second.urdf_path)
     assert len(os.listdir(str(cache))) == 4
     load_model.cache_clear()
+
+
+def test_setup_py_installs_every_package_under_src():
+    """catkin_python_setup installs only the packages setup.py lists: a subpackage left out
+    works in the devel space (which points at src/) and is missing from an install."""
+    import ast
+
+    import setuptools
+
+    root = os.path.join(os.path.dirname(__file__), "..", "..")
+    tree = ast.parse(open(os.path.join(root, "setup.py")).read())
+    listed = next(ast.literal_eval(k.value) for n in ast.walk(tree) if isinstance(n, ast.Call)
+                  for k in n.keywords if k.arg == "packages")
+    assert sorted(listed) == sorted(setuptools.find_packages(os.path.join(root, "src")))
