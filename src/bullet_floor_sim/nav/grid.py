@@ -1,0 +1,370 @@
+"""The planning grid: the floor map inflated by a robot's footprint, with a wall cost, and A*.
+
+:class:`PlanningGrid` turns a :class:`~bullet_floor_sim.sim.floormap.FloorMap` into a coarser
+planning grid. A cell is *lethal* when the robot's footprint circle centred on the cell's
+centre could touch a wall (or unknown space); free cells near walls carry a cost that decays
+exponentially with clearance, as costmap_2d's inflation layer does, so paths keep away from
+walls and pass through the middle of doors. :meth:`PlanningGrid.plan` runs 8-connected A* (no
+corner cutting), then shortcuts the cell path where a straight segment is no closer to walls
+than the cells it replaces, and resamples it. Bad goals raise :class:`PlanError` naming the
+goal and the reason.
+"""
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+from typing import List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..errors import BulletFloorSimError
+from ..sim.floormap import FloorMap
+from ..sim.solidmap import MapHandling, solid_map
+
+__all__ = ["PlanError", "PlannerConfig", "PlanningGrid", "path_length"]
+
+_SQRT2 = math.sqrt(2.0)
+_NEIGHBOURS = ((1, 0, 1.0), (-1, 0, 1.0), (0, 1, 1.0), (0, -1, 1.0),
+               (1, 1, _SQRT2), (1, -1, _SQRT2), (-1, 1, _SQRT2), (-1, -1, _SQRT2))
+
+
+
+class PlanError(BulletFloorSimError):
+    """No plan: the goal is outside the map, in or too near a wall, or unreachable."""
+
+
+@dataclass
+class PlannerConfig:
+    """Planning parameters.
+
+    Attributes:
+        robot_radius: footprint circumradius (m); cells closer than this to a wall are lethal.
+        inflation_radius: distance beyond ``robot_radius`` over which the wall cost decays.
+        cost_scaling: exponential decay rate of the wall cost (1/m), as costmap_2d's.
+        cost_weight: how much a fully inflated cell adds to the length of a step (x1 + w).
+        resolution: planning cell size (m); rounded to a multiple of the map resolution.
+        unknown_is_obstacle: unknown (-1) areas are walls for planning (``unknown: wall`` of
+            sim/solidmap.py: unseen slivers inside an open hall are floor); False: floor.
+        path_spacing: spacing (m) of the resampled output path.
+    """
+
+    robot_radius: float = 0.34
+    inflation_radius: float = 0.6
+    cost_scaling: float = 4.0
+    cost_weight: float = 3.0
+    resolution: float = 0.1
+    unknown_is_obstacle: bool = True
+    path_spacing: float = 0.1
+
+
+class PlanningGrid:
+    """An inflated cost grid over a floor map, and A* on it.
+
+    Args:
+        fmap: the floor map (as map_server publishes it).
+        config: planning parameters.
+    """
+
+    def __init__(self, fmap: FloorMap, config: Optional[PlannerConfig] = None,
+                 handling: Optional[MapHandling] = None) -> None:
+        self.fmap = fmap
+        self.config = cfg = config or PlannerConfig()
+        if cfg.robot_radius <= 0 or cfg.resolution <= 0:
+            raise PlanError("planner: robot_radius and resolution must be > 0")
+        k = max(1, int(round(cfg.resolution / fmap.resolution)))
+        self.factor = k
+        self.resolution = fmap.resolution * k
+        # what is solid is decided as the simulator decides it (sim/solidmap.py): occupied
+        # cells, unknown areas but not the unseen slivers of an open hall, slits closed
+        if handling is None:
+            handling = MapHandling(unknown="wall" if cfg.unknown_is_obstacle else "free")
+        self.handling = handling
+        # Distance from each fine cell centre to the nearest solid cell centre, minus half a
+        # fine cell (the wall cell's extent): exact for a wall along the grid. A coarse cell's
+        # clearance is that of its centre point, as costmap_2d judges a cell by its centre:
+        # for an even factor the mean of the four fine cells around it (exact beside a flat
+        # wall, at most 2 mm high at a corner). A 0.8 m door is open to a 0.34 m footprint
+        # (the worst point of each cell, as before, closed it: 0.9 m was the narrowest).
+        dist = solid_map(fmap, handling).distance
+        fine = dist.astype(float) * fmap.resolution - 0.5 * fmap.resolution
+        self._fine = fine
+        h, w = fine.shape
+        H, W = -(-h // k), -(-w // k)
+        pad = np.full((H * k, W * k), -1.0)
+        pad[:h, :w] = fine
+        if k % 2:
+            self.clearance = pad[k // 2::k, k // 2::k].copy()
+        else:
+            a = k // 2 - 1
+            self.clearance = 0.25 * (pad[a::k, a::k] + pad[a + 1::k, a::k]
+                                     + pad[a::k, a + 1::k] + pad[a + 1::k, a + 1::k])
+        self.height, self.width = H, W
+        cost = np.exp(-cfg.cost_scaling * np.clip(self.clearance - cfg.robot_radius, 0, None))
+        cost[self.clearance > cfg.robot_radius + cfg.inflation_radius] = 0.0
+        cost[self.clearance < cfg.robot_radius] = np.inf
+        self.cost = cost
+        self._flat = None  # type: Optional[List[float]]
+
+    # -- coordinates -----------------------------------------------------------------------
+    def to_cell(self, x: float, y: float) -> Tuple[int, int]:
+        """(col, row) of the planning cell containing a map-frame point (may be out of range)."""
+        col, row = self.fmap.world_to_cell(x, y)
+        return int(col) // self.factor, int(row) // self.factor
+
+    def to_world(self, col: float, row: float) -> Tuple[float, float]:
+        """Map-frame centre of a planning cell."""
+        u = (col + 0.5) * self.factor - 0.5
+        v = (row + 0.5) * self.factor - 0.5
+        x, y = self.fmap.cell_to_world(u, v)
+        return float(x), float(y)
+
+    def inside(self, col: int, row: int) -> bool:
+        """Whether a cell index lies on the grid."""
+        return 0 <= col < self.width and 0 <= row < self.height
+
+    def clearance_at(self, x: float, y: float) -> float:
+        """Wall clearance (m) at the centre of the cell of (x, y); -inf off the map."""
+        c, r = self.to_cell(x, y)
+        return float(self.clearance[r, c]) if self.inside(c, r) else -math.inf
+
+    def on_walls(self, xy: np.ndarray, tolerance: float = 0.1) -> np.ndarray:
+        """Which map-frame points (N, 2) lie on the map's solid cells: in a cell whose centre
+        is within ``tolerance`` + one map cell of a wall (a point itself up to about
+        ``tolerance`` + 1.7 cells: 0.18 m on a 0.05 m map), what the plan already keeps clear
+        of. Points off the map count as walls."""
+        pts = np.asarray(xy, dtype=float).reshape(-1, 2)
+        col, row = self.fmap.world_to_cell(pts[:, 0], pts[:, 1])
+        col, row = np.asarray(col, dtype=np.int64), np.asarray(row, dtype=np.int64)
+        h, w = self._fine.shape
+        inside = (col >= 0) & (row >= 0) & (col < w) & (row < h)
+        out = np.ones(len(pts), dtype=bool)
+        out[inside] = self._fine[row[inside], col[inside]] <= tolerance + self.fmap.resolution
+        return out
+
+    def is_free(self, x: float, y: float) -> bool:
+        """The robot fits at (x, y): on the map, in a cell whose centre is at least
+        robot_radius from every wall (a point off the centre may be up to half a cell's
+        diagonal nearer)."""
+        c, r = self.to_cell(x, y)
+        return self.inside(c, r) and math.isfinite(self.cost[r, c])
+
+    # -- planning --------------------------------------------------------------------------
+    def plan(self, start: Sequence[float], goal: Sequence[float],
+             obstacles: Optional[np.ndarray] = None) -> np.ndarray:
+        """Plan from ``start`` (x, y[, yaw]) to ``goal`` (x, y[, yaw]).
+
+        Args:
+            start: the robot's map-frame position.
+            goal: the map-frame goal; the path ends exactly there.
+            obstacles: optional (N, 2) map-frame points (e.g. another robot seen in the scan),
+                inflated by the robot radius and treated as walls for this plan.
+
+        Returns:
+            (M, 2) array of map-frame points, spaced about ``path_spacing``, from start to goal.
+
+        Raises:
+            PlanError: goal outside the map, too close to a wall, or unreachable.
+        """
+        gx, gy = float(goal[0]), float(goal[1])
+        sx, sy = float(start[0]), float(start[1])
+        if not (math.isfinite(gx) and math.isfinite(gy)):
+            raise PlanError("goal (%s, %s) is not a finite position" % (goal[0], goal[1]))
+        cost = self.cost
+        blocked = set()  # type: set
+        if obstacles is not None and len(obstacles):
+            cost = cost.copy()
+            blocked = self._stamp_obstacles(cost, np.asarray(obstacles, dtype=float), (sx, sy))
+        gc, gr = self.to_cell(gx, gy)
+        if not self.inside(gc, gr):
+            b = self.fmap.bounds()
+            raise PlanError("goal (%.2f, %.2f) is outside the map (x %.2f..%.2f, y %.2f..%.2f)"
+                            % (gx, gy, b[0], b[2], b[1], b[3]))
+        if not math.isfinite(cost[gr, gc]):
+            fc, fr = self.fmap.world_to_cell(gx, gy)
+            clear = max(0.0, float(self._fine[int(fr), int(fc)]))
+            if self.fmap.value_at(gx, gy) == 100:
+                why = "inside a wall"
+            elif self.fmap.value_at(gx, gy) < 0 and self.handling.unknown == "wall":
+                why = "in unknown space"
+            elif not math.isfinite(self.cost[gr, gc]):
+                why = "too close to a wall (clearance %.2f m < robot radius %.2f m)" % (
+                    clear, self.config.robot_radius)
+            else:
+                why = "blocked by an obstacle seen in the scan"
+            raise PlanError("goal (%.2f, %.2f) is %s" % (gx, gy, why))
+        sc, sr = self.to_cell(sx, sy)
+        if not self.inside(sc, sr):
+            raise PlanError("start (%.2f, %.2f) is outside the map" % (sx, sy))
+        start_cell = self._nearest_free(cost, sc, sr)
+        if start_cell is None:
+            raise PlanError("start (%.2f, %.2f) is in collision and no free cell is near it"
+                            % (sx, sy))
+        cells = self._astar(blocked, start_cell, (gc, gr))
+        if cells is None:
+            raise PlanError("goal (%.2f, %.2f) is unreachable from (%.2f, %.2f)"
+                            % (gx, gy, sx, sy))
+        pts = np.array([self.to_world(c, r) for c, r in cells], dtype=float)
+        pts = self._shortcut(cost, pts)
+        pts[0] = (sx, sy)
+        pts[-1] = (gx, gy)
+        return _resample(pts, self.config.path_spacing)
+
+    def _stamp_obstacles(self, cost: np.ndarray, pts: np.ndarray,
+                         start: Tuple[float, float]) -> set:
+        """Make the cells within the robot radius (and half a cell) of each point lethal;
+        returns their flat indices (row * width + col)."""
+        rad = self.config.robot_radius + 0.5 * self.resolution
+        stamped = set()
+        n = int(math.ceil(rad / self.resolution))
+        for x, y in pts:
+            if math.hypot(x - start[0], y - start[1]) < self.config.robot_radius:
+                continue  # a point inside our own footprint is noise, never block the start
+            c0, r0 = self.to_cell(x, y)
+            for dr in range(-n, n + 1):
+                for dc in range(-n, n + 1):
+                    c, r = c0 + dc, r0 + dr
+                    if self.inside(c, r):
+                        wx, wy = self.to_world(c, r)
+                        if math.hypot(wx - x, wy - y) <= rad:
+                            cost[r, c] = np.inf
+                            stamped.add(r * self.width + c)
+        return stamped
+
+    def _nearest_free(self, cost: np.ndarray, c: int, r: int,
+                      max_cells: int = 6) -> Optional[Tuple[int, int]]:
+        """The cell itself if free, else the nearest free cell within ``max_cells``."""
+        best = None
+        for d in range(0, max_cells + 1):
+            for dr in range(-d, d + 1):
+                for dc in range(-d, d + 1):
+                    if max(abs(dr), abs(dc)) != d:
+                        continue
+                    cc, rr = c + dc, r + dr
+                    if self.inside(cc, rr) and math.isfinite(cost[rr, cc]):
+                        dist = math.hypot(dc, dr)
+                        if best is None or dist < best[0]:
+                            best = (dist, (cc, rr))
+            if best is not None:
+                return best[1]
+        return None
+
+    def _astar(self, blocked: set, start: Tuple[int, int],
+               goal: Tuple[int, int]) -> Optional[List[Tuple[int, int]]]:
+        """A* over the grid's costs, the ``blocked`` cells (flat indices) lethal too."""
+        W = self.width
+        if self._flat is None:  # the cost grid as a list, once: a list index is fastest
+            self._flat = self.cost.ravel().tolist()
+        flat = self._flat
+        if blocked:
+            flat = list(flat)
+            for k in blocked:
+                flat[k] = math.inf
+        weight = self.config.cost_weight
+        s = start[1] * W + start[0]
+        g = goal[1] * W + goal[0]
+        gc, gr = goal
+        n = self.width * self.height
+        best = [math.inf] * n
+        parent = [-1] * n
+        best[s] = 0.0
+        heap = [(0.0, 0.0, s)]
+        inf = math.inf
+        while heap:
+            _, d, u = heapq.heappop(heap)
+            if u == g:
+                break
+            if d > best[u]:
+                continue
+            ur, uc = divmod(u, W)
+            cu = flat[u]
+            for dc, dr, step in _NEIGHBOURS:
+                vc, vr = uc + dc, ur + dr
+                if vc < 0 or vr < 0 or vc >= W or vr >= self.height:
+                    continue
+                v = vr * W + vc
+                cv = flat[v]
+                if cv == inf:
+                    continue
+                if dc and dr and (flat[ur * W + vc] == inf or flat[vr * W + uc] == inf):
+                    continue  # no corner cutting past a lethal cell
+                nd = d + step * (1.0 + weight * 0.5 * (cu + cv))
+                if nd < best[v]:
+                    best[v] = nd
+                    parent[v] = u
+                    hx, hy = abs(vc - gc), abs(vr - gr)
+                    h = (hx + hy) + (_SQRT2 - 2.0) * min(hx, hy)
+                    heapq.heappush(heap, (nd + h, nd, v))
+        if best[g] == inf:
+            return None
+        out = []
+        u = g
+        while u != -1:
+            r, c = divmod(u, W)
+            out.append((c, r))
+            u = parent[u]
+        out.reverse()
+        return out
+
+    def clearance_along(self, pts: np.ndarray) -> np.ndarray:
+        """Wall clearance (m) at map-frame points (N, 2), from the map's own cells (finer
+        than :meth:`clearance_at`); points off the map read the edge's."""
+        pts = np.asarray(pts, dtype=float).reshape(-1, 2)
+        return self._fine_at(*self.fmap.world_to_cell(pts[:, 0], pts[:, 1]))
+
+    def _fine_at(self, col: np.ndarray, row: np.ndarray) -> np.ndarray:
+        return self._fine[np.clip(row, 0, self._fine.shape[0] - 1),
+                          np.clip(col, 0, self._fine.shape[1] - 1)]
+
+    def _segment_cost(self, cost: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+        """Highest cell cost along the straight segment a-b (inf if it crosses a lethal cell)."""
+        length = float(np.hypot(*(b - a)))
+        n = max(2, int(math.ceil(length / (0.5 * self.resolution))) + 1)
+        t = np.linspace(0.0, 1.0, n)[:, None]
+        pts = a[None, :] * (1 - t) + b[None, :] * t
+        col, row = self.fmap.world_to_cell(pts[:, 0], pts[:, 1])
+        fine = self._fine_at(col, row)
+        col, row = col // self.factor, row // self.factor
+        ok = (col >= 0) & (row >= 0) & (col < self.width) & (row < self.height)
+        if not ok.all() or fine.min() < self.config.robot_radius:
+            return math.inf   # off the map, or cutting a corner closer than the cells allow
+        return float(cost[row, col].max())
+
+    def _shortcut(self, cost: np.ndarray, pts: np.ndarray) -> np.ndarray:
+        """Greedy line-of-sight shortcuts that never bring the path closer to a wall."""
+        if len(pts) <= 2:
+            return pts
+        cell_cost = np.array([cost[self.to_cell(x, y)[::-1]] for x, y in pts])
+        out = [pts[0]]
+        i = 0
+        while i < len(pts) - 1:
+            j = i + 1
+            worst = max(cell_cost[i], cell_cost[j])
+            while j + 1 < len(pts):
+                worst_next = max(worst, cell_cost[j + 1])
+                if self._segment_cost(cost, pts[i], pts[j + 1]) <= worst_next + 1e-9:
+                    j += 1
+                    worst = worst_next
+                else:
+                    break
+            out.append(pts[j])
+            i = j
+        return np.array(out)
+
+
+def _resample(pts: np.ndarray, spacing: float) -> np.ndarray:
+    """Points along a polyline every ``spacing`` metres, keeping both ends."""
+    out = [pts[0]]
+    for a, b in zip(pts[:-1], pts[1:]):
+        seg = float(np.hypot(*(b - a)))
+        n = max(1, int(math.ceil(seg / spacing)))
+        for k in range(1, n + 1):
+            out.append(a + (b - a) * (k / n))
+    return np.array(out)
+
+
+def path_length(path: np.ndarray) -> float:
+    """Length (m) of a polyline."""
+    if len(path) < 2:
+        return 0.0
+    return float(np.hypot(*np.diff(path, axis=0).T).sum())

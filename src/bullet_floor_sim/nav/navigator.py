@@ -1,0 +1,392 @@
+"""The Navigator: one goal at a time, planned, followed, re-planned around what blocks it.
+
+It plans on a :class:`~bullet_floor_sim.nav.grid.PlanningGrid`, drives with a
+:class:`~bullet_floor_sim.nav.pursuit.PathFollower`, re-plans around other robots, backs off
+when stalled and, with ``give_way``, yields to a robot it meets (:func:`give_way_point`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..geometry import wrap_angle
+from .grid import PlanError, PlanningGrid
+from .pursuit import FollowerCommand, PathFollower, to_map
+
+__all__ = ["NavStatus", "Navigator", "NavigatorConfig", "give_way_point"]
+
+_BACKUP_SPEED, _BACKUP_TIME = 0.1, 1.5   # m/s, s: a stalled robot backs off 0.15 m
+_MAX_RETREATS = 3   # per goal: then it waits where it is, and the goal can time out
+
+
+
+def give_way_point(grid: PlanningGrid, route: np.ndarray, robot: Sequence[float],
+                   target: Sequence[float], clear: float, reach: float, roomy: float = 0.0,
+                   obstacles: Optional[np.ndarray] = None) -> Optional[Tuple[float, float]]:
+    """The free planning-cell centre nearest to ``robot`` that is at least ``clear`` metres from
+    every point of ``route`` (an (N, 2) polyline sampled finely, e.g. a plan) and from the
+    ``target``, within ``reach`` metres of the robot and reachable from it without passing
+    ``obstacles`` (map-frame points, inflated as the planner does); one with ``roomy`` metres
+    of wall clearance first. None when there is none."""
+    from scipy.ndimage import label
+
+    rx, ry = float(robot[0]), float(robot[1])
+    c0, r0 = grid.to_cell(rx, ry)
+    n = int(math.ceil(reach / grid.resolution))
+    cols = np.arange(max(0, c0 - n), min(grid.width, c0 + n + 1))
+    rows = np.arange(max(0, r0 - n), min(grid.height, r0 + n + 1))
+    if not len(cols) or not len(rows):
+        return None
+    cost = grid.cost
+    if obstacles is not None and len(obstacles):
+        cost = cost.copy()
+        grid._stamp_obstacles(cost, np.asarray(obstacles, dtype=float).reshape(-1, 2), (rx, ry))
+    free = np.isfinite(cost[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1])
+    parts, _ = label(free, structure=np.ones((3, 3)))
+    r, c = r0 - rows[0], c0 - cols[0]
+    near = parts[max(r - 2, 0):r + 3, max(c - 2, 0):c + 3]   # its cell, or one next to it
+    near = near[near > 0]
+    if not len(near):
+        return None
+    own = int(np.bincount(near).argmax())
+    R, C = np.nonzero(parts == own)
+    R, C = R + rows[0], C + cols[0]
+    k = grid.factor
+    x, y = grid.fmap.cell_to_world((C + 0.5) * k - 0.5, (R + 0.5) * k - 0.5)
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    d_robot = np.hypot(x - rx, y - ry)
+    ok = (d_robot <= reach) & (np.hypot(x - float(target[0]), y - float(target[1])) >= clear)
+    pts = np.asarray(route, dtype=float).reshape(-1, 2)
+    if len(pts):
+        from scipy.spatial import cKDTree
+
+        ok &= cKDTree(pts).query(np.stack([x, y], axis=1))[0] >= clear
+    if not ok.any():
+        return None
+    roomy_ok = ok & (grid.clearance[R, C] >= roomy)
+    pick = roomy_ok if roomy_ok.any() else ok
+    i = int(np.argmin(np.where(pick, d_robot, np.inf)))
+    return float(x[i]), float(y[i])
+
+
+
+@dataclass
+class NavigatorConfig:
+    """Recovery behaviour of :class:`Navigator` (times in sim seconds).
+
+    Attributes:
+        replan_after: blocked this long -> plan again, around the obstacles in the scan.
+        blocked_timeout: blocked this long in total since the last 0.1 m of progress towards
+            the goal -> abort.
+        progress_timeout: no 0.1 m of progress towards the goal for this long -> abort.
+        obstacle_range: scan points farther than this (m) are ignored when replanning.
+        sidestep: how far (m) to step aside when no path passes an obstacle.
+        stall_time: commanded to move but moved less than 2 cm and turned less than 0.05 rad
+            for this long -> stalled (pressed against another robot the scan does not show
+            ahead): plan again at once, around the obstacles in the scan; stalled again soon
+            after (it cannot even turn): back up 0.15 m when that brings it no nearer a wall
+            of the map and the scan shows nothing behind.
+        give_way: when no path passes what blocks it, retreat (before stepping aside) to the
+            nearest free place (a roomy one first) at least ``give_way_clear`` m from every
+            point the map does not know, within ``give_way_reach`` m, wait ``give_way_wait`` s
+            there and go on to the goal: the robot that yields in a passage too narrow for two
+            (the observer; the walker keeps its way), at most 3 times a goal. False: wait
+            where it is.
+    """
+
+    replan_after: float = 2.0
+    blocked_timeout: float = 30.0
+    progress_timeout: float = 60.0
+    obstacle_range: float = 3.0
+    sidestep: float = 0.45
+    stall_time: float = 1.5
+    give_way: bool = False
+    give_way_clear: float = 1.2
+    give_way_reach: float = 5.0
+    give_way_wait: float = 3.0
+
+
+@dataclass
+class NavStatus:
+    """What :meth:`Navigator.update` decided: a command and the goal's state.
+
+    ``state`` is ``active``, ``succeeded`` or ``aborted`` (``message`` says why).
+    """
+
+    v: float
+    w: float
+    state: str
+    message: str = ""
+    distance_to_goal: float = 0.0
+
+
+class Navigator:
+    """Plan, follow, and recover: the embedded move_base.
+
+    Args:
+        grid: the planning grid.
+        follower: the pure-pursuit controller.
+        config: recovery parameters.
+    """
+
+    def __init__(self, grid: PlanningGrid, follower: Optional[PathFollower] = None,
+                 config: Optional[NavigatorConfig] = None) -> None:
+        self.grid = grid
+        self.follower = follower or PathFollower()
+        self.follower.clearance = grid.clearance_along
+        self.config = config or NavigatorConfig()
+        self.goal: Optional[Tuple[float, float, Optional[float]]] = None
+        self.replans = 0
+        self._blocked_since: Optional[float] = None
+        self._blocked_total = 0.0
+        self._best = math.inf
+        self._best_t = 0.0
+        self._last_t: Optional[float] = None
+        self._last_cmd = (0.0, 0.0)
+        self._still_since: Optional[Tuple[float, float, float, float]] = None  # t, x, y, yaw
+        self.stalls = 0
+        self._retreat: Optional[Tuple[float, float]] = None  # where it retreats to, out of the way
+        self._backup_until: Optional[float] = None  # backing up off a contact until then
+        self._last_stall = -math.inf
+        self._resume_at: Optional[float] = None   # out of the way: when to go on to the goal
+        self.retreats = 0
+        self._seen = np.zeros((0, 2))             # the last scan's points in the map frame
+        self._known = np.zeros(0, dtype=bool)     # which of them are on the map's walls
+
+    @property
+    def path(self) -> np.ndarray:
+        """The path being followed (map frame)."""
+        return self.follower.path
+
+    def start(self, pose: Sequence[float], goal: Sequence[float], now: float) -> np.ndarray:
+        """Plan to a new goal (x, y, yaw-or-None) and start following it.
+
+        Raises:
+            PlanError: the goal is outside the map, in a wall, or unreachable.
+        """
+        yaw = goal[2] if len(goal) > 2 else None
+        path = self.grid.plan(pose, goal)
+        self.goal = (float(goal[0]), float(goal[1]), None if yaw is None else float(yaw))
+        self.follower.set_path(path, self.goal[2])
+        self.replans = 0
+        self._blocked_since = None
+        self._blocked_total = 0.0
+        self._best = math.inf
+        self._best_t = now
+        self._last_t = now
+        self._last_cmd = (0.0, 0.0)
+        self._still_since = None
+        self._retreat, self._resume_at, self._backup_until = None, None, None
+        self._last_stall = -math.inf
+        self.retreats = 0
+        return path
+
+    def cancel(self) -> None:
+        """Forget the goal."""
+        self.goal = None
+        self.follower.set_path(np.zeros((0, 2)))
+
+    def update(self, pose: Sequence[float], obstacles: Optional[np.ndarray],
+               now: float) -> NavStatus:
+        """One control step.
+
+        Args:
+            pose: ground-truth (x, y, yaw) in the map frame.
+            obstacles: scan points in the base frame (x forward), or None.
+            now: sim time (s).
+
+        Returns:
+            The command to send and the goal's state.
+        """
+        if self.goal is None:
+            return NavStatus(0.0, 0.0, "aborted", "no goal")
+        if obstacles is not None and len(obstacles):
+            obstacles = np.asarray(obstacles, dtype=float)
+            self._seen = to_map(pose, obstacles)
+            self._known = self.grid.on_walls(self._seen)
+        else:
+            self._seen, self._known = np.zeros((0, 2)), np.zeros(0, dtype=bool)
+        st = self._update(pose, obstacles, now)
+        self._last_cmd = (st.v, st.w)
+        return st
+
+    def _stalled(self, pose: Sequence[float], now: float) -> bool:
+        """True when the last commands asked for motion and the robot has not moved for
+        ``stall_time`` (then the watch starts afresh)."""
+        v, w = self._last_cmd
+        ref = self._still_since
+        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+        if ((abs(v) < 0.02 and abs(w) < 0.1) or ref is None
+                or math.hypot(x - ref[1], y - ref[2]) > 0.02
+                or abs(wrap_angle(yaw - ref[3])) > 0.05):
+            self._still_since = (now, x, y, yaw)
+            return False
+        if now - ref[0] >= self.config.stall_time:
+            self._still_since = (now, x, y, yaw)
+            return True
+        return False
+
+    def _update(self, pose: Sequence[float], obstacles: Optional[np.ndarray],
+                now: float) -> NavStatus:
+        cfg = self.config
+        dt = 0.0 if self._last_t is None else max(0.0, now - self._last_t)
+        self._last_t = now
+        if self._resume_at is not None:
+            return self._wait_then_resume(pose, now)
+        cmd = self.follower.compute(pose, obstacles, self._known)
+        if cmd.state == "done" and self._retreat:
+            self._retreat, self._resume_at = None, now + cfg.give_way_wait
+            return NavStatus(0.0, 0.0, "active", "giving way", cmd.distance_to_goal)
+        if cmd.state == "done":
+            self.goal = None
+            return NavStatus(0.0, 0.0, "succeeded", "goal reached", cmd.distance_to_goal)
+        if self._retreat is None and cmd.distance_to_goal < self._best - 0.1:
+            # (retreating, the distance is to the place it retreats to: no progress)
+            self._best = cmd.distance_to_goal
+            self._best_t = now
+            self._blocked_total = 0.0   # the time blocked counts since the last progress
+        if cmd.state == "blocked":
+            self._blocked_total += dt
+            if self._blocked_since is None:
+                self._blocked_since = now
+            if self._blocked_total > cfg.blocked_timeout:
+                return self._abort("blocked by an obstacle for %.0f s, %.2f m from the goal"
+                                   % (self._blocked_total, cmd.distance_to_goal), cmd)
+            if now - self._blocked_since >= cfg.replan_after:
+                self._blocked_since = now  # again after another replan_after if still blocked
+                self._replan_around(pose, obstacles)
+            return NavStatus(0.0, 0.0, "active", "blocked", cmd.distance_to_goal)
+        self._blocked_since = None
+        if self._backup_until is not None and now < self._backup_until:
+            return NavStatus(-_BACKUP_SPEED, 0.0, "active", "backing up", cmd.distance_to_goal)
+        self._backup_until = None
+        if self._stalled(pose, now):
+            self.stalls += 1
+            again = now - self._last_stall < 3.0 * cfg.stall_time
+            self._last_stall = now
+            if again and self._clear_behind(pose, obstacles):
+                # pressed against another robot so that it cannot even turn: back off a little
+                self._backup_until = now + _BACKUP_TIME
+                return NavStatus(-_BACKUP_SPEED, 0.0, "active", "backing up",
+                                 cmd.distance_to_goal)
+            self._replan_around(pose, obstacles)
+            return NavStatus(0.0, 0.0, "active", "stalled", cmd.distance_to_goal)
+        if cmd.state not in ("aligning",) and now - self._best_t > cfg.progress_timeout:
+            return self._abort("no progress for %.0f s, %.2f m from the goal"
+                               % (now - self._best_t, cmd.distance_to_goal), cmd)
+        return NavStatus(cmd.v, cmd.w, "active", cmd.state, cmd.distance_to_goal)
+
+    def _clear_behind(self, pose: Sequence[float], obstacles: Optional[np.ndarray]) -> bool:
+        """Backing up ``_BACKUP_TIME`` s brings the robot no nearer a wall of the map (than
+        now or than its radius), and no scan point lies in the strip it sweeps (a lidar that
+        sees only ahead shows nothing there: the map is the check then)."""
+        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+        back = _BACKUP_SPEED * _BACKUP_TIME
+        fine = self.grid._fine
+        cells = self.grid.fmap.world_to_cell(np.array([x, x - back * math.cos(yaw)]),
+                                             np.array([y, y - back * math.sin(yaw)]))
+        col, row = (np.asarray(v, dtype=np.int64) for v in cells)
+        if not ((col >= 0) & (row >= 0) & (col < fine.shape[1]) & (row < fine.shape[0])).all():
+            return False
+        r = self.follower.config.robot_radius
+        if fine[row[1], col[1]] < min(r, fine[row[0], col[0]]):
+            return False
+        if obstacles is None or not len(obstacles):
+            return True
+        pts = np.asarray(obstacles, dtype=float)
+        reach = r + _BACKUP_SPEED * _BACKUP_TIME + 0.05
+        return not ((pts[:, 0] < 0.0) & (pts[:, 0] > -reach)
+                    & (np.abs(pts[:, 1]) < r + 0.03)).any()
+
+    def _abort(self, message: str, cmd: FollowerCommand) -> NavStatus:
+        self.goal = None
+        return NavStatus(0.0, 0.0, "aborted", message, cmd.distance_to_goal)
+
+    def _replan_around(self, pose: Sequence[float], obstacles: Optional[np.ndarray]) -> None:
+        """Plan again with the nearby scan points as walls; keep the old path if none.
+
+        When no path passes the obstacle (two robots nose to nose in a corridor), step aside to
+        the right first, as people do: a waypoint ``sidestep`` metres to the robot's right (then
+        left) that is clear of walls and of the obstacle, and on to the goal from there. Both
+        robots of a head-on meeting do the same, so they pass each other.
+        """
+        if self.goal is None or obstacles is None or len(obstacles) == 0:
+            return
+        pts = np.asarray(obstacles, dtype=float)
+        # points on the map's walls are already in the grid: keep only the new ones, near
+        near = np.hypot(pts[:, 0], pts[:, 1]) < self.config.obstacle_range
+        world = self._seen[near & ~self._known]
+        try:
+            path = self.grid.plan(pose, self._retreat or self.goal, obstacles=world)
+        except PlanError:
+            if self.config.give_way and self.retreats < _MAX_RETREATS:  # it gets out of the way
+                path = self._out_of_the_way(pose, world)
+                if path is not None:
+                    self._retreat = (float(path[-1, 0]), float(path[-1, 1]))
+                    self.retreats += 1
+                    self._blocked_total = 0.0
+                    self.follower.set_path(path, None)
+                    return
+            path = None if self._retreat else self._sidestep(pose, world)
+            if path is None:
+                return  # nothing better: wait for the obstacle to move
+        self.replans += 1
+        self.follower.set_path(path, None if self._retreat else self.goal[2])
+
+    def _out_of_the_way(self, pose: Sequence[float], world: np.ndarray) -> Optional[np.ndarray]:
+        """A path, around ``world`` (the points the map does not know), to the nearest place
+        at least ``give_way_clear`` m from all of them; None when there is none."""
+        cfg = self.config
+        if not len(world):
+            return None
+        centre = world.mean(axis=0)
+        point = give_way_point(self.grid, world, pose, centre, cfg.give_way_clear,
+                               cfg.give_way_reach, 0.6, obstacles=world)
+        if point is None:
+            return None
+        try:
+            return self.grid.plan(pose, point, obstacles=world)
+        except PlanError:
+            return None
+
+    def _wait_then_resume(self, pose: Sequence[float], now: float) -> NavStatus:
+        """Out of the way: wait, then plan to the goal again (around what the scan shows)."""
+        if now < self._resume_at:
+            return NavStatus(0.0, 0.0, "active", "giving way")
+        world = self._seen[~self._known]
+        try:
+            path = self.grid.plan(pose, self.goal, obstacles=world)
+        except PlanError:
+            try:
+                path = self.grid.plan(pose, self.goal)
+            except PlanError as e:
+                return self._abort("cannot go on after giving way: %s" % e,
+                                   FollowerCommand(0.0, 0.0, "blocked", 0.0))
+        self._resume_at = None
+        self.follower.set_path(path, self.goal[2])
+        return NavStatus(0.0, 0.0, "active", "going on")
+
+    def _sidestep(self, pose: Sequence[float], world: np.ndarray) -> Optional[np.ndarray]:
+        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+        r = self.grid.config.robot_radius
+        for side in (-1.0, 1.0):  # right first
+            for dist in (self.config.sidestep, 0.5 * self.config.sidestep):
+                wx = x - side * dist * math.sin(yaw)
+                wy = y + side * dist * math.cos(yaw)
+                if not self.grid.is_free(wx, wy):
+                    continue
+                if len(world) and np.min(np.hypot(world[:, 0] - wx, world[:, 1] - wy)) < r + 0.05:
+                    continue
+                try:
+                    first = self.grid.plan(pose, (wx, wy))
+                    try:
+                        rest = self.grid.plan((wx, wy), self.goal, obstacles=world)
+                    except PlanError:  # the other one has not stepped aside yet
+                        rest = self.grid.plan((wx, wy), self.goal)
+                except PlanError:
+                    continue
+                return np.vstack([first, rest[1:]])
+        return None

@@ -1,0 +1,263 @@
+"""Pure pursuit along a planned path, with an obstacle stop from the robot's own scan.
+
+:class:`PathFollower` is a pure-pursuit controller for a differential (or omni) base with
+rotate-in-place, slow-down near the goal, final heading alignment and an obstacle stop from
+the robot's own scan points (:func:`obstacles_in_base`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Iterable, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..geometry import wrap_angle
+
+__all__ = ["FollowerCommand", "FollowerConfig", "PathFollower", "obstacles_in_base", "to_map"]
+
+
+
+
+@dataclass
+class FollowerConfig:
+    """Pure-pursuit parameters (defaults suit a Scitos A5 at walking pace).
+
+    Attributes:
+        lookahead: pure-pursuit look-ahead distance (m).
+        short_lookahead: look-ahead (m) used within 1 m of an obstacle ahead.
+        max_linear, max_angular: velocity limits (m/s, rad/s), within the drive's.
+        min_linear: slowest forward speed while following (m/s).
+        rotate_in_place: heading error (rad) above which the robot turns on the spot.
+        xy_tolerance: goal position tolerance (m).
+        yaw_tolerance: goal heading tolerance (rad); the goal yaw is ignored if it is None.
+        slow_radius: distance to the goal (m) where the speed starts to fall.
+        stop_distance: free space (m) needed ahead of the footprint to keep driving.
+        side_margin: extra half-width (m) of the stop corridor beyond the footprint radius.
+        robot_radius: footprint circumradius (m).
+        sweep: how far along the path (m) the stop check looks for obstacles.
+    """
+
+    lookahead: float = 0.6
+    short_lookahead: float = 0.3
+    max_linear: float = 0.6
+    max_angular: float = 1.2
+    min_linear: float = 0.08
+    rotate_in_place: float = 0.9
+    xy_tolerance: float = 0.15
+    yaw_tolerance: float = 0.15
+    slow_radius: float = 1.0
+    stop_distance: float = 0.3
+    side_margin: float = 0.03
+    robot_radius: float = 0.34
+    sweep: float = 1.5
+
+
+@dataclass
+class FollowerCommand:
+    """One control output: body velocities and the follower's state.
+
+    ``state`` is ``following``, ``rotating`` (turning on the spot towards the path),
+    ``aligning`` (at the goal, turning to its heading), ``blocked`` (an obstacle ahead) or
+    ``done``.
+    """
+
+    v: float
+    w: float
+    state: str
+    distance_to_goal: float
+
+
+class PathFollower:
+    """Pure pursuit along a planned path.
+
+    Args:
+        config: controller parameters.
+    """
+
+    def __init__(self, config: Optional[FollowerConfig] = None) -> None:
+        self.config = config or FollowerConfig()
+        self.path = np.zeros((0, 2))
+        self.goal_yaw: Optional[float] = None
+        self._index = 0
+        self._aligning = False
+        # wall clearance (m) at map-frame points (N, 2) (the Navigator gives its grid's): the
+        # look-ahead chord then never runs nearer a wall than the path itself does
+        self.clearance: Optional[Callable[[np.ndarray], np.ndarray]] = None
+        self._path_clear: Optional[np.ndarray] = None
+
+    def set_path(self, path: np.ndarray, goal_yaw: Optional[float] = None) -> None:
+        """Follow a new (M, 2) map-frame path; ``goal_yaw`` is the final heading (or None)."""
+        self.path = np.asarray(path, dtype=float).reshape(-1, 2)
+        self.goal_yaw = goal_yaw
+        self._index = 0
+        self._aligning = False
+        self._path_clear = (self.clearance(self.path) if self.clearance is not None
+                            and len(self.path) else None)
+
+    def _safe_target(self, x: float, y: float, rest: np.ndarray, k: int) -> int:
+        """The index of the farthest path point up to ``rest[k]`` (the look-ahead point)
+        that the robot reaches in a straight line no nearer a wall than the path gets on the
+        way (nor than radius + side margin, nor than it stands now); ``k`` itself when its
+        chord is safe or when none is. Pure pursuit cuts the chord: in a door with a bend,
+        the chord to a 0.6 m look-ahead ran 1.5 cm into the wall corner."""
+        cfg = self.config
+        clear = self._path_clear[self._index:]
+        here = float(self.clearance(np.array([[x, y]]))[0])
+        start = np.array([x, y])
+        for j in range(k, 0, -1):
+            need = min(cfg.robot_radius + cfg.side_margin, here, float(clear[:j + 1].min()))
+            n = max(2, int(math.hypot(*(rest[j] - start)) / 0.025) + 1)
+            t = np.linspace(0.0, 1.0, n)[1:, None]
+            if self.clearance(start * (1.0 - t) + rest[j] * t).min() >= need - 0.01:
+                return j
+        return k   # no chord is safe (off the path): pure pursuit as it is
+
+    def remaining(self) -> np.ndarray:
+        """The part of the path not yet passed."""
+        return self.path[self._index:]
+
+    def free_ahead(self, obstacles: Optional[np.ndarray]) -> float:
+        """Distance (m) from the footprint's front to the nearest point in its swept corridor."""
+        if obstacles is None or len(obstacles) == 0:
+            return math.inf
+        cfg = self.config
+        pts = np.asarray(obstacles, dtype=float)
+        sel = (pts[:, 0] > 0.0) & (np.abs(pts[:, 1]) < cfg.robot_radius + cfg.side_margin)
+        if not sel.any():
+            return math.inf
+        return float(pts[sel, 0].min()) - cfg.robot_radius
+
+    def free_along_path(self, pose: Sequence[float], obstacles: Optional[np.ndarray]) -> float:
+        """Distance (m) from the footprint's front, along the path ahead (from the robot to the
+        path's next points, ``sweep`` metres of it), to the first base-frame point in front of
+        the robot within ``robot_radius + side_margin`` of that line: what the footprint would
+        sweep. inf when there is none."""
+        if obstacles is None or len(obstacles) == 0:
+            return math.inf
+        cfg = self.config
+        pts = np.asarray(obstacles, dtype=float).reshape(-1, 2)
+        pts = to_map(pose, pts[pts[:, 0] > 0.0])
+        if not len(pts):
+            return math.inf
+        line = np.vstack([np.asarray(pose[:2], dtype=float)[None, :],
+                          self.path[self._index + 1:]])
+        half, best, s0 = cfg.robot_radius + cfg.side_margin, math.inf, 0.0
+        for a, b in zip(line[:-1], line[1:]):
+            ab = b - a
+            seg = float(np.hypot(*ab))
+            if seg > 1e-9:
+                t = np.clip(((pts - a) @ ab) / (seg * seg), 0.0, 1.0)
+                d = np.hypot(*(pts - a - t[:, None] * ab).T)
+                hit = d < half
+                if hit.any():
+                    best = min(best, s0 + float((t[hit] * seg).min()))
+            s0 += seg
+            if s0 >= cfg.sweep or s0 >= best:
+                break
+        return best - cfg.robot_radius
+
+    def compute(self, pose: Sequence[float], obstacles: Optional[np.ndarray] = None,
+                known: Optional[np.ndarray] = None) -> FollowerCommand:
+        """Velocity command for the current ground-truth pose.
+
+        Args:
+            pose: (x, y, yaw) in the map frame.
+            obstacles: (N, 2) scan points in the robot's base frame (x forward), or None.
+            known: optional (N,) bool, the points on the map's walls. The path already keeps
+                the footprint clear of them, so they shorten the look-ahead and slow the robot
+                but never stop it: only what the map does not know (a robot, a person) can
+                block the way, and only when it is on the path ahead
+                (:meth:`free_along_path`): beside a bend it is not. Without it every point can.
+
+        Returns:
+            The command; ``state == "done"`` once within tolerance of the goal.
+        """
+        cfg = self.config
+        if len(self.path) == 0:
+            return FollowerCommand(0.0, 0.0, "done", 0.0)
+        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+        goal = self.path[-1]
+        dist_goal = math.hypot(goal[0] - x, goal[1] - y)
+        if self._aligning or dist_goal <= cfg.xy_tolerance:
+            self._aligning = True
+            self._index = len(self.path) - 1
+            if self.goal_yaw is None:
+                return FollowerCommand(0.0, 0.0, "done", dist_goal)
+            err = wrap_angle(self.goal_yaw - yaw)
+            if abs(err) <= cfg.yaw_tolerance:
+                return FollowerCommand(0.0, 0.0, "done", dist_goal)
+            w = _clip(2.0 * err, cfg.max_angular)
+            if abs(w) < 0.3:
+                w = math.copysign(0.3, err)
+            return FollowerCommand(0.0, w, "aligning", dist_goal)
+
+        # progress: the closest path point within a window ahead of the last one
+        window = self.path[self._index:self._index + 60]
+        d = np.hypot(window[:, 0] - x, window[:, 1] - y)
+        self._index += int(np.argmin(d))
+        # look-ahead point: first point at least `lookahead` away, else the goal; close to an
+        # obstacle the look-ahead shrinks so that the robot follows the path's detours tightly
+        free = self.free_ahead(obstacles)
+        lookahead = cfg.lookahead if free > 1.0 else cfg.short_lookahead
+        unknown = obstacles
+        if known is not None and obstacles is not None and len(obstacles):
+            unknown = np.asarray(obstacles)[~np.asarray(known, dtype=bool)]
+        free_new = self.free_along_path((x, y, yaw), unknown)
+        rest = self.path[self._index:]
+        dr = np.hypot(rest[:, 0] - x, rest[:, 1] - y)
+        far = np.nonzero(dr >= lookahead)[0]
+        target = rest[far[0]] if len(far) else goal
+        tight = False
+        if self._path_clear is not None and len(rest) > 1:
+            k = int(far[0]) if len(far) else len(rest) - 1
+            j = self._safe_target(x, y, rest, k)
+            tight, target = j < k, rest[j]
+        dx, dy = target[0] - x, target[1] - y
+        c, s = math.cos(yaw), math.sin(yaw)
+        lx, ly = c * dx + s * dy, -s * dx + c * dy
+        alpha = math.atan2(ly, lx)
+        blocked = free_new < cfg.stop_distance
+        if abs(alpha) > cfg.rotate_in_place or ((blocked or tight) and abs(alpha) > 0.25):
+            # turning on the spot is always safe for a round footprint (and where the
+            # look-ahead was cut short, an arc would leave the safe chord)
+            return FollowerCommand(0.0, _clip(1.5 * alpha, cfg.max_angular), "rotating", dist_goal)
+        if blocked:
+            return FollowerCommand(0.0, 0.0, "blocked", dist_goal)
+        ld = max(math.hypot(lx, ly), 1e-6)
+        curvature = 2.0 * ly / (ld * ld)
+        v = cfg.max_linear * min(1.0, dist_goal / cfg.slow_radius)
+        v *= max(0.2, math.cos(alpha))
+        v = max(v, cfg.min_linear)
+        # slow down when something is ahead, to stop in time (scan and control lag)
+        v = min(v, cfg.max_linear * max(0.2, min(1.0, (free - cfg.stop_distance) / 0.8)))
+        if abs(curvature) * v > cfg.max_angular:
+            v = cfg.max_angular / abs(curvature)
+        return FollowerCommand(v, _clip(curvature * v, cfg.max_angular), "following", dist_goal)
+
+
+def to_map(pose: Sequence[float], pts: np.ndarray) -> np.ndarray:
+    """Base-frame points (N, 2) in the map frame, for a robot at ``pose`` (x, y, yaw)."""
+    x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.stack([x + c * pts[:, 0] - s * pts[:, 1], y + s * pts[:, 0] + c * pts[:, 1]], axis=1)
+
+
+
+
+def _clip(v: float, limit: float) -> float:
+    return max(-limit, min(limit, v))
+
+
+def obstacles_in_base(ranges: Iterable[float], angle_min: float, angle_increment: float,
+                      range_max: float, laser_pose: Tuple[float, float, float]) -> np.ndarray:
+    """Scan points (valid ranges only) in the base frame, given the laser's (x, y, yaw) there.
+
+    Returns:
+        (N, 2) array of points; +-inf, NaN and max-range readings are dropped.
+    """
+    r = np.asarray(list(ranges), dtype=float)
+    a = angle_min + angle_increment * np.arange(len(r))
+    ok = np.isfinite(r) & (r < range_max) & (r > 0)
+    r, a = r[ok], a[ok] + laser_pose[2]
+    return np.stack([laser_pose[0] + r * np.cos(a), laser_pose[1] + r * np.sin(a)], axis=1)
