@@ -377,7 +377,7 @@ def test_iter_documents_reads_trajectory_after_trajectory(tmp_path, monkeypatch,
     """Every selected chunk exactly once: trajectories in order of their first pose, each in
     sequence_id order; reads of one chunk (10 poses a read) or of up to 16; a trajectory with
     a sequence_id missing in the middle; map and time limits; last_n."""
-    import bullet_floor_sim.data.trajectory as traj
+    import bullet_floor_sim.data.trajectory.documents as traj
 
     monkeypatch.setattr(traj, "_PAGE_POSES", page_poses)
     chunks = []
