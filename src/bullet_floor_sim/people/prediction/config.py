@@ -1,0 +1,122 @@
+"""The predictor's parameters and input checks. See the package doc."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Tuple
+
+import numpy as np
+
+from ...errors import BulletFloorSimError
+
+__all__ = ["XY", "PredictionConfig", "PredictionError"]
+
+XY = Tuple[float, float]
+
+
+class PredictionError(BulletFloorSimError):
+    """Bad prediction input: unknown region, non-finite position or time, bad parameters, or
+    a position from which no region of the row can be reached."""
+
+
+@dataclass
+class PredictionConfig:
+    """Prediction parameters (distances in metres, times in seconds).
+
+    Attributes:
+        beta: rationality (1/m): a metre of progress towards a goal multiplies its likelihood
+            by exp(beta).
+        length_exponent: α, how a leg's length L_p to a goal point weighs (1 / L_p^α): 1 says
+            a moment is equally likely at any fraction of a leg (the evaluation's sampling).
+        goal_spacing: lattice spacing of the goal points of a region; also the shortest
+            leg length L_p counted.
+        max_goals_per_region: at most this many goal points per region (spread over the
+            lattice), one Dijkstra each.
+
+        beta, length_exponent and max_goals_per_region were chosen by
+        bench/choose_prediction.py on 100 legs (seed 2) of each shipped world, leaving the
+        scored world out: every fold chose length_exponent 1 (over 0, 0.5, 1.5), three of
+        four beta 5 (over 2, 3, 8) and 24 goal points (over 12); the README gives the folds.
+        clearance: a goal point keeps at least this distance from every wall (the walker's
+            0.45 m).
+        margin: a goal point keeps at least this distance from its region's boundary (the
+            walker's 0.5 m; halved, then 0, for regions too narrow for it, as the walker does).
+        stop_speed: below this speed (m/s) the entity is standing (dwelling).
+        dwell_time: standing this long ends a leg. 3 s: the walker dwells 5-20 s at a goal,
+            while it also stands still mid-leg for up to ~2.6 s (turning on the spot, waiting
+            2 s before a replan), which must not cut a leg in two.
+        min_progress: a leg starts once the entity is this far from where it stood, so that
+            shuffling on the spot is no leg.
+        heading_epsilon: probability mass the heading baseline spreads over the candidates it
+            did not choose (so its log-loss stays finite).
+        snap_distance: a position in a lethal cell uses the nearest free cell within this
+            distance; farther away, the position is not on the map's free space.
+        handover_time: a new track that appears within this many seconds of another track's
+            last update, near enough (``handover_speed``), is the same entity seen again
+            after an occlusion: it takes over that track's leg (:class:`PredictorPool`).
+            4 s: shorter than the walker's shortest dwell (5 s), so the leg taken over is
+            the one under way.
+        handover_speed: ... near enough: within 0.5 m + this speed (m/s) x the gap.
+    """
+
+    beta: float = 5.0
+    length_exponent: float = 1.0
+    goal_spacing: float = 1.0
+    max_goals_per_region: int = 24
+    clearance: float = 0.45
+    margin: float = 0.5
+    stop_speed: float = 0.1
+    dwell_time: float = 3.0
+    min_progress: float = 0.3
+    heading_epsilon: float = 0.1
+    snap_distance: float = 0.6
+    handover_time: float = 4.0
+    handover_speed: float = 1.5
+
+    def check(self) -> None:
+        """Raise PredictionError naming the first bad parameter."""
+        for name in ("goal_spacing", "min_progress"):
+            v = getattr(self, name)
+            if not (_is_number(v) and math.isfinite(v) and v > 0):
+                raise PredictionError("prediction: %s must be a finite number > 0, got %r"
+                                      % (name, v))
+        for name in ("beta", "length_exponent", "clearance", "margin", "stop_speed", "dwell_time",
+                     "snap_distance", "handover_time", "handover_speed"):
+            v = getattr(self, name)
+            if not (_is_number(v) and math.isfinite(v) and v >= 0):
+                raise PredictionError("prediction: %s must be a finite number >= 0, got %r"
+                                      % (name, v))
+        v = self.max_goals_per_region
+        if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 1):
+            raise PredictionError("prediction: max_goals_per_region must be an integer >= 1, "
+                                  "got %r" % (v,))
+        v = self.heading_epsilon
+        if not (_is_number(v) and 0.0 <= v < 1.0):
+            raise PredictionError("prediction: heading_epsilon must be a number in [0, 1), "
+                                  "got %r" % (v,))
+
+
+# --------------------------------------------------------------------------------------------
+# the model
+# --------------------------------------------------------------------------------------------
+
+
+def _check_xy(xy: Any, what: str) -> XY:
+    try:
+        x, y = (float(v) for v in xy)
+        ok = math.isfinite(x) and math.isfinite(y)
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise PredictionError("prediction: %s must be a finite (x, y), got %r" % (what, xy))
+    return x, y
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+
+
+
+
+def _quote(s: Any) -> str:
+    return '"%s"' % s
