@@ -12,6 +12,7 @@ setup(**generate_distutils_setup(
         "bullet_floor_sim.people",
         "bullet_floor_sim.people.markov",
         "bullet_floor_sim.people.prediction",
+        "bullet_floor_sim.people.tracking",
         "bullet_floor_sim.ros",
         "bullet_floor_sim.ros.sim",
         "bullet_floor_sim.sim",

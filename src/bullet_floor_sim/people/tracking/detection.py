@@ -1,0 +1,203 @@
+"""Detections in one scan: scan points in the map, the static map's points dropped, clusters of
+person or robot size. See the package doc."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from ...sim.floormap import FloorMap
+from ...sim.solidmap import MapHandling, solid_map
+from .config import TrackerConfig, TrackingError
+
+class StaticMap:
+    """What the floor map explains: the distance from every cell to the nearest solid cell
+    (occupied, or unknown under ``unknown: wall``; sim/solidmap.py), centre to centre.
+
+    Args:
+        fmap: the floor map.
+        tolerance: points whose cell is within this distance of such a cell are explained.
+        handling: how the map's unknown cells and gaps are read (the world's; default:
+            MapHandling()).
+
+    Raises:
+        TrackingError: tolerance is negative or not finite.
+    """
+
+    def __init__(self, fmap: FloorMap, tolerance: float = 0.2,
+                 handling: Optional[MapHandling] = None) -> None:
+        from scipy.ndimage import distance_transform_edt
+
+        if not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance)
+                and tolerance >= 0):
+            raise TrackingError("static map: tolerance must be a finite number >= 0, got %r"
+                                % (tolerance,))
+        self.fmap = fmap
+        self.tolerance = float(tolerance)
+        # solid as the simulator makes it (sim/solidmap.py): an unseen sliver of an open hall
+        # is floor where a person can stand, not a wall that explains scan points
+        static = solid_map(fmap, handling or MapHandling()).fmap.occupied
+        if static.any():
+            self.distance_field = distance_transform_edt(~static) * fmap.resolution
+        else:
+            self.distance_field = np.full(static.shape, np.inf)
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """(N,) distance (m) from each point's cell to the nearest static cell; 0 outside the
+        map (everything there counts as static)."""
+        pts = _as_points(points, "points")
+        col, row = self.fmap.world_to_cell(pts[:, 0], pts[:, 1])
+        inside = (col >= 0) & (col < self.fmap.width) & (row >= 0) & (row < self.fmap.height)
+        out = np.zeros(len(pts))
+        out[inside] = self.distance_field[row[inside], col[inside]]
+        return out
+
+    def explained(self, points: np.ndarray) -> np.ndarray:
+        """(N,) bool: the point is explained by the map (or lies outside it, and is ignored)."""
+        return self.distance(points) <= self.tolerance
+
+
+def scan_points(ranges: Sequence[float], angle_min: float, angle_increment: float,
+                laser_pose: Sequence[float], return_beams: bool = False
+                ) -> Union[np.ndarray, Tuple[np.ndarray, np.ndarray]]:
+    """Map-frame points of a scan's finite returns.
+
+    Args:
+        ranges: (B,) REP 117 ranges; +inf (no return), -inf (too close) and NaN are dropped.
+        angle_min, angle_increment: beam angles in the laser frame (radians).
+        laser_pose: (x, y, yaw) of the laser frame in the map frame.
+        return_beams: also return each point's beam index.
+
+    Returns:
+        Points (N, 2) float64 in beam order; with ``return_beams``, (points, beam indices
+        (N,) int64, increasing).
+
+    Raises:
+        TrackingError: ranges is not 1-D, or the angles or the pose are not finite.
+    """
+    r = np.asarray(ranges, dtype=float)
+    if r.ndim != 1:
+        raise TrackingError("scan_points: ranges must be 1-D, got shape %s" % (r.shape,))
+    pose = tuple(float(v) for v in laser_pose)
+    if len(pose) != 3 or not all(math.isfinite(v) for v in pose):
+        raise TrackingError("scan_points: laser_pose must be 3 finite numbers (x, y, yaw), "
+                            "got %r" % (tuple(laser_pose),))
+    if not (math.isfinite(angle_min) and math.isfinite(angle_increment)):
+        raise TrackingError("scan_points: angle_min and angle_increment must be finite, got "
+                            "%r and %r" % (angle_min, angle_increment))
+    beams = np.flatnonzero(np.isfinite(r))
+    a = pose[2] + angle_min + angle_increment * beams
+    d = r[beams]
+    pts = np.empty((len(beams), 2))
+    pts[:, 0] = pose[0] + d * np.cos(a)
+    pts[:, 1] = pose[1] + d * np.sin(a)
+    return (pts, beams.astype(np.int64)) if return_beams else pts
+
+
+def cluster(points: np.ndarray, gap: float, wrap: bool = False) -> List[np.ndarray]:
+    """Split points given in beam order where two consecutive ones are farther apart than
+    ``gap``.
+
+    Only the distance splits: beams dropped between two points (no return, or explained by
+    the map) do not, so a person standing by a wall whose middle points fall within the map's
+    tolerance stays one cluster when what remains is still close together.
+
+    Args:
+        points: (N, 2) in beam order.
+        gap: largest distance between consecutive points of one cluster (m).
+        wrap: the scan is a full circle, so the last and first points are neighbours too.
+
+    Returns:
+        Index arrays into ``points``, one per cluster, in beam order.
+    """
+    pts = _as_points(points, "points")
+    n = len(pts)
+    if n == 0:
+        return []
+    step = np.hypot(*np.diff(pts, axis=0).T) if n > 1 else np.zeros(0)
+    cuts = np.flatnonzero(step > gap) + 1
+    groups = np.split(np.arange(n), cuts)
+    if (wrap and len(groups) > 1
+            and math.hypot(*(pts[0] - pts[-1])) <= gap):
+        groups[0] = np.concatenate((groups.pop(), groups[0]))
+    return groups
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One entity seen in one scan.
+
+    Attributes:
+        x, y: estimated centre in the map frame (m).
+        size: extent of its points, the largest distance between two of them (m).
+        n_points: number of scan points.
+    """
+
+    x: float
+    y: float
+    size: float
+    n_points: int
+
+
+def detect(points: np.ndarray, static: StaticMap, laser_xy: Sequence[float],
+           config: Optional[TrackerConfig] = None, wrap: bool = False) -> List[Detection]:
+    """Entities that the map does not explain, among a scan's points.
+
+    Args:
+        points: (N, 2) map-frame points in beam order (:func:`scan_points`).
+        static: the static map; points it explains are dropped.
+        laser_xy: (x, y) of the laser in the map frame (the centre is pushed away from it).
+        config: detection parameters (``TrackerConfig()`` when None).
+        wrap: the scan is a full circle (see :func:`cluster`).
+
+    Returns:
+        One Detection per cluster of ``min_points`` or more points with an extent within
+        [min_size, max_size], in beam order.
+    """
+    cfg = config or TrackerConfig()
+    pts = _as_points(points, "points")
+    pts = pts[~static.explained(pts)]
+    sensor = np.asarray(laser_xy, dtype=float).reshape(2)
+    out = []
+    for idx in cluster(pts, cfg.cluster_gap, wrap):
+        if len(idx) < cfg.min_points:
+            continue
+        q = pts[idx]
+        diff = q[:, None, :] - q[None, :, :]
+        size = float(np.sqrt((diff * diff).sum(axis=2).max()))
+        if not cfg.min_size <= size <= cfg.max_size:
+            continue
+        c = q.mean(axis=0)
+        u = c - sensor
+        norm = math.hypot(u[0], u[1])
+        if norm > 0.0:
+            c = c + u * (cfg.centre_offset / norm)
+        out.append(Detection(x=float(c[0]), y=float(c[1]), size=size, n_points=len(idx)))
+    return out
+
+
+def detect_scan(ranges: Sequence[float], angle_min: float, angle_increment: float,
+                laser_pose: Sequence[float], static: StaticMap,
+                config: Optional[TrackerConfig] = None) -> List[Detection]:
+    """:func:`scan_points` then :func:`detect` for one scan (a ``Scan``'s or a LaserScan's
+    fields); a scan whose beams cover a full circle wraps around."""
+    pts = scan_points(ranges, angle_min, angle_increment, laser_pose)
+    n = len(np.asarray(ranges).reshape(-1))
+    wrap = abs(angle_increment) * n >= 2.0 * math.pi - 1e-6
+    return detect(pts, static, laser_pose[:2], config, wrap)
+
+
+def _as_points(points: Any, what: str) -> np.ndarray:
+    pts = np.asarray(points, dtype=float)
+    if pts.size == 0:
+        return pts.reshape(0, 2)
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise TrackingError("%s must be an (N, 2) array, got shape %s" % (what, pts.shape))
+    return pts
+
+
+# --------------------------------------------------------------------------------------------
+# tracking
+# --------------------------------------------------------------------------------------------
