@@ -11,10 +11,10 @@ import uuid
 
 import pytest
 
-from bullet_floor_sim.data.roi_store import (COLLECTION, DATABASE, STORED_TYPE, Debouncer,
-                                              RoiQuery, RoiStore, add_point, delete_point,
-                                              move_vertex, new_roi, next_roi_id,
-                                              roi_from_document, roi_to_fields)
+from bullet_floor_sim.data.roi_edits import (Debouncer, add_point, delete_point, move_vertex,
+                                              new_roi, next_roi_id)
+from bullet_floor_sim.data.roi_store import (COLLECTION, DATABASE, STORED_TYPE, RoiQuery,
+                                              RoiStore, roi_from_document, roi_to_fields)
 from bullet_floor_sim.data.rois import Roi, RoiError, load_rois
 
 from test_store import mongo_launcher, mongo_server, store  # noqa: F401 (fixtures)

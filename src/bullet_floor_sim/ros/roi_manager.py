@@ -41,6 +41,7 @@ from std_msgs.msg import ColorRGBA, Header, String
 from visualization_msgs.msg import (InteractiveMarker, InteractiveMarkerControl,
                                     InteractiveMarkerFeedback, Marker, MarkerArray)
 
+from bullet_floor_sim.data import roi_edits as edits
 from bullet_floor_sim.data import roi_store as rs
 from bullet_floor_sim.sim.config import load_world_config, resolve_world
 from bullet_floor_sim.errors import BulletFloorSimError
@@ -116,7 +117,7 @@ class RoiManagerNode:
         self.types = [str(t) for t in rospy.get_param("~types", DEFAULT_TYPES)] or DEFAULT_TYPES
         self.new_roi_size = float(rospy.get_param("~new_roi_size", 1.0))
         self.sync_period = float(rospy.get_param("~sync_period", 2.0))
-        self.debouncer = rs.Debouncer(float(rospy.get_param("~save_quiet", 1.0)),
+        self.debouncer = edits.Debouncer(float(rospy.get_param("~save_quiet", 1.0)),
                                       float(rospy.get_param("~save_max_wait", 3.0)))
         self.fmap = None
         seed_rois, bounds = self._seed_file()
@@ -313,7 +314,7 @@ class RoiManagerNode:
     def _moved(self, key: Key, roi: Roi, k: int, x: float, y: float) -> None:
         if roi.vertices[k] == (x, y):
             return
-        self.rois[key] = rs.move_vertex(roi, k, x, y)
+        self.rois[key] = edits.move_vertex(roi, k, x, y)
         self.servers[key[0]].insert(self._outline_marker(self.rois[key]))
         self.servers[key[0]].applyChanges()
         self.debouncer.touch(key, time.monotonic())
@@ -323,11 +324,11 @@ class RoiManagerNode:
         what, arg = action
         config = key[0]
         if what == "add_point":
-            self.rois[key] = rs.add_point(roi, k)
+            self.rois[key] = edits.add_point(roi, k)
             self._save(key)
             self._rebuild_roi(key)
         elif what == "delete_point":
-            self.rois[key] = rs.delete_point(roi, k)
+            self.rois[key] = edits.delete_point(roi, k)
             self._save(key)
             self._rebuild_roi(key, old_vertices=len(roi.vertices))
         elif what == "delete_roi":
@@ -340,9 +341,9 @@ class RoiManagerNode:
             rospy.loginfo("roi_manager: deleted ROI %s of config %s", roi.id, config)
         elif what == "add_roi":
             x, y = roi.vertices[k]
-            new_id = rs.next_roi_id(i for c, i in set(self.rois) | set(self.known)
+            new_id = edits.next_roi_id(i for c, i in set(self.rois) | set(self.known)
                                     if c == config)
-            new = rs.new_roi(new_id, arg, self.map_name, config, x + self.new_roi_size,
+            new = edits.new_roi(new_id, arg, self.map_name, config, x + self.new_roi_size,
                              y + self.new_roi_size, self.new_roi_size)
             new_key = (config, new_id)
             self.rois[new_key] = new
