@@ -359,7 +359,7 @@ def test_roi_from_msg_and_chain_markers():
     from visualization_msgs.msg import Marker
 
     from bullet_floor_sim.msg import SOMAROIObject
-    from bullet_floor_sim.ros.markov_walker import chain_markers
+    from bullet_floor_sim.ros.markers import chain_markers
     from bullet_floor_sim.ros.soma import roi_from_msg
 
     msg = SOMAROIObject(id="a", config="1", type="office", map_name="m")

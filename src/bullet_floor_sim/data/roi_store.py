@@ -20,7 +20,7 @@ import math
 import time
 from typing import Any, Dict, List, Optional, Sequence, Tuple
 
-from .rois import Roi, RoiError, validate_roi, validate_rois
+from .rois import Roi, RoiError, id_order, validate_roi, validate_rois
 from .store import Store, StoreUnavailable, message_document
 
 __all__ = [
@@ -248,7 +248,7 @@ class RoiStore:
         for doc in docs:
             self._note_version(doc)
         rois = [roi_from_document(d) for d in docs if not _deleted(d)]
-        return sorted(rois, key=lambda r: (r.config, _id_key(r.id)))
+        return sorted(rois, key=lambda r: (r.config, id_order(r.id)))
 
     def versions(self, config: Optional[str] = None) -> Dict[Tuple[str, str], int]:
         """The newest version number of every ROI ((config, id) -> version; deleted included).
@@ -283,7 +283,7 @@ class RoiStore:
             latest = self._latest_docs()
             live = [d for d in latest if not _deleted(d)]
             return {"configs": sorted({d["config"] for d in live}),
-                    "ids": sorted({d["id"] for d in live}, key=_id_key), "rois": [],
+                    "ids": sorted({d["id"] for d in live}, key=id_order), "rois": [],
                     "queryjson": json.dumps({"map_name": self.map_name})}
         if request.query_type != 0:
             raise RoiError("ROI query: query_type must be 0 (query) or 1 (ids and configs), "
@@ -301,9 +301,9 @@ class RoiStore:
                                                sort=[("config", 1), ("id", 1),
                                                      ("_meta.version", 1)])
                     if not _deleted(d)]
-        docs.sort(key=lambda d: (d["config"], _id_key(d["id"]), d["_meta"].get("version", 0)))
+        docs.sort(key=lambda d: (d["config"], id_order(d["id"]), d["_meta"].get("version", 0)))
         return {"configs": sorted({d["config"] for d in docs}),
-                "ids": sorted({d["id"] for d in docs}, key=_id_key), "rois": docs,
+                "ids": sorted({d["id"] for d in docs}, key=id_order), "rois": docs,
                 "queryjson": json.dumps(flt, sort_keys=True)}
 
     # -- writes ---------------------------------------------------------------------------------
@@ -423,8 +423,3 @@ def _deleted(doc: Dict[str, Any]) -> bool:
 
 def _vertices(roi: Roi) -> List[Tuple[float, float]]:
     return [(float(x), float(y)) for x, y in roi.vertices]
-
-
-def _id_key(roi_id: str) -> Tuple[int, Any]:
-    """Numeric ids in numeric order ("2" < "10"), then the others alphabetically."""
-    return (0, int(roi_id), "") if roi_id.isdigit() else (1, 0, roi_id)

@@ -30,6 +30,7 @@ from ..files import atomic_file
 from ..yamlio import read_yaml
 
 __all__ = [
+    "id_order",
     "RoiError",
     "Roi",
     "load_rois",
@@ -446,3 +447,9 @@ def _explain(polygon: Polygon) -> str:
     if text == "Valid Geometry":
         return "zero area: the vertices are collinear"
     return text.lower()
+
+
+def id_order(roi_id: str) -> Tuple[int, int, str]:
+    """Sort key of ROI ids: numeric ids in numeric order ("2" < "10"), then the others
+    alphabetically."""
+    return (0, int(roi_id), "") if roi_id.isdigit() else (1, 0, roi_id)
