@@ -25,7 +25,8 @@ from .base import (MONGODB_DEFAULT_PORT, DuplicateKeyError, StoreError, StoreUna
                    default_db_dir, default_journal_path, ros_home)
 from .messages import (SOMA_TYPES, insert_message, message_document, ros_datetime,
                        stored_class_for)
-from .store import Store, open_store
+from .store import Store
+from .uri import open_store
 
 __all__ = [
     "MONGODB_DEFAULT_PORT",

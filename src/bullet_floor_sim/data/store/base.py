@@ -12,6 +12,8 @@ import os
 import re
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
+import bson
+
 from ...errors import BulletFloorSimError
 
 __all__ = [
@@ -28,6 +30,9 @@ __all__ = [
     "normalize_sort",
     "is_operator_update",
     "redact_uri",
+    "check_bson",
+    "check_filter",
+    "short_error",
 ]
 
 # mongodb_store's mongodb_server.py and message_store_node.py default to this port.
@@ -174,3 +179,26 @@ def is_operator_update(update: Dict[str, Any]) -> bool:
     if not any(dollar):
         return False
     raise StoreError("store: update mixes $-operators and plain fields: %s" % ", ".join(update))
+
+
+def check_filter(filter: Any) -> None:
+    if not isinstance(filter, dict):
+        raise StoreError("store: a filter must be a dict, not %s" % type(filter).__name__)
+
+
+def check_bson(entry: Dict[str, Any]) -> None:
+    """Reject what BSON cannot hold before it reaches a backend or the journal."""
+    try:
+        bson.encode(entry)
+    except (bson.errors.BSONError, TypeError, OverflowError) as e:
+        raise StoreError("store: cannot store %s on %s.%s (%s)"
+                         % (entry["op"], entry["db"], entry["coll"], e)) from None
+
+
+def short_error(message: str) -> str:
+    """One line, without pymongo's topology description."""
+    message = message.splitlines()[0] if message else message
+    for tail in (", Timeout:", " (configured timeouts"):
+        if tail in message:
+            message = message.split(tail)[0] + ")"
+    return message if len(message) <= 240 else message[:237] + "..."

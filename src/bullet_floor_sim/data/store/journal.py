@@ -23,15 +23,18 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import json
+import logging
 import os
 import uuid
-from typing import Any, Dict, Iterator, Optional, Tuple
+from typing import Any, Dict, Iterator, List, Optional, Tuple
 
 from bson import json_util
 
 from .base import StoreError
 
-__all__ = ["Journal", "JournalFull", "DEFAULT_MAX_BYTES"]
+__all__ = ["Journal", "JournalFull", "DEFAULT_MAX_BYTES", "rejected_entries"]
+
+LOG = logging.getLogger("bullet_floor_sim.store")
 
 _JSON = json_util.JSONOptions(json_mode=json_util.JSONMode.CANONICAL, tz_aware=False)
 #: The journal's default cap: about 60 hours of one walker's trajectory at 20 Hz (35 MB/h).
@@ -272,3 +275,18 @@ def _fsync_dir(path: str) -> None:
         os.fsync(fd)
     finally:
         os.close(fd)
+
+
+def rejected_entries(path: str) -> List[bytes]:
+    """The journal lines kept in a rejected file, in order (unreadable records skipped)."""
+    out = []
+    try:
+        with open(path, "rb") as f:
+            for raw in f:
+                try:
+                    out.append(json.loads(raw)["entry"].encode("utf-8") + b"\n")
+                except (ValueError, KeyError, TypeError, AttributeError):
+                    LOG.error("store: %s: skipped a line that is not a set-aside write", path)
+    except FileNotFoundError:
+        pass
+    return out

@@ -34,7 +34,6 @@ that it is lost, and counted (:attr:`Store.lost`).
 from __future__ import annotations
 
 import collections
-import json
 import logging
 import os
 import threading
@@ -44,11 +43,11 @@ from typing import Any, Callable, Deque, Dict, List, Optional, Sequence, Tuple, 
 import bson
 
 from .base import (Backend, DuplicateKeyError, SortSpec, StoreError, StoreUnavailable,
-                   check_names, default_db_dir, default_journal_path, is_operator_update,
+                   check_bson, check_filter, check_names, short_error, is_operator_update,
                    normalize_sort, redact_uri)
-from .journal import DEFAULT_MAX_BYTES, Journal, JournalFull
+from .journal import DEFAULT_MAX_BYTES, Journal, JournalFull, rejected_entries
 
-__all__ = ["Store", "open_store", "DEFAULT_MAX_HELD_BYTES"]
+__all__ = ["Store", "DEFAULT_MAX_HELD_BYTES"]
 
 LOG = logging.getLogger("bullet_floor_sim.store")
 #: Writes the journal cannot take (disk full, over its cap) wait in memory up to this many
@@ -195,7 +194,7 @@ class Store:
             Documents matched (or 1 when upserted); None when the write was journalled.
         """
         check_names(db, collection)
-        _check_filter(filter)
+        check_filter(filter)
         is_operator_update(update)
         return self._write({"op": "update", "db": db, "coll": collection, "filter": filter,
                             "update": update, "upsert": bool(upsert), "multi": bool(multi)})
@@ -207,7 +206,7 @@ class Store:
             How many were deleted; None when the write was journalled.
         """
         check_names(db, collection)
-        _check_filter(filter)
+        check_filter(filter)
         return self._write({"op": "delete", "db": db, "coll": collection, "filter": filter})
 
     def create_index(self, db: str, collection: str, keys: SortSpec) -> None:
@@ -234,7 +233,7 @@ class Store:
         """
         check_names(db, collection)
         filter = filter or {}
-        _check_filter(filter)
+        check_filter(filter)
         spec = normalize_sort(sort)
         if not isinstance(limit, int) or limit < 0:
             raise StoreError("store: bad limit %r (0 for no limit)" % (limit,))
@@ -255,7 +254,7 @@ class Store:
         """
         check_names(db, collection)
         filter = filter or {}
-        _check_filter(filter)
+        check_filter(filter)
         groups = [group_by] if isinstance(group_by, str) else list(group_by)
         if not groups or not all(isinstance(g, str) and g for g in groups + [order_by]):
             raise StoreError("store: latest() needs field names for group_by and order_by")
@@ -275,7 +274,7 @@ class Store:
         return bool(self._held) or self._journal.pending()
 
     def _write(self, entry: Dict[str, Any]) -> Any:
-        _check_bson(entry)
+        check_bson(entry)
         with self._lock:
             self._check_open()
             if self._waiting() or (self._backlog() and not self._replay()):
@@ -450,7 +449,7 @@ class Store:
             path = self._journal.rejected_path
             try:
                 with self._journal.locked():
-                    lines = _rejected_entries(path)
+                    lines = rejected_entries(path)
                     if lines:   # one append: all of them go back, or none
                         self._journal.append(b"".join(lines))
                         os.unlink(path)
@@ -459,12 +458,12 @@ class Store:
                 raise StoreError("store %s: cannot put the writes set aside in %s back (%s)"
                                  % (redact_uri(self.uri), path, e)) from None
             self._replay(force=True)
-            return back, len(_rejected_entries(path))
+            return back, len(rejected_entries(path))
 
     def _went_down(self, error: StoreUnavailable) -> None:
         self._next_try = time.monotonic() + self._retry_interval
         if self._down is None:
-            self._down = _short(str(error))
+            self._down = short_error(str(error))
             LOG.warning("%s; journalling writes to %s until it is back", self._down,
                         self.journal_path)
 
@@ -483,56 +482,6 @@ class Store:
             self._journal.count() + len(self._held), self.journal_path)
 
 
-def open_store(uri: Optional[str] = None, journal_dir: Optional[str] = None,
-               timeout: float = 1.5, retry_interval: float = 5.0,
-               synchronous: str = "NORMAL", max_journal_bytes: int = DEFAULT_MAX_BYTES,
-               max_held_bytes: int = DEFAULT_MAX_HELD_BYTES) -> Store:
-    """Open the store named by ``uri`` and replay what its journal holds.
-
-    Args:
-        uri: ``mongodb://host[:port]/`` (port 62345 when omitted, as mongodb_store), or a
-            directory for the embedded store; None or "" for ``$ROS_HOME/bullet_floor_sim/db``.
-        journal_dir: where the journal lives (default ``$ROS_HOME/bullet_floor_sim/journal``).
-        timeout: seconds before an unreachable MongoDB (or a locked SQLite file) counts as down.
-        retry_interval: seconds between attempts to reach a database found down.
-        synchronous: the embedded backend's SQLite ``synchronous`` pragma.
-        max_journal_bytes: the journal's cap (the disk budget of an outage).
-        max_held_bytes: how much may wait in memory when the journal cannot take writes.
-
-    Returns:
-        The store. A database that is down does not prevent opening: writes are journalled.
-
-    Raises:
-        StoreError: the URI is malformed, has an unsupported scheme, or the directory cannot
-            be created.
-    """
-    if not uri:
-        uri = default_db_dir()
-    if not isinstance(uri, str):
-        raise StoreError("store: the URI must be a string, not %s" % type(uri).__name__)
-    if uri.startswith(("mongodb://", "mongodb+srv://")):
-        from .mongo import MongoBackend
-
-        backend: Backend = MongoBackend(uri, timeout=timeout)
-        key = uri
-    elif "://" in uri:
-        raise StoreError("store %s: unsupported URI scheme %r (use mongodb://host[:port]/ or a "
-                         "directory path)" % (redact_uri(uri), uri.split("://", 1)[0]))
-    else:
-        from .embedded import EmbeddedBackend
-
-        key = os.path.abspath(os.path.expanduser(uri))
-        if os.path.exists(key) and not os.path.isdir(key):
-            raise StoreError("store %s: not a directory" % key)
-        backend = EmbeddedBackend(key, timeout=timeout, synchronous=synchronous)
-    try:
-        return Store(key, backend, default_journal_path(key, journal_dir), retry_interval,
-                     max_journal_bytes, max_held_bytes)
-    except BaseException:
-        backend.close()
-        raise
-
-
 def _guarded(entry: Optional[Dict[str, Any]], fn: Callable[[], Any]) -> Any:
     """Run one backend call; an exception that is not the store's own (a bad regex, a bad
     value deep in a document) becomes a StoreError naming the operation."""
@@ -545,43 +494,5 @@ def _guarded(entry: Optional[Dict[str, Any]], fn: Callable[[], Any]) -> Any:
         raise StoreError("store: %s failed (%s: %s)" % (what, type(e).__name__, e)) from None
 
 
-def _rejected_entries(path: str) -> List[bytes]:
-    """The journal lines kept in a rejected file, in order (unreadable records skipped)."""
-    out = []
-    try:
-        with open(path, "rb") as f:
-            for raw in f:
-                try:
-                    out.append(json.loads(raw)["entry"].encode("utf-8") + b"\n")
-                except (ValueError, KeyError, TypeError, AttributeError):
-                    LOG.error("store: %s: skipped a line that is not a set-aside write", path)
-    except FileNotFoundError:
-        pass
-    return out
-
-
-def _check_filter(filter: Any) -> None:
-    if not isinstance(filter, dict):
-        raise StoreError("store: a filter must be a dict, not %s" % type(filter).__name__)
-
-
-def _check_bson(entry: Dict[str, Any]) -> None:
-    """Reject what BSON cannot hold before it reaches a backend or the journal."""
-    try:
-        bson.encode(entry)
-    except (bson.errors.BSONError, TypeError, OverflowError) as e:
-        raise StoreError("store: cannot store %s on %s.%s (%s)"
-                         % (entry["op"], entry["db"], entry["coll"], e)) from None
-
-
 def _mb(n: int) -> str:
     return "%.1f MB" % (n / 1048576.0)
-
-
-def _short(message: str) -> str:
-    """One line, without pymongo's topology description."""
-    message = message.splitlines()[0] if message else message
-    for tail in (", Timeout:", " (configured timeouts"):
-        if tail in message:
-            message = message.split(tail)[0] + ")"
-    return message if len(message) <= 240 else message[:237] + "..."
