@@ -27,15 +27,16 @@ from typing import Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import bullet_capi
+from . import bullet_capi, measure
 from .config import RobotSpec, WorldConfig, load_world_config, resolve_world
 from ..errors import ConfigError, MapError
 from .floormap import FloorMap, load_map, outline_segments, wall_mesh, wall_outline_mesh
 from ..paths import worlds_dir
 from ..geometry import wrap_angle
 from .robot import DRIVES, RobotModel, check_command, load_model
-from .sections import Section, check_section, clip_beams, measure_section, pad_sections
-from .sensors import MAX_RAYS_PER_BATCH, SMALL_N, Battery, Lidar, Odometry, Scan, cast_rays
+from .sections import clip_beams
+from .sensors import SMALL_N, Battery, Lidar, Odometry, Scan, cast_rays
+from .measure import ROBOT_GROUP, ROBOT_MASK, SELF_GROUP
 from .solidmap import SolidMap, solid_map
 
 __all__ = ["SimClock", "World", "RobotView", "Snapshot"]
@@ -43,10 +44,6 @@ __all__ = ["SimClock", "World", "RobotView", "Snapshot"]
 #: PyBullet accepts at most 131072 vertices per mesh shape (B3_MAX_NUM_VERTICES): 8 per
 #: wall box, 4 per outline quad.
 _MAX_MESH_RECTS, _MAX_MESH_QUADS = 16000, 32000
-#: Collision filter group and mask of every robot body (PyBullet's for dynamic bodies, set
-#: explicitly); _SELF_GROUP briefly marks one robot for rays that must see only it.
-_ROBOT_GROUP, _ROBOT_MASK, _SELF_GROUP = 1, -1, 4
-_SELF_EXIT_EPS = 1e-4
 #: Rays per call through the C API and through rayTestBatch (see cast_rays), and the batch
 #: size from which calls use ``ray_threads`` (smaller ones run on one thread: threads cost
 #: more than they save; measured on two cores through the C API, 100 rays took 57 us on one
@@ -262,13 +259,13 @@ class World:
             except p.error as e:
                 raise ConfigError("robot %r: PyBullet cannot load model %r (%s): %s"
                                   % (spec.name, spec.model, model.urdf_path, e)) from None
-            p.setCollisionFilterGroupMask(b, -1, _ROBOT_GROUP, _ROBOT_MASK)
+            p.setCollisionFilterGroupMask(b, -1, ROBOT_GROUP, ROBOT_MASK)
             self.bodies.append(b)
             info = p.getDynamicsInfo(b, -1)  # the base's pose in PyBullet is its inertial frame
             self._inertial.append((tuple(info[3]), tuple(info[4])))
         self._body_index = {b: i for i, b in enumerate(self.bodies)}
         cache: dict = {}
-        self.radius = np.array([self._body_radius(i, cache) for i in range(n)]).reshape(n)
+        self.radius = np.array([measure.body_radius(self, i, cache) for i in range(n)]).reshape(n)
         self.lidar = Lidar([s.laser for s in self.specs], [m.laser_pose for m in self.models],
                            self.rng)
         self._laser_robots = np.array([i for i, s in enumerate(self.specs) if s.laser.enabled],
@@ -288,65 +285,28 @@ class World:
         self.rays_reused = 0        # beams of unmoved lidars: wall distances of the last scan
         self._lift_for_rays = not self._gui   # (robots would flicker in the window)
         self._body_array = np.array(self.bodies, dtype=np.int64)
-        self._beam_geometry = self._beam_table()
+        self._beam_geometry = measure.beam_table(self.lidar)
         self._idle = True           # no robot moves or has a non-zero command
         self._odom_stale = False    # poses moved since the last odometry update
         self._check_spawns()
-        self._self_exit()
-        self._ray_radius = self._radius_at_lasers()
-        self._measure_sections()
-
-    def _section_radius(self, i: int, heights: Sequence[float], far: float,
-                        directions: int = 720) -> List[float]:
-        """Radius about base_footprint of robot i's horizontal cross-section at each height:
-        rays from ``far`` away toward the footprint that see only this robot (collision
-        filter group), the farthest hit. Exact up to the angle between two rays."""
-        p = self.client
-        x, y, _ = self.pose[i]
-        a = np.linspace(-np.pi, np.pi, directions, endpoint=False)
-        u = np.column_stack((np.cos(a), np.sin(a), np.zeros_like(a)))
-        out = []
-        with self._only(i):
-            for z in heights:
-                c = np.array([x, y, z])
-                frac, ids = cast_rays(p, c + u * far, np.broadcast_to(c, u.shape), 1,
-                                      mask=_SELF_GROUP)
-                out.append(float(np.where(ids == self.bodies[i], far * (1.0 - frac), 0.0).max()))
-        return out
+        measure.self_exit(self)
+        self._ray_radius = measure.radius_at_lasers(self)
+        (self._section_index, self._section_normals, self._section_offsets,
+         self.sections_report) = measure.sections(self)
 
     @contextlib.contextmanager
-    def _only(self, i: int, all_links: bool = False) -> Iterator[None]:
-        """Within: rays cast with ``mask=_SELF_GROUP`` see robot i's base (with
+    def only(self, i: int, all_links: bool = False) -> Iterator[None]:
+        """Within: rays cast with ``mask=SELF_GROUP`` see robot i's base (with
         ``all_links``, its wheels and other links too) and nothing else."""
         p = self.client
         links = range(-1, p.getNumJoints(self.bodies[i])) if all_links else (-1,)
         for link in links:
-            p.setCollisionFilterGroupMask(self.bodies[i], link, _SELF_GROUP, _ROBOT_MASK)
+            p.setCollisionFilterGroupMask(self.bodies[i], link, SELF_GROUP, ROBOT_MASK)
         try:
             yield
         finally:
             for link in links:
-                p.setCollisionFilterGroupMask(self.bodies[i], link, _ROBOT_GROUP, _ROBOT_MASK)
-
-    def _body_radius(self, i: int, cache: dict) -> float:
-        """Radius about base_footprint, in xy, of a circle containing the whole body: the
-        largest cross-section radius every 5 cm of height (180 directions), plus 3 cm (what
-        can lie between two rays or two heights; robot bodies are upright prisms and boxes,
-        whose sections do not change between heights). The Scitos: 0.35 m, where the
-        bounding box (PyBullet's is the box of the compound's local box) gave 0.46-0.65 m.
-        Never more than the bounding box's. Once per model."""
-        model = self.specs[i].model
-        if model not in cache:
-            p = self.client
-            boxes = np.array([p.getAABB(self.bodies[i], j)
-                              for j in range(-1, p.getNumJoints(self.bodies[i]))])
-            lo, hi = boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0)
-            box = float(math.hypot(max(abs(lo[0] - self.pose[i, 0]), abs(hi[0] - self.pose[i, 0])),
-                                   max(abs(lo[1] - self.pose[i, 1]), abs(hi[1] - self.pose[i, 1]))))
-            heights = np.append(np.arange(lo[2], hi[2], 0.05), hi[2]).tolist()
-            r = max(self._section_radius(i, heights, 2.0 * box + 1.0, 180))
-            cache[model] = min(box, r + 0.03)
-        return cache[model]
+                p.setCollisionFilterGroupMask(self.bodies[i], link, ROBOT_GROUP, ROBOT_MASK)
 
     def _check_spawns(self) -> None:
         """Refuse a robot whose spawn pose is in a wall cell or overlaps a wall or a robot."""
@@ -777,7 +737,7 @@ class World:
         (``dist``/``hit`` updated in place).
 
         A beam against a robot whose cross-section at the beam's height was measured and
-        checked (``_measure_sections``) is clipped to that polygon in numpy. Any other is cast
+        checked (measure.sections) is clipped to that polygon in numpy. Any other is cast
         again in Bullet, with the robots in place, over the stretch where it is inside some
         other robot's bounding circle (and beyond its own robot's body), so the ray usually
         starts outside its own robot's bounding box."""
@@ -900,136 +860,6 @@ class World:
         g, rep, pe = g[keep], rep[keep], pe[keep]
         px = (dq + rq)[rep]                                         # where the circle is left
         return g, js[rep], pe, px
-
-    def _measure_sections(self) -> None:
-        """For every (lidar robot, other robot) pair, the other's cross-section at the
-        lidar's height as a checked convex polygon (sections.py), or -1 where there is none
-        (its beams at that robot are cast in Bullet). Once per (model, laser height).
-
-        Sets ``_section_index`` (N, N), the padded half-planes ``_section_normals`` /
-        ``_section_offsets``, and ``sections_report``: one line per (model, height) saying
-        what was measured and how it compared with Bullet."""
-        n = self.n
-        self._section_index = np.full((n, n), -1, dtype=np.int64)
-        found: list = []
-        keys: dict = {}
-        self.sections_report: List[str] = []
-        for i in self._laser_robots.tolist():
-            z = float(self.lidar.offsets[i, 2])
-            for j in range(n):
-                if j == i:
-                    continue
-                key = (self.specs[j].model, z)
-                if key not in keys:
-                    sec, line = self._section_of(j, z)
-                    keys[key] = -1 if sec is None else len(found)
-                    if sec is not None:
-                        found.append(sec)
-                    self.sections_report.append("model %r at %.3f m: %s"
-                                                % (self.specs[j].model, z, line))
-                self._section_index[i, j] = keys[key]
-        self._section_normals, self._section_offsets = pad_sections(found)
-
-    def _section_of(self, j: int, z: float) -> Tuple[Optional[Section], str]:
-        """Robot j's cross-section at height z, measured with rays that see only robot j
-        (all its links), at its pose now; None when it is not a convex polygon Bullet agrees
-        with. Returns (section, a line for ``sections_report``)."""
-        p = self.client
-        b = self.bodies[j]
-        x, y, yaw = (float(v) for v in self.pose[j])
-        c, s = math.cos(yaw), math.sin(yaw)
-        self._set_body(j, self.pose[j])
-
-        def probe(starts: np.ndarray, dirs: np.ndarray, length: float):
-            m = len(starts)
-            froms = np.column_stack((x + c * starts[:, 0] - s * starts[:, 1],
-                                     y + s * starts[:, 0] + c * starts[:, 1], np.full(m, z)))
-            wd = np.column_stack((c * dirs[:, 0] - s * dirs[:, 1], s * dirs[:, 0] + c * dirs[:, 1]))
-            tos = froms.copy()
-            tos[:, :2] += wd * length
-            dist = np.full(m, np.inf)
-            normal = np.zeros((m, 2))
-            for a in range(0, m, MAX_RAYS_PER_BATCH):
-                e = min(m, a + MAX_RAYS_PER_BATCH)
-                res = p.rayTestBatch(froms[a:e], tos[a:e], numThreads=1,
-                                     collisionFilterMask=_SELF_GROUP)
-                for k, r in enumerate(res, a):
-                    if r[0] == b:
-                        nx, ny = r[4][0], r[4][1]
-                        h = math.hypot(nx, ny)
-                        if h > 1e-9:
-                            dist[k] = r[2] * length
-                            normal[k] = ((c * nx + s * ny) / h, (c * ny - s * nx) / h)
-            return dist, normal
-
-        with self._only(j, all_links=True):   # the section is the whole robot's
-            reach = float(self.radius[j])
-            sec = measure_section(probe, reach)
-            if sec is None:
-                return None, "no convex section found: beams cast in Bullet"
-            ok, summary = check_section(sec, probe, reach)
-        if not ok:
-            return None, "section disagrees with Bullet (%s): beams cast in Bullet" % summary
-        return sec, "convex section, %s" % summary
-
-    def _radius_at_lasers(self) -> np.ndarray:
-        """(N, N): row i, the radius about base_footprint of every robot's cross-section at
-        robot i's laser height (``_section_radius``, 720 directions) plus 2 cm (what can lie
-        between two rays). Lidar rays are horizontal, so this is the circle that
-        ``_robot_candidates`` may use: 0.34 m for the Scitos at its laser height."""
-        n = self.n
-        heights = sorted({float(self.lidar.offsets[i, 2]) for i in range(n)})
-        cache: dict = {}
-        table = {}
-        for j in range(n):
-            key = self.specs[j].model
-            if key not in cache:
-                cache[key] = dict(zip(heights, self._section_radius(
-                    j, heights, 2.0 * float(self.radius[j]) + 1.0)))
-            for z in heights:
-                table[j, z] = cache[key][z] + 0.02
-        return np.array([[table[j, float(self.lidar.offsets[i, 2])] for j in range(n)]
-                         for i in range(n)]).reshape(n, n)
-
-    def _beam_table(self) -> np.ndarray:
-        """Per robot: (first beam angle, increment, beams, beams in a full circle); the last is
-        0 when 2 pi is not a whole number of increments (then every beam is a candidate)."""
-        rows = []
-        for i, a in enumerate(self.lidar.angles):
-            inc = math.radians(self.lidar.cfgs[i].resolution)
-            circle = 2.0 * math.pi / inc
-            if len(a) and abs(circle - round(circle)) < 1e-6 and round(circle) >= len(a):
-                rows.append((float(a[0]), inc, len(a), round(circle)))
-            else:   # circle 0: every beam is a candidate (exact, just slower)
-                rows.append((float(a[0]) if len(a) else 0.0, inc, len(a), 0))
-        return np.array(rows, dtype=float).reshape(len(rows), 4)
-
-    def _self_exit(self) -> None:
-        """Where each beam of each lidar leaves its own robot's body (see Lidar.set_self_exit).
-
-        A ray starting inside a convex shape may or may not report a hit at distance 0
-        (Bullet leaves it undefined): with the laser inside the base hull, half of the beams of
-        a robot heading about +-90 degrees came back as -inf. Measured once per robot from
-        outside, with rays that only see that robot (collision filter groups), at the spawn
-        pose: the beams are fixed in the robot frame. Once per model and lidar geometry.
-        """
-        p = self.client
-        done: dict = {}
-        for i in self._laser_robots.tolist():
-            c = self.specs[i].laser
-            key = (self.specs[i].model, c.fov, c.resolution, c.beams)
-            if key in done:
-                self.lidar.set_self_exit(i, done[key])
-                continue
-            plan = self.lidar.plan([i], self.pose, (-np.inf, -np.inf, np.inf, np.inf))
-            reach = 2.0 * float(self.radius[i]) + 1.0
-            outside = plan.origins.copy()
-            outside[:, :2] += plan.dirs * reach
-            with self._only(i):
-                frac, ids = cast_rays(p, outside, plan.origins, 1, mask=_SELF_GROUP)
-            exit_dist = np.where(ids == self.bodies[i], reach * (1.0 - frac) + _SELF_EXIT_EPS, 0.0)
-            done[key] = exit_dist
-            self.lidar.set_self_exit(i, exit_dist)
 
     def close(self) -> None:
         """Disconnect the PyBullet client."""
