@@ -347,7 +347,6 @@ def test_scans_over_the_ray_limit_are_split_and_exact():
 
     # 3 robots x 7200 beams = 21,600 rays: split into calls of the world's chunk size (4000
     # through the C API, 1000 through rayTestBatch); every scan still exact
-    from bullet_floor_sim.sim import world as world_mod
     fine = LaserConfig(fov=360.0, resolution=0.05, noise_std=0.0)
     poses = [(1.0, 1.0, 0.0), (2.5, 3.0, 1.0), (5.0, 2.5, -2.0)]
     w = simple_world([RobotSpec(name="r%d" % i, pose=p, laser=fine, odometry=STILL)
@@ -365,7 +364,7 @@ def test_scans_over_the_ray_limit_are_split_and_exact():
             scans = w.step(10)
         finally:
             sensors._cast_batch = orig
-        k = world_mod._ray_chunk()
+        k = sensors.ray_chunk()
         assert k in (1000, 4000)
         assert calls[:21600 // k + 1] == [k] * (21600 // k) + [21600 % k]
         # beams at the other robots are clipped to their sections, not cast

@@ -149,7 +149,7 @@ def radius_at_lasers(world: Any) -> np.ndarray:
     """(N, N): row i, the radius about base_footprint of every robot's cross-section at
     robot i's laser height (:func:`section_radius`, 720 directions) plus 2 cm (what can lie
     between two rays). Lidar rays are horizontal, so this is the circle that
-    ``_robot_candidates`` may use: 0.34 m for the Scitos at its laser height."""
+    robot_beams.candidates may use: 0.34 m for the Scitos at its laser height."""
     n = world.n
     heights = sorted({float(world.lidar.offsets[i, 2]) for i in range(n)})
     cache: dict = {}

@@ -20,6 +20,7 @@ _BODY = operator.itemgetter(0)
 _FRACTION = operator.itemgetter(2)
 
 __all__ = [
+    "ray_chunk",
     "MAX_RAYS_PER_BATCH",
     "Scan",
     "RayPlan",
@@ -59,6 +60,15 @@ class Scan:
     range_min: float
     range_max: float
     scan_time: float
+
+
+#: Rays per call through the C API and through rayTestBatch (see cast_rays).
+_RAY_CHUNK_CAPI, _RAY_CHUNK_TUPLES = 4000, 1000
+
+
+def ray_chunk() -> int:
+    """Rays per cast_rays call: larger through PyBullet's C API than through rayTestBatch."""
+    return _RAY_CHUNK_CAPI if bullet_capi.available() else _RAY_CHUNK_TUPLES
 
 
 def cast_rays(client, froms: np.ndarray, tos: np.ndarray, threads: int = 0,

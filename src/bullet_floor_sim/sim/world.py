@@ -27,15 +27,14 @@ from typing import Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import bullet_capi, measure
+from . import measure, robot_beams
 from .config import RobotSpec, WorldConfig, load_world_config, resolve_world
 from ..errors import ConfigError, MapError
 from .floormap import FloorMap, load_map, outline_segments, wall_mesh, wall_outline_mesh
 from ..paths import worlds_dir
 from ..geometry import wrap_angle
 from .robot import DRIVES, RobotModel, check_command, load_model
-from .sections import clip_beams
-from .sensors import SMALL_N, Battery, Lidar, Odometry, Scan, cast_rays
+from .sensors import SMALL_N, Battery, Lidar, Odometry, Scan, cast_rays, ray_chunk
 from .measure import ROBOT_GROUP, ROBOT_MASK, SELF_GROUP
 from .solidmap import SolidMap, solid_map
 
@@ -44,11 +43,9 @@ __all__ = ["SimClock", "World", "RobotView", "Snapshot"]
 #: PyBullet accepts at most 131072 vertices per mesh shape (B3_MAX_NUM_VERTICES): 8 per
 #: wall box, 4 per outline quad.
 _MAX_MESH_RECTS, _MAX_MESH_QUADS = 16000, 32000
-#: Rays per call through the C API and through rayTestBatch (see cast_rays), and the batch
-#: size from which calls use ``ray_threads`` (smaller ones run on one thread: threads cost
-#: more than they save; measured on two cores through the C API, 100 rays took 57 us on one
-#: thread and 65 on two, 200 rays 108 and 97, a 360-beam scan 186 and 144).
-_RAY_CHUNK_CAPI, _RAY_CHUNK_TUPLES = 4000, 1000
+#: The batch size from which ray casts use ``ray_threads`` (smaller ones run on one thread:
+#: threads cost more than they save; measured on two cores through the C API, 100 rays took
+#: 57 us on one thread and 65 on two, 200 rays 108 and 97, a 360-beam scan 186 and 144).
 _THREADED_RAYS = 160
 _PENETRATION_TOL = 1e-3
 #: How deep two robots may press into each other (their bumpers give): with none, two
@@ -688,7 +685,7 @@ class World:
             dist, hit = self._cast(plan, np.arange(len(plan.froms)))
         self.lidar.remember(plan, self.pose, dist, hit)
         if lift and self.n > 1:
-            self._cast_at_robots(plan, dist, hit)
+            robot_beams.cast_at_robots(self, plan, dist, hit)
         out = []
         s = 0
         for i, k in zip(due.tolist(), plan.counts):
@@ -702,15 +699,16 @@ class World:
         self._scan_due_ns = int(self._next_scan_ns[lasers].min())
         return out
 
-    def _threads(self, rays: int) -> int:
+    def threads(self, rays: int) -> int:
+        """PyBullet threads for a ray batch of ``rays`` rays."""
         return self.ray_threads if rays >= _THREADED_RAYS else 1
 
     def _cast(self, plan, rays: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
         """Distances (from the laser origin) and hits of the plan's rays ``rays``; a ray the
         plan cut short that hits nothing is cast again in full."""
         froms, start, length = plan.froms[rays], plan.start[rays], plan.length[rays]
-        frac, ids = cast_rays(self.client, froms, plan.tos[rays], self._threads(len(rays)),
-                              chunk=_ray_chunk())
+        frac, ids = cast_rays(self.client, froms, plan.tos[rays], self.threads(len(rays)),
+                              chunk=ray_chunk())
         dist = start + frac * length
         hit = ids >= 0
         again = np.flatnonzero(plan.cut[rays] & ~hit)
@@ -718,8 +716,8 @@ class World:
             rest = plan.full[rays[again]] - start[again]
             tos = froms[again].copy()
             tos[:, :2] += plan.dirs[rays[again]] * rest[:, None]
-            f2, i2 = cast_rays(self.client, froms[again], tos, self._threads(len(again)),
-                               chunk=_ray_chunk())
+            f2, i2 = cast_rays(self.client, froms[again], tos, self.threads(len(again)),
+                               chunk=ray_chunk())
             dist[again] = start[again] + f2 * rest
             hit[again] = i2 >= 0
         self.rays_cast += len(rays) + len(again)
@@ -731,135 +729,6 @@ class World:
         for i, b in enumerate(self.bodies):
             self._reset_pose(b, (1e4 + 10.0 * i, 1e4, -1e4), (0.0, 0.0, 0.0, 1.0))
         self._body_at = [None] * self.n
-
-    def _cast_at_robots(self, plan, dist: np.ndarray, hit: np.ndarray) -> None:
-        """The beams that may meet another robot before their wall hit, against those robots
-        (``dist``/``hit`` updated in place).
-
-        A beam against a robot whose cross-section at the beam's height was measured and
-        checked (measure.sections) is clipped to that polygon in numpy. Any other is cast
-        again in Bullet, with the robots in place, over the stretch where it is inside some
-        other robot's bounding circle (and beyond its own robot's body), so the ray usually
-        starts outside its own robot's bounding box."""
-        reach = np.where(hit, dist, plan.full)
-        g, j, t_in, t_out = self._robot_candidates(plan, reach)
-        if not len(g):
-            return
-        beams = len(np.unique(g))
-        sec = self._section_index[plan.robots[self._ray_owner(plan, g)], j]
-        flat = sec >= 0
-        if flat.any():
-            self._clip_at_robots(plan, reach, g[flat], j[flat], sec[flat], dist, hit)
-        if not flat.all():
-            self._cast_bullet_at_robots(plan, reach, g[~flat], t_in[~flat], t_out[~flat],
-                                        dist, hit)
-        self.rays_at_robots += beams
-
-    @staticmethod
-    def _ray_owner(plan, g: np.ndarray) -> np.ndarray:
-        """Index into ``plan.robots`` of the scan each ray ``g`` belongs to."""
-        return np.searchsorted(np.cumsum(plan.counts), g, side="right")
-
-    def _clip_at_robots(self, plan, reach: np.ndarray, g: np.ndarray, j: np.ndarray,
-                        sec: np.ndarray, dist: np.ndarray, hit: np.ndarray) -> None:
-        """Beams ``g`` against robots ``j``'s measured sections ``sec`` (see sections.py)."""
-        tyaw = self.pose[j, 2]
-        c, s = np.cos(tyaw), np.sin(tyaw)
-        o, d = plan.origins[g, :2], plan.dirs[g]
-        ox, oy = o[:, 0] - self.pose[j, 0], o[:, 1] - self.pose[j, 1]
-        lo = np.column_stack((c * ox + s * oy, c * oy - s * ox))          # in robot j's frame
-        ld = np.column_stack((c * d[:, 0] + s * d[:, 1], c * d[:, 1] - s * d[:, 0]))
-        t_in, t_out = clip_beams(lo, ld, self._section_normals[sec], self._section_offsets[sec])
-        start = plan.start[g]
-        t = np.maximum(t_in, start)     # a beam that starts inside another robot meets it at once
-        meet = (t_in <= t_out) & (t_out > start) & (t < reach[g])
-        if not meet.any():
-            return
-        g, t = g[meet], t[meet]
-        best = np.full(len(dist), np.inf)
-        np.minimum.at(best, g, t)
-        at = np.flatnonzero(best < np.where(hit, dist, np.inf))
-        dist[at] = best[at]
-        hit[at] = True
-
-    def _cast_bullet_at_robots(self, plan, reach: np.ndarray, g: np.ndarray, t_in: np.ndarray,
-                               t_out: np.ndarray, dist: np.ndarray, hit: np.ndarray) -> None:
-        """Beams ``g`` cast in Bullet over the union of their stretches (t_in, t_out)."""
-        order = np.argsort(g, kind="stable")
-        g, t_in, t_out = g[order], t_in[order], t_out[order]
-        first = np.flatnonzero(np.concatenate(([True], g[1:] != g[:-1])))
-        idx = g[first]
-        t_in = np.maximum(np.minimum.reduceat(t_in, first), plan.start[idx])
-        t_out = np.minimum(np.maximum.reduceat(t_out, first), reach[idx])
-        ok = t_out - t_in > 1e-9
-        idx, t_in, t_out = idx[ok], t_in[ok], t_out[ok]
-        if not len(idx):
-            return
-        o, d = plan.origins[idx], plan.dirs[idx]
-        froms = o.copy()
-        froms[:, :2] += d * t_in[:, None]
-        tos = o.copy()
-        tos[:, :2] += d * t_out[:, None]
-        frac, ids = cast_rays(self.client, froms, tos, self._threads(len(idx)), chunk=_ray_chunk())
-        robot = np.isin(ids, self._body_array)
-        at = idx[robot]
-        new = t_in[robot] + frac[robot] * (t_out[robot] - t_in[robot])
-        closer = new < np.where(hit[at], dist[at], np.inf)
-        dist[at[closer]] = new[closer]
-        hit[at[closer]] = True
-        self.rays_cast += len(idx)
-
-    def _robot_candidates(self, plan, reach: np.ndarray
-                          ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The (ray, robot) pairs where the ray's line passes within the other robot's
-        bounding circle nearer than ``reach`` (a robot's body lies inside its circle, so no
-        other ray can hit a robot before ``reach``), with the stretch inside the circle.
-
-        Returns:
-            (ray indices, robot indices, distance where the circle is entered, where it is
-            left), distances from the laser origin; a ray may appear with several robots.
-        """
-        none = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0),
-                np.zeros(0))
-        q_robot = plan.robots
-        offs = np.concatenate(([0], np.cumsum(plan.counts)))[:-1]
-        o = plan.origins[offs, :2]                                   # (Q, 2) laser origins
-        rel = self.pose[None, :, :2] - o[:, None, :]                 # (Q, N, 2)
-        d = np.hypot(rel[..., 0], rel[..., 1])
-        r = self._ray_radius[q_robot]                                # (Q, N) at each laser's height
-        entry = d - r
-        far = np.maximum.reduceat(reach, offs)
-        pair = (entry < far[:, None]) & (q_robot[:, None] != np.arange(self.n)[None, :])
-        qs, js = np.nonzero(pair)
-        if not len(qs):
-            return none
-        geo = self._beam_geometry[q_robot[qs]]                       # amin, inc, beams, circle
-        inc = geo[:, 1]
-        dq, rq = d[qs, js], r[qs, js]
-        half = np.where(dq > rq, np.arcsin(np.minimum(1.0, rq / np.maximum(dq, 1e-12))), np.pi)
-        yaw = self.pose[q_robot[qs], 2] + self.lidar.yaw[q_robot[qs]]
-        phi = np.arctan2(rel[qs, js, 1], rel[qs, js, 0]) - yaw - geo[:, 0]
-        vc = np.remainder(phi, 2.0 * np.pi) / inc                     # beam index of the centre
-        w = half / inc + 1.0
-        circle = geo[:, 3].astype(np.int64)
-        lo = np.floor(vc - w).astype(np.int64)
-        n_v = np.minimum(np.ceil(vc + w).astype(np.int64) - lo + 1, circle)
-        whole = circle == 0
-        lo[whole], n_v[whole], circle[whole] = 0, geo[whole, 2].astype(np.int64), 1 << 40
-        total = int(n_v.sum())
-        rep = np.repeat(np.arange(len(qs)), n_v)
-        v = np.repeat(lo - np.concatenate(([0], np.cumsum(n_v)[:-1])), n_v) + np.arange(total)
-        v = np.remainder(v, circle[rep])
-        keep = v < geo[rep, 2]
-        rep, v = rep[keep], v[keep]
-        g = offs[qs[rep]] + v
-        pe = entry[qs, js][rep]
-        keep = reach[g] > pe
-        if not keep.any():
-            return none
-        g, rep, pe = g[keep], rep[keep], pe[keep]
-        px = (dq + rq)[rep]                                         # where the circle is left
-        return g, js[rep], pe, px
 
     def close(self) -> None:
         """Disconnect the PyBullet client."""
@@ -906,8 +775,5 @@ def _integrate(pose: np.ndarray, vel: np.ndarray, dt: float) -> np.ndarray:
     out[:, 2] = a + half
     return out
 
-
-def _ray_chunk() -> int:
-    return _RAY_CHUNK_CAPI if bullet_capi.available() else _RAY_CHUNK_TUPLES
 
 
