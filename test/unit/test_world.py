@@ -241,7 +241,7 @@ def test_robots_do_not_drive_through_each_other():
             w.step(1)
         xa, xb = w.view(0).pose[0], w.view(1).pose[0]
         assert w.stall_count.sum() > 0
-        # two 0.32 m vertices meet; the bumpers give 3 cm between robots (world._ROBOT_CONTACT_SLACK)
+        # two 0.32 m vertices meet; the bumpers give 3 cm between robots (collision._ROBOT_CONTACT_SLACK)
         assert xb - xa >= 0.64 - 0.03 - 0.012
         assert xb - xa < 0.64 + 0.03
     finally:
@@ -466,9 +466,9 @@ def test_scans_equal_every_beam_cast_in_the_full_scene(lift):
 
 def test_small_worlds_step_in_floats_exactly_as_numpy_does(monkeypatch):
     # up to sensors.SMALL_N robots, drives, integration, wheels and odometry step in plain
-    # floats, and collision windows of up to world._SMALL_PAIRS pairs are computed in them;
+    # floats, and collision windows of up to collision._SMALL_PAIRS pairs are computed in them;
     # the result must be the numpy paths' (same formulas, same random draws)
-    from bullet_floor_sim.sim import sensors, world as world_mod
+    from bullet_floor_sim.sim import collision, sensors, world as world_mod
 
     noisy = OdometryConfig(noise_trans=0.05, noise_rot=0.05, noise_rot_per_m=0.02, drift_yaw=0.01)
     specs = [RobotSpec(name="d", pose=(1.5, 1.0, 0.0), laser=EXACT, odometry=noisy),
@@ -494,7 +494,7 @@ def test_small_worlds_step_in_floats_exactly_as_numpy_does(monkeypatch):
     floats = run()
     monkeypatch.setattr(sensors, "SMALL_N", 0)
     monkeypatch.setattr(world_mod, "SMALL_N", 0)
-    monkeypatch.setattr(world_mod, "_SMALL_PAIRS", 0)   # the numpy collision window too
+    monkeypatch.setattr(collision, "_SMALL_PAIRS", 0)   # the numpy collision window too
     arrays = run()
     for a, b in zip(floats, arrays):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)

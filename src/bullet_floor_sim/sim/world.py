@@ -27,7 +27,7 @@ from typing import Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import measure, robot_beams
+from . import collision, measure, robot_beams
 from .config import RobotSpec, WorldConfig, load_world_config, resolve_world
 from ..errors import ConfigError, MapError
 from .floormap import FloorMap, load_map, outline_segments, wall_mesh, wall_outline_mesh
@@ -47,13 +47,6 @@ _MAX_MESH_RECTS, _MAX_MESH_QUADS = 16000, 32000
 #: threads cost more than they save; measured on two cores through the C API, 100 rays took
 #: 57 us on one thread and 65 on two, 200 rays 108 and 97, a 360-beam scan 186 and 144).
 _THREADED_RAYS = 160
-_PENETRATION_TOL = 1e-3
-#: How deep two robots may press into each other (their bumpers give): with none, two
-#: octagonal bases touching corner to corner could neither turn nor slide past each other.
-_ROBOT_CONTACT_SLACK = 0.03
-_CLEARANCE_MARGIN = 0.05
-#: Collision windows of up to this many (robot, other robot) pairs are computed in plain floats.
-_SMALL_PAIRS = 64
 
 
 class SimClock:
@@ -234,7 +227,7 @@ class World:
                                for s in self.specs])
         self._check_due_ns = 0              # next step whose poses need a collision check
         self._safe_until_ns = np.zeros(n, dtype=np.int64)   # per robot: no contact before
-        self._window_consts = None          # for _collision_window_small
+        self._window_consts = None          # for collision._window_small
         self._limits_small = None           # (dt, vmax, amax * dt) lists for _advance_small
         # one drive object per drive type, each over its own rows
         self._drives = []
@@ -316,7 +309,7 @@ class World:
         self._sync_bodies()
         self.client.performCollisionDetection()
         for c in self.client.getContactPoints():
-            if c[8] < -_PENETRATION_TOL:
+            if c[8] < -collision.PENETRATION_TOL:
                 names = [self.specs[i].name for i in sorted(  # in world-file order
                     self._body_index[b] for b in (c[1], c[2]) if b in self._body_index)]
                 raise ConfigError("%s: robot %r spawns overlapping %s (%.3f m deep)"
@@ -461,9 +454,9 @@ class World:
         if check:
             due = np.flatnonzero(self._safe_until_ns <= after)
             self.stalled[due] = False
-            cand, t_safe = self._collision_window(self.pose, due)
+            cand, t_safe = collision.window(self, self.pose, due)
             if len(cand):
-                self._resolve_collisions(old, self.pose, cand)
+                collision.resolve(self, old, self.pose, cand)
             self._safe_until_ns[due] = after + (t_safe * 1e9).astype(np.int64)
             self._check_due_ns = int(self._safe_until_ns.min())
         if self.n <= SMALL_N:   # wheels turn with the velocity kept (0 for a refused move)
@@ -502,130 +495,6 @@ class World:
             pose.append((p[0] + c * vx - s * vy, p[1] + s * vx + c * vy, a + half))
         self.vel[:] = vel
         self.pose = np.array(pose)
-
-    def _clearance_at(self, poses: np.ndarray) -> np.ndarray:
-        col, row = self.fmap.world_to_cell(poses[:, 0], poses[:, 1])
-        inside = (col >= 0) & (col < self.fmap.width) & (row >= 0) & (row < self.fmap.height)
-        out = np.full(len(poses), np.inf)
-        out[inside] = self._clearance[row[inside], col[inside]]
-        return out
-
-    def _collision_window(self, pose: np.ndarray, rows: np.ndarray
-                          ) -> Tuple[np.ndarray, np.ndarray]:
-        """For the robots ``rows``: which may touch a wall or a robot now, and how long each
-        cannot reach contact (its gap to the nearest wall at its top speed, to every other
-        robot at both top speeds). A robot in contact with another has a window of 0, so
-        both robots of a pair in contact are always checked together.
-
-        Returns:
-            (candidate robot indices, seconds per robot of ``rows`` without contact).
-        """
-        if len(rows) * self.n <= _SMALL_PAIRS:
-            return self._collision_window_small(pose, rows)
-        p = pose[rows]
-        r = self.radius[rows]
-        gap = self._clearance_at(p) - r - _CLEARANCE_MARGIN
-        near = gap < 0.0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t_safe = gap / self._vmax[rows]
-            if self.n > 1:
-                d = np.hypot(p[:, None, 0] - pose[None, :, 0], p[:, None, 1] - pose[None, :, 1])
-                pair_gap = d - r[:, None] - self.radius[None, :] - _CLEARANCE_MARGIN
-                pair_gap[np.arange(len(rows)), rows] = np.inf
-                near |= (pair_gap < 0.0).any(axis=1)
-                t_safe = np.minimum(t_safe, np.min(
-                    pair_gap / (self._vmax[rows, None] + self._vmax[None, :]), axis=1))
-        t_safe = np.where(near | np.isnan(t_safe), 0.0, np.minimum(t_safe, 1e6))
-        return rows[near], t_safe
-
-    def _collision_window_small(self, pose: np.ndarray, rows: np.ndarray
-                                ) -> Tuple[np.ndarray, np.ndarray]:
-        """``_collision_window`` in plain floats: the same formulas, for a few rows (most
-        steps check one or two robots, where numpy's per-call cost was 80 us a step)."""
-        if self._window_consts is None:
-            m = self.fmap
-            ox, oy, yaw = m.origin
-            self._window_consts = (float(ox), float(oy), math.cos(yaw), math.sin(yaw),
-                                   1.0 / m.resolution, m.width, m.height,
-                                   self.radius.tolist(), self._vmax.tolist())
-        ox, oy, c, s, inv_res, width, height, radius, vmax = self._window_consts
-        clear = self._clearance
-        xy = pose[:, :2].tolist()
-        cand, out = [], []
-        hypot, floor, inf = math.hypot, math.floor, math.inf
-        for i in rows.tolist():
-            x, y = xy[i]
-            dx, dy = x - ox, y - oy
-            col, row = int(floor((c * dx + s * dy) * inv_res)), int(floor((c * dy - s * dx) * inv_res))
-            wall = float(clear[row, col]) if 0 <= col < width and 0 <= row < height else inf
-            ri, vi = radius[i], vmax[i]
-            gap = wall - ri - _CLEARANCE_MARGIN
-            near = gap < 0.0
-            t = gap / vi if vi > 0.0 else (inf if gap >= 0.0 else 0.0)
-            for j, (xj, yj) in enumerate(xy):
-                if j == i:
-                    continue
-                g = hypot(x - xj, y - yj) - ri - radius[j] - _CLEARANCE_MARGIN
-                if g < 0.0:
-                    near = True
-                v = vi + vmax[j]
-                if v > 0.0:
-                    t = min(t, g / v)
-            if near:
-                cand.append(i)
-            out.append(0.0 if near else min(max(t, 0.0), 1e6))
-        return np.array(cand, dtype=np.int64), np.array(out)
-
-    def _resolve_collisions(self, old: np.ndarray, new: np.ndarray, cand: np.ndarray) -> None:
-        """Refuse the move of every candidate robot that would penetrate a wall deeper than
-        it already does, or another robot deeper than that and than the bumpers' give
-        (``_ROBOT_CONTACT_SLACK``).
-
-        The candidates are taken in turn: each one's move is tested against the walls and
-        against the robots near it where they stand at that moment (the candidates already
-        taken at their final pose, the others at their old one), so a penetration is charged
-        to the robot whose move makes it. Charged to both robots of a pair, one robot pushing
-        into another froze the other too, even while it only tried to back away or turn: two
-        robots in contact stayed locked for good. Pairs and walls are queried with
-        getClosestPoints (a whole-world performCollisionDetection also ran every robot
-        against the wall mesh)."""
-        closest = self._closest_points
-        cl = cand.tolist()
-        for i in cl:
-            self._set_body(i, old[i])
-        reach = self.radius + _CLEARANCE_MARGIN
-        taken = set()
-        for i in cl:
-            taken.add(i)
-            bi = self.bodies[i]
-            self._set_body(i, new[i])
-            depth = robot_depth = 0.0
-            for wb in self.wall_bodies:
-                for c in closest(bi, wb, 0.0):
-                    if c[8] < -_PENETRATION_TOL:
-                        depth = max(depth, -c[8])
-            for j in cl:
-                if j == i:
-                    continue
-                at = new[j] if j in taken else old[j]   # where its body stands now
-                if math.hypot(new[i, 0] - at[0], new[i, 1] - at[1]) > reach[i] + reach[j]:
-                    continue
-                for c in closest(bi, self.bodies[j], 0.0):
-                    if c[8] < -_PENETRATION_TOL:
-                        robot_depth = max(robot_depth, -c[8])
-            if (depth > self._penetration[i] + _PENETRATION_TOL
-                    or robot_depth > max(self._robot_penetration[i] + _PENETRATION_TOL,
-                                         _ROBOT_CONTACT_SLACK)):
-                new[i] = old[i]
-                self.vel[i] = 0.0
-                self.stalled[i] = True
-                self.stall_count[i] += 1
-                self._set_body(i, old[i])
-            else:
-                # the reference depths only ever go down with the robot's own moves: set to
-                # each accepted depth, moves of less than the tolerance a step crept in
-                self._penetration[i] = min(self._penetration[i], depth)
-                self._robot_penetration[i] = min(self._robot_penetration[i], robot_depth)
 
     def _set_body(self, i: int, pose) -> None:
         """Place a robot's body with its base_footprint at ``pose`` (PyBullet wants the
