@@ -19,7 +19,8 @@ from bullet_floor_sim.sim.config import (DriveConfig, LaserConfig, OdometryConfi
 from bullet_floor_sim.errors import CommandError
 from bullet_floor_sim.paths import worlds_dir
 from bullet_floor_sim.sim.sensors import cast_rays
-from bullet_floor_sim.sim.world import SimClock, World
+from bullet_floor_sim.sim.clock import SimClock
+from bullet_floor_sim.sim.world import World
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 from simple_room import (SCITOS_R, expected_range, near_corner, octagon_offset,  # noqa: E402

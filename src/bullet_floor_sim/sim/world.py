@@ -4,17 +4,19 @@
 as arrays (one row per robot). A step, at ``physics_rate`` (100 Hz by default):
 
 1. the watchdog zeroes the target of robots without a command for ``cmd_timeout``;
-2. the drive moves each velocity toward its target within the velocity/acceleration limits;
-3. poses are integrated exactly for constant body velocity over the step;
-4. robots that could touch a wall or each other (from the map's clearance field) are checked
+2. the drive moves each velocity toward its target within the velocity/acceleration limits
+   and poses are integrated exactly for constant body velocity over the step (kinematics.py);
+3. robots that could touch a wall or each other (from the map's clearance field) are checked
    exactly with PyBullet collision detection against the wall mesh and the other robots; a move
-   that would penetrate deeper is refused and the robot stops (as Stage does);
-5. odometry and wheel angles are integrated; lidars that are due are cast in one batch.
+   that would penetrate deeper is refused and the robot stops, as Stage does (collision.py);
+4. odometry and wheel angles are integrated; lidars that are due are cast in one batch at the
+   walls, then the beams that may reach another robot against it (robot_beams.py).
 
 The walls are static concave triangle meshes: vertical quads on the outline of the map's solid
-cells (sim/solidmap.py: occupied, and unknown unless the world says otherwise). The faces
-inside a wall and on top are left out: a level beam never meets them and a robot meets a side
-face first. On the real maps that halves the triangles and makes a ray 1.6-3x cheaper.
+cells (walls.py; sim/solidmap.py: occupied, and unknown unless the world says otherwise). The
+faces inside a wall and on top are left out: a level beam never meets them and a robot meets a
+side face first. On the real maps that halves the triangles and makes a ray 1.6-3x cheaper.
+What is measured of the robots' bodies once at load is measure.py's.
 """
 from __future__ import annotations
 
@@ -22,15 +24,16 @@ import contextlib
 import math
 import os
 import sys
-from dataclasses import dataclass
 from typing import Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import collision, measure, robot_beams
+from . import collision, kinematics, measure, robot_beams, walls
+from .clock import SimClock
+from .views import RobotView, Snapshot
 from .config import RobotSpec, WorldConfig, load_world_config, resolve_world
-from ..errors import ConfigError, MapError
-from .floormap import FloorMap, load_map, outline_segments, wall_mesh, wall_outline_mesh
+from ..errors import ConfigError
+from .floormap import FloorMap, load_map
 from ..paths import worlds_dir
 from ..geometry import wrap_angle
 from .robot import DRIVES, RobotModel, check_command, load_model
@@ -40,87 +43,10 @@ from .solidmap import SolidMap, solid_map
 
 __all__ = ["SimClock", "World", "RobotView", "Snapshot"]
 
-#: PyBullet accepts at most 131072 vertices per mesh shape (B3_MAX_NUM_VERTICES): 8 per
-#: wall box, 4 per outline quad.
-_MAX_MESH_RECTS, _MAX_MESH_QUADS = 16000, 32000
 #: The batch size from which ray casts use ``ray_threads`` (smaller ones run on one thread:
 #: threads cost more than they save; measured on two cores through the C API, 100 rays took
 #: 57 us on one thread and 65 on two, 200 rays 108 and 97, a 360-beam scan 186 and 144).
 _THREADED_RAYS = 160
-
-
-class SimClock:
-    """Sim time in integer nanoseconds, advanced in fixed steps; never 0.
-
-    Args:
-        rate: steps per second of sim time.
-        start: sim time before the first step, seconds (> 0).
-    """
-
-    def __init__(self, rate: float = 100.0, start: float = 1.0) -> None:
-        if not (rate > 0 and math.isfinite(rate)):
-            raise ConfigError("physics_rate must be a positive number, got %r" % (rate,))
-        if not start > 0:
-            raise ConfigError("start time must be > 0 (ROS treats time 0 as 'no time'), got %r"
-                              % (start,))
-        self.step_ns = int(round(1e9 / rate))
-        self.now_ns = int(round(start * 1e9))
-        self.steps = 0
-
-    @property
-    def dt(self) -> float:
-        """Step length, seconds."""
-        return self.step_ns * 1e-9
-
-    @property
-    def now(self) -> float:
-        """Sim time, seconds."""
-        return self.now_ns * 1e-9
-
-    def tick(self) -> None:
-        """Advance by one step."""
-        self.now_ns += self.step_ns
-        self.steps += 1
-
-
-@dataclass(frozen=True)
-class RobotView:
-    """A snapshot of one robot, in plain numbers (ROS glue turns it into messages).
-
-    Attributes:
-        pose: ground truth (x, y, yaw) in the map frame.
-        velocity: applied body velocity (vx, vy, w).
-        odom_pose: odometry (x, y, yaw) in the robot's odom frame.
-        wheel_positions: (left, right) wheel angles, radians.
-        wheel_velocities: (left, right) wheel speeds, rad/s.
-        stalled: the last step's move was refused by a collision.
-    """
-
-    pose: Tuple[float, float, float]
-    velocity: Tuple[float, float, float]
-    odom_pose: Tuple[float, float, float]
-    wheel_positions: Tuple[float, float]
-    wheel_velocities: Tuple[float, float]
-    stalled: bool
-
-
-@dataclass(frozen=True)
-class Snapshot:
-    """Every robot at once: one row of plain floats per robot (what a publisher packs).
-
-    Attributes:
-        pose: N rows (x, y, yaw) of ground truth, yaw in [-pi, pi).
-        velocity: N rows (vx, vy, w) of applied body velocity.
-        odom_pose: N rows (x, y, yaw) of odometry in each robot's odom frame.
-        wheel_positions: N rows (left, right) of wheel angles, radians (None if not asked for).
-        wheel_velocities: N rows (left, right) of wheel speeds, rad/s (None if not asked for).
-    """
-
-    pose: List[Tuple[float, float, float]]
-    velocity: List[List[float]]
-    odom_pose: List[List[float]]
-    wheel_positions: Optional[List[Tuple[float, float]]]
-    wheel_velocities: Optional[List[Tuple[float, float]]]
 
 
 class World:
@@ -159,8 +85,9 @@ class World:
         self._closest_points = self.client.getClosestPoints
         if gui:
             self.client.configureDebugVisualizer(pybullet.COV_ENABLE_GUI, 0)
-        self.wall_bodies = self._build_walls(config.wall_height)
-        self._clearance = self._clearance_field()
+        self.wall_bodies = walls.build_walls(self.client, self.solid, config.wall_height, gui,
+                                            self.fmap.yaml_path)
+        self._clearance = walls.clearance_field(self.solid)
         self.specs: List[RobotSpec] = list(config.robots)
         self.models: List[RobotModel] = [load_model(s.model) for s in self.specs]
         self._init_robots()
@@ -171,38 +98,6 @@ class World:
         return cls(load_world_config(resolve_world(world, worlds_dir())), **kwargs)
 
     # ----------------------------------------------------------------------------- set-up
-    def _build_walls(self, height: float) -> List[int]:
-        """The static wall bodies: collision meshes of the solid cells' outline (what rays
-        and robots meet); with the GUI, visual-only boxes of the merged rectangles too."""
-        p = self.client
-        solid = self.solid.fmap
-        segments = outline_segments(solid.occupied)
-        bodies = []
-        for s in range(0, len(segments), _MAX_MESH_QUADS):
-            verts, idx = wall_outline_mesh(solid, height, segments[s:s + _MAX_MESH_QUADS])
-            col = self._mesh_shape(p.createCollisionShape, verts, idx,
-                                   flags=p.GEOM_FORCE_CONCAVE_TRIMESH)
-            bodies.append(p.createMultiBody(baseMass=0, baseCollisionShapeIndex=col))
-        rects = solid.rectangles() if self._gui else []
-        for s in range(0, len(rects), _MAX_MESH_RECTS):
-            verts, idx = wall_mesh(solid, height, rects[s:s + _MAX_MESH_RECTS])
-            vis = self._mesh_shape(p.createVisualShape, verts, idx,
-                                   rgbaColor=[0.75, 0.75, 0.72, 1.0])
-            p.createMultiBody(baseMass=0, baseCollisionShapeIndex=-1, baseVisualShapeIndex=vis)
-        return bodies
-
-    def _mesh_shape(self, create, verts: np.ndarray, idx: np.ndarray, **kw) -> int:
-        try:
-            return create(self.client.GEOM_MESH, vertices=verts, indices=idx, **kw)
-        except self.client.error as e:
-            raise MapError("%s: PyBullet refused the wall mesh (%d vertices): %s"
-                           % (self.fmap.yaml_path, len(verts), e)) from None
-
-    def _clearance_field(self) -> np.ndarray:
-        """Lower bound of the distance (m) from each cell's points to the nearest wall."""
-        res = self.fmap.resolution
-        return self.solid.distance.astype(float) * res - res * math.sqrt(2.0)
-
     def _init_robots(self) -> None:
         p = self.client
         n = len(self.specs)
@@ -446,11 +341,11 @@ class World:
         check = after >= self._check_due_ns
         old = self.pose.copy() if check else self.pose
         if self.n <= SMALL_N:
-            self._advance_small(dt)
+            kinematics.advance_small(self, dt)
         else:
             for rows, drive in self._drives:
                 self.vel[rows] = drive.apply(self.target[rows], self.vel[rows], dt)
-            self.pose = _integrate(self.pose, self.vel, dt)
+            self.pose = kinematics.integrate(self.pose, self.vel, dt)
         if check:
             due = np.flatnonzero(self._safe_until_ns <= after)
             self.stalled[due] = False
@@ -468,33 +363,6 @@ class World:
         self._odom_stale = True
         if not (self.vel.any() or self.target.any()):   # all at rest, nothing commanded
             self._idle = True
-
-    def _advance_small(self, dt: float) -> None:
-        """Drive limits and pose integration of ``_physics_step`` in plain floats, robot by
-        robot: the same formulas as ``Drive.apply`` and ``_integrate``
-        (for a few robots numpy's per-call cost dominates)."""
-        lim = self._limits_small
-        if lim is None or lim[0] != dt:
-            vmax = np.zeros((self.n, 3))
-            amax = np.zeros((self.n, 3))
-            for rows, drive in self._drives:
-                vmax[rows], amax[rows] = drive.vmax, drive.amax
-            lim = self._limits_small = (dt, vmax.tolist(), (amax * dt).tolist())
-        _, vmax, step = lim
-        vel, pose = [], []
-        for t, v, p, vm, st in zip(self.target.tolist(), self.vel.tolist(), self.pose.tolist(),
-                                   vmax, step):
-            nv = [min(max(min(max(t[k], -vm[k]), vm[k]), v[k] - st[k]), v[k] + st[k])
-                  for k in (0, 1, 2)]
-            half = nv[2] * (0.5 * dt)
-            kk = (1.0 - half * half * (1.0 / 6.0)) * dt
-            a = p[2] + half
-            c, s = math.cos(a), math.sin(a)
-            vx, vy = nv[0] * kk, nv[1] * kk
-            vel.append(nv)
-            pose.append((p[0] + c * vx - s * vy, p[1] + s * vx + c * vy, a + half))
-        self.vel[:] = vel
-        self.pose = np.array(pose)
 
     def _set_body(self, i: int, pose) -> None:
         """Place a robot's body with its base_footprint at ``pose`` (PyBullet wants the
@@ -623,26 +491,3 @@ def _quiet_stdout() -> Iterator[None]:
         os.dup2(saved[1], 2)
         for fd in saved + [devnull]:
             os.close(fd)
-
-
-def _integrate(pose: np.ndarray, vel: np.ndarray, dt: float) -> np.ndarray:
-    """Pose after ``dt`` at constant body velocity (vx, vy, w), for every row (yaw unwrapped).
-
-    The displacement is the chord of the arc, R(yaw + dth/2) (vx, vy) dt sinc(dth/2), with
-    sinc(h) = 1 - h^2/6 (error below 1e-10 relative for |w| dt/2 < 0.05).
-    """
-    half = vel[:, 2] * (0.5 * dt)
-    k = (1.0 - half * half * (1.0 / 6.0)) * dt
-    a = pose[:, 2] + half
-    c = np.cos(a)
-    s = np.sin(a)
-    vx = vel[:, 0] * k
-    vy = vel[:, 1] * k
-    out = np.empty_like(pose)
-    out[:, 0] = pose[:, 0] + c * vx - s * vy
-    out[:, 1] = pose[:, 1] + s * vx + c * vy
-    out[:, 2] = a + half
-    return out
-
-
-
