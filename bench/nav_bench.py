@@ -443,7 +443,7 @@ def _fmt(v, spec="%.2f") -> str:
     return "na" if v is None or (isinstance(v, float) and math.isnan(v)) else spec % v
 
 
-def main(argv: Optional[List[str]] = None) -> int:
+def _parse(argv: Optional[List[str]]) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--goals", type=int, default=8)
     ap.add_argument("--seed", type=int, default=1)
@@ -459,30 +459,31 @@ def main(argv: Optional[List[str]] = None) -> int:
     ap.add_argument("--amcl", action="store_true", help="with --attach: sample amcl error")
     ap.add_argument("--rooms", action="append", default=[],
                     help="with --attach: NS=ID,ID,... rooms that robot's goals come from")
-    args = ap.parse_args(argv)
+    return ap.parse_args(argv)
 
-    if args.case:
-        res = run_case(args.case, args.goals, args.seed, args.rtf, args.goal_timeout)
-        print(json.dumps(res))
-        return 0
-    if args.attach:
-        import rospy
 
-        rospy.init_node("nav_bench_attach", anonymous=True, disable_signals=True)
-        rooms = {a.split("=", 1)[0]: a.split("=", 1)[1].split(",") for a in args.rooms}
-        out = drive([a if a != "-" else "" for a in args.attach], args.amcl, args.goals,
-                    args.seed, args.goal_timeout, log=lambda s: print(s, flush=True),
-                    rooms=rooms)
-        for ns, res in out.items():
-            s = summarise(res)
-            print("%s: ready %s success %s mean %s s amcl median %s worst %s (n=%s)" % (
-                ns or "(empty)", res["ready"], _fmt(s.get("success")), _fmt(s.get("mean_s")),
-                _fmt(s.get("amcl_median"), "%.3f"), _fmt(s.get("amcl_worst"), "%.3f"),
-                s.get("amcl_n")))
-        rospy.signal_shutdown("done")
-        return 0
+def _attach(args: argparse.Namespace) -> int:
+    """--attach: drive the robots of a running launch."""
+    import rospy
 
-    modes = [m for m in args.modes.split(",") if m]
+    rospy.init_node("nav_bench_attach", anonymous=True, disable_signals=True)
+    rooms = {a.split("=", 1)[0]: a.split("=", 1)[1].split(",") for a in args.rooms}
+    out = drive([a if a != "-" else "" for a in args.attach], args.amcl, args.goals,
+                args.seed, args.goal_timeout, log=lambda s: print(s, flush=True),
+                rooms=rooms)
+    for ns, res in out.items():
+        s = summarise(res)
+        print("%s: ready %s success %s mean %s s amcl median %s worst %s (n=%s)" % (
+            ns or "(empty)", res["ready"], _fmt(s.get("success")), _fmt(s.get("mean_s")),
+            _fmt(s.get("amcl_median"), "%.3f"), _fmt(s.get("amcl_worst"), "%.3f"),
+            s.get("amcl_n")))
+    rospy.signal_shutdown("done")
+    return 0
+
+
+def _run_modes(args: argparse.Namespace, modes: List[str]
+               ) -> Tuple[Dict[str, Optional[Dict]], Dict[str, str]]:
+    """Each mode in a process of its own: its results and a note on how it ran."""
     results: Dict[str, Optional[Dict]] = {}
     notes: Dict[str, str] = {}
     for mode in modes:
@@ -506,7 +507,12 @@ def main(argv: Optional[List[str]] = None) -> int:
         except (IndexError, ValueError, KeyError):
             results[mode] = {"goals": [], "ready": False}
             notes[mode] = "run failed (exit %d)" % out.returncode
+    return results, notes
 
+
+def _report(modes: List[str], results: Dict[str, Optional[Dict]], notes: Dict[str, str]
+            ) -> None:
+    """Each goal, the table and the BENCH line."""
     for mode in modes:
         res = results.get(mode)
         if not res:
@@ -537,6 +543,19 @@ def main(argv: Optional[List[str]] = None) -> int:
         if mode.startswith("stock"):
             fields.append("%s_amcl_median_m=%s" % (mode, _fmt(s.get("amcl_median"), "%.3f")))
     print("BENCH nav " + " ".join(fields))
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    args = _parse(argv)
+    if args.case:
+        res = run_case(args.case, args.goals, args.seed, args.rtf, args.goal_timeout)
+        print(json.dumps(res))
+        return 0
+    if args.attach:
+        return _attach(args)
+    modes = [m for m in args.modes.split(",") if m]
+    results, notes = _run_modes(args, modes)
+    _report(modes, results, notes)
     return 0
 
 

@@ -71,6 +71,35 @@ def _world_file(n: int, tmp: str, name: str = "office") -> str:
     return path
 
 
+def _subscribe_everything(n: int, shares: list) -> list:
+    """A subscriber on every topic of n robots, /tf and the node's publishing share (appended
+    to ``shares``)."""
+    import rospy
+    from std_msgs.msg import Float64
+
+    subs = []
+    for name in ("odom", "base_scan", "base_pose_ground_truth", "pose", "battery_state",
+                 "joint_states"):
+        for i in range(n):
+            subs.append(rospy.Subscriber("/robot%d/%s" % (i + 1, name), rospy.AnyMsg,
+                                         lambda m: None))
+    subs.append(rospy.Subscriber("/tf", rospy.AnyMsg, lambda m: None))
+    subs.append(rospy.Subscriber("/simulator/publishing_share", Float64,
+                                 lambda m: shares.append(m.data)))
+    return subs
+
+
+def _seconds_to_stop(proc: subprocess.Popen) -> float:
+    """Seconds a process takes to exit on SIGINT (inf after 30)."""
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(30)
+        return time.monotonic() - t0
+    except subprocess.TimeoutExpired:
+        return float("inf")
+
+
 def run_case(n: int, window: float, moving: bool = True,
              name: str = "office") -> Tuple[float, float, float]:
     """Achieved real-time factor of the node with n robots (sim s per wall s), the seconds
@@ -79,7 +108,6 @@ def run_case(n: int, window: float, moving: bool = True,
     import rospy
     from geometry_msgs.msg import Twist
     from rosgraph_msgs.msg import Clock
-    from std_msgs.msg import Float64
 
     tmp = tempfile.mkdtemp(prefix="bfs_ros_bench_")
     world = _world_file(n, tmp, name)
@@ -118,16 +146,8 @@ def run_case(n: int, window: float, moving: bool = True,
         deadline = time.time() + 60
         while "t" not in last and time.time() < deadline:
             time.sleep(0.1)
-        subs = []
-        for name in ("odom", "base_scan", "base_pose_ground_truth", "pose", "battery_state",
-                     "joint_states"):
-            for i in range(n):
-                subs.append(rospy.Subscriber("/robot%d/%s" % (i + 1, name), rospy.AnyMsg,
-                                             lambda m: None))
-        subs.append(rospy.Subscriber("/tf", rospy.AnyMsg, lambda m: None))
-        shares = []
-        subs.append(rospy.Subscriber("/simulator/publishing_share", Float64,
-                                     lambda m: shares.append(m.data)))
+        shares: list = []
+        subs = _subscribe_everything(n, shares)
         time.sleep(3.0)                        # connections up
         w0, s0 = time.time(), last["t"]
         k0 = len(shares)
@@ -136,13 +156,7 @@ def run_case(n: int, window: float, moving: bool = True,
         in_window = shares[k0 + 1:len(shares)] or shares[k0:] or [float("nan")]
         # how long the node takes to exit on SIGINT, subscribers still attached (it used to
         # hang now and then until roslaunch's SIGKILL)
-        t0 = time.monotonic()
-        sim.send_signal(signal.SIGINT)
-        try:
-            sim.wait(30)
-            stop_s = time.monotonic() - t0
-        except subprocess.TimeoutExpired:
-            stop_s = float("inf")
+        stop_s = _seconds_to_stop(sim)
         for s in subs:
             s.unregister()
         rospy.signal_shutdown("done")
