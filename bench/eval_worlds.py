@@ -4,7 +4,8 @@
 Runs people/evaluation.py (the code ``evaluate_prediction`` runs) on each world under worlds/
 with the same legs and seed, one world after the other in this process, so the real-time
 factors are measured side by side. Prints one row per world and an ``EVAL world=<name> ...``
-line each. ``margin`` is the predictor's least lead in top-1 over the better of the two
+line each (and a ``done:`` line on stderr as each world ends, so a run cut short keeps what it
+measured). ``margin`` is the predictor's least lead in top-1 over the better of the two
 baselines at any fraction from 25 % on, from tracker and from ground-truth tracks:
 
     make eval                      # 200 legs, seed 1, every world
@@ -16,6 +17,7 @@ import argparse
 import os
 import sys
 import time
+from typing import Optional
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
@@ -62,6 +64,16 @@ def row(world: str, legs: int, seed: int) -> dict:
     return out
 
 
+def _eval_line(r: dict, office: Optional[float]) -> str:
+    """The EVAL line of one world's row (with its ratio to office's rtf when known)."""
+    return ("EVAL world=%s legs=%d given_up=%.3f trk25=%.3f trk50=%.3f trk75=%.3f gt25=%.3f "
+            "gt50=%.3f gt75=%.3f markov50=%.3f heading50=%.3f margin=%.3f tracked=%.3f rtf=%.1f%s"
+            % (r["world"], r["legs"], r["given_up"], r["trk25"], r["trk50"], r["trk75"],
+               r["gt25"], r["gt50"], r["gt75"], r["markov50"], r["heading50"], r["margin"],
+               r["tracked"], r["rtf"],
+               "" if office is None else " rtf_vs_office=%.2f" % (r["rtf"] / office)))
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--legs", type=int, default=200)
@@ -75,6 +87,7 @@ def main() -> int:
         rows.append(row(w, args.legs, args.seed))
         for n in rows[-1]["notes"]:
             print("  note: %s" % n, file=sys.stderr)
+        print("  done: %s" % _eval_line(rows[-1], None), file=sys.stderr, flush=True)
     print("| " + " | ".join(COLUMNS) + " |")
     print("|" + "---|" * len(COLUMNS))
     office = next((r["rtf"] for r in rows if r["world"] == "office"), None)
@@ -84,12 +97,7 @@ def main() -> int:
         cells.append("%.1fx" % r["rtf"])
         print("| " + " | ".join(cells) + " |")
     for r in rows:
-        print("EVAL world=%s legs=%d given_up=%.3f trk25=%.3f trk50=%.3f trk75=%.3f gt25=%.3f "
-              "gt50=%.3f gt75=%.3f markov50=%.3f heading50=%.3f margin=%.3f tracked=%.3f rtf=%.1f%s" % (
-                  r["world"], r["legs"], r["given_up"], r["trk25"], r["trk50"], r["trk75"],
-                  r["gt25"], r["gt50"], r["gt75"], r["markov50"], r["heading50"], r["margin"],
-                  r["tracked"],
-                  r["rtf"], "" if office is None else " rtf_vs_office=%.2f" % (r["rtf"] / office)))
+        print(_eval_line(r, office))
     return 0
 
 
