@@ -33,16 +33,17 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..errors import BulletFloorSimError
-from .follow import FollowBehaviour, FollowConfig, pick_target, search_plan
-from .markov import MarkovChain, usable_rois
-from ..nav.planner import (Navigator, NavigatorConfig, PathFollower, PlanError, PlanningGrid,
-                      obstacles_in_base)
-from .plotting import pyplot
-from .prediction import (DestinationModel, OnlinePredictor, PredictionConfig, PredictorPool,
-                         log_loss, posterior_or_prior, top1)
 from ..data.rois import load_rois
-from .tracking import StaticMap, Tracker, TrackerConfig, detect, scan_points
+from ..errors import BulletFloorSimError
+from ..nav.planner import (Navigator, NavigatorConfig, PathFollower, PlanError, PlanningGrid,
+                           obstacles_in_base)
+from .agents import FollowerAgent, PredictorAgent, TrackerAgent, WalkerAgent
+from .follow import FollowBehaviour, FollowConfig
+from .markov import MarkovChain, usable_rois
+from .plotting import pyplot
+from .prediction import (DestinationModel, OnlinePredictor, PredictionConfig, log_loss,
+                         posterior_or_prior, top1)
+from .tracking import TrackerConfig
 from .walker import GoalSampler, Walker, WalkerConfig, WalkerError, walkable_regions
 
 __all__ = ["EvalConfig", "EvalResult", "LegScore", "run", "FRACTIONS", "METHODS", "PIPELINES",
@@ -256,169 +257,177 @@ def world_model(world_name: str, prediction: Optional[PredictionConfig] = None
         world.close()
 
 
-def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
-    if world.n < 2 or max(cfg.walker, cfg.observer) >= world.n:
-        raise EvaluationError("evaluate: world %s has %d robot(s); robots %d and %d are needed"
-                              % (cfg.world, world.n, cfg.walker, cfg.observer))
-    if not world.config.rois:
-        raise EvaluationError("evaluate: world %s has no rois file" % cfg.world)
-    handling = world.config.map_handling
-    grid, sampler, rois, chain, warnings = _regions(world)
-    walker = Walker(chain, rois, sampler, WalkerConfig(), seed=cfg.seed)
-    model = DestinationModel(grid, rois, chain, cfg.prediction)
-    uniform = {r: 1.0 / len(chain.ids) for r in chain.ids}
-    static = StaticMap(world.fmap, handling=handling)
-    tracker = Tracker(TrackerConfig(centre_offset=0.25))  # measured for the Scitos body
-    follow = FollowBehaviour(grid, FollowConfig())
-    nav_walker = Navigator(grid, PathFollower())
-    nav_observer = Navigator(grid, PathFollower(), NavigatorConfig(give_way=True))  # it yields
-    pred_gt = OnlinePredictor(model)
-    pred_trk = PredictorPool(model)
-    laser = [world.models[i].laser_pose for i in range(world.n)]  # (x, y, z, yaw) in base
-    W, OBS = cfg.walker, cfg.observer
-    steps = max(1, int(round(1.0 / (world.clock.dt * cfg.control_rate))))
-    max_t = cfg.max_sim_time if cfg.max_sim_time is not None else 150.0 * cfg.legs
-    body = float(world.radius[W])  # the walker's footprint radius
+class _Scenario:
+    """One run's world, agents and tallies; :meth:`tick` is one control tick of all of them."""
 
-    scans_by_robot: Dict[int, object] = {}
-    leg = None
-    dwell_until = 0.0
-    gt_records: List[_Record] = []
-    trk_records: List[_Record] = []
-    target_id: Optional[int] = None
-    obs_goal_active = False
-    obs_goal_done = False
-    search: List[Tuple[str, Tuple[float, float]]] = []   # where to look if it is lost
-    n_ticks = visible = recalled = tracked = false_ticks = switches = 0
-    err_sum = 0.0
-    modes: Dict[str, int] = {}
-    t0 = world.clock.now
-    failed = 0
-    completed: List[LegScore] = []
+    def __init__(self, cfg: EvalConfig, world, say: Callable[[str], None],
+                 t_wall: float) -> None:
+        if world.n < 2 or max(cfg.walker, cfg.observer) >= world.n:
+            raise EvaluationError("evaluate: world %s has %d robot(s); robots %d and %d are "
+                                  "needed" % (cfg.world, world.n, cfg.walker, cfg.observer))
+        if not world.config.rois:
+            raise EvaluationError("evaluate: world %s has no rois file" % cfg.world)
+        self.cfg, self.world, self.say, self.t_wall = cfg, world, say, t_wall
+        grid, sampler, rois, chain, self.warnings = _regions(world)
+        self.model = model = DestinationModel(grid, rois, chain, cfg.prediction)
+        self.uniform = {r: 1.0 / len(chain.ids) for r in chain.ids}
+        # the agents the nodes run: markov_walker, people_tracker (observer.launch's
+        # centre_offset for the Scitos body), destination_predictor, follower
+        self.walker = WalkerAgent(Walker(chain, rois, sampler, WalkerConfig(), seed=cfg.seed))
+        self.tracker = TrackerAgent.for_map(world.fmap, TrackerConfig(centre_offset=0.25),
+                                            handling=world.config.map_handling)
+        self.predictor = PredictorAgent(model)
+        self.follower = FollowerAgent(FollowBehaviour(grid, FollowConfig()))
+        # path_follower in each namespace; the observer's yields (demo.launch's ~give_way)
+        self.nav_walker = Navigator(grid, PathFollower())
+        self.nav_observer = Navigator(grid, PathFollower(), NavigatorConfig(give_way=True))
+        self.pred_gt = OnlinePredictor(model)   # the same predictor on the walker's truth
+        self.laser = [world.models[i].laser_pose for i in range(world.n)]  # x, y, z, yaw
+        self.body = float(world.radius[cfg.walker])  # the walker's footprint radius
+        self.scans: Dict[int, object] = {}
+        self.gt_records: List[_Record] = []
+        self.trk_records: List[_Record] = []
+        self.obs_goal_active = self.obs_goal_done = False
+        self.n_ticks = self.visible = self.recalled = self.tracked = 0
+        self.false_ticks = self.switches = self.failed = 0
+        self.err_sum = 0.0
+        self.modes: Dict[str, int] = {}
+        self.completed: List[LegScore] = []
+        self.t0 = world.clock.now
 
-    while len(completed) < cfg.legs and world.clock.now - t0 < max_t:
+    def tick(self, steps: int) -> None:
+        """Step the world one control period, then the walker, the ground-truth predictor
+        and the observer in turn."""
+        world, cfg = self.world, self.cfg
         for s in world.step(steps):
-            scans_by_robot[s.robot] = s
+            self.scans[s.robot] = s
         t = world.clock.now
         world.update_odometry()
-        pose_w = world.view(W, refresh=False)
-        pose_o = world.view(OBS, refresh=False)
-        scan_w, scan_o = scans_by_robot.get(W), scans_by_robot.get(OBS)
-
-        # -- the walker (markov_walker + path_follower) ------------------------------------
-        obst_w = _obstacles(scan_w, laser[W])
-        if leg is None and t >= dwell_until:
-            try:
-                leg = walker.next_leg(pose_w.pose, t)
-            except WalkerError as e:
-                raise EvaluationError("evaluate: the walker cannot go on: %s" % e)
-            try:
-                nav_walker.start(pose_w.pose, leg.goal, t)
-                gt_records, trk_records = [], []
-            except PlanError as e:
-                say(walker.finish(leg, "rejected", t, walker.region_at(*pose_w.pose[:2]),
-                                  str(e)))
-                failed += 1
-                leg, dwell_until = None, t + walker.retry_delay()
-        if leg is not None:
-            st = nav_walker.update(pose_w.pose, obst_w, t)
-            timed_out = t - leg.started > walker.config.goal_timeout
-            if st.state == "active" and not timed_out:
-                world.command(W, st.v, 0.0, st.w)
-            else:
-                world.command(W, 0.0, 0.0, 0.0)
-                outcome = "succeeded" if st.state == "succeeded" else (
-                    "timeout" if timed_out else "aborted")
-                if timed_out:
-                    nav_walker.cancel()
-                line = walker.finish(leg, outcome, t, walker.region_at(*pose_w.pose[:2]),
-                                     st.message if outcome == "aborted" else "")
-                if outcome == "succeeded":
-                    completed.append(_score(leg, gt_records, trk_records, model, uniform))
-                    dwell_until = t + walker.dwell()
-                else:
-                    failed += 1
-                    dwell_until = t + walker.retry_delay()
-                say("%s  [%d/%d scored, %.0f s sim, %.0f s wall]" % (
-                    line, len(completed), cfg.legs, t - t0, time.time() - t_wall))
-                leg = None
-
-        # -- ground-truth pipeline ----------------------------------------------------------
+        pose_w = world.view(cfg.walker, refresh=False)
+        self._walk(t, pose_w.pose)
         x, y, yaw = pose_w.pose
         v = pose_w.velocity[0]
         vel = (v * math.cos(yaw), v * math.sin(yaw))
-        p = pred_gt.update(t, x, y, vel[0], vel[1])
+        p = self.pred_gt.update(t, x, y, vel[0], vel[1])
         if p is not None:
-            gt_records.append(_Record(t, p, (x, y), vel))
+            self.gt_records.append(_Record(t, p, (x, y), vel))
+        self._observe(t, (x, y), world.view(cfg.observer, refresh=False).pose)
 
-        # -- the observer: detect, track, predict, follow ------------------------------------
-        ox, oy, oyaw = pose_o.pose
-        lx, ly, lyaw = _laser_in_map(pose_o.pose, laser[OBS])
-        tracks = []
+    def _walk(self, t: float, pose: Sequence[float]) -> None:
+        """The walker (markov_walker + path_follower): a leg, its navigation, its end."""
+        W, agent = self.cfg.walker, self.walker
+        if agent.leg is None:
+            try:
+                step = agent.tick(t, pose)
+            except WalkerError as e:
+                raise EvaluationError("evaluate: the walker cannot go on: %s" % e)
+            if step.start is None:
+                return
+            try:
+                self.nav_walker.start(pose, step.start.goal, t)
+                self.gt_records, self.trk_records = [], []
+            except PlanError as e:
+                self._leg_ended(t, agent.tick(t, pose, ("rejected", str(e))))
+                return
+        st = self.nav_walker.update(pose, _obstacles(self.scans.get(W), self.laser[W]), t)
+        result = None if st.state == "active" else (
+            ("succeeded", "") if st.state == "succeeded" else ("aborted", st.message))
+        step = agent.tick(t, pose, result)
+        if step.finished is None:
+            self.world.command(W, st.v, 0.0, st.w)
+            return
+        self.world.command(W, 0.0, 0.0, 0.0)
+        if step.cancel:
+            self.nav_walker.cancel()
+        self._leg_ended(t, step)
+
+    def _leg_ended(self, t: float, step) -> None:
+        leg = step.finished
+        if leg.outcome == "succeeded":
+            self.completed.append(_score(leg, self.gt_records, self.trk_records, self.model,
+                                         self.uniform))
+        else:
+            self.failed += 1
+        self.say("%s  [%d/%d scored, %.0f s sim, %.0f s wall]" % (
+            step.line, len(self.completed), self.cfg.legs, t - self.t0,
+            time.time() - self.t_wall))
+
+    def _observe(self, t: float, truth: Tuple[float, float], pose_o: Sequence[float]) -> None:
+        """The observer: detect and track (people_tracker), predict (destination_predictor),
+        pick and follow the target (follower); the tick's tracking scores."""
+        cfg, OBS = self.cfg, self.cfg.observer
+        scan_o = self.scans.get(OBS)
+        x, y = truth
+        tracks, visible = [], False
         if scan_o is not None:
-            pts = scan_points(scan_o.ranges, scan_o.angle_min, scan_o.angle_increment,
-                              (lx, ly, lyaw))
-            dets = detect(pts, static, (lx, ly), tracker.config)
-            tracks = tracker.update(dets, t)
-            near = np.hypot(pts[:, 0] - x, pts[:, 1] - y) < body + 0.1 if len(pts) else []
-            is_visible = int(np.count_nonzero(near)) >= cfg.visible_beams
-        else:
-            is_visible = False
-        target = pick_target(tracks, target_id, follow.last_target)
-        if target is not None and target_id is not None and target.id != target_id:
-            switches += 1
-        preds = pred_trk.update(t, [(tr.id, tr.x, tr.y, tr.vx, tr.vy) for tr in tracks])
-        if target is not None:
-            target_id = target.id
-            p = preds.get(target.id)
-            if p is not None:
-                trk_records.append(_Record(t, p, (target.x, target.y), (target.vx, target.vy)))
-                fc = follow.config
-                search = search_plan(p.probabilities, model.goals, (target.x, target.y),
-                                     fc.search_regions, fc.search_min_probability, p.best)
-
-        # -- scores of the tick ----------------------------------------------------------------
-        n_ticks += 1
-        match = [tr for tr in tracks if math.hypot(tr.x - x, tr.y - y) < cfg.match_distance]
-        if is_visible:
-            visible += 1
-            recalled += 1 if match else 0
-        if target is not None and math.hypot(target.x - x, target.y - y) < cfg.match_distance:
-            tracked += 1
-            err_sum += math.hypot(target.x - x, target.y - y)
-        if len(tracks) > len(match):
-            false_ticks += 1
-
-        # -- the follower ----------------------------------------------------------------------
-        obst_o = _obstacles(scan_o, laser[OBS])
+            tstep = self.tracker.tick(t, scan_o, _laser_in_map(pose_o, self.laser[OBS]))
+            tracks, pts = tstep.tracks, tstep.points
+            near = np.hypot(pts[:, 0] - x, pts[:, 1] - y) < self.body + 0.1 if len(pts) else []
+            visible = int(np.count_nonzero(near)) >= cfg.visible_beams
+        pstep = self.predictor.tick(t, [(tr.id, tr.x, tr.y, tr.vx, tr.vy) for tr in tracks])
         if cfg.follow:
-            tgt = None if target is None else (target.x, target.y, target.vx, target.vy)
-            dec = follow.update(t, pose_o.pose, tgt, search or None, obs_goal_done)
-            modes[dec.mode] = modes.get(dec.mode, 0) + 1
-            obs_goal_done = False
-            if dec.goal is not None:
-                try:
-                    nav_observer.start(pose_o.pose, dec.goal, t)
-                    obs_goal_active = True
-                except PlanError:
-                    obs_goal_active, obs_goal_done = False, True
-        if obs_goal_active:
-            st = nav_observer.update(pose_o.pose, obst_o, t)
-            if st.state == "active":
-                world.command(OBS, st.v, 0.0, st.w)
-            else:
-                world.command(OBS, 0.0, 0.0, 0.0)
-                obs_goal_active, obs_goal_done = False, True
+            plans = {tid: plan for tid, (_p, plan) in pstep.destinations.items()}
+            fstep = self.follower.tick(t, pose_o, tracks, plans, self.obs_goal_done)
+            self.obs_goal_done = False
+            self._follow(t, pose_o, fstep.decision, scan_o)
         else:
-            world.command(OBS, 0.0, 0.0, 0.0)
+            fstep = self.follower.pick(tracks)
+            self.world.command(OBS, 0.0, 0.0, 0.0)
+        target = fstep.target
+        self.switches += 1 if fstep.switched else 0
+        if target is not None and target.id in pstep.destinations:
+            self.trk_records.append(_Record(t, pstep.destinations[target.id][0],
+                                            (target.x, target.y), (target.vx, target.vy)))
+        self.n_ticks += 1
+        match = [tr for tr in tracks if math.hypot(tr.x - x, tr.y - y) < cfg.match_distance]
+        if visible:
+            self.visible += 1
+            self.recalled += 1 if match else 0
+        if target is not None and math.hypot(target.x - x, target.y - y) < cfg.match_distance:
+            self.tracked += 1
+            self.err_sum += math.hypot(target.x - x, target.y - y)
+        if len(tracks) > len(match):
+            self.false_ticks += 1
 
-    return EvalResult(config=cfg, legs=completed, failed_legs=failed,
-                      sim_time=world.clock.now - t0, wall_time=time.time() - t_wall,
-                      ticks=n_ticks, visible_ticks=visible, recalled_ticks=recalled,
-                      tracked_ticks=tracked, false_track_ticks=false_ticks,
-                      id_switches=switches, handovers=pred_trk.handovers,
-                      mean_track_error=err_sum / tracked if tracked else float("nan"),
-                      follow_modes=modes, warnings=warnings)
+    def _follow(self, t: float, pose_o: Sequence[float], dec, scan_o) -> None:
+        """The observer's navigation (path_follower) towards the follower's goals."""
+        OBS = self.cfg.observer
+        self.modes[dec.mode] = self.modes.get(dec.mode, 0) + 1
+        if dec.goal is not None:
+            try:
+                self.nav_observer.start(pose_o, dec.goal, t)
+                self.obs_goal_active = True
+            except PlanError:
+                self.obs_goal_active, self.obs_goal_done = False, True
+        if not self.obs_goal_active:
+            self.world.command(OBS, 0.0, 0.0, 0.0)
+            return
+        st = self.nav_observer.update(pose_o, _obstacles(scan_o, self.laser[OBS]), t)
+        if st.state == "active":
+            self.world.command(OBS, st.v, 0.0, st.w)
+        else:
+            self.world.command(OBS, 0.0, 0.0, 0.0)
+            self.obs_goal_active, self.obs_goal_done = False, True
+
+    def result(self) -> EvalResult:
+        tracked = self.tracked
+        return EvalResult(config=self.cfg, legs=self.completed, failed_legs=self.failed,
+                          sim_time=self.world.clock.now - self.t0,
+                          wall_time=time.time() - self.t_wall, ticks=self.n_ticks,
+                          visible_ticks=self.visible, recalled_ticks=self.recalled,
+                          tracked_ticks=tracked, false_track_ticks=self.false_ticks,
+                          id_switches=self.switches, handovers=self.predictor.handovers,
+                          mean_track_error=self.err_sum / tracked if tracked else float("nan"),
+                          follow_modes=self.modes, warnings=self.warnings)
+
+
+def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
+    run = _Scenario(cfg, world, say, t_wall)
+    steps = max(1, int(round(1.0 / (world.clock.dt * cfg.control_rate))))
+    max_t = cfg.max_sim_time if cfg.max_sim_time is not None else 150.0 * cfg.legs
+    while len(run.completed) < cfg.legs and world.clock.now - run.t0 < max_t:
+        run.tick(steps)
+    return run.result()
 
 
 def _laser_in_map(pose: Sequence[float], laser: Sequence[float]) -> Tuple[float, float, float]:

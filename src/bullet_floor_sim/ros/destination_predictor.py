@@ -36,10 +36,11 @@ from std_msgs.msg import ColorRGBA, String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from ..errors import BulletFloorSimError
-from ..people.follow import FollowConfig, search_plan
+from ..people.agents import PredictorAgent
+from ..people.follow import FollowConfig
 from ..people.markov import MarkovChain, usable_rois
 from ..nav.planner import PlannerConfig, PlanningGrid
-from ..people.prediction import DestinationModel, PredictionConfig, PredictorPool
+from ..people.prediction import DestinationModel, PredictionConfig
 from ..data.rois import Roi, load_rois
 from ..people.walker import GoalSampler, walkable_regions
 from ..msg import Destination, TrackArray
@@ -92,18 +93,16 @@ class DestinationPredictorNode:
         self.planner_cfg = PlannerConfig(robot_radius=float(gp("~robot_radius", PlannerConfig.robot_radius)))
         self.config = config_from_params(PredictionConfig())
         defaults = FollowConfig()
-        self.search_regions = int(gp("~search_regions", defaults.search_regions))
-        self.search_min_probability = float(gp("~search_min_probability",
-                                               defaults.search_min_probability))
-        FollowConfig(search_regions=self.search_regions,
-                     search_min_probability=self.search_min_probability).check()
+        self.search = FollowConfig(
+            search_regions=int(gp("~search_regions", defaults.search_regions)),
+            search_min_probability=float(gp("~search_min_probability",
+                                            defaults.search_min_probability)))
+        self.search.check()
         self.lock = threading.Lock()
         self.grid: Optional[PlanningGrid] = None
         self.rois: Optional[List[Roi]] = None
         self._usable: List[Roi] = []  # the usable ROIs the model was built from
-        self.model: Optional[DestinationModel] = None
-        self.pool: Optional[PredictorPool] = None   # per-track predictors of the model
-        self.last_t = -float("inf")
+        self.agent: Optional[PredictorAgent] = None   # the model's per-track predictors
         self.rebuild = threading.Event()
         self.pub = rospy.Publisher("~destination", Destination, queue_size=10)
         self.marker_pub = rospy.Publisher("~markers", MarkerArray, queue_size=2)
@@ -139,7 +138,7 @@ class DestinationPredictorNode:
         moment: never in a callback)."""
         self.rebuild.set()
         while not rospy.is_shutdown():
-            if not self.rebuild.wait(2.0) and self.model is not None:
+            if not self.rebuild.wait(2.0) and self.agent is not None:
                 continue
             self.rebuild.clear()
             if self.grid is None:
@@ -154,7 +153,7 @@ class DestinationPredictorNode:
             good, warnings = usable_rois(rois)
             for w in warnings:
                 rospy.logwarn("destination_predictor: %s", w)
-            if not good or (good == self._usable and self.model is not None):
+            if not good or (good == self._usable and self.agent is not None):
                 continue
             usable = good
             # the walker leaves out the regions it cannot reach; so must its chain here
@@ -173,39 +172,35 @@ class DestinationPredictorNode:
                 rospy.logerr("destination_predictor: cannot build the model: %s", e)
                 continue
             with self.lock:
-                self.rois, self.model, self.pool = good, model, PredictorPool(model)
+                self.rois, self.agent = good, PredictorAgent(model, self.search)
             rospy.loginfo("destination_predictor: %d regions, model built (%.1f s)", len(good),
                           rospy.get_time() - t0)
 
     def _on_tracks(self, msg: TrackArray) -> None:
         with self.lock:
-            model, pool = self.model, self.pool
-            if model is None or pool is None:
+            agent = self.agent
+            if agent is None:
                 return
-            t = msg.header.stamp.to_sec()
-            if t < self.last_t:   # a bag looped or the simulation was reset
-                rospy.loginfo("destination_predictor: time went back %.1f s: legs forgotten",
-                              self.last_t - t)
-                pool = self.pool = PredictorPool(model)
-            self.last_t = t
-            markers = MarkerArray()
-            preds = pool.update(t, [(tr.id, tr.position.x, tr.position.y, tr.velocity.x,
-                                     tr.velocity.y) for tr in msg.tracks])
-            for why in pool.errors.values():
-                rospy.logwarn_throttle(10.0, "destination_predictor: %s", why)
-            for tr in msg.tracks:
-                p = preds.get(tr.id)
-                if p is None:
-                    continue
-                xy = (tr.position.x, tr.position.y)
-                search = search_plan(p.probabilities, model.goals, xy, self.search_regions,
-                                     self.search_min_probability, p.best)
-                self.pub.publish(destination_msg(tr.id, p, msg.header, search[0][1], search))
-                markers.markers.append(self._label(tr, p, msg.header))
+            step = agent.tick(msg.header.stamp.to_sec(),
+                              [(tr.id, tr.position.x, tr.position.y, tr.velocity.x,
+                                tr.velocity.y) for tr in msg.tracks])
+        if step.went_back:
+            rospy.loginfo("destination_predictor: time went back %.1f s: legs forgotten",
+                          step.went_back)
+        for why in step.errors:
+            rospy.logwarn_throttle(10.0, "destination_predictor: %s", why)
+        markers = MarkerArray()
+        for tr in msg.tracks:
+            if tr.id not in step.destinations:
+                continue
+            p, search = step.destinations[tr.id]
+            self.pub.publish(destination_msg(tr.id, p, msg.header, search[0][1], search))
+            markers.markers.append(self._label(agent.model, tr, p, msg.header))
         if markers.markers:
             self.marker_pub.publish(markers)
 
-    def _label(self, tr, p, header) -> Marker:
+    @staticmethod
+    def _label(model, tr, p, header) -> Marker:
         m = Marker()
         m.header = header
         m.ns, m.id, m.type, m.action = "destination", tr.id, Marker.TEXT_VIEW_FACING, Marker.ADD
@@ -214,7 +209,7 @@ class DestinationPredictorNode:
         m.scale.z = 0.35
         m.color = ColorRGBA(0.2, 0.9, 1.0, 1.0)
         m.lifetime = rospy.Duration(1.0)
-        label = self.model.label(p.best) if hasattr(self.model, "label") else p.best
+        label = model.label(p.best) if hasattr(model, "label") else p.best
         m.text = "%s %s %.0f%%" % ("->" if p.under_way else "next ->", label,
                                    100.0 * p.best_probability)
         return m

@@ -7,7 +7,7 @@ stand-off point ``~distance`` metres from the target, facing it, re-planned as t
 when the track is lost for ``~lost_after`` seconds it goes to where the predictor says the
 target is heading (``destination``: the best region's point nearest the track), looks round
 there, and goes on to the next likely regions of ``destination``'s ``points`` in turn.
-people/follow.py makes the decisions.
+people/agents.FollowerAgent (people/follow.py) makes the decisions, as in the evaluation.
 
 Topics: ``tracks`` (in, bullet_floor_sim/TrackArray), ``destination`` (in,
 bullet_floor_sim/Destination), ``base_pose_ground_truth`` (in, with ``~pose_source``
@@ -38,7 +38,8 @@ from nav_msgs.msg import OccupancyGrid, Odometry
 from std_msgs.msg import String
 
 from ..errors import BulletFloorSimError
-from ..people.follow import FollowBehaviour, FollowConfig, pick_target
+from ..people.agents import FollowerAgent
+from ..people.follow import FollowBehaviour, FollowConfig
 from ..nav.planner import PlannerConfig, PlanningGrid
 from ..msg import Destination, TrackArray
 from .params import config_from_params, map_handling
@@ -68,11 +69,10 @@ class FollowerNode:
         self.planner_cfg = PlannerConfig(robot_radius=float(gp("~robot_radius", PlannerConfig.robot_radius)))
         self.rate = float(gp("~rate", 5.0))
         self.lock = threading.Lock()
-        self.behaviour: Optional[FollowBehaviour] = None
+        self.agent: Optional[FollowerAgent] = None
         self.tracks = []
         self.tracks_t = -math.inf
-        self.target_id: Optional[int] = None
-        self.destination = None     # [(region, (x, y))], most likely first, for the followed track
+        self.destinations = {}      # track id -> [(region, (x, y))], most likely first
         self.gt = None
         self.mode = ""
         self.goal_sent = False
@@ -96,7 +96,10 @@ class FollowerNode:
             rospy.logerr("follower: cannot use the map: %s", e)
             return
         with self.lock:
-            self.behaviour = FollowBehaviour(grid, self.config)
+            agent = FollowerAgent(FollowBehaviour(grid, self.config))
+            if self.agent is not None:   # a new map: the same target and its search plan
+                agent.target_id, agent.destination = self.agent.target_id, self.agent.destination
+            self.agent = agent
 
     def _on_gt(self, msg: Odometry) -> None:
         p = msg.pose.pose
@@ -107,12 +110,16 @@ class FollowerNode:
             self.tracks = [_Tr(t.id, t.position.x, t.position.y, t.velocity.x, t.velocity.y)
                            for t in msg.tracks]
             self.tracks_t = msg.header.stamp.to_sec()
+            live = {t.id for t in msg.tracks}
+            self.destinations = {k: v for k, v in self.destinations.items() if k in live}
 
     def _on_destination(self, msg: Destination) -> None:
+        if not msg.best:
+            return
         with self.lock:
-            if msg.track_id == self.target_id and msg.best:
-                self.destination = ([(r, (pt.x, pt.y)) for r, pt in zip(msg.regions, msg.points)]
-                                    or [(msg.best, (msg.best_point.x, msg.best_point.y))])
+            self.destinations[msg.track_id] = (
+                [(r, (pt.x, pt.y)) for r, pt in zip(msg.regions, msg.points)]
+                or [(msg.best, (msg.best_point.x, msg.best_point.y))])
 
     def _pose(self):
         if self.source == "ground_truth":
@@ -130,21 +137,15 @@ class FollowerNode:
     def step(self) -> None:
         pose = self._pose()
         with self.lock:
-            if self.behaviour is None or pose is None:
+            if self.agent is None or pose is None:
                 return
             now = rospy.get_time()
-            fresh = now - self.tracks_t < 1.0
-            last = self.behaviour.last_target
-            target = pick_target(self.tracks, self.target_id, last) if fresh else None
-            if target is not None:
-                if target.id != self.target_id:
-                    rospy.loginfo("follower: following track %d", target.id)
-                self.target_id = target.id
+            tracks = self.tracks if now - self.tracks_t < 1.0 else []
             done = self.goal_sent and self.client.get_state() in _TERMINAL
-            dec = self.behaviour.update(
-                now, pose, None if target is None else (target.x, target.y, target.vx,
-                                                        target.vy),
-                self.destination, done)
+            step = self.agent.tick(now, pose, tracks, self.destinations, done)
+        target, dec = step.target, step.decision
+        if step.new:
+            rospy.loginfo("follower: following track %d", target.id)
         if dec.mode != self.mode:
             self.mode = dec.mode
             self.mode_pub.publish(String(dec.mode))

@@ -57,8 +57,9 @@ from ..errors import BulletFloorSimError
 from ..people.markov import MODES, MarkovChain, store_chain, usable_rois
 from ..nav.planner import PlannerConfig, PlanningGrid
 from ..data.rois import Roi, id_order
+from ..people.agents import WalkerAgent, WalkerStep
 from ..people.walker import (GoalSampler, Leg, RegionIndex, Walker, WalkerConfig, WalkerError,
-                           walkable_regions)
+                             walkable_regions)
 from .convert import yaw as yaw_of
 from .params import map_handling
 from .soma import query_rois
@@ -128,6 +129,7 @@ class MarkovWalkerNode:
         self.rois: List[Roi] = []
         self._usable: List[Roi] = []  # the usable ROIs the chain was built from
         self.walker: Optional[Walker] = None
+        self.agent: Optional[WalkerAgent] = None   # the walk's legs (people/agents.py)
         self.index: Optional[RegionIndex] = None
         self.pose: Optional[Tuple[float, float, float]] = None
         self.region: Optional[str] = None
@@ -353,6 +355,7 @@ class MarkovWalkerNode:
             return False
         with self.lock:
             self.walker = Walker(self.chain, self.rois, self.sampler, self.config, self.seed)
+            self.agent = WalkerAgent(self.walker)
         rospy.loginfo("markov_walker: seed %d (set ~seed to repeat this walk)",
                       self.walker.seed_used)
         return self._wait_for_server()
@@ -368,43 +371,46 @@ class MarkovWalkerNode:
         return False
 
     def run(self) -> None:
-        """Walk until shutdown."""
+        """Walk until shutdown: the agent's tick at 20 Hz of sim time."""
         if not self._start():
             return
-        walker = self.walker
-        while not rospy.is_shutdown():
-            with self.lock:
-                pose = self.pose
+        rate = rospy.Rate(20.0)
+        while not rospy.is_shutdown() and self._tick():
             try:
-                leg = walker.next_leg(pose, rospy.get_time())
-            except WalkerError as e:
-                self.complain("leg", "markov_walker: %s; trying again" % e)
-                rospy.sleep(5.0)
-                continue
-            finally:
-                for line in walker.log:
-                    if not line.startswith("leg "):
-                        rospy.logwarn("markov_walker: %s", line)
-                del walker.log[:]
-            if not self.client.wait_for_server(rospy.Duration(1.0)) and \
-                    not self._wait_for_server():
-                return
-            line = self._drive(walker, leg)
-            self.pub_leg.publish(String(json.dumps(leg.to_dict())))
-            del walker.log[:]
-            if leg.outcome == "succeeded":
-                pause = walker.dwell()
-                rospy.loginfo("markov_walker: %s; dwelling %.1f s", line, pause)
-            else:
-                pause = walker.retry_delay()
-                rospy.logwarn("markov_walker: %s%s", line,
-                              "; next leg in %.1f s" % pause if pause > 0 else "")
-            if pause > 0:
-                rospy.sleep(pause)
+                rate.sleep()
+            except rospy.ROSInterruptException:
+                break
+            except rospy.ROSTimeMovedBackwardsException:
+                pass
 
-    def _drive(self, walker: Walker, leg: Leg) -> str:
-        """Send the leg's goal, wait for it (up to goal_timeout); record the result and return
-        the leg's log line."""
+    def _tick(self) -> bool:
+        """One tick of people/agents.WalkerAgent: send a new leg's goal, or end the leg whose
+        goal finished or timed out. False on shutdown while waiting for the action server."""
+        agent, now = self.agent, rospy.get_time()
+        if agent.leg is None and now >= agent.resume_at and \
+                not self.client.wait_for_server(rospy.Duration(1.0)) and \
+                not self._wait_for_server():
+            return False
+        with self.lock:
+            pose = self.pose
+        try:
+            step = agent.tick(now, pose, self._result())
+        except WalkerError as e:
+            for note in agent.take_notes():
+                rospy.logwarn("markov_walker: %s", note)
+            self.complain("leg", "markov_walker: %s; trying again" % e)
+            agent.resume_at = now + 5.0
+            return True
+        for note in step.notes:
+            rospy.logwarn("markov_walker: %s", note)
+        if step.start is not None:
+            self._send(step.start)
+        if step.finished is not None:
+            self._finished(step)
+        return True
+
+    def _send(self, leg: Leg) -> None:
+        """Send the leg's goal and say where it goes (~goal_region, ~goal)."""
         gx, gy, yaw = leg.goal
         goal = MoveBaseGoal()
         goal.target_pose.header.frame_id = self.frame_id
@@ -414,33 +420,27 @@ class MarkovWalkerNode:
         goal.target_pose.pose.orientation.w = math.cos(yaw / 2.0)
         self.pub_goal_region.publish(String(leg.target_region))
         self.pub_goal.publish(goal.target_pose)
-        leg.started = rospy.get_time()
-        gh = self.goal_handle = self.client.send_goal(goal)
-        done = self._wait_done(gh, self.config.goal_timeout)
-        detail = ""
-        if done:
-            outcome = _STATES.get(gh.get_goal_status(), "aborted")
-            detail = gh.get_goal_status_text() if outcome != "succeeded" else ""
-        else:
-            gh.cancel()
-            self._wait_done(gh, 5.0)
-            outcome = "timeout"
-            detail = "no result within %g s (~goal_timeout)" % self.config.goal_timeout
-        self.goal_handle = None
-        with self.lock:
-            pose = self.pose
-        here = walker.region_at(pose[0], pose[1]) if pose is not None else ""
-        return walker.finish(leg, outcome, rospy.get_time(), here, detail)
+        self.goal_handle = self.client.send_goal(goal)
 
-    @staticmethod
-    def _wait_done(gh: Any, timeout: float) -> bool:
-        """Poll a goal until it is done or ``timeout`` sim seconds passed."""
-        deadline = rospy.get_time() + timeout
-        while gh.get_comm_state() != CommState.DONE:
-            if rospy.get_time() >= deadline:
-                return False
-            rospy.sleep(0.05)
-        return True
+    def _result(self) -> Optional[Tuple[str, str]]:
+        """The current goal's (outcome, detail) once it is done, else None."""
+        gh = self.goal_handle
+        if gh is None or gh.get_comm_state() != CommState.DONE:
+            return None
+        outcome = _STATES.get(gh.get_goal_status(), "aborted")
+        return outcome, gh.get_goal_status_text() if outcome != "succeeded" else ""
+
+    def _finished(self, step: WalkerStep) -> None:
+        """A leg ended: cancel its goal when it timed out, publish it (~leg), log its line."""
+        if step.cancel and self.goal_handle is not None:
+            self.goal_handle.cancel()
+        self.goal_handle = None
+        self.pub_leg.publish(String(json.dumps(step.finished.to_dict())))
+        if step.finished.outcome == "succeeded":
+            rospy.loginfo("markov_walker: %s; dwelling %.1f s", step.line, step.pause)
+        else:
+            rospy.logwarn("markov_walker: %s%s", step.line,
+                          "; next leg in %.1f s" % step.pause if step.pause > 0 else "")
 
     def _on_shutdown(self) -> None:
         gh = self.goal_handle

@@ -4,8 +4,8 @@ Run it in the observing robot's namespace (``<group ns="robot2">``). On every ``
 places the scan in the map frame with the robot's localised pose, drops the points the static
 map explains, clusters the rest, keeps clusters of person/robot size and tracks them with a
 constant-velocity Kalman filter (gating, global nearest-neighbour association, birth after a
-few hits, death after ``max_age`` unseen): people/tracking.py. No ground truth of the tracked
-entity is used.
+few hits, death after ``max_age`` unseen): people/agents.TrackerAgent (people/tracking), the
+object the evaluation drives too. No ground truth of the tracked entity is used.
 
 Pose source (``~pose_source``):
 
@@ -42,8 +42,8 @@ from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
 from ..errors import BulletFloorSimError
-from ..people.tracking import (PoseHistory, StaticMap, Tracker, TrackerConfig, detect,
-                             scan_points)
+from ..people.agents import TrackerAgent
+from ..people.tracking import PoseHistory, TrackerConfig
 from ..msg import Track as TrackMsg
 from ..msg import TrackArray
 from .params import config_from_params, map_handling
@@ -67,8 +67,7 @@ class PeopleTrackerNode:
                                       % (" | ".join(POSE_SOURCES), self.source))
         self.frame = str(gp("~global_frame", "map"))
         self.config = config_from_params(TrackerConfig())
-        self.tracker = Tracker(self.config)
-        self.static: Optional[StaticMap] = None
+        self.agent: Optional[TrackerAgent] = None   # made when the map arrives
         self.gt = PoseHistory()   # base_footprint in the map, by stamp
         self.gt_cond = threading.Condition()
         self.base_frame = ""
@@ -90,12 +89,15 @@ class PeopleTrackerNode:
 
     def _on_map(self, msg: OccupancyGrid) -> None:
         try:
-            static = StaticMap(grid_from_msg(msg), self.config.static_tolerance,
-                               handling=map_handling())
+            agent = TrackerAgent.for_map(grid_from_msg(msg), self.config, map_handling())
         except BulletFloorSimError as e:
             rospy.logerr("people_tracker: cannot use the map: %s", e)
             return
-        self.static = static
+        with self.lock:
+            if self.agent is None:
+                self.agent = agent
+            else:   # a new map: the tracks go on
+                self.agent.static = agent.static
         rospy.loginfo("people_tracker: map %dx%d at %.3f m", msg.info.width, msg.info.height,
                       msg.info.resolution)
 
@@ -154,22 +156,18 @@ class PeopleTrackerNode:
         return x + c * off[0] - s * off[1], y + s * off[0] + c * off[1], yaw + off[2]
 
     def _on_scan(self, msg: LaserScan) -> None:
-        if self.static is None:
+        if self.agent is None:
             rospy.logwarn_throttle(10.0, "people_tracker: waiting for the map")
             return
         pose = self._laser_pose(msg)
         if pose is None:
             return
-        pts = scan_points(msg.ranges, msg.angle_min, msg.angle_increment, pose)
-        dets = detect(pts, self.static, pose[:2], self.config)
         with self.lock:
-            try:
-                tracks = self.tracker.update(dets, msg.header.stamp.to_sec())
-            except BulletFloorSimError as e:  # time went backwards (a bag loop, sim reset)
-                rospy.logwarn("people_tracker: %s; starting afresh", e)
-                self.tracker = Tracker(self.config)
-                return
-        self._publish(tracks, msg.header.stamp)
+            step = self.agent.tick(msg.header.stamp.to_sec(), msg, pose)
+        if step.restarted:   # time went backwards (a bag loop, sim reset)
+            rospy.logwarn("people_tracker: %s; starting afresh", step.restarted)
+            return
+        self._publish(step.tracks, msg.header.stamp)
 
     def _publish(self, tracks: Sequence, stamp) -> None:
         pa = PoseArray()

@@ -1,0 +1,285 @@
+"""The observer scenario's agents: what the walker, tracker, predictor and follower nodes
+decide, as plain objects with ``tick(...)``.
+
+The ROS nodes (ros/markov_walker.py, people_tracker.py, destination_predictor.py,
+follower.py) and the in-process evaluation (people/evaluation.py) drive these same objects,
+so the evaluation measures the code that ships; the nodes add the transport (topics, the
+move_base action, tf, logging) and nothing else.
+
+* :class:`WalkerAgent`: pose and the goal's result in; the next leg to send, or the leg that
+  ended with its log line and the pause that follows, out.
+* :class:`TrackerAgent`: a scan and the laser's pose in the map in; tracks out.
+* :class:`PredictorAgent`: tracks in; per track the destination prediction and the search plan
+  (where to look for it if it is lost) out.
+* :class:`FollowerAgent`: the observer's pose, tracks and those search plans in; the target
+  picked and the follow decision (mode, a navigation goal) out.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Dict, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..errors import BulletFloorSimError
+from .follow import FollowBehaviour, FollowConfig, FollowDecision, pick_target, search_plan
+from .prediction import DestinationModel, Prediction, PredictorPool
+from .tracking import StaticMap, Track, Tracker, TrackerConfig, detect, scan_points
+from .walker import Leg, Walker
+
+__all__ = ["WalkerAgent", "WalkerStep", "TrackerAgent", "TrackerStep", "PredictorAgent",
+           "PredictorStep", "FollowerAgent", "FollowerStep", "GOAL_RESULTS"]
+
+SearchPlan = List[Tuple[str, Tuple[float, float]]]
+TrackTuple = Tuple[int, float, float, float, float]   # id, x, y, vx, vy
+
+GOAL_RESULTS = ("succeeded", "aborted", "rejected", "preempted", "lost")
+
+
+# -------------------------------------------------------------------------------------------
+# the walker
+# -------------------------------------------------------------------------------------------
+
+
+@dataclass
+class WalkerStep:
+    """What the walker does after one tick.
+
+    Attributes:
+        start: a new leg: send its goal now.
+        finished: the leg that ended this tick (its outcome, duration and detail are set).
+        line: the finished leg's log line.
+        pause: the dwell (after a success) or retry delay (after a failure) that follows it.
+        cancel: the navigation goal must be cancelled (the leg timed out).
+        notes: the walker's warnings of this tick (a region with no acceptable goal).
+    """
+
+    start: Optional[Leg] = None
+    finished: Optional[Leg] = None
+    line: str = ""
+    pause: float = 0.0
+    cancel: bool = False
+    notes: List[str] = field(default_factory=list)
+
+
+class WalkerAgent:
+    """Legs one after the other: draw a leg, wait for its goal's result or its timeout
+    (``walker.config.goal_timeout``), dwell or back off, draw the next.
+
+    Args:
+        walker: the walk (chain, regions, goal sampler, random streams).
+    """
+
+    def __init__(self, walker: Walker) -> None:
+        self.walker = walker
+        self.leg: Optional[Leg] = None
+        self.resume_at = -math.inf   # no leg starts before this time
+
+    def tick(self, t: float, pose: Sequence[float],
+             result: Optional[Tuple[str, str]] = None) -> WalkerStep:
+        """One decision at time ``t`` with the robot at ``pose`` (x, y, yaw).
+
+        Args:
+            result: the current leg's navigation result, (outcome, detail) with outcome one of
+                GOAL_RESULTS, or None while its goal is under way.
+
+        Raises:
+            WalkerError: no leg could be drawn (no acceptable goal in the regions drawn); the
+                caller may set ``resume_at`` and try again (:meth:`take_notes` says why).
+        """
+        step = WalkerStep()
+        if self.leg is None:
+            if t >= self.resume_at:
+                self.leg = step.start = self.walker.next_leg(pose, t)
+                step.notes = self.take_notes()
+            return step
+        leg = self.leg
+        if result is not None and result[0] not in GOAL_RESULTS:
+            raise ValueError("walker: unknown goal result %r (one of %s)"
+                             % (result[0], ", ".join(GOAL_RESULTS)))
+        timed_out = t - leg.started > self.walker.config.goal_timeout
+        if result is not None and result[0] == "succeeded":
+            outcome, detail = "succeeded", ""
+        elif timed_out:
+            outcome, detail = "timeout", ("no result within %g s (~goal_timeout)"
+                                          % self.walker.config.goal_timeout)
+            step.cancel = True
+        elif result is not None:
+            outcome, detail = result
+        else:
+            return step
+        step.line = self.walker.finish(leg, outcome, t, self.walker.region_at(pose[0], pose[1]),
+                                       detail)
+        step.pause = self.walker.dwell() if outcome == "succeeded" else self.walker.retry_delay()
+        step.finished, self.leg, self.resume_at = leg, None, t + step.pause
+        step.notes = self.take_notes()
+        return step
+
+    def take_notes(self) -> List[str]:
+        """The walker's log lines since the last call other than the legs' own (those are a
+        step's ``line``): after a WalkerError, what the draws ran into."""
+        notes = [s for s in self.walker.log if not s.startswith("leg ")]
+        del self.walker.log[:]
+        return notes
+
+
+# -------------------------------------------------------------------------------------------
+# the tracker
+# -------------------------------------------------------------------------------------------
+
+
+@dataclass
+class TrackerStep:
+    """The tracks after one scan, the scan's points in the map, and why the tracker started
+    afresh ("" when it did not)."""
+
+    tracks: List[Track]
+    points: np.ndarray
+    restarted: str = ""
+
+
+class TrackerAgent:
+    """Moving entities in one lidar: the scan placed in the map, points the static map
+    explains dropped, clusters of person/robot size tracked (people/tracking).
+
+    Args:
+        static: the static map the scan is checked against (``static`` may be replaced when
+            the map changes; the tracks go on).
+        config: the tracker's parameters.
+    """
+
+    def __init__(self, static: StaticMap, config: Optional[TrackerConfig] = None) -> None:
+        self.config = config or TrackerConfig()
+        self.static = static
+        self.tracker = Tracker(self.config)
+
+    @classmethod
+    def for_map(cls, fmap, config: Optional[TrackerConfig] = None,
+                handling=None) -> "TrackerAgent":
+        """An agent whose static map is ``fmap`` (a FloorMap) with the config's tolerance."""
+        cfg = config or TrackerConfig()
+        return cls(StaticMap(fmap, cfg.static_tolerance, handling=handling), cfg)
+
+    def tick(self, t: float, scan, laser_pose: Sequence[float]) -> TrackerStep:
+        """Track on one scan (anything with ``ranges``, ``angle_min``, ``angle_increment``)
+        taken at time ``t`` from ``laser_pose`` (x, y, yaw in the map). A scan older than the
+        tracker's last (a bag looped, the simulation restarted) starts it afresh."""
+        pts = scan_points(scan.ranges, scan.angle_min, scan.angle_increment, laser_pose)
+        dets = detect(pts, self.static, laser_pose[:2], self.config)
+        try:
+            return TrackerStep(self.tracker.update(dets, t), pts)
+        except BulletFloorSimError as e:   # time went backwards
+            self.tracker = Tracker(self.config)
+            return TrackerStep([], pts, str(e))
+
+
+# -------------------------------------------------------------------------------------------
+# the predictor
+# -------------------------------------------------------------------------------------------
+
+
+@dataclass
+class PredictorStep:
+    """Per track id, its prediction and search plan (most likely region first); the
+    predictor's complaints about tracks it could not use; the seconds time went back when the
+    predictor started afresh (0 when it did not)."""
+
+    destinations: Dict[int, Tuple[Prediction, SearchPlan]]
+    errors: List[str] = field(default_factory=list)
+    went_back: float = 0.0
+
+
+class PredictorAgent:
+    """Where each track is heading: a predictor per track (people/prediction's PredictorPool:
+    legs cut at dwells, a track that appears near where another was lost takes over its leg),
+    and where to look for it if it is lost (people/follow.search_plan).
+
+    Args:
+        model: the destination model (regions, chain, cost-to-go fields).
+        follow: where the search plans come from (``search_regions``,
+            ``search_min_probability``).
+    """
+
+    def __init__(self, model: DestinationModel, follow: Optional[FollowConfig] = None) -> None:
+        self.model = model
+        self.follow = follow or FollowConfig()
+        self.follow.check()
+        self.pool = PredictorPool(model)
+        self.last_t = -math.inf
+
+    def tick(self, t: float, tracks: Sequence[TrackTuple]) -> PredictorStep:
+        """Predict on one track update: ``tracks`` as (id, x, y, vx, vy) at time ``t``."""
+        went_back = 0.0
+        if t < self.last_t:   # a bag looped or the simulation was reset: legs forgotten
+            went_back, self.pool = self.last_t - t, PredictorPool(self.model)
+        self.last_t = t
+        preds = self.pool.update(t, tracks)
+        out: Dict[int, Tuple[Prediction, SearchPlan]] = {}
+        fc = self.follow
+        for tid, x, y, _vx, _vy in tracks:
+            p = preds.get(tid)
+            if p is not None:
+                out[tid] = (p, search_plan(p.probabilities, self.model.goals, (x, y),
+                                           fc.search_regions, fc.search_min_probability, p.best))
+        return PredictorStep(out, list(self.pool.errors.values()), went_back)
+
+    @property
+    def handovers(self) -> int:
+        """Legs a new track took over from a lost one (PredictorPool.handovers)."""
+        return self.pool.handovers
+
+
+# -------------------------------------------------------------------------------------------
+# the follower
+# -------------------------------------------------------------------------------------------
+
+
+@dataclass
+class FollowerStep:
+    """The target picked this tick (None: nothing tracked), whether it differs from the one
+    followed before (``switched``: another id replaced a followed one; ``new``: any change,
+    the first pick included), and the decision (None when the agent only picked)."""
+
+    target: Optional[object] = None
+    switched: bool = False
+    new: bool = False
+    decision: Optional[FollowDecision] = None
+
+
+class FollowerAgent:
+    """The observer follows one track: it keeps the id it follows while it lives, takes the
+    search plan of that track, and decides (people/follow.FollowBehaviour) where to go.
+
+    Args:
+        behaviour: the follow / search decisions on the observer's planning grid.
+    """
+
+    def __init__(self, behaviour: FollowBehaviour) -> None:
+        self.behaviour = behaviour
+        self.target_id: Optional[int] = None
+        self.destination: Optional[SearchPlan] = None   # the followed track's search plan
+
+    def pick(self, tracks: Sequence) -> FollowerStep:
+        """Pick the target among ``tracks`` (objects with id, x, y, vx, vy): the one
+        followed while it lives, else the nearest to where the target was last seen."""
+        target = pick_target(tracks, self.target_id, self.behaviour.last_target)
+        step = FollowerStep(target)
+        if target is not None:
+            step.new = target.id != self.target_id
+            step.switched = step.new and self.target_id is not None
+            self.target_id = target.id
+        return step
+
+    def tick(self, t: float, robot: Sequence[float], tracks: Sequence,
+             destinations: Mapping[int, SearchPlan], goal_done: bool = False) -> FollowerStep:
+        """Pick the target, take its search plan from ``destinations`` (by track id) when
+        there is one, and decide. ``goal_done``: the last goal sent has finished."""
+        step = self.pick(tracks)
+        target = step.target
+        if target is not None and destinations.get(target.id):
+            self.destination = destinations[target.id]
+        step.decision = self.behaviour.update(
+            t, robot, None if target is None else (target.x, target.y, target.vx, target.vy),
+            self.destination, goal_done)
+        return step

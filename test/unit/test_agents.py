@@ -1,0 +1,185 @@
+"""people/agents.py: the walker, tracker, predictor and follower agents that the ROS nodes and
+the evaluation both drive: legs, results, timeouts and pauses by hand; a body walking past the
+lidar tracked at its true place and speed; per-track predictions with their search plans; the
+follower keeping its target and its plan (no ROS)."""
+from __future__ import annotations
+
+import math
+import os
+from types import SimpleNamespace
+
+import pytest
+from shapely.geometry import Point
+
+from bullet_floor_sim.data.rois import Roi, load_rois, roi_polygon
+from bullet_floor_sim.nav.planner import PlanningGrid
+from bullet_floor_sim.people.agents import (FollowerAgent, PredictorAgent, TrackerAgent,
+                                            WalkerAgent)
+from bullet_floor_sim.people.follow import FollowBehaviour, FollowConfig
+from bullet_floor_sim.people.markov import MarkovChain
+from bullet_floor_sim.people.prediction import DestinationModel, PredictionConfig, PredictorPool
+from bullet_floor_sim.people.tracking import TrackerConfig
+from bullet_floor_sim.people.walker import GoalSampler, Walker, WalkerConfig, WalkerError
+from bullet_floor_sim.sim.floormap import load_map
+
+from test_follow import hall
+from test_prediction import GOALS, corridor_chain, corridor_map, corridor_rois
+from test_tracking import simple_room_map, synthetic_scan
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
+OFFICE = os.path.join(ROOT, "worlds", "office")
+
+
+@pytest.fixture(scope="module")
+def office():
+    rois = load_rois(os.path.join(OFFICE, "rois.yaml"))
+    grid = PlanningGrid(load_map(os.path.join(OFFICE, "map.yaml")))
+    return rois, GoalSampler(grid)
+
+
+# --------------------------------------------------------------------------------------------
+# the walker
+# --------------------------------------------------------------------------------------------
+
+
+def test_walker_agent_legs_results_timeouts_and_pauses(office):
+    rois, sampler = office
+    cfg = WalkerConfig(goal_timeout=100.0, retry_delay=2.0, max_retry_delay=30.0,
+                       dwell_min=5.0, dwell_max=20.0)
+    agent = WalkerAgent(Walker(MarkovChain.from_rois(rois), rois, sampler, cfg, seed=3))
+    by_id = {r.id: r for r in rois}
+    pose = (3.0, 10.0, 0.0)   # robot1's start in the corridor
+    s = agent.tick(0.0, pose)
+    leg = s.start
+    assert leg is not None and (leg.number, leg.started) == (1, 0.0) and s.finished is None
+    assert roi_polygon(by_id[leg.target_region]).contains(Point(leg.goal[:2]))
+    assert agent.tick(10.0, pose).start is None and agent.leg is leg   # under way
+    # a failure: the detail kept, the first retry delay, no new leg before it has passed
+    s = agent.tick(12.5, pose, ("aborted", "blocked by an obstacle for 30 s"))
+    assert s.finished is leg and (leg.outcome, leg.detail, leg.duration) == (
+        "aborted", "blocked by an obstacle for 30 s", 12.5)
+    assert s.line.startswith("leg 1: ") and "aborted after 12.5 s: blocked by" in s.line
+    assert (s.pause, s.cancel, agent.resume_at) == (2.0, False, 14.5)
+    assert agent.tick(14.4, pose).start is None
+    leg = agent.tick(14.5, pose).start
+    assert leg.number == 2
+    # no result within goal_timeout: a timeout, the goal to cancel, the delay doubled
+    assert agent.tick(114.5, pose).finished is None          # exactly 100 s: not yet
+    s = agent.tick(114.6, pose)
+    assert s.finished is leg and leg.outcome == "timeout" and s.cancel
+    assert leg.detail == "no result within 100 s (~goal_timeout)" and s.pause == 4.0
+    # a success at the timeout's tick is a success, then a dwell in [dwell_min, dwell_max]
+    leg = agent.tick(118.6, pose).start
+    s = agent.tick(218.7, pose, ("succeeded", "ignored"))
+    assert (leg.outcome, leg.detail, s.cancel) == ("succeeded", "", False)
+    assert 5.0 <= s.pause <= 20.0 and agent.resume_at == pytest.approx(218.7 + s.pause)
+    assert leg.target_region in agent.walker.visited
+    with pytest.raises(ValueError, match="unknown goal result 'done'"):
+        agent.tick(219.0 + s.pause, pose)                   # a new leg ...
+        agent.tick(220.0 + s.pause, pose, ("done", ""))     # ... and a result it cannot know
+
+
+def test_walker_agent_no_leg_leaves_the_reasons_to_take(office):
+    _, sampler = office
+    wall = Roi("w", "1", "office", "office", [(-5.0, -5.0), (-1.0, -5.0), (-1.0, -1.0),
+                                              (-5.0, -1.0)])
+    agent = WalkerAgent(Walker(MarkovChain.from_rois([wall]), [wall], sampler,
+                               WalkerConfig(max_picks=2), seed=0))
+    with pytest.raises(WalkerError, match="no acceptable goal in the regions drawn"):
+        agent.tick(0.0, (-3.0, -3.0, 0.0))
+    notes = agent.take_notes()
+    assert notes and notes[0].startswith('no goal in office w: ROI "w"')
+    assert agent.take_notes() == [] and agent.leg is None
+
+
+# --------------------------------------------------------------------------------------------
+# the tracker
+# --------------------------------------------------------------------------------------------
+
+
+def test_tracker_agent_tracks_a_body_at_its_place_and_speed_and_restarts_on_time_going_back():
+    agent = TrackerAgent.for_map(simple_room_map(), TrackerConfig())
+    laser = (3.0, 2.0, math.pi)                  # looking at -x, the west wall
+    step = None
+    for k in range(31):                          # 3 s at 10 Hz, 0.5 m/s along -y
+        t, cy = 0.1 * k, 3.0 - 0.05 * k
+        ranges, amin, inc = synthetic_scan(laser, [(1.5, cy, 0.25)])
+        step = agent.tick(t, SimpleNamespace(ranges=ranges, angle_min=amin,
+                                             angle_increment=inc), laser)
+        assert step.points.shape == (len(ranges), 2)   # every beam hits a wall or the body
+    assert len(step.tracks) == 1 and step.restarted == ""
+    tr = step.tracks[0]
+    assert math.hypot(tr.x - 1.5, tr.y - 1.5) < 0.05
+    assert tr.vx == pytest.approx(0.0, abs=0.1) and tr.vy == pytest.approx(-0.5, abs=0.1)
+    ranges, amin, inc = synthetic_scan(laser, [(1.5, 1.5, 0.25)])
+    back = agent.tick(1.0, SimpleNamespace(ranges=ranges, angle_min=amin,
+                                           angle_increment=inc), laser)
+    assert back.tracks == [] and "back" in back.restarted and agent.tracker.tracks == []
+
+
+# --------------------------------------------------------------------------------------------
+# the predictor
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def corridor_model():
+    return DestinationModel(PlanningGrid(corridor_map()), corridor_rois(), corridor_chain(),
+                            PredictionConfig(length_exponent=0.0), goal_points=GOALS)
+
+
+def test_predictor_agent_predicts_per_track_with_search_plans(corridor_model):
+    agent = PredictorAgent(corridor_model, FollowConfig(search_regions=2,
+                                                        search_min_probability=0.0))
+    pool = PredictorPool(corridor_model)     # the bare pool on the same stream
+    step = None
+    for k in range(60):                      # track 1 walks the corridor towards B's door,
+        t = 0.1 * k                          # track 2 stands in C
+        tracks = [(1, 7.05 + 0.05 * k, 5.75, 0.5, 0.0), (2, 25.05, 9.55, 0.0, 0.0)]
+        step = agent.tick(t, tracks)
+        want = pool.update(t, tracks)
+    assert sorted(step.destinations) == [1, 2] and step.went_back == 0.0
+    for tid, (p, plan) in step.destinations.items():
+        assert p.probabilities == want[tid].probabilities
+        assert len(plan) == 2 and plan[0][0] == p.best
+        for region, xy in plan:               # each region's one goal point is its search point
+            assert xy == GOALS[region][0]
+    assert step.destinations[1][0].under_way and step.destinations[1][0].best == "B"
+    back = agent.tick(2.0, [(1, 9.0, 5.75, 0.5, 0.0)])
+    assert back.went_back == pytest.approx(3.9) and back.destinations[1][0].leg == 1
+
+
+# --------------------------------------------------------------------------------------------
+# the follower
+# --------------------------------------------------------------------------------------------
+
+
+def tr(id, x, y, vx=0.0, vy=0.0):
+    return SimpleNamespace(id=id, x=x, y=y, vx=vx, vy=vy)
+
+
+def test_follower_agent_keeps_its_target_and_its_plan_and_searches_there_when_lost():
+    agent = FollowerAgent(FollowBehaviour(hall(), FollowConfig(lost_after=2.0)))
+    plans = {1: [("7", (8.0, 3.0))], 2: [("5", (1.0, 1.0))]}
+    s = agent.tick(0.0, (2.0, 2.0, 0.0), [tr(2, 6.0, 1.0), tr(1, 4.8, 2.0, 0.5)], plans)
+    assert s.target.id == 1                 # nothing followed or seen before: the lowest id
+    assert s.new and not s.switched and s.decision.mode == "follow"
+    assert agent.destination == plans[1]
+    first = 1
+    # the followed id is kept while it lives, whoever is nearer
+    s = agent.tick(0.5, (2.0, 2.0, 0.0), [tr(1, 4.9, 2.0, 0.5), tr(2, 6.0, 1.0)], plans)
+    assert s.target.id == first and not s.new
+    # it is gone: the nearest to where it was last seen replaces it (a switch)
+    last = (s.target.x, s.target.y)
+    s = agent.pick([tr(3, last[0] + 0.3, last[1]), tr(4, 9.0, 3.5)])
+    assert s.target.id == 3 and s.new and s.switched and agent.target_id == 3
+
+
+def test_follower_agent_searches_where_its_targets_plan_says_when_lost():
+    agent = FollowerAgent(FollowBehaviour(hall(), FollowConfig(lost_after=2.0)))
+    agent.tick(0.0, (2.0, 2.0, 0.0), [tr(1, 4.8, 2.0, 0.5)], {2: [("5", (1.0, 1.0))]})
+    assert agent.destination is None          # another track's plan is not taken
+    agent.tick(0.1, (2.0, 2.0, 0.0), [tr(1, 4.85, 2.0, 0.5)], {1: [("7", (8.0, 3.0))]})
+    s = agent.tick(2.5, (2.5, 2.0, 0.0), [], {})
+    assert s.target is None and s.decision.mode == "search"
+    assert s.decision.goal == pytest.approx((8.0, 3.0, math.atan2(1.0, 5.5)))
