@@ -26,7 +26,7 @@ def record(t, probs, v=(1.0, 0.0)):
     best = max(probs, key=probs.get)
     p = Prediction(t=t, leg_start=10.0, start_region="A", start_xy=(0.0, 0.0),
                    probabilities=probs, best=best, best_probability=probs[best], observed=1.0)
-    return ev._Record(t, p, (0.0, 0.0), v)
+    return ev.Record(t, p, (0.0, 0.0), v)
 
 
 def test_scoring_picks_the_latest_prediction_at_each_fraction_and_counts_gaps_as_misses():
@@ -35,7 +35,7 @@ def test_scoring_picks_the_latest_prediction_at_each_fraction_and_counts_gaps_as
     # 10 % (t=11) and 25 % (t=12.5): nothing yet; then a wrong guess at 13, a right one at 16
     recs = [record(13.0, {"A": 0.6, "B": 0.3, "C": 0.1}),
             record(16.0, {"A": 0.2, "B": 0.7, "C": 0.1}, v=(-1.0, 0.0))]
-    s = ev._score(leg, recs, recs[:1], FakeModel(), uniform)
+    s = ev.score_leg(leg, recs, recs[:1], FakeModel(), uniform)
     gt = s.scores["ground_truth"]
     # fractions 10 25 50 75 90 -> t = 11, 12.5, 15, 17.5, 19
     assert [c for c, _, _ in gt["predictor"]] == [False, False, False, True, True]

@@ -241,13 +241,14 @@ class RecorderNode:
         else:
             self.last_stamp_ns = None
 
-    def _silence(self, now: rospy.Time) -> float:
-        """Seconds since the newest pose: by its stamp, or (a publisher on another clock) by
-        when it arrived."""
+    def _pose_clock(self, now: rospy.Time) -> int:
+        """Now on the poses' clock (ns): this node's clock when their stamps are on it, else
+        (a publisher on another clock) the newest stamp plus the time since it arrived."""
         now_ns = now.secs * _NS + now.nsecs
         if self.last_stamp_ns is not None:
-            return (now_ns - self.last_stamp_ns) / 1e9
-        return (now - self.last_rx).to_sec()
+            return now_ns
+        rx = self.last_rx.secs * _NS + self.last_rx.nsecs
+        return self.chunker.open_poses[-1][0] + (now_ns - rx)
 
     def _tick(self, event) -> None:
         with self.lock:
@@ -255,12 +256,14 @@ class RecorderNode:
                 return
             now = rospy.Time.now()
             self.spill.flush_if_due()
-            gap = self.chunker.max_gap
-            if (gap > 0 and self.last_rx is not None and not self.last_rx.is_zero()
-                    and self.chunker.uuid is not None and self._silence(now) > gap):
-                ended = self.chunker.finish("gap")
+            ended = None
+            if self.last_rx is not None and not self.last_rx.is_zero() \
+                    and self.chunker.uuid is not None:
+                ended = self.chunker.check_gap(self._pose_clock(now))   # the one gap rule
+            if ended is not None:
                 rospy.loginfo("trajectory_recorder: no pose for %.1f s: trajectory %s ended "
-                              "after %d chunks", gap, ended.uuid, ended.sequence_id + 1)
+                              "after %d chunks", self.chunker.max_gap, ended.uuid,
+                              ended.sequence_id + 1)
                 self._hand_over(ended)
                 self.live = []
                 self.live_dirty = True

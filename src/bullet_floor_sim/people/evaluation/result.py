@@ -1,0 +1,155 @@
+"""The evaluation's parameters and what a run measured: EvalConfig, LegScore, EvalResult, and
+the fractions, methods and pipelines it scores."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Tuple
+
+from ...errors import BulletFloorSimError
+from ..prediction import PredictionConfig
+
+__all__ = ["EvalConfig", "EvalResult", "LegScore", "EvaluationError", "FRACTIONS", "METHODS",
+           "PIPELINES", "LEG_KINDS", "Moment"]
+
+FRACTIONS = (0.10, 0.25, 0.50, 0.75, 0.90)
+METHODS = ("predictor", "markov", "heading")
+PIPELINES = ("tracker", "ground_truth")
+LEG_KINDS = ("all", "change", "stay")
+Moment = Tuple[str, float, float, float, float, float, float]
+
+
+class EvaluationError(BulletFloorSimError):
+    """The evaluation cannot run (bad parameters, a world without two robots or ROIs)."""
+
+
+
+
+@dataclass
+@dataclass
+class EvalConfig:
+    """Evaluation parameters.
+
+    Attributes:
+        legs: walker legs to complete (successful legs are scored; failed ones are counted).
+        seed: seeds the walker, the sensor noise and everything else.
+        world: world name or path (two robots at least, with ROIs).
+        walker: index of the walking robot; observer: index of the observing robot.
+        control_rate: Hz of the navigation, tracking and prediction loop (the scan rate).
+        max_sim_time: stop after this much sim time (s) even if fewer legs are done
+            (default: 150 s per leg).
+        follow: the observer follows (False: it stays where it is; a baseline for the tracker).
+        match_distance: a track within this distance (m) of the walker tracks it.
+        visible_beams: the walker is visible when this many observer beams end on its body.
+        prediction: the predictor's parameters (default: PredictionConfig()).
+    """
+
+    legs: int = 200
+    seed: int = 1
+    world: str = "office"
+    walker: int = 0
+    observer: int = 1
+    control_rate: float = 10.0
+    max_sim_time: Optional[float] = None
+    follow: bool = True
+    match_distance: float = 0.5
+    visible_beams: int = 3
+    prediction: Optional[PredictionConfig] = None
+
+    def check(self) -> None:
+        if not (isinstance(self.legs, int) and self.legs >= 1):
+            raise EvaluationError("evaluate: legs must be an integer >= 1, got %r" % self.legs)
+        if self.walker == self.observer:
+            raise EvaluationError("evaluate: walker and observer must be different robots")
+        for name in ("control_rate", "match_distance"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise EvaluationError("evaluate: %s must be > 0, got %r" % (name, v))
+
+
+@dataclass
+class LegScore:
+    """One completed leg's predictions at each fraction observed.
+
+    ``scores[pipeline][method]`` = list over FRACTIONS of (correct: bool, log_loss: float,
+    predicted: bool -- whether the pipeline had a prediction of this leg then).
+    ``moments[pipeline]`` = list over FRACTIONS of what that prediction was made from
+    (start region, start x, y, position x, y, velocity x, y), or None: :func:`rescore`
+    scores them again under other prediction parameters.
+    """
+
+    number: int
+    start_region: str
+    target_region: str
+    duration: float
+    scores: Dict[str, Dict[str, List[Tuple[bool, float, bool]]]] = field(default_factory=dict)
+    moments: Dict[str, List[Optional[Moment]]] = field(default_factory=dict)
+
+
+@dataclass
+class EvalResult:
+    """What :func:`run` measured."""
+
+    config: EvalConfig
+    legs: List[LegScore]
+    failed_legs: int
+    sim_time: float
+    wall_time: float
+    ticks: int
+    visible_ticks: int
+    recalled_ticks: int
+    tracked_ticks: int
+    false_track_ticks: int
+    id_switches: int
+    mean_track_error: float
+    follow_modes: Dict[str, int]
+    handovers: int = 0
+    warnings: List[str] = field(default_factory=list)  # the map's handling, regions left out
+
+    @property
+    def recall(self) -> float:
+        """Tracker recall while the walker is visible to the observer."""
+        return self.recalled_ticks / self.visible_ticks if self.visible_ticks else float("nan")
+
+    @property
+    def tracked_share(self) -> float:
+        """Share of the run during which the walker is tracked."""
+        return self.tracked_ticks / self.ticks if self.ticks else float("nan")
+
+    def legs_of(self, kind: str = "all") -> List[LegScore]:
+        """The scored legs of a kind: ``all``, ``change`` (to another region) or ``stay``
+        (to another point of the region the leg started in). Under the seed's transition rule
+        offices are sticky (P(stay) 0.67-0.86 in the office world), so the Markov prior is
+        right on most ``stay`` legs and wrong on nearly every ``change`` leg out of an office:
+        the two kinds say different things about a predictor."""
+        if kind not in LEG_KINDS:
+            raise EvaluationError("evaluate: leg kind must be one of %s, got %r"
+                                  % (" | ".join(LEG_KINDS), kind))
+        if kind == "all":
+            return list(self.legs)
+        change = kind == "change"
+        return [leg for leg in self.legs if (leg.start_region != leg.target_region) == change]
+
+    def table(self, kind: str = "all") -> Dict[str, Dict[str, List[Tuple[float, float, int]]]]:
+        """``[pipeline][method]`` -> per fraction (accuracy, mean log-loss, legs), over the
+        legs of ``kind`` (see :meth:`legs_of`)."""
+        legs = self.legs_of(kind)
+        out: Dict[str, Dict[str, List[Tuple[float, float, int]]]] = {}
+        for p in PIPELINES:
+            out[p] = {}
+            for m in METHODS:
+                row = []
+                for k in range(len(FRACTIONS)):
+                    vals = [leg.scores[p][m][k] for leg in legs]
+                    n = len(vals)
+                    acc = sum(1 for c, _, _ in vals if c) / n if n else float("nan")
+                    ll = sum(v for _, v, _ in vals) / n if n else float("nan")
+                    row.append((acc, ll, n))
+                out[p][m] = row
+        return out
+
+    def coverage(self, pipeline: str) -> List[float]:
+        """Per fraction, the share of legs with a prediction of the current leg."""
+        n = len(self.legs)
+        return [sum(1 for leg in self.legs if leg.scores[pipeline]["predictor"][k][2]) / n
+                if n else float("nan") for k in range(len(FRACTIONS))]

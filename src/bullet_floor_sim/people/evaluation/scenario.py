@@ -1,0 +1,260 @@
+"""The run: the demo's observer scenario in one process (see the package's doc). The agents are
+people/agents.py's, the ones the ROS nodes drive; :class:`_Scenario` does per control tick what
+the nodes do per message."""
+from __future__ import annotations
+
+import math
+import time
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ...data.rois import load_rois
+from ...nav.planner import (Navigator, NavigatorConfig, PathFollower, PlanError, PlanningGrid,
+                            obstacles_in_base)
+from ..agents import FollowerAgent, PredictorAgent, TrackerAgent, WalkerAgent
+from ..follow import FollowBehaviour, FollowConfig
+from ..markov import MarkovChain, usable_rois
+from ..prediction import DestinationModel, OnlinePredictor, PredictionConfig
+from ..tracking import TrackerConfig
+from ..walker import GoalSampler, Walker, WalkerConfig, WalkerError, walkable_regions
+from .result import EvalConfig, EvalResult, EvaluationError, LegScore
+from .scoring import Record, score_leg
+
+__all__ = ["run", "world_model"]
+
+
+def run(config: Optional[EvalConfig] = None,
+        progress: Optional[Callable[[str], None]] = None) -> EvalResult:
+    """Run the study (see the module docstring).
+
+    Args:
+        config: parameters.
+        progress: called with a line of text after each leg.
+
+    Raises:
+        EvaluationError: the world has fewer than two robots or no usable ROIs.
+    """
+    from ...sim.world import World
+
+    cfg = config or EvalConfig()
+    cfg.check()
+    say = progress or (lambda _s: None)
+    t_wall = time.time()
+    world = World.from_name(cfg.world, seed=cfg.seed, physics_rate=100.0)
+    try:
+        return _run(cfg, world, say, t_wall)
+    finally:
+        world.close()
+
+
+def _regions(world):
+    """The planning grid, the walker's goal sampler, the regions the walker can reach, their
+    chain, and the warnings about the map and the regions left out."""
+    grid = PlanningGrid(world.fmap, handling=world.config.map_handling)
+    wcfg = WalkerConfig()
+    sampler = GoalSampler(grid, wcfg.clearance, wcfg.margin, wcfg.goal_tries)
+    rois, warnings = usable_rois(load_rois(world.config.rois))
+    rois, unreachable = walkable_regions(rois, sampler)
+    chain = MarkovChain.from_rois(rois)
+    return grid, sampler, rois, chain, world.solid.report + warnings + unreachable + chain.warnings
+
+
+def world_model(world_name: str, prediction: Optional[PredictionConfig] = None
+                ) -> DestinationModel:
+    """The destination model :func:`run` builds for a world (its regions the walker can
+    reach, their chain, its planning grid) with the given prediction parameters."""
+    from ...sim.world import World
+
+    world = World.from_name(world_name, seed=0, physics_rate=100.0)
+    try:
+        grid, _, rois, chain, _ = _regions(world)
+        return DestinationModel(grid, rois, chain, prediction)
+    finally:
+        world.close()
+
+
+class _Scenario:
+    """One run's world, agents and tallies; :meth:`tick` is one control tick of all of them."""
+
+    def __init__(self, cfg: EvalConfig, world, say: Callable[[str], None],
+                 t_wall: float) -> None:
+        if world.n < 2 or max(cfg.walker, cfg.observer) >= world.n:
+            raise EvaluationError("evaluate: world %s has %d robot(s); robots %d and %d are "
+                                  "needed" % (cfg.world, world.n, cfg.walker, cfg.observer))
+        if not world.config.rois:
+            raise EvaluationError("evaluate: world %s has no rois file" % cfg.world)
+        self.cfg, self.world, self.say, self.t_wall = cfg, world, say, t_wall
+        grid, sampler, rois, chain, self.warnings = _regions(world)
+        self.model = model = DestinationModel(grid, rois, chain, cfg.prediction)
+        self.uniform = {r: 1.0 / len(chain.ids) for r in chain.ids}
+        # the agents the nodes run: markov_walker, people_tracker (observer.launch's
+        # centre_offset for the Scitos body), destination_predictor, follower
+        self.walker = WalkerAgent(Walker(chain, rois, sampler, WalkerConfig(), seed=cfg.seed))
+        self.tracker = TrackerAgent.for_map(world.fmap, TrackerConfig(centre_offset=0.25),
+                                            handling=world.config.map_handling)
+        self.predictor = PredictorAgent(model)
+        self.follower = FollowerAgent(FollowBehaviour(grid, FollowConfig()))
+        # path_follower in each namespace; the observer's yields (demo.launch's ~give_way)
+        self.nav_walker = Navigator(grid, PathFollower())
+        self.nav_observer = Navigator(grid, PathFollower(), NavigatorConfig(give_way=True))
+        self.pred_gt = OnlinePredictor(model)   # the same predictor on the walker's truth
+        self.laser = [world.models[i].laser_pose for i in range(world.n)]  # x, y, z, yaw
+        self.body = float(world.radius[cfg.walker])  # the walker's footprint radius
+        self.scans: Dict[int, object] = {}
+        self.gt_records: List[Record] = []
+        self.trk_records: List[Record] = []
+        self.obs_goal_active = self.obs_goal_done = False
+        self.n_ticks = self.visible = self.recalled = self.tracked = 0
+        self.false_ticks = self.switches = self.failed = 0
+        self.err_sum = 0.0
+        self.modes: Dict[str, int] = {}
+        self.completed: List[LegScore] = []
+        self.t0 = world.clock.now
+
+    def tick(self, steps: int) -> None:
+        """Step the world one control period, then the walker, the ground-truth predictor
+        and the observer in turn."""
+        world, cfg = self.world, self.cfg
+        for s in world.step(steps):
+            self.scans[s.robot] = s
+        t = world.clock.now
+        world.update_odometry()
+        pose_w = world.view(cfg.walker, refresh=False)
+        self._walk(t, pose_w.pose)
+        x, y, yaw = pose_w.pose
+        v = pose_w.velocity[0]
+        vel = (v * math.cos(yaw), v * math.sin(yaw))
+        p = self.pred_gt.update(t, x, y, vel[0], vel[1])
+        if p is not None:
+            self.gt_records.append(Record(t, p, (x, y), vel))
+        self._observe(t, (x, y), world.view(cfg.observer, refresh=False).pose)
+
+    def _walk(self, t: float, pose: Sequence[float]) -> None:
+        """The walker (markov_walker + path_follower): a leg, its navigation, its end."""
+        W, agent = self.cfg.walker, self.walker
+        if agent.leg is None:
+            try:
+                step = agent.tick(t, pose)
+            except WalkerError as e:
+                raise EvaluationError("evaluate: the walker cannot go on: %s" % e)
+            if step.start is None:
+                return
+            try:
+                self.nav_walker.start(pose, step.start.goal, t)
+                self.gt_records, self.trk_records = [], []
+            except PlanError as e:
+                self._leg_ended(t, agent.tick(t, pose, ("rejected", str(e))))
+                return
+        st = self.nav_walker.update(pose, _obstacles(self.scans.get(W), self.laser[W]), t)
+        result = None if st.state == "active" else (
+            ("succeeded", "") if st.state == "succeeded" else ("aborted", st.message))
+        step = agent.tick(t, pose, result)
+        if step.finished is None:
+            self.world.command(W, st.v, 0.0, st.w)
+            return
+        self.world.command(W, 0.0, 0.0, 0.0)
+        if step.cancel:
+            self.nav_walker.cancel()
+        self._leg_ended(t, step)
+
+    def _leg_ended(self, t: float, step) -> None:
+        leg = step.finished
+        if leg.outcome == "succeeded":
+            self.completed.append(score_leg(leg, self.gt_records, self.trk_records, self.model,
+                                         self.uniform))
+        else:
+            self.failed += 1
+        self.say("%s  [%d/%d scored, %.0f s sim, %.0f s wall]" % (
+            step.line, len(self.completed), self.cfg.legs, t - self.t0,
+            time.time() - self.t_wall))
+
+    def _observe(self, t: float, truth: Tuple[float, float], pose_o: Sequence[float]) -> None:
+        """The observer: detect and track (people_tracker), predict (destination_predictor),
+        pick and follow the target (follower); the tick's tracking scores."""
+        cfg, OBS = self.cfg, self.cfg.observer
+        scan_o = self.scans.get(OBS)
+        x, y = truth
+        tracks, visible = [], False
+        if scan_o is not None:
+            tstep = self.tracker.tick(t, scan_o, _laser_in_map(pose_o, self.laser[OBS]))
+            tracks, pts = tstep.tracks, tstep.points
+            near = np.hypot(pts[:, 0] - x, pts[:, 1] - y) < self.body + 0.1 if len(pts) else []
+            visible = int(np.count_nonzero(near)) >= cfg.visible_beams
+        pstep = self.predictor.tick(t, [(tr.id, tr.x, tr.y, tr.vx, tr.vy) for tr in tracks])
+        if cfg.follow:
+            plans = {tid: plan for tid, (_p, plan) in pstep.destinations.items()}
+            fstep = self.follower.tick(t, pose_o, tracks, plans, self.obs_goal_done)
+            self.obs_goal_done = False
+            self._follow(t, pose_o, fstep.decision, scan_o)
+        else:
+            fstep = self.follower.pick(tracks)
+            self.world.command(OBS, 0.0, 0.0, 0.0)
+        target = fstep.target
+        self.switches += 1 if fstep.switched else 0
+        if target is not None and target.id in pstep.destinations:
+            self.trk_records.append(Record(t, pstep.destinations[target.id][0],
+                                            (target.x, target.y), (target.vx, target.vy)))
+        self.n_ticks += 1
+        match = [tr for tr in tracks if math.hypot(tr.x - x, tr.y - y) < cfg.match_distance]
+        if visible:
+            self.visible += 1
+            self.recalled += 1 if match else 0
+        if target is not None and math.hypot(target.x - x, target.y - y) < cfg.match_distance:
+            self.tracked += 1
+            self.err_sum += math.hypot(target.x - x, target.y - y)
+        if len(tracks) > len(match):
+            self.false_ticks += 1
+
+    def _follow(self, t: float, pose_o: Sequence[float], dec, scan_o) -> None:
+        """The observer's navigation (path_follower) towards the follower's goals."""
+        OBS = self.cfg.observer
+        self.modes[dec.mode] = self.modes.get(dec.mode, 0) + 1
+        if dec.goal is not None:
+            try:
+                self.nav_observer.start(pose_o, dec.goal, t)
+                self.obs_goal_active = True
+            except PlanError:
+                self.obs_goal_active, self.obs_goal_done = False, True
+        if not self.obs_goal_active:
+            self.world.command(OBS, 0.0, 0.0, 0.0)
+            return
+        st = self.nav_observer.update(pose_o, _obstacles(scan_o, self.laser[OBS]), t)
+        if st.state == "active":
+            self.world.command(OBS, st.v, 0.0, st.w)
+        else:
+            self.world.command(OBS, 0.0, 0.0, 0.0)
+            self.obs_goal_active, self.obs_goal_done = False, True
+
+    def result(self) -> EvalResult:
+        tracked = self.tracked
+        return EvalResult(config=self.cfg, legs=self.completed, failed_legs=self.failed,
+                          sim_time=self.world.clock.now - self.t0,
+                          wall_time=time.time() - self.t_wall, ticks=self.n_ticks,
+                          visible_ticks=self.visible, recalled_ticks=self.recalled,
+                          tracked_ticks=tracked, false_track_ticks=self.false_ticks,
+                          id_switches=self.switches, handovers=self.predictor.handovers,
+                          mean_track_error=self.err_sum / tracked if tracked else float("nan"),
+                          follow_modes=self.modes, warnings=self.warnings)
+
+
+def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
+    run = _Scenario(cfg, world, say, t_wall)
+    steps = max(1, int(round(1.0 / (world.clock.dt * cfg.control_rate))))
+    max_t = cfg.max_sim_time if cfg.max_sim_time is not None else 150.0 * cfg.legs
+    while len(run.completed) < cfg.legs and world.clock.now - run.t0 < max_t:
+        run.tick(steps)
+    return run.result()
+
+
+def _laser_in_map(pose: Sequence[float], laser: Sequence[float]) -> Tuple[float, float, float]:
+    x, y, yaw = pose[:3]
+    c, s = math.cos(yaw), math.sin(yaw)
+    return x + c * laser[0] - s * laser[1], y + s * laser[0] + c * laser[1], yaw + laser[3]
+
+
+def _obstacles(scan, laser) -> Optional[np.ndarray]:
+    if scan is None:
+        return None
+    return obstacles_in_base(scan.ranges, scan.angle_min, scan.angle_increment, scan.range_max,
+                             (laser[0], laser[1], laser[3]))
