@@ -393,7 +393,7 @@ def test_own_body_is_never_seen_at_any_heading():
             w.pose[0] = (2.5, 2.0, yaw)
             w.lidar.forget()
             w._next_scan_ns[:] = w.clock.now_ns
-            scan = w._scan()[0]
+            scan = w.scan_due()[0]
             ox, oy = 2.5 + 0.3 * math.cos(yaw), 2.0 + 0.3 * math.sin(yaw)
             angles = yaw + scan.angle_min + scan.angle_increment * np.arange(360)
             np.testing.assert_allclose(scan.ranges, [expected_range(ox, oy, a) for a in angles],
@@ -510,7 +510,7 @@ def test_other_robots_are_seen_at_their_octagons():
     w = simple_world([RobotSpec(name="r%d" % i, pose=p, laser=fine, odometry=STILL)
                       for i, p in enumerate(poses)])
     try:
-        assert (w._section_index[~np.eye(4, dtype=bool)] >= 0).all(), w.sections_report
+        assert (w.section_index[~np.eye(4, dtype=bool)] >= 0).all(), w.sections_report
         scans = w.step(10)
         assert len(scans) == 4
         on_robots = 0

@@ -2,7 +2,7 @@
 bodies out of the scene), the beams that can reach another robot before their wall are
 clipped to that robot's measured cross-section in numpy (sections.py), or cast again in Bullet
 with the robots in place where no checked section exists. ``world`` is the stepping
-:class:`~.world.World` (see World._scan).
+:class:`~.world.World` (see World.scan_due).
 """
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ def cast_at_robots(world: Any, plan: Any, dist: np.ndarray, hit: np.ndarray) -> 
     if not len(g):
         return
     beams = len(np.unique(g))
-    sec = world._section_index[plan.robots[ray_owner(plan, g)], j]
+    sec = world.section_index[plan.robots[ray_owner(plan, g)], j]
     flat = sec >= 0
     if flat.any():
         _clip(world, plan, reach, g[flat], j[flat], sec[flat], dist, hit)

@@ -176,7 +176,7 @@ class World:
         self._check_spawns()
         measure.self_exit(self)
         self._ray_radius = measure.radius_at_lasers(self)
-        (self._section_index, self._section_normals, self._section_offsets,
+        (self.section_index, self._section_normals, self._section_offsets,
          self.sections_report) = measure.sections(self)
 
     @contextlib.contextmanager
@@ -212,17 +212,6 @@ class World:
                                      if len(names) > 1 else "a wall", -c[8]))
 
     # ----------------------------------------------------------------------------- control
-    def robot_index(self, name: str) -> int:
-        """Index of the robot with this name.
-
-        Raises:
-            KeyError: no such robot.
-        """
-        for i, s in enumerate(self.specs):
-            if s.name == name:
-                return i
-        raise KeyError("no robot named %r in %s" % (name, self.config.path))
-
     def command(self, robot: int, vx: float, vy: float = 0.0, w: float = 0.0) -> None:
         """Set a robot's commanded body velocity; it holds until the watchdog times out.
 
@@ -325,7 +314,7 @@ class World:
             if self.clock.steps % self._odom_every == 0:
                 self.update_odometry()
             if self.clock.now_ns >= self._scan_due_ns:
-                scans.extend(self._scan())
+                scans.extend(self.scan_due())
         return scans
 
     def _physics_step(self) -> None:
@@ -382,7 +371,7 @@ class World:
         for i in (range(self.n) if rows is None else rows):
             self._set_body(i, self.pose[i])
 
-    def _scan(self) -> List[Scan]:
+    def scan_due(self) -> List[Scan]:
         """Cast the due lidars.
 
         PyBullet pays for every robot whose bounding box a ray passes through, even a robot
