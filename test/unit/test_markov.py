@@ -579,9 +579,11 @@ def test_rois_from_documents():
     rois = rois_from_documents(docs)
     assert rois == [Roi("1", "1", "corridor", "office", [(0, 0), (1, 0), (1, 1), (0, 1)]),
                     Roi("2", "1", "office", "office", [(1, 0), (2, 0), (2, 1)])]
-    with pytest.raises(RoiError, match='ROI "3": missing field.s. posearray'):
+    with pytest.raises(RoiError, match='ROI "3": not a SOMAROIObject document: missing '
+                                           'field.s. posearray'):
         rois_from_documents([{"id": "3", "config": "1", "type": "t", "map_name": "m"}])
-    with pytest.raises(RoiError, match=r'ROI "4": posearray.poses\[k\].position.x/y expected'):
+    with pytest.raises(RoiError, match=r'ROI "4": not a SOMAROIObject document: '
+                                           r'posearray.poses\[k\].position.x/y expected'):
         rois_from_documents([dict(soma_fields("4", []), posearray={"poses": [{"x": 1}]})])
     with pytest.raises(RoiError, match='ROI "5": a polygon needs at least 3 vertices, got 2'):
         rois_from_documents([soma_fields("5", [(0, 0), (1, 0)])])

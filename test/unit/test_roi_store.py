@@ -72,8 +72,16 @@ def test_the_fields_fill_the_generated_message():
 
 
 def test_roi_from_document_rejects_other_shapes():
-    with pytest.raises(RoiError, match="stored ROI '7': not a SOMAROIObject document"):
+    with pytest.raises(RoiError, match='stored ROI "7": not a SOMAROIObject document: missing '
+                                       r'field\(s\) type, map_name, posearray'):
         roi_from_document({"id": "7", "config": "1"})
+
+
+def test_a_closing_vertex_is_dropped_by_the_one_conversion():
+    f = roi_to_fields(square("3", 2.0, 1.0), T0)
+    f["posearray"]["poses"].append(f["posearray"]["poses"][0])      # closed by its first
+    assert len(f["posearray"]["poses"]) == 5
+    assert roi_from_document(f) == square("3", 2.0, 1.0)
 
 
 # -- versions, history, seeding -------------------------------------------------------------------

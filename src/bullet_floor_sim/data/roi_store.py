@@ -18,7 +18,7 @@ import datetime
 import json
 import math
 import time
-from typing import Any, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 from .rois import Roi, RoiError, id_order, validate_roi, validate_rois
 from .store import Store, StoreUnavailable, message_document
@@ -85,21 +85,34 @@ def roi_to_fields(roi: Roi, logtimestamp: int, frame_id: str = "map") -> Dict[st
     }
 
 
-def roi_from_document(doc: Dict[str, Any]) -> Roi:
-    """The ROI a stored SOMAROIObject document (or message dict) describes.
+def roi_from_document(doc: Any, what: str = "stored ROI") -> Roi:
+    """The ROI a SOMAROIObject document describes (a stored document, a message's fields:
+    :func:`ros.soma.roi_from_msg`, or a dict with the same fields): the one conversion of
+    SOMA's ROIs. The vertices are ``posearray.poses[k].position.{x, y}``; a closing vertex
+    equal to the first is dropped, as in rois.yaml. Not validated (data/rois.validate_roi).
 
     Raises:
-        RoiError: the document lacks the fields or they have the wrong shape.
+        RoiError: the document lacks a field or has a malformed one; the error names it as
+            ``what`` and its id (e.g. 'stored ROI "7": ...').
     """
+    label = '%s "%s"' % (what, doc["id"]) if isinstance(doc, Mapping) and "id" in doc \
+        else what
+    if not isinstance(doc, Mapping):
+        raise RoiError("%s: not a SOMAROIObject document (a %s)" % (label, type(doc).__name__))
+    missing = [f for f in ("id", "config", "type", "map_name", "posearray") if f not in doc]
+    if missing:
+        raise RoiError("%s: not a SOMAROIObject document: missing field(s) %s"
+                       % (label, ", ".join(missing)))
     try:
         vertices = [(float(p["position"]["x"]), float(p["position"]["y"]))
                     for p in doc["posearray"]["poses"]]
-        return Roi(id=str(doc["id"]), config=str(doc["config"]), type=str(doc["type"]),
-                   map_name=str(doc["map_name"]), vertices=vertices)
     except (KeyError, TypeError, ValueError) as e:
-        raise RoiError("stored ROI %r: not a SOMAROIObject document (%s: %s)"
-                       % (doc.get("id", "?") if isinstance(doc, dict) else "?",
-                          type(e).__name__, e))
+        raise RoiError("%s: not a SOMAROIObject document: posearray.poses[k].position.x/y "
+                       "expected (%s: %s)" % (label, type(e).__name__, e)) from None
+    if len(vertices) > 1 and vertices[0] == vertices[-1]:
+        vertices.pop()
+    return Roi(id=str(doc["id"]), config=str(doc["config"]), type=str(doc["type"]),
+               map_name=str(doc["map_name"]), vertices=vertices)
 
 
 # --------------------------------------------------------------------------------------------

@@ -9,20 +9,20 @@ from typing import Any, List
 
 import rospy
 
+from ..data.roi_store import roi_from_document
 from ..data.rois import Roi
 
 __all__ = ["roi_from_msg", "query_rois"]
 
 
 def roi_from_msg(msg: Any) -> Roi:
-    """A Roi from a SOMAROIObject (vertices: posearray.poses[k].position.x/y; a closing
-    vertex equal to the first is dropped, as in rois.yaml). Not validated (see
+    """A Roi from a SOMAROIObject message, by data/roi_store.roi_from_document (the one
+    conversion: a closing vertex equal to the first is dropped). Not validated (see
     people/markov.usable_rois)."""
-    vertices = [(float(p.position.x), float(p.position.y)) for p in msg.posearray.poses]
-    if len(vertices) > 1 and vertices[0] == vertices[-1]:
-        vertices.pop()
-    return Roi(id=str(msg.id), config=str(msg.config), type=str(msg.type),
-               map_name=str(msg.map_name), vertices=vertices)
+    return roi_from_document({
+        "id": msg.id, "config": msg.config, "type": msg.type, "map_name": msg.map_name,
+        "posearray": {"poses": [{"position": {"x": p.position.x, "y": p.position.y}}
+                                for p in msg.posearray.poses]}}, "ROI message")
 
 
 def query_rois(service: str, config: str, wait: float) -> List[Roi]:

@@ -8,6 +8,7 @@ from typing import Any, Iterable, List, Mapping, Optional, Tuple
 
 import numpy as np
 
+from ...data.roi_store import roi_from_document
 from ...data.rois import Roi, RoiError, validate_roi, validate_rois
 from .chain import DATABASE, ChainError, MarkovChain, chain_collection
 
@@ -142,27 +143,7 @@ def rois_from_documents(docs: Iterable[Mapping[str, Any]], strict: bool = True) 
         RoiError: a document lacks a field or has a malformed one (named with the ROI id), or,
             with ``strict``, an ROI is invalid.
     """
-    rois = []
-    for k, doc in enumerate(docs):
-        label = "ROI document %d" % k
-        if isinstance(doc, Mapping) and isinstance(doc.get("id"), str):
-            label = 'ROI "%s"' % doc["id"]
-        if not isinstance(doc, Mapping):
-            raise RoiError("%s: expected a SOMAROIObject document, got %s"
-                           % (label, type(doc).__name__))
-        missing = [f for f in ("id", "config", "type", "map_name", "posearray") if f not in doc]
-        if missing:
-            raise RoiError("%s: missing field(s) %s" % (label, ", ".join(missing)))
-        try:
-            poses = doc["posearray"]["poses"]
-            vertices = [(float(p["position"]["x"]), float(p["position"]["y"])) for p in poses]
-        except (KeyError, TypeError, ValueError) as e:
-            raise RoiError("%s: posearray.poses[k].position.x/y expected (%s: %s)"
-                           % (label, type(e).__name__, e)) from None
-        if len(vertices) > 1 and vertices[0] == vertices[-1]:
-            vertices.pop()
-        rois.append(Roi(id=str(doc["id"]), config=str(doc["config"]), type=str(doc["type"]),
-                        map_name=str(doc["map_name"]), vertices=vertices))
+    rois = [roi_from_document(doc, "ROI") for doc in docs]
     if strict:
         validate_rois(rois)
     return rois
