@@ -2,7 +2,7 @@
 message classes only: no roscore)."""
 import pytest
 
-from bullet_floor_sim.people.follow import search_plan
+from bullet_floor_sim.people.search import search_plan
 from bullet_floor_sim.people.prediction import Prediction
 
 dp = pytest.importorskip("bullet_floor_sim.ros.destination_predictor")

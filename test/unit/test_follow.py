@@ -6,8 +6,9 @@ import pytest
 
 from bullet_floor_sim.sim.floormap import map_from_grid
 from bullet_floor_sim.people.follow import (FollowBehaviour, FollowConfig, FollowError,
-                                          in_view, pick_target, search_plan, search_point,
-                                          standoff_point)
+                                            standoff_point)
+from bullet_floor_sim.people.search import (in_view, patrol_points, pick_target, search_plan,
+                                            search_point)
 from bullet_floor_sim.nav.planner import PlanningGrid, give_way_point
 
 RES = 0.05
@@ -82,6 +83,44 @@ def test_lost_target_waits_lost_after_then_searches_the_predicted_region_and_loo
     assert fb.update(12.0, (8.0, 3.0, 0.2 - math.pi), None, dest, goal_done=True).goal is None
     # seen again: back to following
     assert fb.update(13.0, (8.0, 3.0, 0.0), (9.5, 3.0, 0.3, 0.0)).mode == "follow"
+
+
+def test_patrol_points_are_the_roomiest_place_of_each_block():
+    grid = hall(12.0, 4.0)                     # walls one 0.05 m cell thick at the border
+    pts = patrol_points(grid, 4.0, 0.6)
+    # one block per 4 m along x (the 4 m height is one block): the centre line y = 2, as far
+    # from the side walls as the block allows (x = 2, 6, 10: 1.95 m from the walls)
+    assert len(pts) == 3
+    for (x, y), x0 in zip(sorted(pts.tolist()), (0.0, 4.0, 8.0)):
+        assert x0 <= x < x0 + 4.0 and abs(y - 2.0) <= grid.resolution
+        assert grid.clearance_at(x, y) >= 1.8
+    assert len(patrol_points(grid, 4.0, 2.5)) == 0   # nowhere that roomy
+
+
+def test_a_target_never_found_again_gets_a_patrol_of_the_building_nearest_first():
+    grid = hall(12.0, 4.0)
+    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=2))
+    fb.update(0.0, (2.0, 2.0, 0.0), (6.0, 2.0, 0.0, 0.0))     # seen once, 4 m off
+    dest = [("7", (10.0, 2.0))]
+    t, robot, goals = 2.0, (2.0, 2.0, 0.0), []
+    d = fb.update(t, robot, None, dest)
+    for _ in range(40):                                       # goals reached at once
+        if d.goal is not None:
+            goals.append((d.reason, d.goal[:2]))
+            robot = d.goal
+        t += 1.5
+        d = fb.update(t, robot, None, dest, goal_done=d.goal is not None)
+    searched = [g for r, g in goals if "searching" in r]
+    patrolled = [g for r, g in goals if "patrolling" in r]
+    assert searched[:2] == [(10.0, 2.0), (10.0, 2.0)]         # the plan's region, two rounds
+    assert all(g == (10.0, 2.0) for g in searched)
+    assert len(patrolled) >= 6 and "not found in 2 rounds" in [
+        r for r, _ in goals if "patrolling" in r][0]
+    places = sorted(patrol_points(grid, 4.0, 0.6).tolist())
+    first_tour = [list(g) for g in patrolled[:3]]
+    assert sorted(first_tour) == places                        # each place once per tour
+    assert first_tour[0] == max(places)                        # from x = 10: nearest first
+    assert sorted(list(g) for g in patrolled[3:6]) == places   # the next tour: all again
 
 
 def test_a_target_lost_close_by_is_looked_for_behind_first():

@@ -23,7 +23,8 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from ..errors import BulletFloorSimError
-from .follow import FollowBehaviour, FollowConfig, FollowDecision, pick_target, search_plan
+from .follow import FollowBehaviour, FollowConfig, FollowDecision
+from .search import pick_target, search_plan
 from .prediction import DestinationModel, Prediction, PredictorPool
 from .tracking import StaticMap, Track, Tracker, TrackerConfig, detect, scan_points
 from .walker import Leg, Walker
@@ -193,7 +194,7 @@ class PredictorStep:
 class PredictorAgent:
     """Where each track is heading: a predictor per track (people/prediction's PredictorPool:
     legs cut at dwells, a track that appears near where another was lost takes over its leg),
-    and where to look for it if it is lost (people/follow.search_plan).
+    and where to look for it if it is lost (people/search.search_plan).
 
     Args:
         model: the destination model (regions, chain, cost-to-go fields).

@@ -38,18 +38,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, List, Mapping, Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from ..errors import BulletFloorSimError
 from ..nav.planner import PlanError, PlanningGrid, give_way_point
 from ..geometry import wrap_angle
+from .search import as_plan, patrol_points
 
 _GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps to give_way
 
-__all__ = ["FollowError", "FollowConfig", "FollowDecision", "FollowBehaviour", "standoff_point",
-           "in_view", "pick_target", "search_point", "search_plan"]
+__all__ = ["FollowError", "FollowConfig", "FollowDecision", "FollowBehaviour", "standoff_point"]
 
 
 class FollowError(BulletFloorSimError):
@@ -70,6 +70,11 @@ class FollowConfig:
         search_turn: after reaching the search point, turn this much (radians) to look round.
         search_wait: after looking round, wait this long before going on to the next region.
         search_regions: search at most this many of the most likely regions, in turn.
+        search_rounds: after this many rounds of those regions without a sight of the target,
+            patrol the building instead: the roomiest place of every ``patrol_spacing`` block
+            of the map, nearest first, each once before any again (the target walked on to
+            regions its last prediction did not name, and out of sight of them).
+        patrol_spacing: the side (m) of the blocks that give the patrol its places.
         search_min_probability: ... each at least this likely (the most likely one always).
         roomy: the wall clearance (m) of a place the observer waits at: a stand-off point is
             chosen with at least this much when one exists, and an observer standing still
@@ -90,6 +95,8 @@ class FollowConfig:
     search_wait: float = 3.0
     search_regions: int = 3
     search_min_probability: float = 0.05
+    search_rounds: int = 2
+    patrol_spacing: float = 4.0
     roomy: float = 0.6
     give_way: float = 0.9
     give_way_reach: float = 4.0
@@ -98,14 +105,15 @@ class FollowConfig:
     def check(self) -> None:
         """Raise FollowError naming the first bad parameter."""
         for name in ("distance", "slack", "replan_distance", "goal_period", "lost_after",
-                     "search_turn", "search_wait", "roomy", "give_way", "give_way_reach",
-                     "give_way_hold"):
+                     "search_turn", "search_wait", "patrol_spacing", "roomy", "give_way",
+                     "give_way_reach", "give_way_hold"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise FollowError("follower: %s must be a finite number > 0, got %r" % (name, v))
-        if not (isinstance(self.search_regions, int) and self.search_regions >= 1):
-            raise FollowError("follower: search_regions must be an integer >= 1, got %r"
-                              % (self.search_regions,))
+        for name in ("search_regions", "search_rounds"):
+            v = getattr(self, name)
+            if not (isinstance(v, int) and v >= 1):
+                raise FollowError("follower: %s must be an integer >= 1, got %r" % (name, v))
         v = self.search_min_probability
         if not (isinstance(v, (int, float)) and 0.0 <= v <= 1.0):
             raise FollowError("follower: search_min_probability must be in [0, 1], got %r" % (v,))
@@ -173,6 +181,10 @@ class FollowBehaviour:
         self._goal_time = -math.inf
         self._search: List[Tuple[str, Tuple[float, float]]] = []
         self._search_index = 0
+        self._rounds = 0                 # rounds of the search plan gone without a sight
+        self._place = ""                 # what the current search goal is (for the log)
+        self._patrol: Optional[np.ndarray] = None   # patrol places (made when first needed)
+        self._patrolled: List[int] = []  # patrol places visited this tour
         self._search_phase = ""          # back | go | look | wait
         self._search_since = -math.inf
         self._route_key = None           # (target x, y, time, destinations) of self._route
@@ -204,13 +216,13 @@ class FollowBehaviour:
                 destination, goal_done: bool) -> FollowDecision:
         cfg = self.config
         if target is not None:
-            dests = [p for _, p in _as_plan(destination)]
+            dests = [p for _, p in as_plan(destination)]
             way = self._give_way(t, robot, target, dests, goal_done)
             return way if way is not None else self._follow(t, robot, target, goal_done)
         if self.last_seen is not None and t - self.last_seen < cfg.lost_after:
             return FollowDecision(self.mode, None, "target unseen for %.1f s" % (
                 t - self.last_seen))
-        plan = _as_plan(destination)
+        plan = as_plan(destination)
         if not plan:
             if self.mode != "idle":
                 self.mode = "idle"
@@ -219,7 +231,7 @@ class FollowBehaviour:
         rx, ry, ryaw = (float(v) for v in robot[:3])
         if self.mode != "search" or [r for r, _ in plan] != [r for r, _ in self._search]:
             first_loss = self.mode != "search"
-            self.mode, self._search, self._search_index = "search", plan, 0
+            self.mode, self._search, self._search_index, self._rounds = "search", plan, 0, 0
             lx, ly = self.last_target if self.last_target is not None else (rx, ry)
             if first_loss and math.hypot(lx - rx, ly - ry) <= cfg.distance + cfg.slack:
                 self._search_phase = "back"
@@ -234,12 +246,16 @@ class FollowBehaviour:
         if self._search_phase == "go" and goal_done:
             self._search_phase = "look"
             return FollowDecision("search", (rx, ry, wrap_angle(ryaw + cfg.search_turn)),
-                                  "at region %s's search point: looking round"
-                                  % self._search[self._search_index][0])
+                                  "at %s: looking round" % self._place)
         if self._search_phase == "look" and goal_done:
             self._search_phase, self._search_since = "wait", t
         if self._search_phase == "wait" and t - self._search_since >= cfg.search_wait:
+            if self._rounds >= cfg.search_rounds:
+                return self._patrol_go(rx, ry)
             self._search_index = (self._search_index + 1) % len(self._search)
+            self._rounds += 1 if self._search_index == 0 else 0
+            if self._rounds >= cfg.search_rounds:
+                return self._patrol_go(rx, ry)
             return self._search_go(rx, ry, "not found: searching region")
         return FollowDecision("search")
 
@@ -310,10 +326,32 @@ class FollowBehaviour:
 
     def _search_go(self, rx: float, ry: float, why: str) -> FollowDecision:
         region, (x, y) = self._search[self._search_index]
+        self._place = "region %s's search point" % region
+        return self._go(rx, ry, x, y, "%s %s (%d of %d)" % (
+            why, region, self._search_index + 1, len(self._search)))
+
+    def _patrol_go(self, rx: float, ry: float) -> FollowDecision:
+        """On to the nearest patrol place not visited in this tour (a new tour when all are)."""
+        if self._patrol is None:
+            self._patrol = patrol_points(self.grid, self.config.patrol_spacing,
+                                         self.config.roomy)
+        if len(self._patrol) == 0:
+            return self._search_go(rx, ry, "not found, nowhere to patrol: searching region")
+        if len(self._patrolled) >= len(self._patrol):
+            self._patrolled = []
+        d = np.hypot(self._patrol[:, 0] - rx, self._patrol[:, 1] - ry)
+        d[self._patrolled] = np.inf
+        k = int(np.argmin(d))
+        self._patrolled.append(k)
+        x, y = (float(v) for v in self._patrol[k])
+        self._place = "patrol place %d" % (k + 1)
+        return self._go(rx, ry, x, y, "not found in %d rounds of its likely regions: patrolling "
+                        "(%s of %d)" % (self._rounds, self._place, len(self._patrol)))
+
+    def _go(self, rx: float, ry: float, x: float, y: float, why: str) -> FollowDecision:
         self._search_phase = "go"
         yaw = math.atan2(y - ry, x - rx) if math.hypot(x - rx, y - ry) > 1e-6 else 0.0
-        return FollowDecision("search", (x, y, yaw), "%s %s (%d of %d)" % (
-            why, region, self._search_index + 1, len(self._search)))
+        return FollowDecision("search", (x, y, yaw), why)
 
     def _follow(self, t: float, robot: Sequence[float], target: Sequence[float],
                 goal_done: bool) -> FollowDecision:
@@ -376,73 +414,3 @@ def _distance_to(points: np.ndarray, x: float, y: float) -> np.ndarray:
     if not len(pts):
         return np.array([math.inf])
     return np.hypot(pts[:, 0] - x, pts[:, 1] - y)
-
-
-def pick_target(tracks: Sequence, current: Optional[int],
-                last_xy: Optional[Sequence[float]]):
-    """The track to follow among ``tracks`` (objects with ``id``, ``x``, ``y``): the one being
-    followed (id ``current``) while it lives; else the one nearest to where the target was last
-    seen; else the oldest (lowest id). None when there is no track."""
-    if not tracks:
-        return None
-    for tr in tracks:
-        if tr.id == current:
-            return tr
-    if last_xy is not None:
-        return min(tracks, key=lambda tr: math.hypot(tr.x - last_xy[0], tr.y - last_xy[1]))
-    return min(tracks, key=lambda tr: tr.id)
-
-
-def search_point(points: Sequence[Sequence[float]], xy: Sequence[float]) -> Tuple[float, float]:
-    """Where to look for a lost target heading for a region: of the region's goal points
-    (``points``, e.g. DestinationModel.goals), the one nearest to where it was last seen
-    (``xy`` itself when the region has none)."""
-    best, best_d = (float(xy[0]), float(xy[1])), math.inf
-    for p in points:
-        d = math.hypot(float(p[0]) - float(xy[0]), float(p[1]) - float(xy[1]))
-        if d < best_d:
-            best, best_d = (float(p[0]), float(p[1])), d
-    return best
-
-
-def search_plan(probabilities: Mapping[str, float], goals: Callable[[str], Sequence],
-                xy: Sequence[float], count: int = 3, min_probability: float = 0.05,
-                best: Optional[str] = None) -> List[Tuple[str, Tuple[float, float]]]:
-    """Where to search for a lost target: the ``count`` most likely destination regions with
-    probability at least ``min_probability`` (the most likely one always), most likely first
-    (of equal ones ``best`` first, e.g. the predictor's arg-max, then by region id), each with
-    its :func:`search_point` (``goals(region)``: the region's goal points) nearest to ``xy``,
-    where the target was last seen."""
-    ranked = sorted(probabilities.items(),
-                    key=lambda kv: (-float(kv[1]), kv[0] != best, kv[0]))
-    out = []
-    for k, (region, p) in enumerate(ranked[:max(1, int(count))]):
-        if k > 0 and float(p) < min_probability:
-            break
-        out.append((region, search_point(goals(region), xy)))
-    return out
-
-
-def _as_plan(destination) -> List[Tuple[str, Tuple[float, float]]]:
-    """``destination`` (None, one (region, (x, y)) pair, or a list of them) as a list."""
-    if destination is None:
-        return []
-    if len(destination) == 2 and isinstance(destination[0], str):
-        destination = [destination]
-    return [(str(r), (float(p[0]), float(p[1]))) for r, p in destination]
-
-
-
-
-def in_view(observer: Sequence[float], laser_offset: Sequence[float], point: Sequence[float],
-            fov: float, max_range: float) -> bool:
-    """Whether ``point`` lies within a laser's field of view (radians, centred ahead) and range
-    (occlusion not checked). ``laser_offset``: (x, y, yaw) of the laser in the base frame."""
-    x, y, yaw = (float(v) for v in observer[:3])
-    lx = x + math.cos(yaw) * laser_offset[0] - math.sin(yaw) * laser_offset[1]
-    ly = y + math.sin(yaw) * laser_offset[0] + math.cos(yaw) * laser_offset[1]
-    dx, dy = float(point[0]) - lx, float(point[1]) - ly
-    if math.hypot(dx, dy) > max_range:
-        return False
-    return abs(wrap_angle(math.atan2(dy, dx) - yaw - laser_offset[2])) <= 0.5 * fov + 1e-9
-

@@ -21,7 +21,7 @@ Parameters: ``~config`` ("1"), ``~rois_yaml`` (""), ``~tol`` (0.2), ``~mode`` (v
 ``~robot_radius`` (0.34, planning grid inflation), ``~beta`` and the other core
 PredictionConfig fields as ``~<field>``, ``~query_service``, ``~rois_changed_topic``,
 ``~map_topic``, ``~search_regions`` (3) and ``~search_min_probability`` (0.05): which regions
-get a search point in ``points`` (people/follow.search_plan).
+get a search point in ``points`` (people/search.search_plan).
 """
 from __future__ import annotations
 
@@ -55,7 +55,7 @@ __all__ = ["main", "DestinationPredictorNode", "destination_msg"]
 def destination_msg(track_id: int, prediction, header, best_point=(0.0, 0.0),
                     search=()) -> Destination:
     """A Destination message of a core Prediction (regions most likely first); ``best_point``:
-    where to look for the entity in the best region; ``search``: people/follow.search_plan's
+    where to look for the entity in the best region; ``search``: people/search.search_plan's
     (region, point) pairs, most likely first (``points``)."""
     m = Destination()
     m.header = header

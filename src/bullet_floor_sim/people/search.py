@@ -1,0 +1,100 @@
+"""Where the observer looks: which track to follow (:func:`pick_target`), where to search for
+a lost target (:func:`search_plan`, :func:`search_point`: the likely destinations' points),
+where to patrol when those gave nothing (:func:`patrol_points`), and whether a point is in the
+lidar's view (:func:`in_view`). people/follow.FollowBehaviour and people/agents use them."""
+from __future__ import annotations
+
+import math
+from typing import Callable, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..geometry import wrap_angle
+from ..nav.planner import PlanningGrid
+
+__all__ = ["pick_target", "search_point", "search_plan", "patrol_points", "in_view", "as_plan"]
+
+
+def pick_target(tracks: Sequence, current: Optional[int],
+                last_xy: Optional[Sequence[float]]):
+    """The track to follow among ``tracks`` (objects with ``id``, ``x``, ``y``): the one being
+    followed (id ``current``) while it lives; else the one nearest to where the target was last
+    seen; else the oldest (lowest id). None when there is no track."""
+    if not tracks:
+        return None
+    for tr in tracks:
+        if tr.id == current:
+            return tr
+    if last_xy is not None:
+        return min(tracks, key=lambda tr: math.hypot(tr.x - last_xy[0], tr.y - last_xy[1]))
+    return min(tracks, key=lambda tr: tr.id)
+
+
+def search_point(points: Sequence[Sequence[float]], xy: Sequence[float]) -> Tuple[float, float]:
+    """Where to look for a lost target heading for a region: of the region's goal points
+    (``points``, e.g. DestinationModel.goals), the one nearest to where it was last seen
+    (``xy`` itself when the region has none)."""
+    best, best_d = (float(xy[0]), float(xy[1])), math.inf
+    for p in points:
+        d = math.hypot(float(p[0]) - float(xy[0]), float(p[1]) - float(xy[1]))
+        if d < best_d:
+            best, best_d = (float(p[0]), float(p[1])), d
+    return best
+
+
+def search_plan(probabilities: Mapping[str, float], goals: Callable[[str], Sequence],
+                xy: Sequence[float], count: int = 3, min_probability: float = 0.05,
+                best: Optional[str] = None) -> List[Tuple[str, Tuple[float, float]]]:
+    """Where to search for a lost target: the ``count`` most likely destination regions with
+    probability at least ``min_probability`` (the most likely one always), most likely first
+    (of equal ones ``best`` first, e.g. the predictor's arg-max, then by region id), each with
+    its :func:`search_point` (``goals(region)``: the region's goal points) nearest to ``xy``,
+    where the target was last seen."""
+    ranked = sorted(probabilities.items(),
+                    key=lambda kv: (-float(kv[1]), kv[0] != best, kv[0]))
+    out = []
+    for k, (region, p) in enumerate(ranked[:max(1, int(count))]):
+        if k > 0 and float(p) < min_probability:
+            break
+        out.append((region, search_point(goals(region), xy)))
+    return out
+
+
+def as_plan(destination) -> List[Tuple[str, Tuple[float, float]]]:
+    """``destination`` (None, one (region, (x, y)) pair, or a list of them) as a list."""
+    if destination is None:
+        return []
+    if len(destination) == 2 and isinstance(destination[0], str):
+        destination = [destination]
+    return [(str(r), (float(p[0]), float(p[1]))) for r, p in destination]
+
+
+
+
+def patrol_points(grid: PlanningGrid, spacing: float, clearance: float) -> np.ndarray:
+    """Where to patrol for a target lost for good: the roomiest place of every ``spacing`` x
+    ``spacing`` block of the planning grid that has at least ``clearance`` to the walls, as an
+    (N, 2) array of map points (row by row)."""
+    k = max(1, int(round(spacing / grid.resolution)))
+    out = []
+    for r0 in range(0, grid.height, k):
+        for c0 in range(0, grid.width, k):
+            block = grid.clearance[r0:r0 + k, c0:c0 + k]
+            i = int(np.argmax(block))
+            if block.flat[i] >= clearance:
+                r, c = divmod(i, block.shape[1])
+                out.append(grid.to_world(c0 + c, r0 + r))
+    return np.array(out, dtype=float).reshape(-1, 2)
+
+
+def in_view(observer: Sequence[float], laser_offset: Sequence[float], point: Sequence[float],
+            fov: float, max_range: float) -> bool:
+    """Whether ``point`` lies within a laser's field of view (radians, centred ahead) and range
+    (occlusion not checked). ``laser_offset``: (x, y, yaw) of the laser in the base frame."""
+    x, y, yaw = (float(v) for v in observer[:3])
+    lx = x + math.cos(yaw) * laser_offset[0] - math.sin(yaw) * laser_offset[1]
+    ly = y + math.sin(yaw) * laser_offset[0] + math.cos(yaw) * laser_offset[1]
+    dx, dy = float(point[0]) - lx, float(point[1]) - ly
+    if math.hypot(dx, dy) > max_range:
+        return False
+    return abs(wrap_angle(math.atan2(dy, dx) - yaw - laser_offset[2])) <= 0.5 * fov + 1e-9
