@@ -79,6 +79,27 @@ def test_walker_agent_legs_results_timeouts_and_pauses(office):
         agent.tick(220.0 + s.pause, pose, ("done", ""))     # ... and a result it cannot know
 
 
+def test_walker_agent_gives_a_goal_given_up_close_by_one_new_goal_in_its_region(office):
+    rois, sampler = office
+    agent = WalkerAgent(Walker(MarkovChain.from_rois(rois), rois, sampler, WalkerConfig(),
+                               seed=4), regoal_within=1.0, max_regoals=1)
+    by_id = {r.id: r for r in rois}
+    leg = agent.tick(0.0, (3.0, 10.0, 0.0)).start
+    first = leg.goal
+    near = (first[0] + 0.6, first[1], 0.0)          # blocked 0.6 m short of it
+    s = agent.tick(40.0, near, ("aborted", "no progress for 60 s"))
+    assert s.regoal and s.start is leg and s.finished is None and agent.leg is leg
+    assert leg.regoals == 1 and math.hypot(leg.goal[0] - first[0], leg.goal[1] - first[1]) >= 1.0
+    assert roi_polygon(by_id[leg.target_region]).contains(Point(leg.goal[:2]))
+    assert s.notes[0].startswith("leg 1: goal given up 0.60 m short (no progress for 60 s)")
+    # the second give-up ends the leg (one new goal a leg), as does one far from the goal
+    s = agent.tick(70.0, (leg.goal[0] + 0.3, leg.goal[1], 0.0), ("aborted", "blocked"))
+    assert s.finished is leg and leg.outcome == "aborted" and leg.duration == 70.0
+    leg = agent.tick(70.0 + s.pause, (3.0, 10.0, 0.0)).start
+    s = agent.tick(80.0 + s.pause, (leg.goal[0] + 1.2, leg.goal[1], 0.0), ("aborted", "x"))
+    assert s.finished is leg and not s.regoal and leg.regoals == 0
+
+
 def test_walker_agent_no_leg_leaves_the_reasons_to_take(office):
     _, sampler = office
     wall = Roi("w", "1", "office", "office", [(-5.0, -5.0), (-1.0, -5.0), (-1.0, -1.0),

@@ -301,6 +301,24 @@ def test_an_observer_on_the_targets_way_steps_aside_and_waits_until_it_passed():
     assert d.mode == "follow"
 
 
+def test_giving_way_again_after_a_search_sends_the_give_way_goal_again():
+    grid = corridor_with_alcove()
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9,
+                                            lost_after=2.0))
+    dest = [("east", (10.5, 1.6))]
+    first = fb.update(0.0, (6.3, 1.6, math.pi), (4.8, 1.6, 0.0, 0.0), dest).goal
+    assert first is not None
+    # unseen (hidden by the alcove's corner) until the search sends its own goal ...
+    assert fb.update(1.0, (6.3, 1.6, math.pi), None, dest).goal is None
+    d = fb.update(2.5, (6.3, 1.6, math.pi), None, dest)
+    assert d.mode == "search" and d.goal is not None and d.goal[:2] != first[:2]
+    # ... then seen again where it stood: the give-way goal goes out again (the navigation
+    # is on the search goal now; holding the old yield left the observer in its way)
+    d = fb.update(3.0, (6.3, 1.6, math.pi), (4.8, 1.6, 0.0, 0.0), dest)
+    assert d.mode == "give_way" and d.goal is not None
+    assert d.goal[:2] == pytest.approx(first[:2])
+
+
 def test_an_observer_behind_the_target_or_far_from_it_does_not_give_way():
     grid = corridor_with_alcove()
     dest = [("east", (10.5, 1.6))]

@@ -266,7 +266,7 @@ def test_log_lines(office):
     assert w.finish(leg, "succeeded", 123.44, "2") == "leg 0: office 7 -> corridor 2 in 23.4 s"
     assert leg.to_dict() == {"leg": 0, "from": "7", "to": "2", "goal": [12.0, 10.0, 0.0],
                              "started": 100.0, "duration": 23.44, "outcome": "succeeded",
-                             "detail": "", "end_region": "2"}
+                             "detail": "", "end_region": "2", "regoals": 0}
     leg = Leg(number=8, start_region="", target_region="9", goal=(25.1, 4.3, 0.0),
               started=10.0)
     assert w.finish(leg, "timeout", 130.0, "3", "no result within 120 s") == (

@@ -22,6 +22,7 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ..data.rois import RoiError
 from ..errors import BulletFloorSimError
 from .follow import FollowBehaviour, FollowConfig, FollowDecision
 from .search import pick_target, search_plan
@@ -48,7 +49,8 @@ class WalkerStep:
     """What the walker does after one tick.
 
     Attributes:
-        start: a new leg: send its goal now.
+        start: a new leg, or the current one with a new goal (``regoal``): send its goal now.
+        regoal: ``start`` is the current leg, given a new goal in its region.
         finished: the leg that ended this tick (its outcome, duration and detail are set).
         line: the finished leg's log line.
         pause: the dwell (after a success) or retry delay (after a failure) that follows it.
@@ -57,6 +59,7 @@ class WalkerStep:
     """
 
     start: Optional[Leg] = None
+    regoal: bool = False
     finished: Optional[Leg] = None
     line: str = ""
     pause: float = 0.0
@@ -68,12 +71,23 @@ class WalkerAgent:
     """Legs one after the other: draw a leg, wait for its goal's result or its timeout
     (``walker.config.goal_timeout``), dwell or back off, draw the next.
 
+    A goal the navigation gives up on with the robot within ``regoal_within`` of it (someone
+    stands on or beside it: the observer, waiting near the walker) is replaced, up to
+    ``max_regoals`` times a leg, by another goal in the same region at least that far from
+    it, as a person would stop at another free spot; the leg goes on under its own timeout.
+
     Args:
         walker: the walk (chain, regions, goal sampler, random streams).
+        regoal_within: metres (a robot's width and a margin).
+        max_regoals: new goals a leg may get.
     """
 
-    def __init__(self, walker: Walker) -> None:
+    def __init__(self, walker: Walker, regoal_within: float = 1.0, max_regoals: int = 1) -> None:
+        if not (math.isfinite(regoal_within) and regoal_within >= 0):
+            raise BulletFloorSimError("walker: regoal_within must be a finite number >= 0, "
+                                      "got %r" % (regoal_within,))
         self.walker = walker
+        self.regoal_within, self.max_regoals = float(regoal_within), int(max_regoals)
         self.leg: Optional[Leg] = None
         self.resume_at = -math.inf   # no leg starts before this time
 
@@ -108,6 +122,8 @@ class WalkerAgent:
             step.cancel = True
         elif result is not None:
             outcome, detail = result
+            if outcome == "aborted" and self._regoal(leg, pose, detail, step):
+                return step
         else:
             return step
         step.line = self.walker.finish(leg, outcome, t, self.walker.region_at(pose[0], pose[1]),
@@ -116,6 +132,29 @@ class WalkerAgent:
         step.finished, self.leg, self.resume_at = leg, None, t + step.pause
         step.notes = self.take_notes()
         return step
+
+    def _regoal(self, leg: Leg, pose: Sequence[float], why: str, step: WalkerStep) -> bool:
+        """Give ``leg`` another goal in its region when it was given up near its goal."""
+        gx, gy, _ = leg.goal
+        near = math.hypot(pose[0] - gx, pose[1] - gy)
+        if leg.regoals >= self.max_regoals or near > self.regoal_within:
+            return False
+        w = self.walker
+        roi = w.index.by_id.get(leg.target_region)
+        for _ in range(20 if roi is not None else 0):   # draws away from the blocked goal
+            try:
+                x, y = w.sampler.sample(roi, w.rng_goal, (pose[0], pose[1]))
+            except RoiError:
+                return False
+            if math.hypot(x - gx, y - gy) >= self.regoal_within:
+                yaw = math.atan2(y - pose[1], x - pose[0])
+                leg.goal, leg.regoals = (x, y, yaw), leg.regoals + 1
+                step.start, step.regoal = leg, True
+                step.notes = ["leg %d: goal given up %.2f m short (%s): new goal (%.2f, %.2f) "
+                              "in %s" % (leg.number, near, why, x, y,
+                                         w.label(leg.target_region))]
+                return True
+        return False
 
     def take_notes(self) -> List[str]:
         """The walker's log lines since the last call other than the legs' own (those are a

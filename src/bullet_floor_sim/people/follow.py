@@ -267,6 +267,8 @@ class FollowBehaviour:
         cfg = self.config
         tx, ty = float(target[0]), float(target[1])
         rx, ry, ryaw = (float(v) for v in robot[:3])
+        if self._yield is not None and self.mode != "give_way":
+            self._yield = None   # a search or follow goal replaced the give-way goal since
         if self._yield is not None:
             yx, yy, yt = self._yield
             if math.hypot(tx - yx, ty - yy) < cfg.distance and t - yt < cfg.give_way_hold:

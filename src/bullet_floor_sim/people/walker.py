@@ -297,6 +297,7 @@ class Leg:
         outcome: one of OUTCOMES (None while it runs).
         detail: why it failed (move_base's text, the timeout).
         end_region: where the robot was when the leg finished.
+        regoals: new goals the leg was given in its region (people/agents.WalkerAgent).
     """
 
     number: int
@@ -308,6 +309,7 @@ class Leg:
     outcome: Optional[str] = None
     detail: str = ""
     end_region: str = ""
+    regoals: int = 0
 
     @property
     def duration(self) -> float:
@@ -319,7 +321,7 @@ class Leg:
         return {"leg": self.number, "from": self.start_region, "to": self.target_region,
                 "goal": [round(v, 3) for v in self.goal], "started": self.started,
                 "duration": round(self.duration, 3), "outcome": self.outcome,
-                "detail": self.detail, "end_region": self.end_region}
+                "detail": self.detail, "end_region": self.end_region, "regoals": self.regoals}
 
 
 @dataclass

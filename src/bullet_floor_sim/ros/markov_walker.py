@@ -29,7 +29,9 @@ sim time; see people.walker.WalkerConfig), ``~dwell_min``/``~dwell_max`` (5/20 s
 = ask ``/soma/map_info``), ``~tol`` (0.2), ``~mode`` (vertex|edge), ``~min_shared`` (0.8),
 ``~query_service``, ``~map_info_service``, ``~rois_changed_topic``, ``~requery_period`` (30),
 ``~map_topic`` (``/map``), ``~map_yaml`` ("" = use the topic), ``~db`` (``mongodb://...`` or a
-directory; "" = the embedded default), ``~store_chain`` (true), ``~frame_id`` (map).
+directory; "" = the embedded default), ``~store_chain`` (true), ``~frame_id`` (map),
+``~regoal_within`` (1.0 m) and ``~max_regoals`` (1): a goal the navigation gives up on this
+close is replaced by another in its region (people/agents.WalkerAgent).
 
 Problems (no ROIs, service missing, no map, no action server, unreachable regions) are one
 line each in the log and retried; the node does not exit.
@@ -111,6 +113,7 @@ class MarkovWalkerNode:
         if self.mode not in MODES:
             raise WalkerError("~mode must be one of %s, got %r" % ("/".join(MODES), self.mode))
         self.min_shared = float(gp("~min_shared", 0.8))
+        self.regoal = (float(gp("~regoal_within", 1.0)), int(gp("~max_regoals", 1)))
         self.robot_radius = float(gp("~robot_radius", PlannerConfig.robot_radius))
         self.query_service = str(gp("~query_service", "/soma/query_rois"))
         self.map_info_service = str(gp("~map_info_service", "/soma/map_info"))
@@ -355,7 +358,7 @@ class MarkovWalkerNode:
             return False
         with self.lock:
             self.walker = Walker(self.chain, self.rois, self.sampler, self.config, self.seed)
-            self.agent = WalkerAgent(self.walker)
+            self.agent = WalkerAgent(self.walker, *self.regoal)
         rospy.loginfo("markov_walker: seed %d (set ~seed to repeat this walk)",
                       self.walker.seed_used)
         return self._wait_for_server()

@@ -138,25 +138,34 @@ class _Scenario:
                 step = agent.tick(t, pose)
             except WalkerError as e:
                 raise EvaluationError("evaluate: the walker cannot go on: %s" % e)
-            if step.start is None:
-                return
-            try:
-                self.nav_walker.start(pose, step.start.goal, t)
-                self.gt_records, self.trk_records = [], []
-            except PlanError as e:
-                self._leg_ended(t, agent.tick(t, pose, ("rejected", str(e))))
+            if step.start is None or not self._send(t, pose, step.start, True):
                 return
         st = self.nav_walker.update(pose, _obstacles(self.scans.get(W), self.laser[W]), t)
         result = None if st.state == "active" else (
             ("succeeded", "") if st.state == "succeeded" else ("aborted", st.message))
         step = agent.tick(t, pose, result)
-        if step.finished is None:
+        if step.finished is None and not step.regoal:
             self.world.command(W, st.v, 0.0, st.w)
             return
         self.world.command(W, 0.0, 0.0, 0.0)
+        if step.regoal:
+            self._send(t, pose, step.start, False)
+            return
         if step.cancel:
             self.nav_walker.cancel()
         self._leg_ended(t, step)
+
+    def _send(self, t: float, pose: Sequence[float], leg, new_leg: bool) -> bool:
+        """Start the navigation to the leg's goal; a goal it cannot plan to ends the leg
+        (rejected). A new leg's predictions start afresh."""
+        try:
+            self.nav_walker.start(pose, leg.goal, t)
+        except PlanError as e:
+            self._leg_ended(t, self.walker.tick(t, pose, ("rejected", str(e))))
+            return False
+        if new_leg:
+            self.gt_records, self.trk_records = [], []
+        return True
 
     def _leg_ended(self, t: float, step) -> None:
         leg = step.finished
