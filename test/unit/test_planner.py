@@ -298,6 +298,26 @@ def test_a_robot_that_cannot_move_backs_off_unless_something_is_behind_it():
         assert all(v < 0 for v in backed)
 
 
+def test_a_wedged_robot_nudges_forward_when_behind_is_not_clear_then_gives_up():
+    g = np.zeros((60, 100), dtype=np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+    grid = PlanningGrid(map_from_grid(g, 0.05))
+    nav = Navigator(grid, PathFollower(), NavigatorConfig(blocked_timeout=30.0))
+    nav.start((1.0, 1.5, 0.0), (4.0, 1.5), 0.0)
+    behind = np.array([[-0.45, 0.0]])
+    messages, st = [], None
+    for k in range(400):               # 40 s: it never moves nor turns, whatever it is told
+        st = nav.update((1.0, 1.5, 0.0), behind, 0.1 * k)
+        messages.append((st.message, st.v))
+        if st.state != "active":
+            break
+    assert any(m == "nudging forward" and v > 0 for m, v in messages)
+    assert not any(m == "backing up" for m, _ in messages)
+    # it waited in place for ever before; now it gives the goal up once stalled 30 s
+    assert st.state == "aborted" and st.message.startswith("stalled for 3")
+    assert 30.0 < 0.1 * (len(messages) - 1) < 36.0
+
+
 def test_the_look_ahead_chord_keeps_off_a_door_corner_that_the_path_clears():
     """malaga_corridor's lab door: a path down a channel 1-5 cm wider than the robot, then
     diagonally out. From a heading 30 degrees off the path, a 0.6 m look-ahead chord cut the

@@ -151,6 +151,8 @@ class Navigator:
         self._retreat: Optional[Tuple[float, float]] = None  # where it retreats to, out of the way
         self._backup_until: Optional[float] = None  # backing up off a contact until then
         self._last_stall = -math.inf
+        self._stuck: Optional[Tuple[float, float, float, float]] = None  # first stall: t, pose
+        self._nudge = -1.0                        # -1 backing up, +1 nudging forward
         self._resume_at: Optional[float] = None   # out of the way: when to go on to the goal
         self.retreats = 0
         self._seen = np.zeros((0, 2))             # the last scan's points in the map frame
@@ -181,6 +183,7 @@ class Navigator:
         self._still_since = None
         self._retreat, self._resume_at, self._backup_until = None, None, None
         self._last_stall = -math.inf
+        self._stuck = None
         self.retreats = 0
         return path
 
@@ -261,30 +264,52 @@ class Navigator:
             return NavStatus(0.0, 0.0, "active", "blocked", cmd.distance_to_goal)
         self._blocked_since = None
         if self._backup_until is not None and now < self._backup_until:
-            return NavStatus(-_BACKUP_SPEED, 0.0, "active", "backing up", cmd.distance_to_goal)
+            return NavStatus(self._nudge * _BACKUP_SPEED, 0.0, "active",
+                             "backing up" if self._nudge < 0 else "nudging forward",
+                             cmd.distance_to_goal)
         self._backup_until = None
         if self._stalled(pose, now):
-            self.stalls += 1
-            again = now - self._last_stall < 3.0 * cfg.stall_time
-            self._last_stall = now
-            if again and self._clear_behind(pose, obstacles):
-                # pressed against another robot so that it cannot even turn: back off a little
-                self._backup_until = now + _BACKUP_TIME
-                return NavStatus(-_BACKUP_SPEED, 0.0, "active", "backing up",
-                                 cmd.distance_to_goal)
-            self._replan_around(pose, obstacles)
-            return NavStatus(0.0, 0.0, "active", "stalled", cmd.distance_to_goal)
+            return self._on_stall(pose, obstacles, now, cmd)
         if cmd.state not in ("aligning",) and now - self._best_t > cfg.progress_timeout:
             return self._abort("no progress for %.0f s, %.2f m from the goal"
                                % (now - self._best_t, cmd.distance_to_goal), cmd)
         return NavStatus(cmd.v, cmd.w, "active", cmd.state, cmd.distance_to_goal)
 
-    def _clear_behind(self, pose: Sequence[float], obstacles: Optional[np.ndarray]) -> bool:
-        """Backing up ``_BACKUP_TIME`` s brings the robot no nearer a wall of the map (than
-        now or than its radius), and no scan point lies in the strip it sweeps (a lidar that
-        sees only ahead shows nothing there: the map is the check then)."""
+    def _on_stall(self, pose: Sequence[float], obstacles: Optional[np.ndarray], now: float,
+                  cmd: FollowerCommand) -> NavStatus:
+        """Stalled: plan again around what the scan shows; stalled again soon after (it cannot
+        even turn: pressed against a robot, or wedged on a wall corner), back off a little, or
+        nudge forward when only that is clear; stalled without moving 0.1 m or turning 0.3 rad
+        for blocked_timeout, abort (it waited in place for ever before)."""
+        cfg = self.config
+        self.stalls += 1
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
-        back = _BACKUP_SPEED * _BACKUP_TIME
+        st = self._stuck
+        if st is None or math.hypot(x - st[1], y - st[2]) > 0.1 \
+                or abs(wrap_angle(yaw - st[3])) > 0.3:
+            self._stuck = (now, x, y, yaw)
+        elif now - st[0] > cfg.blocked_timeout:
+            return self._abort("stalled for %.0f s (it can neither move nor turn), %.2f m from "
+                               "the goal" % (now - st[0], cmd.distance_to_goal), cmd)
+        again = now - self._last_stall < 3.0 * cfg.stall_time
+        self._last_stall = now
+        for sign in (-1.0, 1.0):
+            if again and self._clear_behind(pose, obstacles, sign):
+                self._backup_until, self._nudge = now + _BACKUP_TIME, sign
+                return NavStatus(sign * _BACKUP_SPEED, 0.0, "active",
+                                 "backing up" if sign < 0 else "nudging forward",
+                                 cmd.distance_to_goal)
+        self._replan_around(pose, obstacles)
+        return NavStatus(0.0, 0.0, "active", "stalled", cmd.distance_to_goal)
+
+    def _clear_behind(self, pose: Sequence[float], obstacles: Optional[np.ndarray],
+                      sign: float = -1.0) -> bool:
+        """Backing up (``sign`` -1; +1: moving forward) ``_BACKUP_TIME`` s brings the robot no
+        nearer a wall of the map (than now or than its radius), and no scan point lies in the
+        strip it sweeps (a lidar that sees only ahead shows nothing behind: the map is the
+        check then)."""
+        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+        back = -sign * _BACKUP_SPEED * _BACKUP_TIME
         fine = self.grid._fine
         cells = self.grid.fmap.world_to_cell(np.array([x, x - back * math.cos(yaw)]),
                                              np.array([y, y - back * math.sin(yaw)]))
@@ -298,8 +323,8 @@ class Navigator:
             return True
         pts = np.asarray(obstacles, dtype=float)
         reach = r + _BACKUP_SPEED * _BACKUP_TIME + 0.05
-        return not ((pts[:, 0] < 0.0) & (pts[:, 0] > -reach)
-                    & (np.abs(pts[:, 1]) < r + 0.03)).any()
+        along = sign * pts[:, 0]
+        return not ((along > 0.0) & (along < reach) & (np.abs(pts[:, 1]) < r + 0.03)).any()
 
     def _abort(self, message: str, cmd: FollowerCommand) -> NavStatus:
         self.goal = None
