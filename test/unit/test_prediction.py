@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import os
-import time
 
 import numpy as np
 import pytest
@@ -272,7 +271,7 @@ def test_no_corner_cutting_like_the_planner():
 
 def test_cost_to_go_is_the_planners_path_cost(office):
     """V at a few start points equals the cost of the planner's A* path to the goal point."""
-    m, _ = office
+    m = office
     grid = m.grid
     w = grid.config.cost_weight
     for region, start in (("5", (3.0, 10.0)), ("15", (3.0, 10.0)), ("9", (12.0, 10.0)),
@@ -491,24 +490,18 @@ def office():
     rois = load_rois(os.path.join(OFFICE, "rois.yaml"))
     grid = PlanningGrid(load_map(os.path.join(OFFICE, "map.yaml")))
     chain = MarkovChain.from_rois(rois)
-    t0 = time.perf_counter()
-    m = DestinationModel(grid, rois, chain)
-    took = time.perf_counter() - t0
-    print("\noffice world: %d goal points, V fields in %.2f s"
-          % (sum(len(m.goals(r)) for r in chain.ids), took))
-    return m, took
+    return DestinationModel(grid, rois, chain)   # its build time: bench/prediction_bench.py
 
 
 def test_office_world_precomputes_and_every_region_has_reachable_goals(office):
-    m, took = office
-    assert took < 30.0
+    m = office
     assert m.goal_problems == {}
     for r in m.chain.ids:  # reachable from robot1's start pose
         assert np.isfinite(m.cost_to_go(r, 3.0, 10.0)).any(), r
 
 
 def test_office_corridor_walk_east_from_office_1s_door(office):
-    m, _ = office
+    m = office
     s = (2.65, 10.0)  # corridor_west ("1"), in front of office_1's ("5") door
     r0 = m.start_region(*s)
     assert r0 == "1"
