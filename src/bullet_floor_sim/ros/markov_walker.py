@@ -24,14 +24,15 @@ Topics (in the node's namespace, ``~`` = ``markov_walker/``):
 
 Parameters: ``~seed`` (-1: random, logged so a run can be repeated), ``~goal_timeout`` (120 s
 sim time; see people.walker.WalkerConfig), ``~dwell_min``/``~dwell_max`` (5/20 s), ``~margin``
-(0.5 m inside the polygon), ``~clearance`` (0.45 m from walls), ``~robot_radius`` (0.34),
-``~action`` (``move_base``, relative to the namespace), ``~config`` ("1"), ``~map_name`` (""
-= ask ``/soma/map_info``), ``~tol`` (0.2), ``~mode`` (vertex|edge), ``~min_shared`` (0.8),
-``~query_service``, ``~map_info_service``, ``~rois_changed_topic``, ``~requery_period`` (30),
-``~map_topic`` (``/map``), ``~map_yaml`` ("" = use the topic), ``~db`` (``mongodb://...`` or a
-directory; "" = the embedded default), ``~store_chain`` (true), ``~frame_id`` (map),
-``~regoal_within`` (1.0 m) and ``~max_regoals`` (1): a goal the navigation gives up on this
-close is replaced by another in its region (people/agents.WalkerAgent).
+(0.5 m inside the polygon), ``~clearance`` (0.45 m from walls) and the other
+people.walker.WalkerConfig fields as ``~<field>`` (``~retry_delay``, ``~max_picks``, ...),
+``~robot_radius`` (0.34), ``~action`` (``move_base``, relative to the namespace), ``~config``
+("1"), ``~map_name`` ("" = ask ``/soma/map_info``), ``~tol`` (0.2), ``~mode`` (vertex|edge),
+``~min_shared`` (0.8), ``~query_service``, ``~map_info_service``, ``~rois_changed_topic``,
+``~requery_period`` (30), ``~map_topic`` (``/map``), ``~map_yaml`` ("" = use the topic),
+``~db`` (``mongodb://...`` or a directory; "" = the embedded default), ``~store_chain`` (true),
+``~frame_id`` (map), ``~regoal_within`` (1.0 m) and ``~max_regoals`` (1): a goal the navigation
+gives up on this close is replaced by another in its region (people/agents.WalkerAgent).
 
 Problems (no ROIs, service missing, no map, no action server, unreachable regions) are one
 line each in the log and retried; the node does not exit.
@@ -63,7 +64,7 @@ from ..people.agents import WalkerAgent, WalkerStep
 from ..people.walker import (GoalSampler, Leg, RegionIndex, Walker, WalkerConfig, WalkerError,
                              walkable_regions)
 from .convert import yaw as yaw_of
-from .params import map_handling
+from .params import config_from_params, map_handling
 from .soma import query_rois
 from .node import run_node
 from .markers import chain_markers
@@ -99,11 +100,7 @@ class MarkovWalkerNode:
 
     def __init__(self) -> None:
         gp = rospy.get_param
-        self.config = WalkerConfig(
-            goal_timeout=float(gp("~goal_timeout", 120.0)),
-            dwell_min=float(gp("~dwell_min", 5.0)), dwell_max=float(gp("~dwell_max", 20.0)),
-            margin=float(gp("~margin", 0.5)), clearance=float(gp("~clearance", 0.45)))
-        self.config.check()
+        self.config = config_from_params(WalkerConfig())   # ~goal_timeout, ~dwell_min, ...
         seed = int(gp("~seed", -1))
         self.seed = seed if seed >= 0 else None
         self.roi_config = str(gp("~config", "1"))
