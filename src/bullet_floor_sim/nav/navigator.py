@@ -251,6 +251,7 @@ class Navigator:
             self._best = cmd.distance_to_goal
             self._best_t = now
             self._blocked_total = 0.0   # the time blocked counts since the last progress
+            self._stuck = None          # and the time stalled
         if cmd.state == "blocked":
             self._blocked_total += dt
             if self._blocked_since is None:
@@ -279,13 +280,14 @@ class Navigator:
                   cmd: FollowerCommand) -> NavStatus:
         """Stalled: plan again around what the scan shows; stalled again soon after (it cannot
         even turn: pressed against a robot, or wedged on a wall corner), back off a little, or
-        nudge forward when only that is clear; stalled without moving 0.1 m or turning 0.3 rad
-        for blocked_timeout, abort (it waited in place for ever before)."""
+        nudge forward when only that is clear; stalled without getting 0.25 m away (more than a
+        back-off or nudge) or turning 0.3 rad, and without progress to the goal, for
+        blocked_timeout, abort (it waited in place for ever before)."""
         cfg = self.config
         self.stalls += 1
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
         st = self._stuck
-        if st is None or math.hypot(x - st[1], y - st[2]) > 0.1 \
+        if st is None or math.hypot(x - st[1], y - st[2]) > 0.25 \
                 or abs(wrap_angle(yaw - st[3])) > 0.3:
             self._stuck = (now, x, y, yaw)
         elif now - st[0] > cfg.blocked_timeout:

@@ -173,10 +173,10 @@ class FollowerNode:
             self.step()
             try:
                 rate.sleep()
+            except rospy.ROSTimeMovedBackwardsException:   # (a ROSInterruptException too)
+                pass
             except rospy.ROSInterruptException:
                 break
-            except rospy.ROSTimeMovedBackwardsException:
-                pass
         if self.goal_sent:
             self.client.cancel_all_goals()
 

@@ -111,6 +111,9 @@ class MarkovWalkerNode:
             raise WalkerError("~mode must be one of %s, got %r" % ("/".join(MODES), self.mode))
         self.min_shared = float(gp("~min_shared", 0.8))
         self.regoal = (float(gp("~regoal_within", 1.0)), int(gp("~max_regoals", 1)))
+        if not (math.isfinite(self.regoal[0]) and self.regoal[0] >= 0 and self.regoal[1] >= 0):
+            raise WalkerError("~regoal_within must be a finite number >= 0 and ~max_regoals an "
+                              "integer >= 0, got %r and %r" % self.regoal)
         self.robot_radius = float(gp("~robot_radius", PlannerConfig.robot_radius))
         self.query_service = str(gp("~query_service", "/soma/query_rois"))
         self.map_info_service = str(gp("~map_info_service", "/soma/map_info"))
@@ -378,10 +381,21 @@ class MarkovWalkerNode:
         while not rospy.is_shutdown() and self._tick():
             try:
                 rate.sleep()
+            except rospy.ROSTimeMovedBackwardsException:   # (a ROSInterruptException too)
+                self._time_went_back()
             except rospy.ROSInterruptException:
                 break
-            except rospy.ROSTimeMovedBackwardsException:
-                pass
+
+    def _time_went_back(self) -> None:
+        """Sim time jumped back (the simulator restarted, a bag looped): the pause and the
+        current leg's timeout count from now, not from the old timeline."""
+        now = rospy.get_time()
+        agent = self.agent
+        agent.resume_at = min(agent.resume_at, now)
+        if agent.leg is not None:
+            agent.leg.started = now
+        rospy.logwarn("markov_walker: sim time went back to %.1f s: the walk goes on from now",
+                      now)
 
     def _tick(self) -> bool:
         """One tick of people/agents.WalkerAgent: send a new leg's goal, or end the leg whose

@@ -211,10 +211,10 @@ class PathFollowerNode:
             self.server.publish_feedback(fb)
             try:
                 rate.sleep()
+            except rospy.ROSTimeMovedBackwardsException:   # (a ROSInterruptException too)
+                pass
             except rospy.ROSInterruptException:
                 return
-            except rospy.ROSTimeMovedBackwardsException:
-                pass
 
     def _publish_plan(self, path: np.ndarray) -> None:
         msg = Path()
