@@ -43,7 +43,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from ..errors import BulletFloorSimError
 from ..people.agents import TrackerAgent
-from ..people.tracking import PoseHistory, TrackerConfig
+from ..people.tracking import PoseHistory, StaticMap, TrackerConfig
 from ..msg import Track as TrackMsg
 from ..msg import TrackArray
 from .params import config_from_params, map_handling
@@ -89,15 +89,16 @@ class PeopleTrackerNode:
 
     def _on_map(self, msg: OccupancyGrid) -> None:
         try:
-            agent = TrackerAgent.for_map(grid_from_msg(msg), self.config, map_handling())
+            static = StaticMap(grid_from_msg(msg), self.config.static_tolerance,
+                               handling=map_handling())
         except BulletFloorSimError as e:
             rospy.logerr("people_tracker: cannot use the map: %s", e)
             return
         with self.lock:
             if self.agent is None:
-                self.agent = agent
+                self.agent = TrackerAgent(static, self.config)
             else:   # a new map: the tracks go on
-                self.agent.static = agent.static
+                self.agent.static = static
         rospy.loginfo("people_tracker: map %dx%d at %.3f m", msg.info.width, msg.info.height,
                       msg.info.resolution)
 

@@ -124,7 +124,7 @@ class RecorderNode:
         self.received = 0
         self.rejected = 0
         self.last_rx: Optional[rospy.Time] = None
-        self.last_stamp_ns: Optional[int] = None   # newest pose stamp, when on this clock
+        self.stamps_on_clock = False   # the newest pose's stamp is on this node's clock
         self.unconfirmed: List[Chunk] = []   # stored, but held in the store's memory
         self.batch_pub = rospy.Publisher("~trajectories/batch", Trajectory, queue_size=100)
         self.complete_pub = rospy.Publisher("~trajectories/complete", Trajectory,
@@ -233,19 +233,16 @@ class RecorderNode:
             self.spill.track(c.uuid, c.sequence_id, c.region, c.open_poses)
 
     def _note_stamp(self, t_ns: int) -> None:
-        """Keep the newest stamp when it is on this node's clock (within the gap of it), so
+        """Note whether the newest stamp is on this node's clock (within the gap of it), so
         the silence that ends a trajectory is measured on the poses' own stamps."""
         rx = self.last_rx.secs * _NS + self.last_rx.nsecs
-        if abs(rx - t_ns) <= max(self.chunker.max_gap, 1.0) * _NS:
-            self.last_stamp_ns = t_ns
-        else:
-            self.last_stamp_ns = None
+        self.stamps_on_clock = abs(rx - t_ns) <= max(self.chunker.max_gap, 1.0) * _NS
 
     def _pose_clock(self, now: rospy.Time) -> int:
         """Now on the poses' clock (ns): this node's clock when their stamps are on it, else
         (a publisher on another clock) the newest stamp plus the time since it arrived."""
         now_ns = now.secs * _NS + now.nsecs
-        if self.last_stamp_ns is not None:
+        if self.stamps_on_clock:
             return now_ns
         rx = self.last_rx.secs * _NS + self.last_rx.nsecs
         return self.chunker.open_poses[-1][0] + (now_ns - rx)
