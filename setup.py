@@ -16,7 +16,7 @@ setup(**generate_distutils_setup(
         "bullet_floor_sim.people.tracking",
         "bullet_floor_sim.ros",
         "bullet_floor_sim.ros.sim",
-        "bullet_floor_sim.sim",
+        "bullet_floor_sim.sim", "bullet_floor_sim.sim.sensors",
     ],
     package_dir={"": "src"},
 ))

@@ -102,7 +102,7 @@ def _ray_overhead(world, reps: int = 20) -> dict:
 
     "Raw" casts every beam of every robot once, from its laser origin to range_max (clipped to
     the map bounds), in the scene as it is: the naive lidar, one rayTestBatch per 16,383 beams,
-    no post-processing. "Lidar" is a whole scan tick of ``World.scan_due`` (ray set-up, the wall
+    no post-processing. "Lidar" is a whole scan tick of ``Lidar.read`` (ray set-up, the wall
     pass with the robots moved out, the pass at other robots, ranges with noise), in steady
     state (it shortens rays from its previous scan) with every robot turning by 1e-4 rad
     between scans (an unmoved lidar would reuse its wall distances). Both produce the same
@@ -113,13 +113,13 @@ def _ray_overhead(world, reps: int = 20) -> dict:
     from bullet_floor_sim.sim.sensors import MAX_RAYS_PER_BATCH as B
 
     due = np.arange(world.n)
-    plan = world.lidar.plan(due, world.pose, world._bounds)
+    plan = world.lidar.plan(due, world.pose, world.bounds)
     froms = plan.origins
     tos = froms.copy()
     tos[:, :2] += plan.dirs * plan.full[:, None]
     n_rays = len(froms)
-    world._next_scan_ns[due] = world.clock.now_ns
-    world.scan_due()                                  # steady state: it has a previous scan
+    world.lidar.next_scan_ns[due] = world.clock.now_ns
+    world.lidar.read(world)                     # steady state: it has a previous scan
     t_scan = t_raw = 0.0
     cast0 = world.rays_cast
     for _ in range(reps):
@@ -128,10 +128,10 @@ def _ray_overhead(world, reps: int = 20) -> dict:
         for s in range(0, n_rays, B):
             world.client.rayTestBatch(froms[s:s + B], tos[s:s + B], numThreads=world.ray_threads)
         t_raw += time.perf_counter() - t
-        world._next_scan_ns[due] = world.clock.now_ns
+        world.lidar.next_scan_ns[due] = world.clock.now_ns
         world.pose[:, 2] += 1e-4                   # moving lidars: nothing to reuse
         t = time.perf_counter()
-        world.scan_due()
+        world.lidar.read(world)
         t_scan += time.perf_counter() - t
     return {"rays_per_scan_batch": n_rays, "raw_rays_per_s": n_rays * reps / t_raw,
             "lidar_rays_per_s": n_rays * reps / t_scan, "ray_overhead": t_scan / t_raw,

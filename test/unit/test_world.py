@@ -344,7 +344,7 @@ def test_scans_at_laser_rate(one_robot):
 
 
 def test_scans_over_the_ray_limit_are_split_and_exact():
-    from bullet_floor_sim.sim import sensors
+    from bullet_floor_sim.sim.sensors import rays
 
     # 3 robots x 7200 beams = 21,600 rays: split into calls of the world's chunk size (4000
     # through the C API, 1000 through rayTestBatch); every scan still exact
@@ -354,23 +354,23 @@ def test_scans_over_the_ray_limit_are_split_and_exact():
                       for i, p in enumerate(poses)])
     try:
         calls = []
-        orig = sensors._cast_batch
+        orig = rays._cast_batch
 
         def counting(client, froms, *a):
             calls.append(len(froms))
             return orig(client, froms, *a)
 
-        sensors._cast_batch = counting
+        rays._cast_batch = counting
         try:
             scans = w.step(10)
         finally:
-            sensors._cast_batch = orig
-        k = sensors.ray_chunk()
+            rays._cast_batch = orig
+        k = rays.ray_chunk()
         assert k in (1000, 4000)
         assert calls[:21600 // k + 1] == [k] * (21600 // k) + [21600 % k]
         # beams at the other robots are clipped to their sections, not cast
         assert sum(calls) == w.rays_cast == 21600 and 0 < w.rays_at_robots < 21600 / 4
-        assert max(calls) <= sensors.MAX_RAYS_PER_BATCH
+        assert max(calls) <= rays.MAX_RAYS_PER_BATCH
         for scan, (x, y, yaw) in zip(scans, poses):
             ox, oy = x + 0.3 * math.cos(yaw), y + 0.3 * math.sin(yaw)
             angles = yaw + scan.angle_min + scan.angle_increment * np.arange(7200)
@@ -392,8 +392,8 @@ def test_own_body_is_never_seen_at_any_heading():
         for yaw in np.radians(np.arange(-180.0, 180.0, 5.0)):
             w.pose[0] = (2.5, 2.0, yaw)
             w.lidar.forget()
-            w._next_scan_ns[:] = w.clock.now_ns
-            scan = w.scan_due()[0]
+            w.lidar.next_scan_ns[:] = w.clock.now_ns
+            scan = w.lidar.read(w)[0]
             ox, oy = 2.5 + 0.3 * math.cos(yaw), 2.0 + 0.3 * math.sin(yaw)
             angles = yaw + scan.angle_min + scan.angle_increment * np.arange(360)
             np.testing.assert_allclose(scan.ranges, [expected_range(ox, oy, a) for a in angles],
@@ -426,7 +426,7 @@ def test_scans_equal_every_beam_cast_in_the_full_scene(lift):
             scans = w.step(1)
             if not scans:
                 continue
-            plan = w.lidar.plan([s.robot for s in scans], w.pose, w._bounds)
+            plan = w.lidar.plan([s.robot for s in scans], w.pose, w.bounds)
             tos = plan.origins.copy()
             tos[:, :2] += plan.dirs * plan.full[:, None]
             w._sync_bodies()                                 # every body where its robot is
@@ -466,10 +466,10 @@ def test_scans_equal_every_beam_cast_in_the_full_scene(lift):
 
 
 def test_small_worlds_step_in_floats_exactly_as_numpy_does(monkeypatch):
-    # up to sensors.SMALL_N robots, drives, integration, wheels and odometry step in plain
+    # up to small.SMALL_N robots, drives, integration, wheels and odometry step in plain
     # floats, and collision windows of up to collision._SMALL_PAIRS pairs are computed in them;
     # the result must be the numpy paths' (same formulas, same random draws)
-    from bullet_floor_sim.sim import collision, sensors, world as world_mod
+    from bullet_floor_sim.sim import collision, small
 
     noisy = OdometryConfig(noise_trans=0.05, noise_rot=0.05, noise_rot_per_m=0.02, drift_yaw=0.01)
     specs = [RobotSpec(name="d", pose=(1.5, 1.0, 0.0), laser=EXACT, odometry=noisy),
@@ -493,8 +493,7 @@ def test_small_worlds_step_in_floats_exactly_as_numpy_does(monkeypatch):
             w.close()
 
     floats = run()
-    monkeypatch.setattr(sensors, "SMALL_N", 0)
-    monkeypatch.setattr(world_mod, "SMALL_N", 0)
+    monkeypatch.setattr(small, "SMALL_N", 0)
     monkeypatch.setattr(collision, "_SMALL_PAIRS", 0)   # the numpy collision window too
     arrays = run()
     for a, b in zip(floats, arrays):

@@ -38,14 +38,13 @@ import struct
 import sys
 import threading
 import time
-from typing import Callable, List, Optional, Sequence, Union
+from typing import Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 
 import rospy
-from geometry_msgs.msg import (PoseStamped, PoseWithCovarianceStamped, Twist)
-from nav_msgs.msg import MapMetaData, OccupancyGrid, Odometry
+from geometry_msgs.msg import (PoseWithCovarianceStamped, Twist)
+from nav_msgs.msg import MapMetaData, OccupancyGrid
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import BatteryState, JointState, LaserScan
 from std_msgs.msg import Float64
 from std_srvs.srv import Empty, EmptyResponse
 from tf2_msgs.msg import TFMessage
@@ -61,8 +60,8 @@ from .sim.frames import gt_tf_robots, map_to_odom
 from .sim.outbox import Outbox
 from .sim.rsp import RobotStatePublishers
 from .sim.signals import StopSignals, set_rostime, stop_listening_to_own_clock
-from .sim.wire import (II, U32, BatteryWire, JointsWire, OdomWire, PoseWire, ScanWire, TfWire,
-                       check_wires, quaternion, ros_time)
+from .sim.publish import Output, Tick, robot_outputs
+from .sim.wire import II, U32, TfWire, check_wires, quaternion, ros_time
 
 __all__ = ["main", "SimulatorNode"]
 
@@ -131,32 +130,19 @@ class SimulatorNode:
         self.every = {k: max(1, int(round(1e9 / v / step))) for k, v in rates.items()}
         self.out = Outbox()
         pub = self.out.publisher
-        self.robots = []
+        # each robot's outputs (sim/publish.py), and the reading outputs by (type, robot)
+        self.outputs: List[List[Output]] = []
         for i, spec in enumerate(world.specs):
             ns = "/" + spec.name if spec.name else ""
-            pre = spec.prefix
-            r = {
-                "prefix": pre,
-                "odom": pub(ns + "/odom", Odometry, 10),
-                "scan": pub(ns + "/base_scan", LaserScan, 10),
-                "gt": pub(ns + "/base_pose_ground_truth", Odometry, 10),
-                "pose": pub(ns + "/pose", PoseStamped, 10),
-                "battery": pub(ns + "/battery_state", BatteryState, 2),
-                "joints": pub(ns + "/joint_states", JointState, 10),
-                "odom_wire": OdomWire(pre + "odom", pre + "base_footprint"),
-                "gt_wire": OdomWire("map", pre + "base_footprint"),
-                "pose_wire": PoseWire("map"),
-                "joints_wire": JointsWire([pre + j for j in world.models[i].wheel_joints]),
-                "battery_wire": BatteryWire(spec.battery.capacity_ah),
-                "scan_wire": None,
-                "seq": {"odom": 0, "gt": 0, "pose": 0, "joints": 0, "battery": 0, "scan": 0},
-            }
+            self.outputs.append(robot_outputs(pub, ns, spec.prefix, i, world))
             rospy.Subscriber(ns + "/cmd_vel", Twist, self._on_cmd, callback_args=i, queue_size=1)
-            self.robots.append(r)
+        self.reading_out: Dict[Tuple[type, int], Output] = {
+            (o.reads, o.robot): o for outs in self.outputs for o in outs if o.reads is not None}
         self.clock_pub = pub("/clock", Clock, 10)
         self.tf_pub = pub("/tf", TFMessage, 100)
-        pairs = [(r["prefix"] + "odom", r["prefix"] + "base_footprint") for r in self.robots]
-        pairs += [("map", self.robots[i]["prefix"] + "odom") for i in self.gt_tf]
+        prefixes = [spec.prefix for spec in world.specs]
+        pairs = [(p + "odom", p + "base_footprint") for p in prefixes]
+        pairs += [("map", prefixes[i] + "odom") for i in self.gt_tf]
         self.tf_wire = TfWire(pairs)
         self.rtf_pub = rospy.Publisher("~real_time_factor_achieved", Float64, queue_size=1)
         self.share_pub = rospy.Publisher("~publishing_share", Float64, queue_size=1)
@@ -263,17 +249,10 @@ class SimulatorNode:
         if odom_due or pose_due or state_due:
             self._robot_states(now_ns, odom_due, pose_due, state_due)
         out = self.out
-        for s in scans:
-            r = self.robots[s.robot]
-            if not out.wanted(r["scan"]):
-                continue
-            wire = r["scan_wire"]
-            if wire is None or wire.key != (s.angle_min, s.angle_max, s.angle_increment,
-                                            s.scan_time, s.range_min, s.range_max):
-                wire = r["scan_wire"] = ScanWire(r["prefix"] + "base_laser_link", s)
-            r["seq"]["scan"] += 1
-            secs, nsecs = divmod(s.stamp_ns, 1_000_000_000)
-            out.put(r["scan"], wire.pack(r["seq"]["scan"], secs, nsecs, s.ranges))
+        for reading in scans:
+            o = self.reading_out.get((type(reading), reading.robot))
+            if o is not None and out.wanted(o.pub):
+                o.put_reading(out, reading)
 
     def _robot_states(self, now_ns: int, odom_due: bool, pose_due: bool,
                       state_due: bool) -> None:
@@ -284,34 +263,17 @@ class SimulatorNode:
         if odom_due:    # (odometry is integrated at its own rate; an extra update costs noise draws)
             w.update_odometry()
         snap = w.snapshot(wheels=state_due)
-        pose, vel, odom = snap.pose, snap.velocity, snap.odom_pose
-        wpos, wvel = snap.wheel_positions, snap.wheel_velocities
-        for i, r in enumerate(self.robots):
-            seq = r["seq"]
-            if odom_due and wanted(r["odom"]):
-                seq["odom"] += 1
-                out.put(r["odom"], r["odom_wire"].pack(seq["odom"], secs, nsecs, odom[i], vel[i]))
-            if pose_due:
-                if wanted(r["gt"]):
-                    seq["gt"] += 1
-                    out.put(r["gt"], r["gt_wire"].pack(seq["gt"], secs, nsecs, pose[i], vel[i]))
-                if wanted(r["pose"]):
-                    seq["pose"] += 1
-                    out.put(r["pose"], r["pose_wire"].pack(seq["pose"], secs, nsecs, pose[i]))
-            if state_due:
-                if wanted(r["joints"]):
-                    seq["joints"] += 1
-                    out.put(r["joints"], r["joints_wire"].pack(seq["joints"], secs, nsecs,
-                                                               wpos[i], wvel[i]))
-                if wanted(r["battery"]):
-                    seq["battery"] += 1
-                    pct, volt, charge = w.battery.state(i, now_ns)
-                    out.put(r["battery"], r["battery_wire"].pack(seq["battery"], secs, nsecs,
-                                                                 volt, pct, charge))
+        tick = Tick(now_ns, secs, nsecs, snap, w)
+        due = {"odom": odom_due, "pose": pose_due, "state": state_due}
+        for outs in self.outputs:
+            for o in outs:
+                if o.rate is not None and due[o.rate] and wanted(o.pub):
+                    o.put(out, tick)
+        odom = snap.odom_pose
         if odom_due and wanted(self.tf_pub):
             poses = odom
             if self.gt_tf:
-                poses = odom + [map_to_odom(pose[i], odom[i]) for i in self.gt_tf]
+                poses = odom + [map_to_odom(snap.pose[i], odom[i]) for i in self.gt_tf]
             out.put(self.tf_pub, self.tf_wire.pack(secs, nsecs, poses))
 
     def flush(self) -> None:

@@ -13,9 +13,11 @@ names the file, the section and the key (as flatland's EnsureAccessedAllKeys doe
         model: scitos_a5     # urdf/<model>.urdf.xacro
         pose: [x, y, yaw]
         drive: {type: diff, max_linear: 0.8, ...}       # DriveConfig
-        laser: {range_max: 30.0, ...}                     # LaserConfig
-        odometry: {noise_trans: 0.005, ...}               # OdometryConfig
-        battery: {discharge_per_hour: 0.1, ...}           # BatteryConfig
+        laser: {range_max: 30.0, ...}                     # sensors/lidar.py LaserConfig
+        odometry: {noise_trans: 0.005, ...}               # sensors/odometry.py
+        battery: {discharge_per_hour: 0.1, ...}           # sensors/battery.py
+
+A robot's sensor sections are those of the sensor registry (``sensors.SENSORS``).
 """
 from __future__ import annotations
 
@@ -25,8 +27,9 @@ import re
 from dataclasses import dataclass, field, fields
 from typing import Any, Dict, List, Optional, Tuple, Type, TypeVar
 
-
 from ..errors import ConfigError
+from .checks import finite_positive as _finite_positive, is_number as _is_number, positive as _positive
+from .sensors import SENSORS, BatteryConfig, LaserConfig, OdometryConfig
 from .solidmap import MapHandling
 from ..yamlio import read_yaml
 
@@ -77,97 +80,38 @@ class DriveConfig:
                                 "absurd_factor"))
 
 
-@dataclass(frozen=True)
-class LaserConfig:
-    """A planar lidar at the model's ``base_laser_link`` (defaults: the Scitos A5 Hokuyo).
-
-    Beams are spread over ``fov`` degrees centred ahead, ``resolution`` degrees apart (a full
-    360-degree fov does not repeat its first beam). Ranges get Gaussian noise of ``noise_std``
-    metres; a beam with no return reads +inf and one closer than ``range_min`` reads -inf
-    (REP 117).
-    """
-
-    range_min: float = 0.1
-    range_max: float = 30.0
-    fov: float = 180.0
-    resolution: float = 1.0
-    rate: float = 10.0
-    noise_std: float = 0.01
-    enabled: bool = True
-
-    @property
-    def beams(self) -> int:
-        """Number of beams per scan."""
-        n = int(round(self.fov / self.resolution))
-        return n if self.fov >= 360.0 - 1e-9 else n + 1
-
-    def validate(self, where: str) -> None:
-        """Raise ConfigError if a value is out of range."""
-        _positive(self, where, ("range_max", "fov", "resolution", "rate"))
-        if not 0.0 <= self.range_min < self.range_max:
-            raise ConfigError("%s: range_min must be in [0, range_max), got %r"
-                              % (where, self.range_min))
-        if self.fov > 360.0:
-            raise ConfigError("%s: fov must be at most 360 degrees, got %r" % (where, self.fov))
-        if self.noise_std < 0.0:
-            raise ConfigError("%s: noise_std must be >= 0, got %r" % (where, self.noise_std))
-
-
-@dataclass(frozen=True)
-class OdometryConfig:
-    """Odometry integrated from the wheel motion, with error.
-
-    Per step, the travelled distance gets Gaussian error of std ``noise_trans`` x distance and
-    the rotation ``noise_rot`` x |rotation| + ``noise_rot_per_m`` x distance; ``drift_yaw`` adds
-    a systematic yaw error in radians per metre travelled (uneven wheels). Defaults are small
-    so that amcl has something to correct.
-    """
-
-    noise_trans: float = 0.01
-    noise_rot: float = 0.01
-    noise_rot_per_m: float = 0.005
-    drift_yaw: float = 0.0
-    rate: float = 50.0
-
-    def validate(self, where: str) -> None:
-        """Raise ConfigError if a value is out of range."""
-        for k in ("noise_trans", "noise_rot", "noise_rot_per_m"):
-            if getattr(self, k) < 0.0:
-                raise ConfigError("%s: %s must be >= 0, got %r" % (where, k, getattr(self, k)))
-        _positive(self, where, ("rate",))
-
-
-@dataclass(frozen=True)
-class BatteryConfig:
-    """A battery that discharges linearly in time (``discharge_per_hour``, fraction per hour)."""
-
-    initial: float = 1.0
-    discharge_per_hour: float = 0.1
-    voltage_full: float = 28.8
-    voltage_empty: float = 22.0
-    capacity_ah: float = 60.0
-
-    def validate(self, where: str) -> None:
-        """Raise ConfigError if a value is out of range."""
-        if not 0.0 <= self.initial <= 1.0:
-            raise ConfigError("%s: initial must be in [0, 1], got %r" % (where, self.initial))
-        if self.discharge_per_hour < 0.0:
-            raise ConfigError("%s: discharge_per_hour must be >= 0, got %r"
-                              % (where, self.discharge_per_hour))
-        _positive(self, where, ("voltage_full", "voltage_empty", "capacity_ah"))
-
-
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class RobotSpec:
-    """One robot of a world: name (namespace and frame prefix), model and spawn pose."""
+    """One robot of a world: name (namespace and frame prefix), model, spawn pose, drive, and
+    one config per sensor kind of the registry, as ``spec.sensors[kind]`` and ``spec.<kind>``
+    (``RobotSpec(name, laser=LaserConfig(...))``; a kind not given gets its defaults)."""
 
     name: str
     model: str = "scitos_a5"
     pose: Tuple[float, float, float] = (0.0, 0.0, 0.0)
     drive: DriveConfig = field(default_factory=DriveConfig)
-    laser: LaserConfig = field(default_factory=LaserConfig)
-    odometry: OdometryConfig = field(default_factory=OdometryConfig)
-    battery: BatteryConfig = field(default_factory=BatteryConfig)
+    sensors: Dict[str, Any] = field(default_factory=dict)
+
+    def __init__(self, name: str, model: str = "scitos_a5",
+                 pose: Tuple[float, float, float] = (0.0, 0.0, 0.0),
+                 drive: Optional[DriveConfig] = None, sensors: Optional[Dict[str, Any]] = None,
+                 **kinds: Any) -> None:
+        given = dict(sensors or {}, **kinds)
+        unknown = sorted(set(given) - set(SENSORS))
+        if unknown:
+            raise TypeError("RobotSpec: no sensor kind(s) %s (known: %s)"
+                            % (", ".join(unknown), ", ".join(SENSORS)))
+        for k, v in (("name", name), ("model", model), ("pose", tuple(pose)),
+                     ("drive", drive if drive is not None else DriveConfig()),
+                     ("sensors", {k: given.get(k) or kind.config()
+                                  for k, kind in SENSORS.items()})):
+            object.__setattr__(self, k, v)
+
+    def __getattr__(self, name: str) -> Any:
+        sensors = self.__dict__.get("sensors", {})
+        if name in sensors:
+            return sensors[name]
+        raise AttributeError("RobotSpec has no attribute or sensor kind %r" % name)
 
     @property
     def prefix(self) -> str:
@@ -194,7 +138,7 @@ class WorldConfig:
 
 _WORLD_KEYS = ("map", "wall_height", "rois", "robots", "unknown", "clean")
 _CLEAN_KEYS = ("close_gaps", "speckle", "unknown_slivers")
-_ROBOT_KEYS = ("name", "model", "pose", "drive", "laser", "odometry", "battery")
+_ROBOT_KEYS = ("name", "model", "pose", "drive")   # and a section per sensor kind
 
 
 def resolve_world(world: str, worlds_dir: str) -> str:
@@ -275,8 +219,9 @@ def _parse_map_handling(doc: Dict[str, Any], path: str) -> MapHandling:
 
 def _parse_robot(doc: Any, where: str) -> RobotSpec:
     if not isinstance(doc, dict):
-        raise ConfigError("%s: expected a mapping with keys %s" % (where, ", ".join(_ROBOT_KEYS)))
-    _reject_unknown(doc, _ROBOT_KEYS, where)
+        raise ConfigError("%s: expected a mapping with keys %s"
+                          % (where, ", ".join(_ROBOT_KEYS + tuple(SENSORS))))
+    _reject_unknown(doc, _ROBOT_KEYS + tuple(SENSORS), where)
     name = doc.get("name")
     if not isinstance(name, str) or not _NAME_RE.match(name):
         raise ConfigError("%s: name must be empty or a ROS name ([A-Za-z][A-Za-z0-9_]*), got %r"
@@ -289,10 +234,9 @@ def _parse_robot(doc: Any, where: str) -> RobotSpec:
     if (not isinstance(pose, (list, tuple)) or len(pose) != 3
             or not all(_is_number(v) and math.isfinite(v) for v in pose)):
         raise ConfigError("%s: pose must be [x, y, yaw] (3 finite numbers), got %r" % (where, pose))
-    sections = {}
-    for key, cls in (("drive", DriveConfig), ("laser", LaserConfig),
-                     ("odometry", OdometryConfig), ("battery", BatteryConfig)):
-        sections[key] = _section(cls, doc.get(key), "%s: %s" % (where, key))
+    sections: Dict[str, Any] = {"drive": _section(DriveConfig, doc.get("drive"), "%s: drive" % where)}
+    for key, kind in SENSORS.items():
+        sections[key] = _section(kind.config, doc.get(key), "%s: %s" % (where, key))
     return RobotSpec(name=name, model=model, pose=(float(pose[0]), float(pose[1]), float(pose[2])),
                      **sections)
 
@@ -323,21 +267,6 @@ def _reject_unknown(doc: Dict[str, Any], known: Tuple[str, ...], where: str) -> 
     if unknown:
         raise ConfigError("%s: unknown key(s) %s (known: %s)"
                           % (where, ", ".join(repr(k) for k in unknown), ", ".join(known)))
-
-
-def _positive(obj: Any, where: str, names: Tuple[str, ...]) -> None:
-    for k in names:
-        v = getattr(obj, k)
-        if not _finite_positive(v):
-            raise ConfigError("%s: %s must be a positive number, got %r" % (where, k, v))
-
-
-def _finite_positive(v: Any) -> bool:
-    return _is_number(v) and math.isfinite(v) and v > 0
-
-
-def _is_number(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
 def _rel(base: str, p: str) -> str:

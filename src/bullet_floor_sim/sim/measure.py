@@ -82,7 +82,7 @@ def sections(world: Any) -> Tuple[np.ndarray, np.ndarray, np.ndarray, List[str]]
     found: list = []
     keys: dict = {}
     report: List[str] = []
-    for i in world._laser_robots.tolist():
+    for i in world.lidar.robots.tolist():
         z = float(world.lidar.offsets[i, 2])
         for j in range(n):
             if j == i:
@@ -192,7 +192,7 @@ def self_exit(world: Any) -> None:
     """
     p = world.client
     done: dict = {}
-    for i in world._laser_robots.tolist():
+    for i in world.lidar.robots.tolist():
         c = world.specs[i].laser
         key = (world.specs[i].model, c.fov, c.resolution, c.beams)
         if key in done:

@@ -2,7 +2,7 @@
 bodies out of the scene), the beams that can reach another robot before their wall are
 clipped to that robot's measured cross-section in numpy (sections.py), or cast again in Bullet
 with the robots in place where no checked section exists. ``world`` is the stepping
-:class:`~.world.World` (see World.scan_due).
+:class:`~.world.World` (see World.cast_beams).
 """
 from __future__ import annotations
 

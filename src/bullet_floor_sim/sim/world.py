@@ -24,7 +24,7 @@ import contextlib
 import math
 import os
 import sys
-from typing import Iterator, List, Optional, Sequence, Tuple
+from typing import Dict, Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -37,7 +37,8 @@ from .floormap import FloorMap, load_map
 from ..paths import worlds_dir
 from ..geometry import wrap_angle
 from .robot import DRIVES, RobotModel, check_command, load_model
-from .sensors import SMALL_N, Battery, Lidar, Odometry, Scan, cast_rays, ray_chunk
+from .sensors import SENSORS, Battery, Lidar, Odometry, Scan, Sensor, cast_rays, ray_chunk
+from . import small
 from .measure import ROBOT_GROUP, ROBOT_MASK, SELF_GROUP
 from .solidmap import SolidMap, solid_map
 
@@ -151,19 +152,17 @@ class World:
         self._body_index = {b: i for i, b in enumerate(self.bodies)}
         cache: dict = {}
         self.radius = np.array([measure.body_radius(self, i, cache) for i in range(n)]).reshape(n)
-        self.lidar = Lidar([s.laser for s in self.specs], [m.laser_pose for m in self.models],
-                           self.rng)
-        self._laser_robots = np.array([i for i, s in enumerate(self.specs) if s.laser.enabled],
-                                      dtype=np.int64)
-        self._next_scan_ns = self.clock.now_ns + self.lidar.period_ns
-        self._scan_due_ns = int(self._next_scan_ns[self._laser_robots].min()) \
-            if len(self._laser_robots) else 2 ** 62
-        self.odometry = Odometry([s.odometry for s in self.specs], self.rng)
-        self._odom_ref = self.pose.copy()
-        rates = [s.odometry.rate for s in self.specs] or [1.0]
-        self._odom_every = max(1, int(round(1e9 / max(rates) / self.clock.step_ns)))
-        self.battery = Battery([s.battery for s in self.specs], self.clock.now_ns)
-        self._bounds = self.fmap.bounds()
+        self.motion = 0             # physics steps that moved something (odometry catches up)
+        # every sensor kind of the registry, over all robots; read when due, in its order
+        self.sensors: Dict[str, Sensor] = {
+            name: kind.build(self, [s.sensors[name] for s in self.specs])
+            for name, kind in SENSORS.items()}
+        self._sensor_list = list(self.sensors.values())
+        self._sensor_due_ns = min(s.next_ns for s in self._sensor_list)
+        self.lidar: Lidar = self.sensors["laser"]          # (what the views and ray casts use)
+        self.odometry: Odometry = self.sensors["odometry"]
+        self.battery: Battery = self.sensors["battery"]
+        self.bounds = self.fmap.bounds()
         self.rays_cast = 0          # rays cast so far (statistics)
         self.rays_recast = 0        # of which cast again in full after a cut ray missed
         self.rays_at_robots = 0     # of which cast again at other robots (see _scan)
@@ -172,7 +171,6 @@ class World:
         self._body_array = np.array(self.bodies, dtype=np.int64)
         self._beam_geometry = measure.beam_table(self.lidar)
         self._idle = True           # no robot moves or has a non-zero command
-        self._odom_stale = False    # poses moved since the last odometry update
         self._check_spawns()
         measure.self_exit(self)
         self._ray_radius = measure.radius_at_lasers(self)
@@ -231,7 +229,6 @@ class World:
         rows = list(range(self.n)) if robots is None else list(robots)
         self.update_odometry()
         self.pose[rows] = self.spawn[rows]
-        self._odom_ref[rows] = self.spawn[rows]
         self.vel[rows] = 0.0
         self.target[rows] = 0.0
         self.last_cmd_ns[rows] = -(2 ** 62)
@@ -239,20 +236,15 @@ class World:
         self.stalled[rows] = False
         self._penetration[rows] = 0.0
         self._robot_penetration[rows] = 0.0
-        self.odometry.reset(rows)
-        self.battery.reset(rows, self.clock.now_ns)
-        self.lidar.forget(rows)
+        for sensor in self._sensor_list:
+            sensor.reset(self, rows)
         self._safe_until_ns[:] = 0
         self._check_due_ns = 0
         self._sync_bodies(rows)
 
     def update_odometry(self) -> None:
         """Bring odometry up to the current ground truth (done at the odometry rate anyway)."""
-        if not self._odom_stale:
-            return
-        self.odometry.update(self._odom_ref, self.pose)
-        self._odom_ref[:] = self.pose
-        self._odom_stale = False
+        self.odometry.catch_up(self)
 
     def view(self, robot: int, refresh: bool = True) -> RobotView:
         """Plain-number snapshot of one robot.
@@ -301,21 +293,29 @@ class World:
 
     # ----------------------------------------------------------------------------- stepping
     def step(self, n: int = 1) -> List[Scan]:
-        """Advance ``n`` fixed steps.
+        """Advance ``n`` fixed steps: move the robots, tick the clock, read the due sensors.
 
         Returns:
-            The scans taken during these steps, in time order.
+            The sensors' readings during these steps (the lidars' Scans), in time order.
         """
-        scans: List[Scan] = []
+        readings: List[Scan] = []
         for _ in range(n):
             if self.n and not self._idle:
                 self._physics_step()
             self.clock.tick()
-            if self.clock.steps % self._odom_every == 0:
-                self.update_odometry()
-            if self.clock.now_ns >= self._scan_due_ns:
-                scans.extend(self.scan_due())
-        return scans
+            if self.clock.now_ns >= self._sensor_due_ns:
+                readings.extend(self.read_sensors())
+        return readings
+
+    def read_sensors(self) -> list:
+        """Read the sensors that are due now, in the registry's order."""
+        now = self.clock.now_ns
+        out: list = []
+        for sensor in self._sensor_list:
+            if sensor.next_ns <= now:
+                out.extend(sensor.read(self))
+        self._sensor_due_ns = min(s.next_ns for s in self._sensor_list)
+        return out
 
     def _physics_step(self) -> None:
         dt = self.clock.dt
@@ -329,7 +329,7 @@ class World:
         after = now + self.clock.step_ns    # the poses this step computes are those of then
         check = after >= self._check_due_ns
         old = self.pose.copy() if check else self.pose
-        if self.n <= SMALL_N:
+        if self.n <= small.SMALL_N:
             kinematics.advance_small(self, dt)
         else:
             for rows, drive in self._drives:
@@ -343,13 +343,13 @@ class World:
                 collision.resolve(self, old, self.pose, cand)
             self._safe_until_ns[due] = after + (t_safe * 1e9).astype(np.int64)
             self._check_due_ns = int(self._safe_until_ns.min())
-        if self.n <= SMALL_N:   # wheels turn with the velocity kept (0 for a refused move)
+        if self.n <= small.SMALL_N:   # wheels turn with the velocity kept (0 for a refused move)
             self._travel[:] = [(tr[0] + v[0] * dt, tr[1] + v[2] * dt)
                                for tr, v in zip(self._travel.tolist(), self.vel.tolist())]
         else:
             self._travel[:, 0] += self.vel[:, 0] * dt
             self._travel[:, 1] += self.vel[:, 2] * dt
-        self._odom_stale = True
+        self.motion += 1
         if not (self.vel.any() or self.target.any()):   # all at rest, nothing commanded
             self._idle = True
 
@@ -371,8 +371,17 @@ class World:
         for i in (range(self.n) if rows is None else rows):
             self._set_body(i, self.pose[i])
 
-    def scan_due(self) -> List[Scan]:
-        """Cast the due lidars.
+    def ray_bounds(self) -> Tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) that every beam ends within: the map's bounds, grown to
+        take in every robot with a metre to spare."""
+        xmin, ymin, xmax, ymax = self.bounds
+        lo = self.pose[:, :2].min(axis=0) - 1.0
+        hi = self.pose[:, :2].max(axis=0) + 1.0
+        return (min(xmin, lo[0]), min(ymin, lo[1]), max(xmax, hi[0]), max(ymax, hi[1]))
+
+    def cast_beams(self, plan) -> Tuple[np.ndarray, np.ndarray]:
+        """The true distances and hits of the lidar plan's beams (``Lidar.read`` makes them
+        ranges), all robots' in one batch.
 
         PyBullet pays for every robot whose bounding box a ray passes through, even a robot
         the ray's collision filter excludes, and every beam starts inside its own robot's box.
@@ -383,18 +392,6 @@ class World:
         than the wall) are cast again. Every step is exact, so the ranges are those of
         casting every beam in the full scene.
         """
-        now = self.clock.now_ns
-        lasers = self._laser_robots
-        due = lasers[self._next_scan_ns[lasers] <= now]
-        yaw = self.pose[:, 2]
-        out_of_range = (yaw < -np.pi) | (yaw >= np.pi)   # wrap only those: (y + pi) - pi != y
-        if out_of_range.any():
-            yaw[out_of_range] = np.remainder(yaw[out_of_range] + np.pi, 2.0 * np.pi) - np.pi
-        xmin, ymin, xmax, ymax = self._bounds
-        lo = self.pose[:, :2].min(axis=0) - 1.0
-        hi = self.pose[:, :2].max(axis=0) + 1.0
-        bounds = (min(xmin, lo[0]), min(ymin, lo[1]), max(xmax, hi[0]), max(ymax, hi[1]))
-        plan = self.lidar.plan(due, self.pose, bounds)
         lift = self._lift_for_rays and self.n > 0
         if lift:
             # a lidar that has not moved since its last scan sees the same walls
@@ -412,18 +409,7 @@ class World:
         self.lidar.remember(plan, self.pose, dist, hit)
         if lift and self.n > 1:
             robot_beams.cast_at_robots(self, plan, dist, hit)
-        out = []
-        s = 0
-        for i, k in zip(due.tolist(), plan.counts):
-            e = s + k
-            ranges = self.lidar.ranges(i, dist[s:e], hit[s:e])
-            out.append(self.lidar.scan(i, now, ranges))
-            s = e
-        nxt = self._next_scan_ns[due] + self.lidar.period_ns[due]
-        # never queue up missed scans
-        self._next_scan_ns[due] = np.where(nxt <= now, now + self.lidar.period_ns[due], nxt)
-        self._scan_due_ns = int(self._next_scan_ns[lasers].min())
-        return out
+        return dist, hit
 
     def threads(self, rays: int) -> int:
         """PyBullet threads for a ray batch of ``rays`` rays."""

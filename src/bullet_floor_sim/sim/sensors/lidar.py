@@ -1,41 +1,57 @@
-"""Sensors: planar lidar (PyBullet batch ray tests), odometry with error, battery.
+"""Planar lidars of all robots, cast together in PyBullet ray batches (world.yaml ``laser:``).
 
-Each model works on all robots at once (one row per robot), so that a world of 50 robots costs
-a few numpy operations per step and as few ``rayTestBatch`` calls as the 16,384-ray limit allows.
+One model covers every robot (one row per robot), so that a world of 50 robots costs as few
+``rayTestBatch`` calls as the 16,384-ray limit allows.
 """
 from __future__ import annotations
 
 import math
-import operator
 from dataclasses import dataclass
 from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import bullet_capi
-from .config import BatteryConfig, LaserConfig, OdometryConfig
-from ..geometry import wrap_angle, wrap_angles
+from ..checks import positive
+from ...errors import ConfigError
+from .base import NEVER, SensorKind
 
-_BODY = operator.itemgetter(0)
-_FRACTION = operator.itemgetter(2)
+__all__ = ["LaserConfig", "Scan", "RayPlan", "Lidar", "KIND"]
 
-__all__ = [
-    "ray_chunk",
-    "MAX_RAYS_PER_BATCH",
-    "Scan",
-    "RayPlan",
-    "Lidar",
-    "Odometry",
-    "Battery",
-    "cast_rays",
-]
 
-#: Up to this many robots, per-robot models step in plain floats instead of numpy arrays.
-SMALL_N = 4
+@dataclass(frozen=True)
+class LaserConfig:
+    """A planar lidar at the model's ``base_laser_link`` (defaults: the Scitos A5 Hokuyo).
 
-#: pybullet 3.2.7 advertises MAX_RAY_INTERSECTION_BATCH_SIZE = 16384, but a batch of exactly
-#: 16384 rays comes back short (16383 results from lists, none from numpy arrays).
-MAX_RAYS_PER_BATCH = 16383
+    Beams are spread over ``fov`` degrees centred ahead, ``resolution`` degrees apart (a full
+    360-degree fov does not repeat its first beam). Ranges get Gaussian noise of ``noise_std``
+    metres; a beam with no return reads +inf and one closer than ``range_min`` reads -inf
+    (REP 117).
+    """
+
+    range_min: float = 0.1
+    range_max: float = 30.0
+    fov: float = 180.0
+    resolution: float = 1.0
+    rate: float = 10.0
+    noise_std: float = 0.01
+    enabled: bool = True
+
+    @property
+    def beams(self) -> int:
+        """Number of beams per scan."""
+        n = int(round(self.fov / self.resolution))
+        return n if self.fov >= 360.0 - 1e-9 else n + 1
+
+    def validate(self, where: str) -> None:
+        """Raise ConfigError if a value is out of range."""
+        positive(self, where, ("range_max", "fov", "resolution", "rate"))
+        if not 0.0 <= self.range_min < self.range_max:
+            raise ConfigError("%s: range_min must be in [0, range_max), got %r"
+                              % (where, self.range_min))
+        if self.fov > 360.0:
+            raise ConfigError("%s: fov must be at most 360 degrees, got %r" % (where, self.fov))
+        if self.noise_std < 0.0:
+            raise ConfigError("%s: noise_std must be >= 0, got %r" % (where, self.noise_std))
 
 
 @dataclass(frozen=True)
@@ -60,63 +76,6 @@ class Scan:
     range_min: float
     range_max: float
     scan_time: float
-
-
-#: Rays per call through the C API and through rayTestBatch (see cast_rays).
-_RAY_CHUNK_CAPI, _RAY_CHUNK_TUPLES = 4000, 1000
-
-
-def ray_chunk() -> int:
-    """Rays per cast_rays call: larger through PyBullet's C API than through rayTestBatch."""
-    return _RAY_CHUNK_CAPI if bullet_capi.available() else _RAY_CHUNK_TUPLES
-
-
-def cast_rays(client, froms: np.ndarray, tos: np.ndarray, threads: int = 0,
-              mask: Optional[int] = None, chunk: int = MAX_RAYS_PER_BATCH
-              ) -> Tuple[np.ndarray, np.ndarray]:
-    """Cast rays with ``rayTestBatch``, ``chunk`` rays per call (at most the batch limit);
-    through PyBullet's C API when ``bullet_capi`` can reach it (the same ray test, without a
-    Python tuple per ray).
-
-    Args:
-        client: a pybullet BulletClient.
-        froms, tos: (M, 3) ray start and end points.
-        threads: pybullet numThreads (0 = all cores).
-        mask: collisionFilterMask (only bodies whose collision group shares a bit are hit).
-        chunk: rays per call. Measured here with rayTestBatch, calls of about 1000 rays cost
-            10-20% less per ray than calls of 16,383 (single- and multi-threaded); through the
-            C API on two threads, calls of 4000 cost 5-8% less per ray than calls of 1000
-            (0.38 vs 0.40 us for 8 m rays, 0.54 vs 0.58 for 30 m ones), and the sim bench's
-            10 robots ran 2.5% faster, so ``World`` uses 4000.
-
-    Returns:
-        (hit fraction (M,) float64 in [0, 1], hit body id (M,) int, -1 = no hit).
-    """
-    m = len(froms)
-    frac = np.empty(m)
-    ids = np.empty(m, dtype=np.int64)
-    step = max(1, min(int(chunk), MAX_RAYS_PER_BATCH))
-    for s in range(0, m, step):
-        e = min(m, s + step)
-        frac[s:e], ids[s:e] = _cast_batch(client, froms[s:e], tos[s:e], threads, mask)
-    return frac, ids
-
-
-def _cast_batch(client, froms: np.ndarray, tos: np.ndarray, threads: int,
-                mask: Optional[int]) -> Tuple[np.ndarray, np.ndarray]:
-    """One call of at most MAX_RAYS_PER_BATCH rays: (hit fractions, hit body ids)."""
-    fast = bullet_capi.cast_batch(client, froms, tos, threads, mask)
-    if fast is not None:
-        return fast
-    m = len(froms)
-    if mask is None:
-        res = client.rayTestBatch(froms, tos, numThreads=threads)
-    else:
-        res = client.rayTestBatch(froms, tos, numThreads=threads, collisionFilterMask=mask)
-    if len(res) != m:
-        raise RuntimeError("rayTestBatch returned %d results for %d rays" % (len(res), m))
-    return (np.fromiter(map(_FRACTION, res), float, m),
-            np.fromiter(map(_BODY, res), np.int64, m))
 
 
 #: How far beyond the previous scan's ranges a ray is cast before it is cast again in full.
@@ -185,6 +144,48 @@ class Lidar:
         self._prev_dist = np.full((len(self.cfgs), width), np.inf)
         self._prev_meta = np.zeros((len(self.cfgs), 3))
         self._prev_ok = np.zeros(len(self.cfgs), dtype=bool)
+        # the robots with a lidar, each's next scan, and the earliest of those (sim ns)
+        self.robots = np.array([i for i, c in enumerate(self.cfgs) if c.enabled], dtype=np.int64)
+        self.next_scan_ns = np.zeros(len(self.cfgs), dtype=np.int64)
+        self.next_ns = NEVER
+
+    @classmethod
+    def build(cls, world, cfgs: Sequence[LaserConfig]) -> "Lidar":
+        """The lidars of ``world``'s robots (at their models' base_laser_link), each first
+        due one period from now."""
+        lidar = cls(cfgs, [m.laser_pose for m in world.models], world.rng)
+        lidar.next_scan_ns[:] = world.clock.now_ns + lidar.period_ns
+        lidar._schedule()
+        return lidar
+
+    def _schedule(self) -> None:
+        self.next_ns = int(self.next_scan_ns[self.robots].min()) if len(self.robots) else NEVER
+
+    def read(self, world) -> List["Scan"]:
+        """The scans of the due lidars (``World.cast_beams`` measures their beams), each next
+        due one period on (a missed one is not made up)."""
+        now = world.clock.now_ns
+        due = self.robots[self.next_scan_ns[self.robots] <= now]
+        yaw = world.pose[:, 2]
+        out_of_range = (yaw < -np.pi) | (yaw >= np.pi)   # wrap only those: (y + pi) - pi != y
+        if out_of_range.any():
+            yaw[out_of_range] = np.remainder(yaw[out_of_range] + np.pi, 2.0 * np.pi) - np.pi
+        plan = self.plan(due, world.pose, world.ray_bounds())
+        dist, hit = world.cast_beams(plan)
+        out = []
+        s = 0
+        for i, k in zip(due.tolist(), plan.counts):
+            e = s + k
+            out.append(self.scan(i, now, self.ranges(i, dist[s:e], hit[s:e])))
+            s = e
+        nxt = self.next_scan_ns[due] + self.period_ns[due]
+        self.next_scan_ns[due] = np.where(nxt <= now, now + self.period_ns[due], nxt)
+        self._schedule()
+        return out
+
+    def reset(self, world, rows: Sequence[int]) -> None:
+        """Robots moved: drop their scan history."""
+        self.forget(rows)
 
     def set_self_exit(self, robot: int, exit_dist: np.ndarray) -> None:
         """Where each beam leaves the robot's own body (m from the laser origin, 0 = never
@@ -363,99 +364,4 @@ def _exit_distance(origin: np.ndarray, d: np.ndarray,
     return np.maximum(np.minimum(tx, ty), 0.0)
 
 
-class Odometry:
-    """Odometry integrated from each step's wheel motion, with random-walk error and drift.
-
-    Errors accumulate as random walks: after D metres in a straight line the position error
-    has std ``noise_trans * sqrt(D)``; after turning A radians the heading error has std
-    ``noise_rot * sqrt(A)``; ``noise_rot_per_m`` adds heading error per sqrt(metre) and
-    ``drift_yaw`` a systematic heading error per metre. Zero noise gives the exact motion.
-    """
-
-    def __init__(self, cfgs: Sequence[OdometryConfig], rng: np.random.Generator) -> None:
-        self.rng = rng
-        self.k_trans = np.array([c.noise_trans for c in cfgs])
-        self.k_rot = np.array([c.noise_rot for c in cfgs])
-        self.k_rot_m = np.array([c.noise_rot_per_m for c in cfgs])
-        self.drift = np.array([c.drift_yaw for c in cfgs])
-        self.noisy = bool(np.any(self.k_trans) or np.any(self.k_rot) or np.any(self.k_rot_m)
-                          or np.any(self.drift))
-        self.pose = np.zeros((len(cfgs), 3))
-
-    def update(self, old: np.ndarray, new: np.ndarray) -> None:
-        """Integrate the motion from ground-truth poses ``old`` to ``new`` (N, 3)."""
-        if len(old) <= SMALL_N:
-            self._update_small(old.tolist(), new.tolist())
-            return
-        dxw = new[:, 0] - old[:, 0]
-        dyw = new[:, 1] - old[:, 1]
-        c, s = np.cos(old[:, 2]), np.sin(old[:, 2])
-        bx = c * dxw + s * dyw
-        by = -s * dxw + c * dyw
-        dth = wrap_angles(new[:, 2] - old[:, 2])
-        if self.noisy:
-            dist = np.hypot(bx, by)
-            n = self.rng.standard_normal((len(dist), 2))
-            scale = 1.0 + n[:, 0] * self.k_trans * np.sqrt(dist) / np.maximum(dist, 1e-12)
-            scale = np.where(dist > 0, scale, 1.0)
-            bx = bx * scale
-            by = by * scale
-            dth = dth + n[:, 1] * np.sqrt(self.k_rot ** 2 * np.abs(dth) + self.k_rot_m ** 2 * dist) \
-                + self.drift * dist
-        yaw = self.pose[:, 2]
-        c, s = np.cos(yaw), np.sin(yaw)
-        self.pose[:, 0] += c * bx - s * by
-        self.pose[:, 1] += s * bx + c * by
-        self.pose[:, 2] = wrap_angles(yaw + dth)
-
-    def _update_small(self, old: list, new: list) -> None:
-        """``update`` in plain floats, robot by robot (for a few robots numpy's per-call cost
-        dominates); the same formulas and the same random draws."""
-        noise = self.rng.standard_normal((len(old), 2)).tolist() if self.noisy else None
-        out = []
-        for i, (o, nw, p) in enumerate(zip(old, new, self.pose.tolist())):
-            dxw, dyw = nw[0] - o[0], nw[1] - o[1]
-            c, s = math.cos(o[2]), math.sin(o[2])
-            bx, by = c * dxw + s * dyw, -s * dxw + c * dyw
-            dth = wrap_angle(nw[2] - o[2])
-            if noise is not None:
-                dist = math.hypot(bx, by)
-                if dist > 0:
-                    scale = 1.0 + noise[i][0] * self.k_trans[i] * math.sqrt(dist) / max(dist, 1e-12)
-                    bx, by = bx * scale, by * scale
-                dth = dth + noise[i][1] * math.sqrt(self.k_rot[i] ** 2 * abs(dth)
-                                                    + self.k_rot_m[i] ** 2 * dist) \
-                    + self.drift[i] * dist
-            c, s = math.cos(p[2]), math.sin(p[2])
-            out.append((p[0] + c * bx - s * by, p[1] + s * bx + c * by,
-                        wrap_angle(p[2] + dth)))
-        self.pose[:] = out
-
-    def reset(self, robots: Optional[Sequence[int]] = None) -> None:
-        """Odometry back to (0, 0, 0) for the given robots (all by default)."""
-        if robots is None:
-            self.pose[:] = 0.0
-        else:
-            self.pose[list(robots)] = 0.0
-
-
-class Battery:
-    """Linear discharge in time; computed on demand, so it costs nothing per step."""
-
-    def __init__(self, cfgs: Sequence[BatteryConfig], now_ns: int) -> None:
-        self.cfgs = list(cfgs)
-        self.t0 = np.full(len(cfgs), now_ns, dtype=np.int64)
-
-    def state(self, robot: int, now_ns: int) -> Tuple[float, float, float]:
-        """(percentage in [0, 1], voltage V, remaining charge Ah) of one robot at a time."""
-        c = self.cfgs[robot]
-        hours = (now_ns - int(self.t0[robot])) / 3.6e12
-        pct = min(1.0, max(0.0, c.initial - c.discharge_per_hour * hours))
-        volt = c.voltage_empty + (c.voltage_full - c.voltage_empty) * pct
-        return pct, volt, c.capacity_ah * pct
-
-    def reset(self, robots: Sequence[int], now_ns: int) -> None:
-        """Recharge: start discharging again from ``initial``."""
-        self.t0[list(robots)] = now_ns
-
-
+KIND = SensorKind(LaserConfig, Lidar.build)
