@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Optional, TypeVar
+from typing import Any, Dict, Optional, TypeVar
 
 import rospy
 
@@ -19,23 +19,43 @@ MAP_HANDLING_PARAM = "/bullet_floor_sim/map_handling"
 C = TypeVar("C")
 
 
-def config_from_params(config: C, prefix: str = "~") -> C:
-    """Override every field of a core config dataclass that is set as a parameter
-    ``<prefix><field>`` (converted to the field's current type), then run its ``check()``.
+def config_from_params(config: C, prefix: str = "~", names: Optional[Dict[str, str]] = None) -> C:
+    """Override every field of a config dataclass that is set as a parameter
+    ``<prefix><field>`` (``names`` maps a field to another parameter name), converted to the
+    field's current type, then run its ``check()``.
 
     Raises:
+        ConfigError: a parameter that cannot be converted to its field's type (names it).
         the config's own error (a BulletFloorSimError naming the field) for a bad value.
     """
+    names = names or {}
     for f in dataclasses.fields(config):
-        name = prefix + f.name
+        name = prefix + names.get(f.name, f.name)
         if rospy.has_param(name):
             current: Any = getattr(config, f.name)
             value = rospy.get_param(name)
-            setattr(config, f.name, type(current)(value) if current is not None else value)
+            setattr(config, f.name, _convert(name, value, current))
     check = getattr(config, "check", None)
     if check is not None:
         check()
     return config
+
+
+def _convert(name: str, value: Any, current: Any) -> Any:
+    """``value`` as the type of ``current`` (any value when that is None); a bool only from
+    a bool and a number only from a number, so that "false" is not taken as True."""
+    if current is None:
+        return value
+    want = type(current)
+    if want is bool and not isinstance(value, bool):
+        raise ConfigError("%s: expected true or false, got %r" % (name, value))
+    if want in (int, float) and (isinstance(value, bool) or not isinstance(value, (int, float))):
+        raise ConfigError("%s: expected a number, got %r" % (name, value))
+    if want is int and isinstance(value, float) and not value.is_integer():
+        raise ConfigError("%s: expected a whole number, got %r" % (name, value))
+    if want is list and not isinstance(value, list):
+        raise ConfigError("%s: expected a list, got %r" % (name, value))
+    return want(value)
 
 
 def set_map_handling(handling: MapHandling) -> None:

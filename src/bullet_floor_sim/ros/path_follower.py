@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import sys
 import threading
+from dataclasses import dataclass, fields
 from typing import List, Optional
 
 import actionlib
@@ -37,34 +38,57 @@ from sensor_msgs.msg import LaserScan
 from ..nav.planner import (FollowerConfig, Navigator, NavigatorConfig, PlanError,
                             PlannerConfig, PlanningGrid, PathFollower, obstacles_in_base,
                             path_length)
+from ..errors import BulletFloorSimError
 from .convert import grid_from_msg, yaw as yaw_of
-from .params import map_handling
+from .params import config_from_params, map_handling
 from .node import run_node
 
 __all__ = ["main", "PathFollowerNode"]
 
 
 
+@dataclass
+class PathFollowerParams:
+    """The node's parameters (``~<field>``: see the module doc), checked."""
+
+    robot_radius: float = PlannerConfig.robot_radius
+    inflation_radius: float = 0.6
+    planning_resolution: float = 0.1
+    max_linear: float = 0.6
+    max_angular: float = 1.2
+    xy_goal_tolerance: float = 0.15
+    yaw_goal_tolerance: float = 0.15
+    controller_frequency: float = 10.0
+    blocked_timeout: float = 30.0
+    progress_timeout: float = 60.0
+    give_way: bool = False
+    global_frame: str = "map"
+    map_topic: str = "/map"
+
+    def check(self) -> None:
+        """Raises BulletFloorSimError naming the first parameter that is not a number > 0."""
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, float) and not (math.isfinite(v) and v > 0):
+                raise BulletFloorSimError("path_follower: ~%s %r: must be a number > 0"
+                                          % (f.name, v))
+
+
 class PathFollowerNode:
     """Action server + control loop; the planning itself lives in nav/planner.py."""
 
     def __init__(self) -> None:
-        gp = rospy.get_param
-        self.planner_cfg = PlannerConfig(
-            robot_radius=float(gp("~robot_radius", PlannerConfig.robot_radius)),
-            inflation_radius=float(gp("~inflation_radius", 0.6)),
-            resolution=float(gp("~planning_resolution", 0.1)))
+        p = config_from_params(PathFollowerParams())
+        self.planner_cfg = PlannerConfig(robot_radius=p.robot_radius,
+                                         inflation_radius=p.inflation_radius,
+                                         resolution=p.planning_resolution)
         self.follower_cfg = FollowerConfig(
-            robot_radius=self.planner_cfg.robot_radius,
-            max_linear=float(gp("~max_linear", 0.6)),
-            max_angular=float(gp("~max_angular", 1.2)),
-            xy_tolerance=float(gp("~xy_goal_tolerance", 0.15)),
-            yaw_tolerance=float(gp("~yaw_goal_tolerance", 0.15)))
-        self.nav_cfg = NavigatorConfig(blocked_timeout=float(gp("~blocked_timeout", 30.0)),
-                                       progress_timeout=float(gp("~progress_timeout", 60.0)),
-                                       give_way=bool(gp("~give_way", False)))
-        self.rate_hz = float(gp("~controller_frequency", 10.0))
-        self.global_frame = str(gp("~global_frame", "map"))
+            robot_radius=p.robot_radius, max_linear=p.max_linear, max_angular=p.max_angular,
+            xy_tolerance=p.xy_goal_tolerance, yaw_tolerance=p.yaw_goal_tolerance)
+        self.nav_cfg = NavigatorConfig(blocked_timeout=p.blocked_timeout,
+                                       progress_timeout=p.progress_timeout, give_way=p.give_way)
+        self.rate_hz = p.controller_frequency
+        self.global_frame = p.global_frame
         self.grid: Optional[PlanningGrid] = None
         self.pose = None  # (x, y, yaw) in map
         self.base_frame = ""
@@ -77,7 +101,7 @@ class PathFollowerNode:
                                         latch=True)
         self.goal_pub = rospy.Publisher("move_base/goal", MoveBaseActionGoal, queue_size=1)
         self.have_map = threading.Event()
-        rospy.Subscriber(str(gp("~map_topic", "/map")), OccupancyGrid, self._on_map,
+        rospy.Subscriber(p.map_topic, OccupancyGrid, self._on_map,
                          queue_size=1)
         rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_pose, queue_size=1)
         rospy.Subscriber("base_scan", LaserScan, self._on_scan, queue_size=1)

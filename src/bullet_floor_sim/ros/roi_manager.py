@@ -27,9 +27,11 @@ from __future__ import annotations
 import colorsys
 import functools
 import hashlib
+import math
 import sys
 import threading
 import time
+from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Tuple
 
 import rospy
@@ -52,6 +54,7 @@ from bullet_floor_sim.data.store import StoreError, StoreUnavailable, open_store
 from bullet_floor_sim.msg import SOMAROIObject
 from bullet_floor_sim.ros.convert import occupancy_grid
 from bullet_floor_sim.ros.node import run_node
+from bullet_floor_sim.ros.params import config_from_params
 from bullet_floor_sim.srv import (MapInfo, MapInfoResponse, SOMAQueryROIs,
                                   SOMAQueryROIsResponse)
 
@@ -109,25 +112,47 @@ def type_color(roi_type: str, alpha: float = 1.0) -> ColorRGBA:
 _RETRY_S = 5.0
 
 
+@dataclass
+class RoiManagerParams:
+    """The node's parameters (``~<field>``: see the module doc), checked."""
+
+    frame_id: str = "map"
+    types: list = field(default_factory=lambda: list(DEFAULT_TYPES))
+    new_roi_size: float = 1.0
+    sync_period: float = 2.0
+    save_quiet: float = 1.0
+    save_max_wait: float = 3.0
+    publish_map: bool = True
+    map_name: str = ""             # "": the seed file's map, else office
+    db: str = ""
+    rois_file: str = ""
+    world: str = "office"
+
+    def check(self) -> None:
+        """Raises BulletFloorSimError naming the bad parameter."""
+        for name in ("new_roi_size", "sync_period", "save_quiet", "save_max_wait"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise BulletFloorSimError("roi_manager: ~%s %r: must be > 0" % (name, v))
+
+
 class RoiManagerNode:
     """The ROI manager; see the module docstring."""
 
     def __init__(self) -> None:
-        self.frame_id = rospy.get_param("~frame_id", "map")
-        self.types = [str(t) for t in rospy.get_param("~types", DEFAULT_TYPES)] or DEFAULT_TYPES
-        self.new_roi_size = float(rospy.get_param("~new_roi_size", 1.0))
-        self.sync_period = float(rospy.get_param("~sync_period", 2.0))
-        self.debouncer = edits.Debouncer(float(rospy.get_param("~save_quiet", 1.0)),
-                                      float(rospy.get_param("~save_max_wait", 3.0)))
+        p = self.params = config_from_params(RoiManagerParams())
+        self.frame_id = p.frame_id
+        self.types = [str(t) for t in p.types] or list(DEFAULT_TYPES)
+        self.new_roi_size = p.new_roi_size
+        self.sync_period = p.sync_period
+        self.debouncer = edits.Debouncer(p.save_quiet, p.save_max_wait)
         self.fmap = None
         seed_rois, bounds = self._seed_file()
-        if self.fmap is not None and rospy.get_param("~publish_map", True):
+        if self.fmap is not None and p.publish_map:
             self.map_pub = rospy.Publisher("/soma/map", OccupancyGrid, queue_size=1, latch=True)
             self.map_pub.publish(occupancy_grid(self.fmap, self.frame_id))
-        self.map_name = str(rospy.get_param("~map_name", seed_rois[0].map_name
-                                            if seed_rois else "office"))
-        db = str(rospy.get_param("~db", ""))
-        self.store = open_store(db or None)
+        self.map_name = p.map_name or (seed_rois[0].map_name if seed_rois else "office")
+        self.store = open_store(p.db or None)
         rospy.loginfo("roi_manager: ROIs of map %s in %s (%s)", self.map_name,
                       self.store.shown_uri, self.store.kind)
         self.rois_db = rs.RoiStore(self.store, self.map_name, inserted_by=rospy.get_name())
@@ -155,8 +180,7 @@ class RoiManagerNode:
 
     def _seed_file(self) -> Tuple[List[Roi], Optional[Tuple[float, float, float, float]]]:
         """The ROIs that seed the store (``~rois_file`` or the world's) and the map bounds."""
-        rois_file = str(rospy.get_param("~rois_file", ""))
-        world = str(rospy.get_param("~world", "office"))
+        rois_file, world = self.params.rois_file, self.params.world
         bounds = None
         if world:
             cfg = load_world_config(resolve_world(world, worlds_dir()))

@@ -38,6 +38,7 @@ import math
 import os
 import sys
 import threading
+from dataclasses import dataclass
 from typing import List, Optional, Sequence
 
 import rospy
@@ -58,6 +59,7 @@ from ..data.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_GAP, DEFAULT_MA
 from ..msg import Trajectory
 from .convert import chunk_to_msg, pose_of_msg
 from .node import forward_store_log, run_node
+from .params import config_from_params
 from .soma import query_rois
 
 __all__ = ["main", "RecorderNode"]
@@ -82,6 +84,43 @@ def rois_from_service(name: str, wait: float, map_name: str, config: str) -> Lis
     return [r for r in rois if not map_name or r.map_name == map_name]
 
 
+@dataclass
+class RecorderParams:
+    """The node's parameters (``~<field>``; ``map_name`` is ``~map``: see the module doc),
+    checked here where the chunker and the store do not check them."""
+
+    frame_id: str = "map"
+    split: str = "period"
+    map_name: str = ""
+    period: float = DEFAULT_PERIOD
+    max_poses: int = DEFAULT_MAX_POSES
+    max_gap: float = DEFAULT_MAX_GAP
+    db: str = ""
+    db_timeout: float = 1.5
+    db_retry_interval: float = 5.0
+    pose_topic: str = "pose"
+    spill_dir: str = ""
+    flush_every: float = 2.0
+    path_rate: float = 2.0
+    world: str = ""
+    rois_service: str = "/soma/query_rois"
+    rois_wait: float = 2.0
+    rois_config: str = ""
+    rois_file: str = ""
+
+    def check(self) -> None:
+        """Raises BulletFloorSimError naming the bad parameter."""
+        for name in ("db_timeout", "db_retry_interval", "flush_every"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise BulletFloorSimError("trajectory_recorder: ~%s %r: must be seconds > 0"
+                                          % (name, v))
+        for name in ("path_rate", "rois_wait"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise BulletFloorSimError("trajectory_recorder: ~%s %r: must be >= 0" % (name, v))
+
+
 class RecorderNode:
     """Parameters, subscriptions and the store; the chunking lives in data/trajectory.py.
 
@@ -92,28 +131,25 @@ class RecorderNode:
 
     def __init__(self) -> None:
         forward_store_log()
-        gp = rospy.get_param
-        self.frame_id = str(gp("~frame_id", "map")).lstrip("/")
-        split = str(gp("~split", "period"))
-        self.map_name = str(gp("~map", ""))
+        p = self.params = config_from_params(RecorderParams(), names={"map_name": "map"})
+        self.frame_id = p.frame_id.lstrip("/")
+        split = p.split
+        self.map_name = p.map_name
         rois: List[Roi] = []
         self.rois_source = ""
         if split == "region":
-            rois = self._load_rois(gp)
+            rois = self._load_rois(p)
         if not self.map_name:
             self.map_name = rois[0].map_name if rois else self._world().name
-        self.chunker = Chunker(period=float(gp("~period", DEFAULT_PERIOD)), split=split,
-                               max_poses=int(gp("~max_poses", DEFAULT_MAX_POSES)),
-                               max_gap=float(gp("~max_gap", DEFAULT_MAX_GAP)),
+        self.chunker = Chunker(period=p.period, split=split, max_poses=p.max_poses,
+                               max_gap=p.max_gap,
                                region_of=RegionLocator(rois) if rois else None)
         check_max_poses(self.chunker.max_poses, self.frame_id)
-        self.store = open_store(str(gp("~db", "")) or None,
-                                timeout=float(gp("~db_timeout", 1.5)),
-                                retry_interval=float(gp("~db_retry_interval", 5.0)))
+        self.store = open_store(p.db or None, timeout=p.db_timeout,
+                                retry_interval=p.db_retry_interval)
         ensure_indexes(self.store)
-        self.topic = rospy.resolve_name(str(gp("~pose_topic", "pose")))
-        self.spill = ChunkSpill(self._spill_path(str(gp("~spill_dir", ""))),
-                                float(gp("~flush_every", 2.0)))
+        self.topic = rospy.resolve_name(p.pose_topic)
+        self.spill = ChunkSpill(self._spill_path(p.spill_dir), p.flush_every)
         self.lock = threading.Lock()
         self.finished = False
         self.live: List[PoseStamped] = []
@@ -134,7 +170,7 @@ class RecorderNode:
         self.queue = ChunkQueue(self._store, "trajectory_recorder")
         # queue_size None: rospy keeps every message (a bounded queue drops the oldest).
         self.sub = rospy.Subscriber(self.topic, PoseStamped, self._on_pose, queue_size=None)
-        rate = float(gp("~path_rate", 2.0))
+        rate = p.path_rate
         # reset: a clock that jumps back (the simulator restarted) does not stop the timer
         self.timer = rospy.Timer(rospy.Duration(1.0 / rate if rate > 0 else 1.0), self._tick,
                                  reset=True)
@@ -173,19 +209,18 @@ class RecorderNode:
 
     def _world(self):
         # ~world, else the running simulator's world (sim.launch sets /simulator/world)
-        world = (str(rospy.get_param("~world", "")) or str(rospy.get_param("/simulator/world", ""))
+        world = (self.params.world or str(rospy.get_param("/simulator/world", ""))
                  or "office")
         return load_world_config(resolve_world(world, worlds_dir()))
 
-    def _load_rois(self, gp) -> List[Roi]:
-        service = str(gp("~rois_service", "/soma/query_rois"))
+    def _load_rois(self, p: "RecorderParams") -> List[Roi]:
+        service = p.rois_service
         if service:
-            rois = rois_from_service(service, float(gp("~rois_wait", 2.0)), self.map_name,
-                                     str(gp("~rois_config", "")))
+            rois = rois_from_service(service, p.rois_wait, self.map_name, p.rois_config)
             if rois:
                 self.rois_source = ", %d ROIs from %s" % (len(rois), service)
                 return rois
-        path = str(gp("~rois_file", ""))
+        path = p.rois_file
         if not path:
             world = self._world()
             if not world.rois:

@@ -33,7 +33,7 @@ import math
 import re
 import sys
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import rospy
@@ -50,12 +50,48 @@ from ..msg import Trajectory
 from ..srv import SelectTrajectories, SelectTrajectoriesResponse
 from .convert import pose_msgs
 from .node import forward_store_log, run_node
+from .params import config_from_params
 
 __all__ = ["main", "ViewerNode", "Selection", "decimate", "newest", "time_colour",
            "trajectory_colour"]
 
 _NS = 1000000000
 COLOR_BY = ("time", "trajectory")
+
+
+@dataclass
+class ViewerParams:
+    """The node's parameters (``~<field>``; ``map_name`` is ``~map``), checked."""
+
+    frame_id: str = "map"
+    line_width: float = 0.05
+    max_points: int = 10000
+    max_poses: int = 100000
+    map_name: str = ""
+    since: float = 0.0
+    until: float = 0.0
+    last_n: int = 0
+    color_by: str = "time"
+    paths: bool = False
+    db: str = ""
+    db_timeout: float = 1.5
+    chunk_topics: list = field(default_factory=lambda: [
+        "/trajectory_recorder/trajectories/batch", "/trajectory_recorder/trajectories/complete"])
+    refresh_period: float = 0.0
+
+    def check(self) -> None:
+        """Raises BulletFloorSimError naming the bad parameter (the selection checks its own)."""
+        if self.max_points < 2:
+            raise BulletFloorSimError("~max_points %d: must be >= 2" % self.max_points)
+        if self.max_poses < 1:
+            raise BulletFloorSimError("~max_poses %d: must be >= 1" % self.max_poses)
+        for name in ("line_width", "db_timeout"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise BulletFloorSimError("~%s %r: must be > 0" % (name, v))
+        if not (math.isfinite(self.refresh_period) and self.refresh_period >= 0):
+            raise BulletFloorSimError("~refresh_period %r: must be seconds >= 0 (0 = never)"
+                                      % self.refresh_period)
 
 
 @dataclass(frozen=True)
@@ -163,22 +199,13 @@ class ViewerNode:
 
     def __init__(self) -> None:
         forward_store_log()
-        gp = rospy.get_param
-        self.frame_id = str(gp("~frame_id", "map"))
-        self.line_width = float(gp("~line_width", 0.05))
-        self.max_points = int(gp("~max_points", 10000))
-        if self.max_points < 2:
-            raise BulletFloorSimError("~max_points %d: must be >= 2" % self.max_points)
-        self.max_poses = int(gp("~max_poses", 100000))
-        if self.max_poses < 1:
-            raise BulletFloorSimError("~max_poses %d: must be >= 1" % self.max_poses)
+        p = self.params = config_from_params(ViewerParams(), names={"map_name": "map"})
+        self.frame_id, self.line_width = p.frame_id, p.line_width
+        self.max_points, self.max_poses = p.max_points, p.max_poses
         self.capped = False
-        self.selection = Selection(str(gp("~map", "")), float(gp("~since", 0.0)),
-                                   float(gp("~until", 0.0)), int(gp("~last_n", 0)),
-                                   str(gp("~color_by", "time")), bool(gp("~paths", False)))
+        self.selection = Selection(p.map_name, p.since, p.until, p.last_n, p.color_by, p.paths)
         self.selection.check()
-        self.store = open_store(str(gp("~db", "")) or None,
-                                timeout=float(gp("~db_timeout", 1.5)))
+        self.store = open_store(p.db or None, timeout=p.db_timeout)
         ensure_indexes(self.store)  # reads go by start time and by uuid
         self.lock = threading.RLock()
         self.chunks: Dict[Tuple[str, int], Chunk] = {}
@@ -187,11 +214,9 @@ class ViewerNode:
         self.marker_pub = rospy.Publisher("~markers", MarkerArray, queue_size=1, latch=True)
         self.path_pubs: Dict[str, rospy.Publisher] = {}
         self.service = rospy.Service("~select", SelectTrajectories, self._on_select)
-        topics = gp("~chunk_topics", ["/trajectory_recorder/trajectories/batch",
-                                      "/trajectory_recorder/trajectories/complete"])
         self.subs = [rospy.Subscriber(t, Trajectory, self._on_chunk, queue_size=100)
-                     for t in topics]
-        self.refresh_period = float(gp("~refresh_period", 0.0))
+                     for t in p.chunk_topics]
+        self.refresh_period = p.refresh_period
         self.next_refresh = 0.0
         with self.lock:
             self._reload_or_warn()
