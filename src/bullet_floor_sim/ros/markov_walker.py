@@ -405,10 +405,9 @@ class MarkovWalkerNode:
                 not self.client.wait_for_server(rospy.Duration(1.0)) and \
                 not self._wait_for_server():
             return False
-        with self.lock:
-            pose = self.pose
         try:
-            step = agent.tick(now, pose, self._result())
+            with self.lock:   # (the ROI refresh thread swaps the walker's regions under it)
+                step = agent.tick(now, self.pose, self._result())
         except WalkerError as e:
             for note in agent.take_notes():
                 rospy.logwarn("markov_walker: %s", note)

@@ -160,8 +160,11 @@ class _Scenario:
         (rejected). A new leg's predictions start afresh."""
         try:
             self.nav_walker.start(pose, leg.goal, t)
-        except PlanError as e:
-            self._leg_ended(t, self.walker.tick(t, pose, ("rejected", str(e))))
+        except PlanError as e:   # path_follower aborts such a goal (a new goal may follow)
+            step = self.walker.tick(t, pose, ("aborted", str(e)))
+            if step.regoal:
+                return self._send(t, pose, step.start, new_leg)
+            self._leg_ended(t, step)
             return False
         if new_leg:
             self.gt_records, self.trk_records = [], []
@@ -194,7 +197,6 @@ class _Scenario:
         if cfg.follow:
             plans = {tid: plan for tid, (_p, plan) in pstep.destinations.items()}
             fstep = self.follower.tick(t, pose_o, tracks, plans, self.obs_goal_done)
-            self.obs_goal_done = False
             self._follow(t, pose_o, fstep.decision, scan_o)
         else:
             fstep = self.follower.pick(tracks)
@@ -222,7 +224,8 @@ class _Scenario:
         if dec.goal is not None:
             try:
                 self.nav_observer.start(pose_o, dec.goal, t)
-                self.obs_goal_active = True
+                # the follower node's goal_done: the last goal sent is over (until the next)
+                self.obs_goal_active, self.obs_goal_done = True, False
             except PlanError:
                 self.obs_goal_active, self.obs_goal_done = False, True
         if not self.obs_goal_active:
