@@ -35,11 +35,11 @@ from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Tuple
 
 import rospy
-from geometry_msgs.msg import Point, Pose, PoseArray, Quaternion
+from geometry_msgs.msg import Point, Quaternion
 from nav_msgs.msg import OccupancyGrid
 from interactive_markers.interactive_marker_server import InteractiveMarkerServer
 from interactive_markers.menu_handler import MenuHandler
-from std_msgs.msg import ColorRGBA, Header, String
+from std_msgs.msg import ColorRGBA, String
 from visualization_msgs.msg import (InteractiveMarker, InteractiveMarkerControl,
                                     InteractiveMarkerFeedback, Marker, MarkerArray)
 
@@ -51,8 +51,8 @@ from bullet_floor_sim.sim.floormap import load_map
 from bullet_floor_sim.paths import worlds_dir
 from bullet_floor_sim.data.rois import Roi, RoiError, centroid, check_bounds, load_rois
 from bullet_floor_sim.data.store import StoreError, StoreUnavailable, open_store
-from bullet_floor_sim.msg import SOMAROIObject
 from bullet_floor_sim.ros.convert import occupancy_grid
+from bullet_floor_sim.ros.soma import document_to_msg
 from bullet_floor_sim.ros.node import run_node
 from bullet_floor_sim.ros.params import config_from_params
 from bullet_floor_sim.srv import (MapInfo, MapInfoResponse, SOMAQueryROIs,
@@ -61,39 +61,6 @@ from bullet_floor_sim.srv import (MapInfo, MapInfoResponse, SOMAQueryROIs,
 DEFAULT_TYPES = ["office", "corridor", "kitchen", "lab", "meeting_room", "toilet", "stairs",
                  "lift", "reception"]
 Key = Tuple[str, str]  # (config, roi id)
-
-
-# --------------------------------------------------------------------------------------------
-# message conversion
-# --------------------------------------------------------------------------------------------
-
-
-def _header(d: Dict[str, Any]) -> Header:
-    stamp = d.get("stamp", {})
-    return Header(seq=int(d.get("seq", 0)), frame_id=str(d.get("frame_id", "")),
-                  stamp=rospy.Time(int(stamp.get("secs", 0)), int(stamp.get("nsecs", 0))))
-
-
-def _pose_array(d: Dict[str, Any]) -> PoseArray:
-    poses = []
-    for p in d.get("poses", []):
-        pos, ori = p["position"], p["orientation"]
-        poses.append(Pose(Point(pos["x"], pos["y"], pos["z"]),
-                          Quaternion(ori["x"], ori["y"], ori["z"], ori["w"])))
-    return PoseArray(header=_header(d.get("header", {})), poses=poses)
-
-
-def document_to_msg(doc: Dict[str, Any]) -> SOMAROIObject:
-    """A stored ROI document as a SOMAROIObject message."""
-    msg = SOMAROIObject()
-    msg.header = _header(doc.get("header", {}))
-    for name in ("id", "map_name", "map_unique_id", "config", "type", "geotype"):
-        setattr(msg, name, str(doc.get(name, "")))
-    for name in ("logtimestamp", "logday", "loghour", "logminute", "logtimeminutes"):
-        setattr(msg, name, int(doc.get(name, 0)))
-    msg.posearray = _pose_array(doc.get("posearray", {}))
-    msg.geoposearray = _pose_array(doc.get("geoposearray", {}))
-    return msg
 
 
 def type_color(roi_type: str, alpha: float = 1.0) -> ColorRGBA:
