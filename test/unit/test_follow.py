@@ -283,6 +283,32 @@ def test_give_way_point_is_the_nearest_free_place_clear_of_the_route():
     assert give_way_point(grid, route, (2.5, 1.6), (1.0, 1.6), 0.9, 2.0) is None
 
 
+def test_a_give_way_point_towards_the_target_comes_before_a_nearer_one_behind():
+    # a corridor (y 1.0..2.2) with an alcove north at x 4..5, towards the target in the west,
+    # and one at x 8..9, behind the observer; the target walks east along y = 1.6
+    g = np.full((int(5.0 / RES), int(14.0 / RES)), 100, dtype=np.int8)
+    g[int(1.0 / RES):int(2.2 / RES), 1:-1] = 0
+    for x0 in (4.0, 8.0):
+        g[int(2.2 / RES):int(4.2 / RES), int(x0 / RES):int((x0 + 1.0) / RES)] = 0
+    grid = PlanningGrid(map_from_grid(g, RES))
+    route = np.array([[x, 1.6] for x in np.arange(1.0, 13.0, 0.1)])
+    robot, target = (7.0, 1.6), (1.0, 1.6)
+    behind = give_way_point(grid, route, robot, target, 0.9, 4.0)
+    assert behind is not None and 8.0 < behind[0] < 9.0 and behind[1] >= 2.5   # the nearest
+    ahead = give_way_point(grid, route, robot, target, 0.9, 4.0, in_view=math.radians(75.0))
+    assert ahead is not None and 4.0 < ahead[0] < 5.0 and ahead[1] >= 2.5
+    # hand-checked: the nearest free planning cell centre of that alcove 0.9 m clear of
+    # y = 1.6 is at y 2.55 in its east-most free column, x 4.65 (the wall at x 5.0 less the
+    # 0.34 m footprint radius: 4.66); it lies 22 degrees off the target's bearing
+    assert ahead == pytest.approx((4.65, 2.55), abs=1e-6)
+    off = abs(math.atan2(ahead[1] - 1.6, ahead[0] - 7.0) - math.pi)
+    assert off < math.radians(75.0) and abs(math.atan2(behind[1] - 1.6, behind[0] - 7.0)
+                                            - math.pi) > math.radians(75.0)
+    # nothing in view within reach: the nearest after all
+    assert give_way_point(grid, route, robot, target, 0.9, 4.0,
+                          in_view=math.radians(10.0)) == pytest.approx(behind)
+
+
 def test_an_observer_on_the_targets_way_steps_aside_and_waits_until_it_passed():
     grid = corridor_with_alcove()
     fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9))

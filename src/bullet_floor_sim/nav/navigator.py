@@ -25,12 +25,15 @@ _MAX_RETREATS = 3   # per goal: then it waits where it is, and the goal can time
 
 def give_way_point(grid: PlanningGrid, route: np.ndarray, robot: Sequence[float],
                    target: Sequence[float], clear: float, reach: float, roomy: float = 0.0,
-                   obstacles: Optional[np.ndarray] = None) -> Optional[Tuple[float, float]]:
+                   obstacles: Optional[np.ndarray] = None, in_view: float = 0.0
+                   ) -> Optional[Tuple[float, float]]:
     """The free planning-cell centre nearest to ``robot`` that is at least ``clear`` metres from
     every point of ``route`` (an (N, 2) polyline sampled finely, e.g. a plan) and from the
     ``target``, within ``reach`` metres of the robot and reachable from it without passing
     ``obstacles`` (map-frame points, inflated as the planner does); one with ``roomy`` metres
-    of wall clearance first. None when there is none."""
+    of wall clearance first, and of those (then of the rest) one whose bearing from the robot
+    is within ``in_view`` radians of the target's (driving there, a forward-looking lidar keeps
+    the target in view; 0: no such preference). None when there is none."""
     from scipy.ndimage import label
 
     rx, ry = float(robot[0]), float(robot[1])
@@ -67,7 +70,13 @@ def give_way_point(grid: PlanningGrid, route: np.ndarray, robot: Sequence[float]
     if not ok.any():
         return None
     roomy_ok = ok & (grid.clearance[R, C] >= roomy)
-    pick = roomy_ok if roomy_ok.any() else ok
+    tiers = [roomy_ok, ok]
+    if in_view > 0.0:
+        bearing = math.atan2(float(target[1]) - ry, float(target[0]) - rx)
+        off = np.abs(np.angle(np.exp(1j * (np.arctan2(y - ry, x - rx) - bearing))))
+        seen = off <= in_view
+        tiers = [roomy_ok & seen, roomy_ok, ok & seen, ok]
+    pick = next(t for t in tiers if t.any())
     i = int(np.argmin(np.where(pick, d_robot, np.inf)))
     return float(x[i]), float(y[i])
 
