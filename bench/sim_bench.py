@@ -72,6 +72,7 @@ def run_case(n_robots: int, sim_seconds: float, name: str = "office") -> dict:
     t_imports = time.perf_counter()
     world, load_s = _world(n_robots, name=name)
     load_total = time.perf_counter() - t_imports
+    from bullet_floor_sim.sim.sensors import Scan
     rng = np.random.default_rng(1)
     steps = int(round(sim_seconds / world.clock.dt))
     turn = np.zeros(world.n)
@@ -79,6 +80,8 @@ def run_case(n_robots: int, sim_seconds: float, name: str = "office") -> dict:
     t0 = time.perf_counter()
     for _ in range(steps):
         for scan in world.step():  # a reactive wanderer: cruise, turn away from what is ahead
+            if not isinstance(scan, Scan):
+                continue
             i = scan.robot
             if np.min(scan.ranges[front]) < 1.0 or world.stalled[i]:
                 turn[i] = turn[i] or float(rng.choice((-1.2, 1.2)))

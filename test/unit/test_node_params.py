@@ -5,6 +5,8 @@ string "false" as True, 2.5 as 2), and each node's parameter dataclass names the
 """
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from bullet_floor_sim.errors import BulletFloorSimError, ConfigError
@@ -17,27 +19,35 @@ from bullet_floor_sim.ros.trajectory_viewer import ViewerParams
 
 @pytest.mark.parametrize("value, current, expected", [
     (3, 1.5, 3.0), (2.0, 7, 2), (True, False, True), ("x", "", "x"), (5, "", "5"),
-    ([1, 2], [], [1, 2]), ({"a": 1}, None, {"a": 1})])
+    ([1, 2], [], [1, 2]), ({"a": 1}, None, {"a": 1}),
+    # what roslaunch makes of <param value="...">: "1e3" and "inf" stay strings, 1/0 ints
+    ("1e3", 1.0, 1000.0), ("inf", 1.0, float("inf")), ("4", 7, 4), (1, False, True),
+    (0, True, False), ("false", True, False), ("True", False, True)])
 def test_values_convert_to_the_fields_type(value, current, expected):
     got = _convert("~p", value, current)
     assert got == expected and type(got) is type(expected)
 
 
 @pytest.mark.parametrize("value, current, problem", [
-    ("false", False, "expected true or false"), (1, True, "expected true or false"),
-    ("0.5", 1.0, "expected a number"), (True, 1.0, "expected a number"),
-    (2.5, 3, "expected a whole number"), ("a,b", [], "expected a list")])
+    ("no", False, "expected true or false"), (2, True, "expected true or false"),
+    (0.0, True, "expected true or false"), ("0.5x", 1.0, "expected a number"),
+    (True, 1.0, "expected a number"), ([1], 1.0, "expected a number"),
+    (2.5, 3, "expected a whole number"), ("2.5", 3, "expected a whole number"),
+    ("a,b", [], "expected a list")])
 def test_a_value_of_the_wrong_kind_is_one_error_naming_the_parameter(value, current, problem):
-    with pytest.raises(ConfigError, match=r"^~p: %s, got %r$" % (problem, value)):
+    with pytest.raises(ConfigError, match=r"^~p: %s, got %s$" % (problem, re.escape(repr(value)))):
         _convert("~p", value, current)
 
 
 @pytest.mark.parametrize("params, message", [
     (PathFollowerParams(max_linear=-0.5), r"path_follower: ~max_linear -0\.5: must be a number > 0"),
     (PathFollowerParams(controller_frequency=float("nan")), r"~controller_frequency nan"),
-    (RecorderParams(flush_every=0.0), r"trajectory_recorder: ~flush_every 0\.0: must be seconds > 0"),
+    (PathFollowerParams(inflation_radius=-0.1), r"~inflation_radius -0\.1: must be a number >= 0"),
+    (RecorderParams(db_timeout=0.0), r"trajectory_recorder: ~db_timeout 0\.0: must be seconds > 0"),
+    (RecorderParams(flush_every=-1.0), r"trajectory_recorder: ~flush_every -1\.0: must be >= 0"),
     (RecorderParams(path_rate=-1.0), r"trajectory_recorder: ~path_rate -1\.0: must be >= 0"),
-    (RoiManagerParams(save_quiet=0.0), r"roi_manager: ~save_quiet 0\.0: must be > 0"),
+    (RoiManagerParams(save_quiet=-0.5), r"roi_manager: ~save_quiet -0\.5: must be >= 0"),
+    (RoiManagerParams(new_roi_size=0.0), r"roi_manager: ~new_roi_size 0\.0: must be > 0"),
     (ViewerParams(max_points=1), r"~max_points 1: must be >= 2"),
     (ViewerParams(refresh_period=-2.0), r"~refresh_period -2\.0: must be seconds >= 0")])
 def test_each_nodes_parameters_check_names_the_bad_one(params, message):
@@ -45,7 +55,10 @@ def test_each_nodes_parameters_check_names_the_bad_one(params, message):
         params.check()
 
 
-def test_the_defaults_pass_their_checks():
+def test_the_defaults_and_the_documented_zeros_pass_their_checks():
     for cls in (PathFollowerParams, RecorderParams, RoiManagerParams, ViewerParams):
         cls().check()
+    PathFollowerParams(inflation_radius=0.0).check()                  # no inflation
+    RoiManagerParams(sync_period=0.0, save_quiet=0.0).check()         # no sync; save at once
+    RecorderParams(flush_every=0.0, path_rate=0.0).check()            # every pose; no path
     assert PathFollowerParams().robot_radius == 0.34 and ViewerParams().max_poses == 100000

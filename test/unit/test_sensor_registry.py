@@ -70,6 +70,7 @@ def test_a_registered_kind_is_read_from_world_yaml_with_defaults_and_checks(tmp_
     a, b = cfg.robots
     assert a.ticker == TickerConfig(rate=2.0) and a.sensors["ticker"] is a.ticker
     assert b.ticker == TickerConfig()          # no section: the defaults
+    assert hash(a) != hash(b) and {a, a} == {a}
     with pytest.raises(ConfigError, match=r"robots\[0\] \(a\): ticker: rate must be a positive "
                                           r"number, got -1\.0"):
         load_world_config(_world_yaml(tmp_path, "    ticker: {rate: -1.0}\n"))

@@ -42,17 +42,32 @@ def config_from_params(config: C, prefix: str = "~", names: Optional[Dict[str, s
 
 
 def _convert(name: str, value: Any, current: Any) -> Any:
-    """``value`` as the type of ``current`` (any value when that is None); a bool only from
-    a bool and a number only from a number, so that "false" is not taken as True."""
+    """``value`` as the type of ``current`` (any value when that is None), taking what
+    roslaunch makes of a ``<param value="...">`` (it types "1e3" and "inf" as strings, and
+    a bool written 1 or 0 as an int), but never a word for a bool or a number ("false" is
+    not True)."""
     if current is None:
         return value
     want = type(current)
-    if want is bool and not isinstance(value, bool):
+    if want is bool:
+        if isinstance(value, bool):
+            return value
+        word = str(value).strip().lower()
+        if isinstance(value, (int, str)) and word in ("1", "0", "true", "false"):
+            return word in ("1", "true")
         raise ConfigError("%s: expected true or false, got %r" % (name, value))
-    if want in (int, float) and (isinstance(value, bool) or not isinstance(value, (int, float))):
-        raise ConfigError("%s: expected a number, got %r" % (name, value))
-    if want is int and isinstance(value, float) and not value.is_integer():
-        raise ConfigError("%s: expected a whole number, got %r" % (name, value))
+    if want in (int, float):
+        number = value
+        if isinstance(value, str):
+            try:
+                number = float(value)
+            except ValueError:
+                raise ConfigError("%s: expected a number, got %r" % (name, value)) from None
+        if isinstance(number, bool) or not isinstance(number, (int, float)):
+            raise ConfigError("%s: expected a number, got %r" % (name, value))
+        if want is int and not float(number).is_integer():
+            raise ConfigError("%s: expected a whole number, got %r" % (name, value))
+        return want(number)
     if want is list and not isinstance(value, list):
         raise ConfigError("%s: expected a list, got %r" % (name, value))
     return want(value)

@@ -66,12 +66,15 @@ class PathFollowerParams:
     map_topic: str = "/map"
 
     def check(self) -> None:
-        """Raises BulletFloorSimError naming the first parameter that is not a number > 0."""
+        """Raises BulletFloorSimError naming the first parameter that is not a number > 0
+        (>= 0 for ``inflation_radius``: none)."""
         for f in fields(self):
             v = getattr(self, f.name)
-            if isinstance(v, float) and not (math.isfinite(v) and v > 0):
-                raise BulletFloorSimError("path_follower: ~%s %r: must be a number > 0"
-                                          % (f.name, v))
+            least = 0.0 if f.name == "inflation_radius" else None
+            if isinstance(v, float) and not (math.isfinite(v) and (
+                    v > 0 if least is None else v >= least)):
+                raise BulletFloorSimError("path_follower: ~%s %r: must be a number %s"
+                                          % (f.name, v, "> 0" if least is None else ">= 0"))
 
 
 class PathFollowerNode:

@@ -20,7 +20,7 @@
   so rviz shows the map without a simulator or map_server (``~publish_map``).
 * At start, the world's rois.yaml (``~rois_file`` overrides) seeds the store when the store
   has no ROI for its map and config; afterwards the store is the truth. Changes written by
-  others (``rosrun bullet_floor_sim rois import``) are picked up every ``~sync_period`` s.
+  others (``rosrun bullet_floor_sim rois import``) are picked up every ``~sync_period`` s (0: never).
 """
 from __future__ import annotations
 
@@ -97,10 +97,12 @@ class RoiManagerParams:
 
     def check(self) -> None:
         """Raises BulletFloorSimError naming the bad parameter."""
-        for name in ("new_roi_size", "sync_period", "save_quiet", "save_max_wait"):
+        for name, least in (("new_roi_size", None), ("save_max_wait", None),
+                            ("save_quiet", 0.0), ("sync_period", -math.inf)):
             v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise BulletFloorSimError("roi_manager: ~%s %r: must be > 0" % (name, v))
+            if not (math.isfinite(v) and (v > 0 if least is None else v >= least)):
+                raise BulletFloorSimError("roi_manager: ~%s %r: must be %s" % (
+                    name, v, "> 0" if least is None else ">= 0" if least == 0 else "finite"))
 
 
 class RoiManagerNode:

@@ -110,12 +110,12 @@ class RecorderParams:
 
     def check(self) -> None:
         """Raises BulletFloorSimError naming the bad parameter."""
-        for name in ("db_timeout", "db_retry_interval", "flush_every"):
+        for name in ("db_timeout", "db_retry_interval"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise BulletFloorSimError("trajectory_recorder: ~%s %r: must be seconds > 0"
                                           % (name, v))
-        for name in ("path_rate", "rois_wait"):
+        for name in ("path_rate", "rois_wait", "flush_every"):   # flush_every 0: every pose
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise BulletFloorSimError("trajectory_recorder: ~%s %r: must be >= 0" % (name, v))

@@ -107,6 +107,10 @@ class RobotSpec:
                                   for k, kind in SENSORS.items()})):
             object.__setattr__(self, k, v)
 
+    def __hash__(self) -> int:
+        return hash((self.name, self.model, self.pose, self.drive,
+                     tuple(sorted(self.sensors.items()))))
+
     def __getattr__(self, name: str) -> Any:
         sensors = self.__dict__.get("sensors", {})
         if name in sensors:

@@ -238,6 +238,7 @@ class World:
         self._robot_penetration[rows] = 0.0
         for sensor in self._sensor_list:
             sensor.reset(self, rows)
+        self._sensor_due_ns = min(s.next_ns for s in self._sensor_list)
         self._safe_until_ns[:] = 0
         self._check_due_ns = 0
         self._sync_bodies(rows)

@@ -10,6 +10,7 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ...data.rois import load_rois
+from ...sim.sensors import Scan
 from ...nav.planner import (Navigator, NavigatorConfig, PathFollower, PlanError, PlanningGrid,
                             obstacles_in_base)
 from ..agents import FollowerAgent, PredictorAgent, TrackerAgent, WalkerAgent
@@ -117,7 +118,8 @@ class _Scenario:
         and the observer in turn."""
         world, cfg = self.world, self.cfg
         for s in world.step(steps):
-            self.scans[s.robot] = s
+            if isinstance(s, Scan):     # (the lidars' readings; other sensors' are not used)
+                self.scans[s.robot] = s
         t = world.clock.now
         world.update_odometry()
         pose_w = world.view(cfg.walker, refresh=False)

@@ -5,8 +5,9 @@ A sensor kind is one file here: its world.yaml section (a frozen dataclass of de
 :class:`~.base.Sensor`, with a ``KIND`` entry naming both. ``SENSORS`` lists the kinds by
 section name; that is all there is to adding one. Robots then take ``<section>: {...}`` in
 world.yaml, ``RobotSpec.<section>`` holds its config, ``World.sensors[<section>]`` its model,
-``World.step`` reads it when due and returns its readings. The simulator node publishes a
-kind that ``ros/sim/publish.py`` has a publisher for under the same name.
+``World.step`` reads it when due and returns its readings with the other kinds' (a consumer
+picks its own by type: the evaluation and the simulator node take ``Scan``). The simulator
+node publishes a kind that ``ros/sim/publish.py`` has an output for under the same name.
 """
 from typing import Dict
 
