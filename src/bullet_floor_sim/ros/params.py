@@ -20,21 +20,21 @@ C = TypeVar("C")
 
 
 def config_from_params(config: C, prefix: str = "~", names: Optional[Dict[str, str]] = None) -> C:
-    """Override every field of a config dataclass that is set as a parameter
-    ``<prefix><field>`` (``names`` maps a field to another parameter name), converted to the
-    field's current type, then run its ``check()``.
+    """A copy of a config dataclass with every field that is set as a parameter
+    ``<prefix><field>`` (``names`` maps a field to another parameter name) taken from it,
+    converted to the field's current type; its ``check()`` run.
 
     Raises:
         ConfigError: a parameter that cannot be converted to its field's type (names it).
         the config's own error (a BulletFloorSimError naming the field) for a bad value.
     """
     names = names or {}
+    changes: Dict[str, Any] = {}
     for f in dataclasses.fields(config):
         name = prefix + names.get(f.name, f.name)
         if rospy.has_param(name):
-            current: Any = getattr(config, f.name)
-            value = rospy.get_param(name)
-            setattr(config, f.name, _convert(name, value, current))
+            changes[f.name] = _convert(name, rospy.get_param(name), getattr(config, f.name))
+    config = dataclasses.replace(config, **changes)   # (a frozen dataclass too)
     check = getattr(config, "check", None)
     if check is not None:
         check()

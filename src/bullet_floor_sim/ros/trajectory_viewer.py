@@ -61,18 +61,12 @@ COLOR_BY = ("time", "trajectory")
 
 @dataclass
 class ViewerParams:
-    """The node's parameters (``~<field>``; ``map_name`` is ``~map``), checked."""
+    """The node's parameters (``~<field>``) but the selection's (:class:`Selection`), checked."""
 
     frame_id: str = "map"
     line_width: float = 0.05
     max_points: int = 10000
     max_poses: int = 100000
-    map_name: str = ""
-    since: float = 0.0
-    until: float = 0.0
-    last_n: int = 0
-    color_by: str = "time"
-    paths: bool = False
     db: str = ""
     db_timeout: float = 1.5
     chunk_topics: list = field(default_factory=lambda: [
@@ -199,12 +193,11 @@ class ViewerNode:
 
     def __init__(self) -> None:
         forward_store_log()
-        p = self.params = config_from_params(ViewerParams(), names={"map_name": "map"})
+        p = self.params = config_from_params(ViewerParams())
         self.frame_id, self.line_width = p.frame_id, p.line_width
         self.max_points, self.max_poses = p.max_points, p.max_poses
         self.capped = False
-        self.selection = Selection(p.map_name, p.since, p.until, p.last_n, p.color_by, p.paths)
-        self.selection.check()
+        self.selection = config_from_params(Selection(), names={"map_name": "map"})
         self.store = open_store(p.db or None, timeout=p.db_timeout)
         ensure_indexes(self.store)  # reads go by start time and by uuid
         self.lock = threading.RLock()
