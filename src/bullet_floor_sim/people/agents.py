@@ -78,11 +78,13 @@ class WalkerAgent:
 
     Args:
         walker: the walk (chain, regions, goal sampler, random streams).
-        regoal_within: metres (a robot's width and a margin).
+        regoal_within: metres: the follower's stand-off distance (1.5 m), since the observer
+            waiting that far from a stopped walker is what most often stands on its goal (with
+            1.0 m, a full-demo leg was given up 1.02 m from a goal the observer stood on).
         max_regoals: new goals a leg may get.
     """
 
-    def __init__(self, walker: Walker, regoal_within: float = 1.0, max_regoals: int = 1) -> None:
+    def __init__(self, walker: Walker, regoal_within: float = 1.5, max_regoals: int = 1) -> None:
         if not (math.isfinite(regoal_within) and regoal_within >= 0):
             raise BulletFloorSimError("walker: regoal_within must be a finite number >= 0, "
                                       "got %r" % (regoal_within,))

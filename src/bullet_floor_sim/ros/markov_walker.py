@@ -31,7 +31,7 @@ people.walker.WalkerConfig fields as ``~<field>`` (``~retry_delay``, ``~max_pick
 ``~min_shared`` (0.8), ``~query_service``, ``~map_info_service``, ``~rois_changed_topic``,
 ``~requery_period`` (30), ``~map_topic`` (``/map``), ``~map_yaml`` ("" = use the topic),
 ``~db`` (``mongodb://...`` or a directory; "" = the embedded default), ``~store_chain`` (true),
-``~frame_id`` (map), ``~regoal_within`` (1.0 m) and ``~max_regoals`` (1): a goal the navigation
+``~frame_id`` (map), ``~regoal_within`` (1.5 m) and ``~max_regoals`` (1): a goal the navigation
 gives up on this close is replaced by another in its region (people/agents.WalkerAgent).
 
 Problems (no ROIs, service missing, no map, no action server, unreachable regions) are one
@@ -110,7 +110,7 @@ class MarkovWalkerNode:
         if self.mode not in MODES:
             raise WalkerError("~mode must be one of %s, got %r" % ("/".join(MODES), self.mode))
         self.min_shared = float(gp("~min_shared", 0.8))
-        self.regoal = (float(gp("~regoal_within", 1.0)), int(gp("~max_regoals", 1)))
+        self.regoal = (float(gp("~regoal_within", 1.5)), int(gp("~max_regoals", 1)))
         if not (math.isfinite(self.regoal[0]) and self.regoal[0] >= 0 and self.regoal[1] >= 0):
             raise WalkerError("~regoal_within must be a finite number >= 0 and ~max_regoals an "
                               "integer >= 0, got %r and %r" % self.regoal)
