@@ -134,6 +134,20 @@ class RoiQuery:
               "returnmostrecent", "lowerhour", "upperhour", "lowerminutes", "upperminutes",
               "lowerdate", "upperdate", "weekday", "roiids", "roiconfigs")
 
+    # set by name in __init__ (declared for the type checker)
+    uselowertime: bool
+    useuppertime: bool
+    usedates: bool
+    useweekday: bool
+    returnmostrecent: bool
+    lowerhour: int
+    upperhour: int
+    lowerminutes: int
+    upperminutes: int
+    lowerdate: int
+    upperdate: int
+    weekday: int
+
     def __init__(self, **fields: Any) -> None:
         unknown = sorted(set(fields) - set(self.FIELDS))
         if unknown:

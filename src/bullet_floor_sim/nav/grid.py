@@ -14,7 +14,7 @@ from __future__ import annotations
 import heapq
 import math
 from dataclasses import dataclass
-from typing import List, Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -87,6 +87,7 @@ class PlanningGrid:
         # wall, at most 2 mm high at a corner). A 0.8 m door is open to a 0.34 m footprint
         # (the worst point of each cell, as before, closed it: 0.9 m was the narrowest).
         dist = solid_map(fmap, handling).distance
+        assert dist is not None   # solid_map's answer always has it
         fine = dist.astype(float) * fmap.resolution - 0.5 * fmap.resolution
         self._fine = fine
         h, w = fine.shape
@@ -150,7 +151,8 @@ class PlanningGrid:
         return self.inside(c, r) and math.isfinite(self.cost[r, c])
 
     # -- planning --------------------------------------------------------------------------
-    def plan(self, start: Sequence[float], goal: Sequence[float],
+    def plan(self, start: Sequence[float],
+             goal: Union[Sequence[float], Tuple[float, float, Optional[float]]],
              obstacles: Optional[np.ndarray] = None) -> np.ndarray:
         """Plan from ``start`` (x, y[, yaw]) to ``goal`` (x, y[, yaw]).
 

@@ -355,6 +355,7 @@ class Navigator:
         # points on the map's walls are already in the grid: keep only the new ones, near
         near = np.hypot(pts[:, 0], pts[:, 1]) < self.config.obstacle_range
         world = self._seen[near & ~self._known]
+        path: Optional[np.ndarray]
         try:
             path = self.grid.plan(pose, self._retreat or self.goal, obstacles=world)
         except PlanError:
@@ -390,6 +391,7 @@ class Navigator:
 
     def _wait_then_resume(self, pose: Sequence[float], now: float) -> NavStatus:
         """Out of the way: wait, then plan to the goal again (around what the scan shows)."""
+        assert self._resume_at is not None and self.goal is not None   # as _update calls it
         if now < self._resume_at:
             return NavStatus(0.0, 0.0, "active", "giving way")
         world = self._seen[~self._known]
@@ -406,6 +408,7 @@ class Navigator:
         return NavStatus(0.0, 0.0, "active", "going on")
 
     def _sidestep(self, pose: Sequence[float], world: np.ndarray) -> Optional[np.ndarray]:
+        assert self.goal is not None   # _replan_around checks it
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
         r = self.grid.config.robot_radius
         for side in (-1.0, 1.0):  # right first

@@ -101,6 +101,8 @@ class PathFollower:
         way (nor than radius + side margin, nor than it stands now); ``k`` itself when its
         chord is safe or when none is. Pure pursuit cuts the chord: in a door with a bend,
         the chord to a 0.6 m look-ahead ran 1.5 cm into the wall corner."""
+        # the caller checks _path_clear, which set_path computes only with a clearance
+        assert self._path_clear is not None and self.clearance is not None
         cfg = self.config
         clear = self._path_clear[self._index:]
         here = float(self.clearance(np.array([[x, y]]))[0])

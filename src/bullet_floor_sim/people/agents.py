@@ -25,7 +25,7 @@ import numpy as np
 from ..data.rois import RoiError
 from ..errors import BulletFloorSimError
 from .follow import FollowBehaviour, FollowConfig, FollowDecision
-from .search import pick_target, search_plan
+from .search import TrackLike, pick_target, search_plan
 from .prediction import DestinationModel, Prediction, PredictorPool
 from .tracking import StaticMap, Track, Tracker, TrackerConfig, detect, scan_points
 from .walker import Leg, Walker
@@ -144,6 +144,7 @@ class WalkerAgent:
         w = self.walker
         roi = w.index.by_id.get(leg.target_region)
         for _ in range(20 if roi is not None else 0):   # draws away from the blocked goal
+            assert roi is not None   # (no draw without a region)
             try:
                 x, y = w.sampler.sample(roi, w.rng_goal, (pose[0], pose[1]))
             except RoiError:
@@ -283,7 +284,7 @@ class FollowerStep:
     followed before (``switched``: another id replaced a followed one; ``new``: any change,
     the first pick included), and the decision (None when the agent only picked)."""
 
-    target: Optional[object] = None
+    target: Optional[TrackLike] = None
     switched: bool = False
     new: bool = False
     decision: Optional[FollowDecision] = None

@@ -197,7 +197,8 @@ class FollowBehaviour:
         self._patrolled: List[int] = []  # patrol places visited this tour
         self._search_phase = ""          # back | go | look | wait
         self._search_since = -math.inf
-        self._route_key = None           # (target x, y, time, destinations) of self._route
+        # (target x, y, time, destinations) of self._route
+        self._route_key: Optional[Tuple[float, float, float, List[Tuple[float, float]]]] = None
         self._route: Optional[np.ndarray] = None
         self._yield: Optional[Tuple[float, float, float]] = None  # target x, y, t when it began
         self._standing = True            # no goal under way (the last one finished)
@@ -323,6 +324,7 @@ class FollowBehaviour:
         if key is not None and (t - key[2] < cfg.goal_period or (
                 math.hypot(target[0] - key[0], target[1] - key[1]) < cfg.replan_distance
                 and key[3] == dests)):
+            assert self._route is not None   # made right after the key
             return self._route
         self._route_key = (target[0], target[1], t, list(dests))
         keep = cfg.distance + cfg.slack + cfg.give_way_reach

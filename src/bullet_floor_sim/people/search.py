@@ -5,7 +5,7 @@ lidar's view (:func:`in_view`). people/follow.FollowBehaviour and people/agents 
 from __future__ import annotations
 
 import math
-from typing import Callable, List, Mapping, Optional, Sequence, Tuple
+from typing import Callable, List, Mapping, Optional, Protocol, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -14,9 +14,22 @@ from ..nav.planner import PlanningGrid
 
 __all__ = ["pick_target", "search_point", "search_plan", "patrol_points", "in_view", "as_plan"]
 
+#: points (N, 2): a list of (x, y) or an array (DestinationModel.goals)
+Points = Union[Sequence[Sequence[float]], np.ndarray]
+
+
+class TrackLike(Protocol):
+    """What the observer reads of a track (a tracking.Track, for one)."""
+
+    id: int
+    x: float
+    y: float
+    vx: float
+    vy: float
+
 
 def pick_target(tracks: Sequence, current: Optional[int],
-                last_xy: Optional[Sequence[float]]):
+                last_xy: Optional[Sequence[float]]) -> Optional[TrackLike]:
     """The track to follow among ``tracks`` (objects with ``id``, ``x``, ``y``): the one being
     followed (id ``current``) while it lives; else the one nearest to where the target was last
     seen; else the oldest (lowest id). None when there is no track."""
@@ -30,7 +43,7 @@ def pick_target(tracks: Sequence, current: Optional[int],
     return min(tracks, key=lambda tr: tr.id)
 
 
-def search_point(points: Sequence[Sequence[float]], xy: Sequence[float]) -> Tuple[float, float]:
+def search_point(points: Points, xy: Sequence[float]) -> Tuple[float, float]:
     """Where to look for a lost target heading for a region: of the region's goal points
     (``points``, e.g. DestinationModel.goals), the one nearest to where it was last seen
     (``xy`` itself when the region has none)."""
@@ -42,7 +55,7 @@ def search_point(points: Sequence[Sequence[float]], xy: Sequence[float]) -> Tupl
     return best
 
 
-def search_plan(probabilities: Mapping[str, float], goals: Callable[[str], Sequence],
+def search_plan(probabilities: Mapping[str, float], goals: Callable[[str], Points],
                 xy: Sequence[float], count: int = 3, min_probability: float = 0.05,
                 best: Optional[str] = None) -> List[Tuple[str, Tuple[float, float]]]:
     """Where to search for a lost target: the ``count`` most likely destination regions with

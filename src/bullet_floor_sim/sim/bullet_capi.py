@@ -25,7 +25,7 @@ import ctypes
 import mmap
 import os
 import struct
-from typing import Dict, Optional, Sequence, Tuple
+from typing import Dict, Optional, Sequence, Tuple, TypedDict
 
 import numpy as np
 
@@ -54,6 +54,7 @@ class _CAPI:
         lib = ctypes.CDLL(module_path)
         vp, ci = ctypes.c_void_p, ctypes.c_int
         anchor = ctypes.cast(lib.b3ConnectPhysicsDirect, vp).value
+        assert anchor is not None   # the address of a function the library exports
         self._clients = anchor - symbols["b3ConnectPhysicsDirect"] + symbols["sPhysicsClients1"]
         self._init = _fn(lib.b3CreateRaycastBatchCommandInit, vp, [vp])
         self._threads = _fn(lib.b3RaycastBatchSetNumThreads, None, [vp, ci])
@@ -95,7 +96,8 @@ class _CAPI:
         if not m:
             return np.zeros(0), np.zeros(0, dtype=np.int64), st
         buf = (ctypes.c_char * (m * HIT_DTYPE.itemsize)).from_address(info.hits)
-        hits = np.frombuffer(buf, dtype=HIT_DTYPE, count=m)
+        # numpy's stubs list the buffer types they take, and a ctypes array is not among them
+        hits = np.frombuffer(buf, dtype=HIT_DTYPE, count=m)  # type: ignore[call-overload]
         return hits["fraction"].copy(), hits["body"].astype(np.int64), st
 
 
@@ -104,7 +106,13 @@ def _fn(f, restype, argtypes):
     return f
 
 
-_state: Dict[str, object] = {"api": None, "why": "not tried yet", "checked_hits": 0}
+class _State(TypedDict):
+    api: Optional[_CAPI]   # the bindings, once made and not switched off
+    why: str               # how ray tests are cast, for status()
+    checked_hits: int      # rays with a hit that agreed with rayTestBatch so far
+
+
+_state: _State = {"api": None, "why": "not tried yet", "checked_hits": 0}
 
 
 def _api() -> Optional[_CAPI]:
@@ -118,7 +126,7 @@ def _api() -> Optional[_CAPI]:
             _state["why"] = "checking against rayTestBatch"
         except (OSError, AttributeError, ValueError, struct.error) as e:
             _state["why"] = "unavailable: %s" % e
-    return _state["api"]  # type: ignore[return-value]
+    return _state["api"]
 
 
 def available() -> bool:

@@ -25,7 +25,7 @@ import math
 import os
 import re
 from dataclasses import dataclass, field, fields
-from typing import Any, Dict, List, Optional, Tuple, Type, TypeVar
+from typing import Any, ClassVar, Dict, List, Optional, Protocol, Tuple, Type, TypeVar
 
 from ..errors import ConfigError
 from .checks import finite_positive as _finite_positive, is_number as _is_number, positive as _positive
@@ -44,7 +44,18 @@ __all__ = [
     "resolve_world",
 ]
 
-T = TypeVar("T")
+
+class _Section(Protocol):
+    """A world.yaml section's class: a dataclass whose fields are the keys, with defaults,
+    and ``validate(where)`` raising ConfigError."""
+
+    __dataclass_fields__: ClassVar[Dict[str, Any]]
+
+    def validate(self, where: str) -> None:
+        ...
+
+
+T = TypeVar("T", bound=_Section)
 _NAME_RE = re.compile(r"^([A-Za-z][A-Za-z0-9_]*)?$")
 
 
@@ -250,7 +261,7 @@ def _section(cls: Type[T], doc: Any, where: str) -> T:
         doc = {}
     if not isinstance(doc, dict):
         raise ConfigError("%s: expected a mapping, got %r" % (where, doc))
-    defaults = {f.name: f.default for f in fields(cls)}
+    defaults: Dict[str, Any] = {f.name: f.default for f in fields(cls)}
     _reject_unknown(doc, tuple(defaults), where)
     values: Dict[str, Any] = {}
     for k, v in doc.items():
@@ -262,7 +273,7 @@ def _section(cls: Type[T], doc: Any, where: str) -> T:
                               % (where, k, "a finite number" if want is float else want.__name__, v))
         values[k] = v
     obj = cls(**values)
-    obj.validate(where)  # type: ignore[attr-defined]
+    obj.validate(where)
     return obj
 
 

@@ -33,16 +33,17 @@ from __future__ import annotations
 import math
 import socket
 import struct
-from typing import Dict, Hashable, List, Optional, Sequence, Tuple
+from typing import Any, Dict, Generic, Hashable, List, Optional, Sequence, Set, Tuple, TypeVar
 
 from ..errors import ConfigError
 
 __all__ = ["BacklogGate", "CommandGate", "tcp_unread", "waits_line"]
 
 Endpoint = Tuple[str, int]   # (IPv4 address, port)
+K = TypeVar("K", bound=Hashable)   # what a gate times: a robot's index, a connection
 
 
-class _Gate:
+class _Gate(Generic[K]):
     """What both gates share: each late key (a robot, a connection) is timed on its own and
     released after ``max_wait`` wall seconds; while any key is late the clock goes on at real
     time at most; the wall time held is accounted per key."""
@@ -52,16 +53,16 @@ class _Gate:
             raise ConfigError("~max_command_wait: %r is not a positive number of seconds"
                               % (max_wait,))
         self.max_wait = float(max_wait)
-        self._late_since = {}  # type: Dict[Hashable, float]  # wall time each became late
-        self._released = set()  # type: set                   # not waited for, for now
+        self._late_since = {}  # type: Dict[K, float]  # wall time each became late
+        self._released: Set[K] = set()                 # not waited for, for now
         self._crawl = None  # type: Optional[Tuple[float, float]]  # (wall, sim) it began
-        self._held = []  # type: List[Hashable]               # held for at the last poll
+        self._held = []  # type: List[K]                      # held for at the last poll
         self._poll = 0.0                                      # wall time of that poll
-        self.released = []  # type: List[Hashable]            # released by the last poll
-        self.waited = {}  # type: Dict[Hashable, float]       # wall seconds held, per key
+        self.released: List[Any] = []           # released by the last poll (CommandGate: names)
+        self.waited = {}  # type: Dict[K, float]              # wall seconds held, per key
         self.holds = 0                                        # holds begun
 
-    def _decide(self, late: Sequence[Hashable], sim_time: float, wall: float) -> List[Hashable]:
+    def _decide(self, late: Sequence[K], sim_time: float, wall: float) -> List[K]:
         for k in self._held:   # the wall time since the last poll was spent holding
             self.waited[k] = self.waited.get(k, 0.0) + (wall - self._poll)
         self._held, self.released = [], []
@@ -92,13 +93,13 @@ class _Gate:
         self._held, self._crawl = [], None
         self._late_since.clear()
 
-    def take_report(self) -> Dict[Hashable, float]:
+    def take_report(self) -> Dict[K, float]:
         """Wall seconds held per key since the last call (and clears them)."""
         out, self.waited = self.waited, {}
         return out
 
 
-class CommandGate(_Gate):
+class CommandGate(_Gate[int]):
     """When the simulator waits for the robots' controllers (see the module docstring).
 
     Args:
@@ -157,12 +158,13 @@ class CommandGate(_Gate):
         self.released = [self.names[i] for i in self.released]
         return [self.names[i] for i in held]
 
-    def take_report(self) -> Dict[str, float]:
+    # keyed by robot name, not by the index the gate times: a deliberate override
+    def take_report(self) -> Dict[str, float]:  # type: ignore[override]
         """Wall seconds held per robot name since the last call (and clears them)."""
         return {self.names[i]: t for i, t in super().take_report().items()}
 
 
-class BacklogGate(_Gate):
+class BacklogGate(_Gate[Hashable]):
     """Holds the clock while a subscriber has not read what it was sent (module docstring).
 
     The simulator asks :meth:`hold` before it steps on, with the unread bytes of each

@@ -21,7 +21,7 @@ import os
 import re
 import tempfile
 from dataclasses import dataclass
-from typing import Dict, List, Tuple, Type
+from typing import Any, Dict, List, Tuple, Type
 
 import numpy as np
 
@@ -131,7 +131,8 @@ def _cached_model(cache: str, model: str, key: str):
         if not os.path.isfile(urdf):
             return None
         return RobotModel(name=model, urdf_path=urdf,
-                          laser_pose=tuple(float(v) for v in d["laser_pose"]),
+                          # the 4 values load_model wrote (mypy cannot know a JSON list's length)
+                          laser_pose=tuple(float(v) for v in d["laser_pose"]),  # type: ignore[arg-type]
                           wheel_radius=float(d["wheel_radius"]),
                           wheel_separation=float(d["wheel_separation"]),
                           wheel_joints=(str(d["wheel_joints"][0]), str(d["wheel_joints"][1])))
@@ -209,9 +210,10 @@ def load_model(model: str, urdf_dir: str = "") -> RobotModel:
                      wheel_radius=wheels[0][2], wheel_separation=wheels[0][0] - wheels[1][0],
                      wheel_joints=(wheels[0][1], wheels[1][1]))
     if stored:
-        fields = {"laser_pose": list(out.laser_pose), "wheel_radius": out.wheel_radius,
-                  "wheel_separation": out.wheel_separation,
-                  "wheel_joints": list(out.wheel_joints), "urdf_dir": os.path.abspath(urdf_dir)}
+        fields: Dict[str, Any] = {
+            "laser_pose": list(out.laser_pose), "wheel_radius": out.wheel_radius,
+            "wheel_separation": out.wheel_separation,
+            "wheel_joints": list(out.wheel_joints), "urdf_dir": os.path.abspath(urdf_dir)}
         try:   # the JSON last: its presence means the URDF beside it is whole
             _write_atomic(os.path.join(cache, "%s-%s.json" % (model, key)), json.dumps(fields))
             _prune(cache, model, key, fields["urdf_dir"])

@@ -133,6 +133,7 @@ def _store(key: str, sm: SolidMap) -> None:
     are only worked out here when there is a cache to keep them in)."""
     if not map_cache_dir():
         return
+    assert sm.distance is not None   # _solid_map fills it in
     rects = np.array(sm.fmap.rectangles(), dtype=np.int32).reshape(-1, 4)
     meta = {name: getattr(sm, name) for name in _COUNTS}
     meta["report"] = list(sm.report)
@@ -155,7 +156,8 @@ def _from_entry(fmap: FloorMap, entry) -> Optional[SolidMap]:
                        **{name: int(entry["meta"][name]) for name in _COUNTS})
     except (KeyError, ValueError, TypeError):
         return None
-    out.fmap._rects.extend(tuple(int(v) for v in r) for r in entry["rects"])
+    # the rows are (col0, row0, col1, row1), as _store wrote them; mypy cannot know a row's length
+    out.fmap._rects.extend(tuple(int(v) for v in r) for r in entry["rects"])  # type: ignore[misc]
     return out
 
 

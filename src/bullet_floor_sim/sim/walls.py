@@ -51,5 +51,6 @@ def _mesh_shape(client: Any, where: str, create: Any, verts: np.ndarray, idx: np
 
 def clearance_field(solid_map: SolidMap) -> np.ndarray:
     """Lower bound of the distance (m) from each cell's points to the nearest wall."""
+    assert solid_map.distance is not None   # solid_map's answer always has it
     res = solid_map.fmap.resolution
     return solid_map.distance.astype(float) * res - res * math.sqrt(2.0)

@@ -159,9 +159,11 @@ class World:
             for name, kind in SENSORS.items()}
         self._sensor_list = list(self.sensors.values())
         self._sensor_due_ns = min(s.next_ns for s in self._sensor_list)
-        self.lidar: Lidar = self.sensors["laser"]          # (what the views and ray casts use)
-        self.odometry: Odometry = self.sensors["odometry"]
-        self.battery: Battery = self.sensors["battery"]
+        # (what the views and ray casts use) SENSORS builds these classes under these names,
+        # but its values are typed as the Sensor protocol: mypy cannot tell which is which
+        self.lidar: Lidar = self.sensors["laser"]  # type: ignore[assignment]
+        self.odometry: Odometry = self.sensors["odometry"]  # type: ignore[assignment]
+        self.battery: Battery = self.sensors["battery"]  # type: ignore[assignment]
         self.bounds = self.fmap.bounds()
         self.rays_cast = 0          # rays cast so far (statistics)
         self.rays_recast = 0        # of which cast again in full after a cut ray missed
@@ -262,9 +264,11 @@ class World:
         half = 0.5 * self.wheel_sep[robot]
         r = self.wheel_radius[robot]
         tv, tw = self._travel[robot]
+        # rows of (N, 3) arrays: numpy's types have no shapes, so mypy sees tuples of any length
         return RobotView(pose=(x, y, wrap_angle(yaw)),
-                         velocity=tuple(float(c) for c in self.vel[robot]),
-                         odom_pose=tuple(float(c) for c in self.odometry.pose[robot]),
+                         velocity=tuple(float(c) for c in self.vel[robot]),  # type: ignore[arg-type]
+                         odom_pose=tuple(  # type: ignore[arg-type]
+                             float(c) for c in self.odometry.pose[robot]),
                          wheel_positions=(float((tv - half * tw) / r), float((tv + half * tw) / r)),
                          wheel_velocities=(float((v - half * w) / r), float((v + half * w) / r)),
                          stalled=bool(self.stalled[robot]))

@@ -28,7 +28,7 @@ from .pushdown import (COMPLEX, MISSING, compile_filter, id_key, index_key, key_
 
 __all__ = ["EmbeddedBackend"]
 
-_CODEC = CodecOptions(tz_aware=False)
+_CODEC = CodecOptions(tz_aware=False)  # type: CodecOptions[Dict[str, Any]]
 _TABLE_PREFIX = "docs:"
 _KEY_IN_INDEX = re.compile(r"bfs_key\(doc, '((?:[^']|'')*)'\)")
 # OperationalErrors that are mistakes in a statement, not an unavailable database.

@@ -44,7 +44,7 @@ class MongoBackend(Backend):
         self.uri = uri
         ms = int(timeout * 1000)
         try:
-            self._client = pymongo.MongoClient(
+            self._client: pymongo.MongoClient[Dict[str, Any]] = pymongo.MongoClient(
                 uri, port=MONGODB_DEFAULT_PORT, serverSelectionTimeoutMS=ms,
                 connectTimeoutMS=ms, socketTimeoutMS=max(10000, 5 * ms), tz_aware=False,
                 appname="bullet_floor_sim", connect=False)

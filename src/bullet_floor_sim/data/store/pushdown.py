@@ -263,13 +263,13 @@ def _range(expr: str, op: str, value: Any,
     upward = op in ("$gt", "$gte")
     # Keep the comparison inside the operand's type bracket, as MongoDB does.
     if isinstance(key, bytes):
-        low, high = "X'%02x'" % key[0], "X'%02x'" % (key[0] + 1)
+        low, high = "X'%02x'" % key[0], "X'%02x'" % (key[0] + 1)  # type: Optional[str], str
     elif isinstance(key, str):
         low, high = "''", "X''"
     else:
         low, high = None, "''"
     if upward:
-        bound = "%s < %s" % (expr, high)
+        bound = "%s < %s" % (expr, high)  # type: Optional[str]
     else:
         bound = "%s >= %s" % (expr, low) if low else None
     sql = "%s %s ?" % (expr, sql_op)

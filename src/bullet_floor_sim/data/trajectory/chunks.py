@@ -228,6 +228,7 @@ class Chunker:
         return self._end(reason)
 
     def _cut(self, reason: str, pose: Pose, region: Optional[str]) -> Chunk:
+        assert self._uuid is not None   # the callers have a trajectory open
         chunk = Chunk.from_poses(self._uuid, self._seq, self._poses, False,
                                  region=self._region, closed_by=reason)
         self._seq += 1
@@ -237,6 +238,7 @@ class Chunker:
         return chunk
 
     def _end(self, reason: str) -> Chunk:
+        assert self._uuid is not None   # the callers have a trajectory open
         chunk = Chunk.from_poses(self._uuid, self._seq, self._poses, True,
                                  region=self._region, closed_by=reason)
         self._uuid, self._poses, self._region = None, [], None

@@ -80,7 +80,7 @@ def chunk_fields(chunk: Chunk, stamp_ns: int = 0, seq: int = 0) -> Dict[str, Any
         seq: the message header's seq.
     """
     frame = chunk.frame_id
-    poses = []
+    poses = []  # type: List[Dict[str, Any]]
     append = poses.append
     for t, x, y, z, qx, qy, qz, qw in chunk.poses:
         secs, nsecs = divmod(t, _NS)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Callable, Dict, List, Optional, Sequence, Tuple
+from typing import Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -193,6 +193,7 @@ class _Scenario:
         if scan_o is not None:
             tstep = self.tracker.tick(t, scan_o, _laser_in_map(pose_o, self.laser[OBS]))
             tracks, pts = tstep.tracks, tstep.points
+            near: Union[np.ndarray, List[bool]]
             near = np.hypot(pts[:, 0] - x, pts[:, 1] - y) < self.body + 0.1 if len(pts) else []
             visible = int(np.count_nonzero(near)) >= cfg.visible_beams
         pstep = self.predictor.tick(t, [(tr.id, tr.x, tr.y, tr.vx, tr.vy) for tr in tracks])

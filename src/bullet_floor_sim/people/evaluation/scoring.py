@@ -36,7 +36,8 @@ def score_leg(leg, gt: List[Record], trk: List[Record], model: DestinationModel,
         out.moments[name] = [None if r is None else moment(r) for r in latest]
         seen = [None if r is None else (r.prediction.probabilities, out.moments[name][i])
                 for i, r in enumerate(latest)]
-        out.scores[name] = score_pipeline(leg.target_region, seen, model, uniform)
+        # a moment is None exactly where its record is: mypy cannot pair the two lists up
+        out.scores[name] = score_pipeline(leg.target_region, seen, model, uniform)  # type: ignore[arg-type]
     return out
 
 

@@ -2,7 +2,7 @@
 seed's transition rule over them. See the package doc."""
 from __future__ import annotations
 
-from typing import Dict, Iterable, List, Sequence, Set, Tuple
+from typing import Any, Dict, Iterable, List, Sequence, Set, Tuple
 
 import numpy as np
 
@@ -133,7 +133,7 @@ def _shared_run(a: Tuple[np.ndarray, ...], b: Tuple[np.ndarray, ...], tol: float
     if not keep.any():
         return 0.0
     eps = 1e-9
-    runs = []  # (segment, lo, hi) merged per segment, in ring order
+    runs: List[List[Any]] = []  # (segment, lo, hi) merged per segment, in ring order
     for k in np.flatnonzero(keep.any(axis=1)).tolist():
         for lo, hi in sorted(zip(s_lo[k][keep[k]].tolist(), s_hi[k][keep[k]].tolist())):
             if runs and runs[-1][0] == k and lo <= runs[-1][2] + eps:
@@ -142,7 +142,7 @@ def _shared_run(a: Tuple[np.ndarray, ...], b: Tuple[np.ndarray, ...], tol: float
                 runs.append([k, lo, hi])
     # join runs that continue across a vertex onto the next segment (cyclically)
     m = len(length)
-    chains = []  # [length, first run, last run]
+    chains: List[List[Any]] = []  # [length, first run, last run]
     for run in runs:
         if chains:
             last = chains[-1][2]

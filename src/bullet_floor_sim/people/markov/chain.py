@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Union
+from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Set, Union
 
 import numpy as np
 
@@ -12,9 +12,6 @@ from .adjacency import roi_adjacency, transition_matrix
 
 
 DATABASE = "markov_chain_db"
-
-Seed = Union[None, int, np.random.Generator]
-
 
 Seed = Union[None, int, np.random.Generator]
 
@@ -120,7 +117,7 @@ class MarkovChain:
         """
         ids = [str(r) for r in ids]
         index = {r: k for k, r in enumerate(ids)}
-        nb = [set() for _ in ids]  # type: List[Set[int]]
+        nb: List[Set[int]] = [set() for _ in ids]
         for r, others in neighbours.items():
             for o in others:
                 if r not in index or o not in index:

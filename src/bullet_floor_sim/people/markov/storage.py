@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import datetime
 import uuid
-from typing import Any, Iterable, List, Mapping, Optional, Tuple
+from typing import Any, Iterable, List, Mapping, Optional, Set, Tuple
 
 import numpy as np
 
@@ -155,7 +155,7 @@ def usable_rois(rois: Iterable[Roi]) -> Tuple[List[Roi], List[str]]:
     For a live system: one ROI broken by an edit must not stop the chain of the others.
     """
     good, warnings = [], []  # type: List[Roi], List[str]
-    seen = set()  # type: Set[Tuple[str, str, str]]
+    seen: Set[Tuple[str, str, str]] = set()
     for roi in rois:
         try:
             validate_roi(roi)

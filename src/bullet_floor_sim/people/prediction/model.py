@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from typing import Dict, Mapping, Optional, Sequence, Tuple
+from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -87,7 +87,7 @@ class DestinationModel:
                 self.goal_problems[r] = "region %s has no goal point" % _quote(r)
         self._goals = goals
         self._slices = {}  # type: Dict[str, slice]
-        nodes = []  # type: List[int]
+        nodes: List[int] = []
         for r in chain.ids:
             self._slices[r] = slice(len(nodes), len(nodes) + len(goals[r]))
             for x, y in goals[r]:

@@ -158,6 +158,7 @@ class OnlinePredictor:
 
     def _next_leg(self, t: float, x: float, y: float) -> Prediction:
         """The prediction of the leg that starts from the anchor (no leg under way)."""
+        assert self._anchor is not None   # update sets it before it calls this
         at, ax, ay = self._anchor
         leg = _Leg(self.legs + 1, at, self.model.start_region(ax, ay), (ax, ay), self._walked)
         return self._predict(t, leg, x, y, False)
@@ -256,7 +257,7 @@ class PredictorPool:
         t = float(t)
         ids = {int(tr[0]) for tr in tracks}
         out = {}  # type: Dict[int, Prediction]
-        self.errors = {}  # type: Dict[int, str]
+        self.errors = {}
         for tr in tracks:
             k, x, y, vx, vy = int(tr[0]), float(tr[1]), float(tr[2]), tr[3], tr[4]
             pred = self.predictors.get(k)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, List, Optional, Sequence, Tuple, Union
+from typing import Any, List, Literal, Optional, Sequence, Tuple, Union, overload
 
 import numpy as np
 
@@ -57,6 +57,19 @@ class StaticMap:
     def explained(self, points: np.ndarray) -> np.ndarray:
         """(N,) bool: the point is explained by the map (or lies outside it, and is ignored)."""
         return self.distance(points) <= self.tolerance
+
+
+@overload
+def scan_points(ranges: Sequence[float], angle_min: float, angle_increment: float,
+                laser_pose: Sequence[float], return_beams: Literal[False] = False) -> np.ndarray:
+    ...
+
+
+@overload
+def scan_points(ranges: Sequence[float], angle_min: float, angle_increment: float,
+                laser_pose: Sequence[float], return_beams: Literal[True]
+                ) -> Tuple[np.ndarray, np.ndarray]:
+    ...
 
 
 def scan_points(ranges: Sequence[float], angle_min: float, angle_increment: float,

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -136,7 +136,8 @@ class Lidar:
         # where each beam starts (set_self_exit), one row per robot; ragged if geometries differ
         width = max((len(a) for a in self.angles), default=0)
         self._exits = np.zeros((len(self.cfgs), width))
-        kinds = {}                       # robots whose beams have the same angles share a kind
+        # robots whose beams have the same angles share a kind
+        kinds: Dict[Tuple[int, float, float, bool], int] = {}
         self._kind = [kinds.setdefault((len(a), float(a[0]) if len(a) else 0.0, c.resolution,
                                         c.fov >= 360.0 - 1e-9), len(kinds))
                       for a, c in zip(self.angles, self.cfgs)]
@@ -190,14 +191,15 @@ class Lidar:
     def set_self_exit(self, robot: int, exit_dist: np.ndarray) -> None:
         """Where each beam leaves the robot's own body (m from the laser origin, 0 = never
         inside it): beams start there, so a lidar never sees its own robot."""
-        self.self_exit[robot] = np.asarray(exit_dist, dtype=float)
-        self._exits[robot, :len(self.self_exit[robot])] = self.self_exit[robot]
+        exits = np.asarray(exit_dist, dtype=float)
+        self.self_exit[robot] = exits
+        self._exits[robot, :len(exits)] = exits
 
     def forget(self, robots: Optional[Sequence[int]] = None) -> None:
         """Drop the scan history used to shorten rays (after a teleport, e.g. a reset)."""
         self._prev_ok[slice(None) if robots is None else list(robots)] = False
 
-    def plan(self, robots: Sequence[int], poses: np.ndarray,
+    def plan(self, robots: Union[Sequence[int], np.ndarray], poses: np.ndarray,
              bounds: Tuple[float, float, float, float]) -> RayPlan:
         """Ray segments for the given robots' scans.
 
@@ -210,7 +212,7 @@ class Lidar:
         """
         robots = np.asarray(robots, dtype=np.int64).reshape(-1)
         counts = [len(self.angles[i]) for i in robots.tolist()]
-        groups = {}
+        groups: Dict[int, List[int]] = {}
         for q, i in enumerate(robots.tolist()):
             groups.setdefault(self._kind[i], []).append(q)
         parts = [self._plan_kind(np.array(qs, dtype=np.int64), robots, poses)

@@ -86,6 +86,7 @@ class Odometry:
         """Integrate the motion since the last call, if the world moved since."""
         if world.motion == self._motion:
             return
+        assert self._ref is not None   # build sets it
         self.update(self._ref, world.pose)
         self._ref[:] = world.pose
         self._motion = world.motion
@@ -144,6 +145,7 @@ class Odometry:
         world caught up with the old poses before it moved them)."""
         rows = list(rows)
         self.pose[rows] = 0.0
+        assert self._ref is not None   # build sets it
         self._ref[rows] = world.pose[rows]
 
 
