@@ -34,6 +34,8 @@ integration-test:
 lint:
 	$(ROSENV) catkin_lint -q -W2 --strict --pkg bullet_floor_sim
 	$(VENV_PY) -m ruff check --quiet .
+	cd $(REPO) && if $(VENV_PY) -c 'import sys; sys.exit(sys.version_info < (3, 10))'; then \
+	  $(VENV_PY) -m mypy; else echo "== mypy skipped: mypy 2 needs Python >= 3.10"; fi
 
 # The main job: demo.launch on the office world (walker, observer, ROIs, trajectories), with
 # rviz when a display is available (headless otherwise). Ctrl-C stops it.
