@@ -64,6 +64,19 @@ def test_scale_mode_and_alpha(tmp_path):
     assert m.grid.tolist() == [[66, -1, 100]]
 
 
+def test_scale_mode_with_equal_thresholds(tmp_path):
+    # occupied_thresh == free_thresh (allowed, as map_server allows it): nothing lies between
+    # the two, so nothing scales (map_server would divide by zero); it used to raise
+    # AttributeError on a float ratio. (0, 0, 0) -> occ 1.0 wall; (255, 255, 255) -> 0.0 free;
+    # alpha 0 -> unknown
+    px = np.array([[[0, 0, 0, 255], [255, 255, 255, 255], [0, 0, 0, 0]]], dtype=np.uint8)
+    Image.fromarray(px).save(str(tmp_path / "m.png"))
+    (tmp_path / "map.yaml").write_text(
+        "image: m.png\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
+        "occupied_thresh: 0.5\nfree_thresh: 0.5\nmode: scale\n")
+    assert load_map(str(tmp_path / "map.yaml")).grid.tolist() == [[100, 0, -1]]
+
+
 def test_rgb_mean_of_channels(tmp_path):
     # (255, 0, 0) -> mean 85 -> occ 0.667 -> wall; (255, 255, 0) -> mean 170 -> 0.333 unknown
     px = np.array([[[255, 0, 0], [255, 255, 0], [255, 255, 255]]], dtype=np.uint8)

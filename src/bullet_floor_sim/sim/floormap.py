@@ -270,10 +270,10 @@ def _threshold(pixels: np.ndarray, has_alpha: bool, negate: bool, occ_th: float,
     grid[occ < free_th] = 0
     if mode == "scale":
         mid = (occ <= occ_th) & (occ >= free_th) & (alpha >= 1.0)
-        ratio = (occ[mid] - free_th) / (occ_th - free_th) if occ_th > free_th else 0.0
-        # mypy is right: occ_th == free_th (_read_yaml allows it) makes ratio a float and this
-        # line raise AttributeError; a known bug, left for its own change
-        grid[mid] = (1 + 98 * ratio).astype(np.int8)  # type: ignore[union-attr]
+        # (equal thresholds: the cells exactly at them get 1, where map_server divides by 0)
+        ratio = ((occ[mid] - free_th) / (occ_th - free_th) if occ_th > free_th
+                 else np.zeros(int(np.count_nonzero(mid))))
+        grid[mid] = (1 + 98 * ratio).astype(np.int8)
     return np.ascontiguousarray(grid[::-1])
 
 
