@@ -68,13 +68,13 @@ def test_scale_mode_with_equal_thresholds(tmp_path):
     # occupied_thresh == free_thresh (allowed, as map_server allows it): nothing lies between
     # the two, so nothing scales (map_server would divide by zero); it used to raise
     # AttributeError on a float ratio. (0, 0, 0) -> occ 1.0 wall; (255, 255, 255) -> 0.0 free;
-    # alpha 0 -> unknown
+    # alpha 0 does not matter above occupied_thresh (map_server's order of tests)
     px = np.array([[[0, 0, 0, 255], [255, 255, 255, 255], [0, 0, 0, 0]]], dtype=np.uint8)
     Image.fromarray(px).save(str(tmp_path / "m.png"))
     (tmp_path / "map.yaml").write_text(
         "image: m.png\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
         "occupied_thresh: 0.5\nfree_thresh: 0.5\nmode: scale\n")
-    assert load_map(str(tmp_path / "map.yaml")).grid.tolist() == [[100, 0, -1]]
+    assert load_map(str(tmp_path / "map.yaml")).grid.tolist() == [[100, 0, 100]]
 
 
 def test_rgb_mean_of_channels(tmp_path):
