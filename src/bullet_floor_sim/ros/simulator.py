@@ -138,6 +138,10 @@ class SimulatorNode:
             rospy.Subscriber(ns + "/cmd_vel", Twist, self._on_cmd, callback_args=i, queue_size=1)
         self.reading_out: Dict[Tuple[type, int], Output] = {
             (o.reads, o.robot): o for outs in self.outputs for o in outs if o.reads is not None}
+        # the periodic outputs of each rate, robot by robot
+        self.periodic: Dict[str, List[Output]] = {
+            rate: [o for outs in self.outputs for o in outs if o.rate == rate]
+            for rate in ("odom", "pose", "state")}
         self.clock_pub = pub("/clock", Clock, 10)
         self.tf_pub = pub("/tf", TFMessage, 100)
         prefixes = [spec.prefix for spec in world.specs]
@@ -264,11 +268,11 @@ class SimulatorNode:
             w.update_odometry()
         snap = w.snapshot(wheels=state_due)
         tick = Tick(now_ns, secs, nsecs, snap, w)
-        due = {"odom": odom_due, "pose": pose_due, "state": state_due}
-        for outs in self.outputs:
-            for o in outs:
-                if o.rate is not None and due[o.rate] and wanted(o.pub):
-                    o.put(out, tick)
+        for rate, due in (("odom", odom_due), ("pose", pose_due), ("state", state_due)):
+            if due:
+                for o in self.periodic[rate]:
+                    if wanted(o.pub):
+                        o.put(out, tick)
         odom = snap.odom_pose
         if odom_due and wanted(self.tf_pub):
             poses = odom
