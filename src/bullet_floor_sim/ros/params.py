@@ -2,14 +2,15 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Dict, Optional, TypeVar
+import math
+from typing import Any, Dict, Optional, Sequence, TypeVar
 
 import rospy
 
-from ..errors import ConfigError
+from ..errors import BulletFloorSimError, ConfigError
 from ..sim.solidmap import MapHandling
 
-__all__ = ["config_from_params", "map_handling", "set_map_handling", "MAP_HANDLING_PARAM"]
+__all__ = ["config_from_params", "check_at_least", "map_handling", "set_map_handling", "MAP_HANDLING_PARAM"]
 
 # The world's map handling (world.yaml keys unknown and clean), set by the simulator before it
 # publishes /map, so every node that plans or tracks on /map reads the map as the simulator
@@ -39,6 +40,18 @@ def config_from_params(config: C, prefix: str = "~", names: Optional[Dict[str, s
     if check is not None:
         check()
     return config
+
+
+def check_at_least(params: Any, node: str, names: Sequence[str], least: float = 0.0,
+                   strict: bool = True, what: str = "") -> None:
+    """Raise BulletFloorSimError ``<node>: ~<name> <value>: must be [<what> ]> <least>``
+    (``>=`` unless ``strict``) for the first of ``names``, attributes of a node's parameter
+    dataclass, that is not a finite number above (or at) ``least``."""
+    for name in names:
+        v = getattr(params, name)
+        if not (math.isfinite(v) and (v > least if strict else v >= least)):
+            raise BulletFloorSimError("%s: ~%s %r: must be %s%s %g" % (
+                node, name, v, what + " " if what else "", ">" if strict else ">=", least))
 
 
 def _convert(name: str, value: Any, current: Any) -> Any:

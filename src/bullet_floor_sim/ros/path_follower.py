@@ -38,9 +38,8 @@ from sensor_msgs.msg import LaserScan
 from ..nav.planner import (FollowerConfig, Navigator, NavigatorConfig, PlanError,
                             PlannerConfig, PlanningGrid, PathFollower, obstacles_in_base,
                             path_length)
-from ..errors import BulletFloorSimError
 from .convert import grid_from_msg, yaw as yaw_of
-from .params import config_from_params, map_handling
+from .params import check_at_least, config_from_params, map_handling
 from .node import run_node
 
 __all__ = ["main", "PathFollowerNode"]
@@ -68,13 +67,10 @@ class PathFollowerParams:
     def check(self) -> None:
         """Raises BulletFloorSimError naming the first parameter that is not a number > 0
         (>= 0 for ``inflation_radius``: none)."""
-        for f in fields(self):
-            v = getattr(self, f.name)
-            least = 0.0 if f.name == "inflation_radius" else None
-            if isinstance(v, float) and not (math.isfinite(v) and (
-                    v > 0 if least is None else v >= least)):
-                raise BulletFloorSimError("path_follower: ~%s %r: must be a number %s"
-                                          % (f.name, v, "> 0" if least is None else ">= 0"))
+        numbers = [f.name for f in fields(self) if isinstance(getattr(self, f.name), float)]
+        check_at_least(self, "path_follower", [n for n in numbers if n != "inflation_radius"],
+                       what="a number")
+        check_at_least(self, "path_follower", ["inflation_radius"], strict=False, what="a number")
 
 
 class PathFollowerNode:

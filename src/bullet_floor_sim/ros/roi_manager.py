@@ -54,7 +54,7 @@ from bullet_floor_sim.data.store import StoreError, StoreUnavailable, open_store
 from bullet_floor_sim.ros.convert import occupancy_grid
 from bullet_floor_sim.ros.soma import document_to_msg
 from bullet_floor_sim.ros.node import run_node
-from bullet_floor_sim.ros.params import config_from_params
+from bullet_floor_sim.ros.params import check_at_least, config_from_params
 from bullet_floor_sim.srv import (MapInfo, MapInfoResponse, SOMAQueryROIs,
                                   SOMAQueryROIsResponse)
 
@@ -97,12 +97,11 @@ class RoiManagerParams:
 
     def check(self) -> None:
         """Raises BulletFloorSimError naming the bad parameter."""
-        for name, least in (("new_roi_size", None), ("save_max_wait", None),
-                            ("save_quiet", 0.0), ("sync_period", -math.inf)):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and (v > 0 if least is None else v >= least)):
-                raise BulletFloorSimError("roi_manager: ~%s %r: must be %s" % (
-                    name, v, "> 0" if least is None else ">= 0" if least == 0 else "finite"))
+        check_at_least(self, "roi_manager", ("new_roi_size", "save_max_wait"))
+        check_at_least(self, "roi_manager", ("save_quiet",), strict=False)
+        if not math.isfinite(self.sync_period):   # (0 or less: no sync)
+            raise BulletFloorSimError("roi_manager: ~sync_period %r: must be finite"
+                                      % (self.sync_period,))
 
 
 class RoiManagerNode:

@@ -59,7 +59,7 @@ from ..data.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_GAP, DEFAULT_MA
 from ..msg import Trajectory
 from .convert import chunk_to_msg, pose_of_msg
 from .node import forward_store_log, run_node
-from .params import config_from_params
+from .params import check_at_least, config_from_params
 from .soma import query_rois
 
 __all__ = ["main", "RecorderNode"]
@@ -110,15 +110,10 @@ class RecorderParams:
 
     def check(self) -> None:
         """Raises BulletFloorSimError naming the bad parameter."""
-        for name in ("db_timeout", "db_retry_interval"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise BulletFloorSimError("trajectory_recorder: ~%s %r: must be seconds > 0"
-                                          % (name, v))
-        for name in ("path_rate", "rois_wait", "flush_every"):   # flush_every 0: every pose
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v >= 0):
-                raise BulletFloorSimError("trajectory_recorder: ~%s %r: must be >= 0" % (name, v))
+        check_at_least(self, "trajectory_recorder", ("db_timeout", "db_retry_interval"),
+                       what="seconds")
+        check_at_least(self, "trajectory_recorder", ("path_rate", "rois_wait", "flush_every"),
+                       strict=False)   # flush_every 0: every pose
 
 
 class RecorderNode:

@@ -50,7 +50,7 @@ from ..msg import Trajectory
 from ..srv import SelectTrajectories, SelectTrajectoriesResponse
 from .convert import pose_msgs
 from .node import forward_store_log, run_node
-from .params import config_from_params
+from .params import check_at_least, config_from_params
 
 __all__ = ["main", "ViewerNode", "Selection", "decimate", "newest", "time_colour",
            "trajectory_colour"]
@@ -79,13 +79,9 @@ class ViewerParams:
             raise BulletFloorSimError("~max_points %d: must be >= 2" % self.max_points)
         if self.max_poses < 1:
             raise BulletFloorSimError("~max_poses %d: must be >= 1" % self.max_poses)
-        for name in ("line_width", "db_timeout"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise BulletFloorSimError("~%s %r: must be > 0" % (name, v))
-        if not (math.isfinite(self.refresh_period) and self.refresh_period >= 0):
-            raise BulletFloorSimError("~refresh_period %r: must be seconds >= 0 (0 = never)"
-                                      % self.refresh_period)
+        check_at_least(self, "trajectory_viewer", ("line_width", "db_timeout"))
+        check_at_least(self, "trajectory_viewer", ("refresh_period",), strict=False,
+                       what="seconds")   # 0: never
 
 
 @dataclass(frozen=True)
