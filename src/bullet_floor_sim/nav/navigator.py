@@ -12,7 +12,7 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..geometry import wrap_angle
+from ..geometry import wrap_angle, wrap_angles
 from .grid import PlanError, PlanningGrid
 from .pursuit import FollowerCommand, PathFollower, to_map
 
@@ -73,8 +73,7 @@ def give_way_point(grid: PlanningGrid, route: np.ndarray, robot: Sequence[float]
     tiers = [roomy_ok, ok]
     if in_view > 0.0:
         bearing = math.atan2(float(target[1]) - ry, float(target[0]) - rx)
-        off = np.abs(np.angle(np.exp(1j * (np.arctan2(y - ry, x - rx) - bearing))))
-        seen = off <= in_view
+        seen = np.abs(wrap_angles(np.arctan2(y - ry, x - rx) - bearing)) <= in_view
         tiers = [roomy_ok & seen, roomy_ok, ok & seen, ok]
     pick = next(t for t in tiers if t.any())
     i = int(np.argmin(np.where(pick, d_robot, np.inf)))
