@@ -130,18 +130,17 @@ class SimulatorNode:
         self.every = {k: max(1, int(round(1e9 / v / step))) for k, v in rates.items()}
         self.out = Outbox()
         pub = self.out.publisher
-        # each robot's outputs (sim/publish.py), and the reading outputs by (type, robot)
-        self.outputs: List[List[Output]] = []
+        # every robot's outputs (sim/publish.py): the reading outputs by (type, robot), the
+        # periodic ones by rate, robot by robot
+        outputs: List[Output] = []
         for i, spec in enumerate(world.specs):
             ns = "/" + spec.name if spec.name else ""
-            self.outputs.append(robot_outputs(pub, ns, spec.prefix, i, world))
+            outputs += robot_outputs(pub, ns, spec.prefix, i, world)
             rospy.Subscriber(ns + "/cmd_vel", Twist, self._on_cmd, callback_args=i, queue_size=1)
         self.reading_out: Dict[Tuple[type, int], Output] = {
-            (o.reads, o.robot): o for outs in self.outputs for o in outs if o.reads is not None}
-        # the periodic outputs of each rate, robot by robot
+            (o.reads, o.robot): o for o in outputs if o.reads is not None}
         self.periodic: Dict[str, List[Output]] = {
-            rate: [o for outs in self.outputs for o in outs if o.rate == rate]
-            for rate in ("odom", "pose", "state")}
+            rate: [o for o in outputs if o.rate == rate] for rate in ("odom", "pose", "state")}
         self.clock_pub = pub("/clock", Clock, 10)
         self.tf_pub = pub("/tf", TFMessage, 100)
         prefixes = [spec.prefix for spec in world.specs]

@@ -158,7 +158,7 @@ class World:
             name: kind.build(self, [s.sensors[name] for s in self.specs])
             for name, kind in SENSORS.items()}
         self._sensor_list = list(self.sensors.values())
-        self._sensor_due_ns = min(s.next_ns for s in self._sensor_list)
+        self._sensor_due_ns = self._next_sensor_ns()
         # (what the views and ray casts use) SENSORS builds these classes under these names,
         # but its values are typed as the Sensor protocol: mypy cannot tell which is which
         self.lidar: Lidar = self.sensors["laser"]  # type: ignore[assignment]
@@ -167,7 +167,7 @@ class World:
         self.bounds = self.fmap.bounds()
         self.rays_cast = 0          # rays cast so far (statistics)
         self.rays_recast = 0        # of which cast again in full after a cut ray missed
-        self.rays_at_robots = 0     # of which cast again at other robots (see _scan)
+        self.rays_at_robots = 0     # of which cast again at other robots (see cast_beams)
         self.rays_reused = 0        # beams of unmoved lidars: wall distances of the last scan
         self._lift_for_rays = not self._gui   # (robots would flicker in the window)
         self._body_array = np.array(self.bodies, dtype=np.int64)
@@ -240,7 +240,7 @@ class World:
         self._robot_penetration[rows] = 0.0
         for sensor in self._sensor_list:
             sensor.reset(self, rows)
-        self._sensor_due_ns = min(s.next_ns for s in self._sensor_list)
+        self._sensor_due_ns = self._next_sensor_ns()
         self._safe_until_ns[:] = 0
         self._check_due_ns = 0
         self._sync_bodies(rows)
@@ -319,8 +319,12 @@ class World:
         for sensor in self._sensor_list:
             if sensor.next_ns <= now:
                 out.extend(sensor.read(self))
-        self._sensor_due_ns = min(s.next_ns for s in self._sensor_list)
+        self._sensor_due_ns = self._next_sensor_ns()
         return out
+
+    def _next_sensor_ns(self) -> int:
+        """When the next sensor is due (sim ns)."""
+        return min(s.next_ns for s in self._sensor_list)
 
     def _physics_step(self) -> None:
         dt = self.clock.dt

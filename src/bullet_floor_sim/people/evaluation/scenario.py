@@ -158,8 +158,9 @@ class _Scenario:
         self._leg_ended(t, step)
 
     def _send(self, t: float, pose: Sequence[float], leg, new_leg: bool) -> bool:
-        """Start the navigation to the leg's goal; a goal it cannot plan to ends the leg
-        (rejected). A new leg's predictions start afresh."""
+        """Start the navigation to the leg's goal; a goal it cannot plan to is aborted (the
+        walker may give it another goal; else the leg ends). A new leg's predictions start
+        afresh."""
         try:
             self.nav_walker.start(pose, leg.goal, t)
         except PlanError as e:   # path_follower aborts such a goal (a new goal may follow)
