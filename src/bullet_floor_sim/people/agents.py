@@ -30,8 +30,9 @@ from .prediction import DestinationModel, Prediction, PredictorPool
 from .tracking import StaticMap, Track, Tracker, TrackerConfig, detect, scan_points
 from .walker import Leg, Walker
 
-__all__ = ["WalkerAgent", "WalkerStep", "TrackerAgent", "TrackerStep", "PredictorAgent",
-           "PredictorStep", "FollowerAgent", "FollowerStep", "GOAL_RESULTS"]
+__all__ = ["WalkerAgent", "WalkerStep", "REGOAL_WITHIN", "MAX_REGOALS", "TrackerAgent",
+           "TrackerStep", "PredictorAgent", "PredictorStep", "FollowerAgent", "FollowerStep",
+           "GOAL_RESULTS"]
 
 SearchPlan = List[Tuple[str, Tuple[float, float]]]
 TrackTuple = Tuple[int, float, float, float, float]   # id, x, y, vx, vy
@@ -67,6 +68,10 @@ class WalkerStep:
     notes: List[str] = field(default_factory=list)
 
 
+#: WalkerAgent's defaults (the markov_walker node's too): see its doc.
+REGOAL_WITHIN, MAX_REGOALS = 1.5, 1
+
+
 class WalkerAgent:
     """Legs one after the other: draw a leg, wait for its goal's result or its timeout
     (``walker.config.goal_timeout``), dwell or back off, draw the next.
@@ -84,7 +89,8 @@ class WalkerAgent:
         max_regoals: new goals a leg may get.
     """
 
-    def __init__(self, walker: Walker, regoal_within: float = 1.5, max_regoals: int = 1) -> None:
+    def __init__(self, walker: Walker, regoal_within: float = REGOAL_WITHIN,
+                 max_regoals: int = MAX_REGOALS) -> None:
         if not (math.isfinite(regoal_within) and regoal_within >= 0):
             raise BulletFloorSimError("walker: regoal_within must be a finite number >= 0, "
                                       "got %r" % (regoal_within,))

@@ -60,7 +60,7 @@ from ..errors import BulletFloorSimError
 from ..people.markov import MODES, MarkovChain, store_chain, usable_rois
 from ..nav.planner import PlannerConfig, PlanningGrid
 from ..data.rois import Roi, id_order
-from ..people.agents import WalkerAgent, WalkerStep
+from ..people.agents import MAX_REGOALS, REGOAL_WITHIN, WalkerAgent, WalkerStep
 from ..people.walker import (GoalSampler, Leg, RegionIndex, Walker, WalkerConfig, WalkerError,
                              walkable_regions)
 from .convert import yaw as yaw_of
@@ -110,7 +110,8 @@ class MarkovWalkerNode:
         if self.mode not in MODES:
             raise WalkerError("~mode must be one of %s, got %r" % ("/".join(MODES), self.mode))
         self.min_shared = float(gp("~min_shared", 0.8))
-        self.regoal = (float(gp("~regoal_within", 1.5)), int(gp("~max_regoals", 1)))
+        self.regoal = (float(gp("~regoal_within", REGOAL_WITHIN)),
+                       int(gp("~max_regoals", MAX_REGOALS)))
         if not (math.isfinite(self.regoal[0]) and self.regoal[0] >= 0 and self.regoal[1] >= 0):
             raise WalkerError("~regoal_within must be a finite number >= 0 and ~max_regoals an "
                               "integer >= 0, got %r and %r" % self.regoal)
