@@ -10,6 +10,7 @@ setup(**generate_distutils_setup(
         "bullet_floor_sim.data.trajectory",
         "bullet_floor_sim.nav",
         "bullet_floor_sim.people",
+        "bullet_floor_sim.people.crowd",
         "bullet_floor_sim.people.evaluation",
         "bullet_floor_sim.people.markov",
         "bullet_floor_sim.people.prediction",

@@ -150,6 +150,17 @@ class PlanningGrid:
         c, r = self.to_cell(x, y)
         return self.inside(c, r) and math.isfinite(self.cost[r, c])
 
+    def free_cell_near(self, x: float, y: float, max_cells: int = 6) -> Optional[Tuple[int, int]]:
+        """(col, row) of the passable cell of (x, y), else of the nearest passable one within
+        ``max_cells`` cells (None when there is none)."""
+        c, r = self.to_cell(x, y)
+        return self._nearest_free(self.cost, c, r, max_cells)
+
+    def line_of_sight(self, a: Sequence[float], b: Sequence[float]) -> bool:
+        """The straight segment a-b (map frame) stays on passable cells."""
+        return math.isfinite(self._segment_cost(self.cost, np.asarray(a[:2], dtype=float),
+                                                np.asarray(b[:2], dtype=float)))
+
     # -- planning --------------------------------------------------------------------------
     def plan(self, start: Sequence[float],
              goal: Union[Sequence[float], Tuple[float, float, Optional[float]]],

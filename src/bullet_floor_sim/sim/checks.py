@@ -2,11 +2,11 @@
 from __future__ import annotations
 
 import math
-from typing import Any, Tuple
+from typing import Any, Mapping, Tuple
 
 from ..errors import ConfigError
 
-__all__ = ["is_number", "finite_positive", "positive"]
+__all__ = ["is_number", "finite_positive", "positive", "reject_unknown"]
 
 
 def is_number(v: Any) -> bool:
@@ -26,3 +26,11 @@ def positive(obj: Any, where: str, names: Tuple[str, ...]) -> None:
         v = getattr(obj, k)
         if not finite_positive(v):
             raise ConfigError("%s: %s must be a positive number, got %r" % (where, k, v))
+
+
+def reject_unknown(doc: Mapping[str, Any], known: Tuple[str, ...], where: str) -> None:
+    """Raise ConfigError naming ``where`` and every key of ``doc`` not in ``known``."""
+    unknown = sorted(str(k) for k in doc if k not in known)
+    if unknown:
+        raise ConfigError("%s: unknown key(s) %s (known: %s)"
+                          % (where, ", ".join(repr(k) for k in unknown), ", ".join(known)))

@@ -16,6 +16,7 @@ names the file, the section and the key (as flatland's EnsureAccessedAllKeys doe
         laser: {range_max: 30.0, ...}                     # sensors/lidar.py LaserConfig
         odometry: {noise_trans: 0.005, ...}               # sensors/odometry.py
         battery: {discharge_per_hour: 0.1, ...}           # sensors/battery.py
+    people: {count: 20, dwell: [5, 20], speed: [0.8, 1.5], ...}  # people/crowd/config.py
 
 A robot's sensor sections are those of the sensor registry (``sensors.SENSORS``).
 """
@@ -28,7 +29,9 @@ from dataclasses import dataclass, field, fields
 from typing import Any, ClassVar, Dict, List, Optional, Protocol, Tuple, Type, TypeVar
 
 from ..errors import ConfigError
-from .checks import finite_positive as _finite_positive, is_number as _is_number, positive as _positive
+from ..people.crowd.config import PeopleConfig, parse_people
+from .checks import (finite_positive as _finite_positive, is_number as _is_number,
+                     positive as _positive, reject_unknown as _reject_unknown)
 from .sensors import SENSORS, BatteryConfig, LaserConfig, OdometryConfig
 from .solidmap import MapHandling
 from ..yamlio import read_yaml
@@ -144,6 +147,7 @@ class WorldConfig:
     rois: Optional[str] = None
     robots: List[RobotSpec] = field(default_factory=list)
     map_handling: MapHandling = MapHandling()
+    people: PeopleConfig = PeopleConfig()
 
     @property
     def name(self) -> str:
@@ -151,7 +155,7 @@ class WorldConfig:
         return os.path.basename(os.path.dirname(self.path))
 
 
-_WORLD_KEYS = ("map", "wall_height", "rois", "robots", "unknown", "clean")
+_WORLD_KEYS = ("map", "wall_height", "rois", "robots", "unknown", "clean", "people")
 _CLEAN_KEYS = ("close_gaps", "speckle", "unknown_slivers")
 _ROBOT_KEYS = ("name", "model", "pose", "drive")   # and a section per sensor kind
 
@@ -212,7 +216,8 @@ def load_world_config(path: str) -> WorldConfig:
         raise ConfigError("%s: duplicate robot name(s): %s" % (path, ", ".join(repr(d) for d in dup)))
     return WorldConfig(path=os.path.abspath(path), map_yaml=map_yaml, wall_height=float(wall_height),
                        rois=_rel(base, rois) if rois else None, robots=robots,
-                       map_handling=_parse_map_handling(doc, path))
+                       map_handling=_parse_map_handling(doc, path),
+                       people=parse_people(doc.get("people"), path, base))
 
 
 def _parse_map_handling(doc: Dict[str, Any], path: str) -> MapHandling:
@@ -275,13 +280,6 @@ def _section(cls: Type[T], doc: Any, where: str) -> T:
     obj = cls(**values)
     obj.validate(where)
     return obj
-
-
-def _reject_unknown(doc: Dict[str, Any], known: Tuple[str, ...], where: str) -> None:
-    unknown = sorted(str(k) for k in doc if k not in known)
-    if unknown:
-        raise ConfigError("%s: unknown key(s) %s (known: %s)"
-                          % (where, ", ".join(repr(k) for k in unknown), ", ".join(known)))
 
 
 def _rel(base: str, p: str) -> str:

@@ -6,14 +6,14 @@ with the robots in place where no checked section exists. ``world`` is the stepp
 """
 from __future__ import annotations
 
-from typing import Any, Tuple
+from typing import Any, Optional, Tuple
 
 import numpy as np
 
 from .sections import clip_beams
 from .sensors import cast_rays, ray_chunk
 
-__all__ = ["candidates", "cast_at_robots", "ray_owner"]
+__all__ = ["candidates", "circle_candidates", "cast_at_robots", "ray_owner"]
 
 
 def cast_at_robots(world: Any, plan: Any, dist: np.ndarray, hit: np.ndarray) -> None:
@@ -102,17 +102,40 @@ def candidates(world: Any, plan: Any, reach: np.ndarray
         (ray indices, robot indices, distance where the circle is entered, where it is
         left), distances from the laser origin; a ray may appear with several robots.
     """
+    own = plan.robots[:, None] == np.arange(world.n)[None, :]
+    return circle_candidates(world, plan, reach, world.pose[:, :2],
+                             world._ray_radius[plan.robots], own)
+
+
+def circle_candidates(world: Any, plan: Any, reach: np.ndarray, centres: np.ndarray,
+                      radii: np.ndarray, skip: Optional[np.ndarray] = None
+                      ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The (ray, circle) pairs where the ray's line passes within a circle nearer than
+    ``reach``: for each scan, only the beams whose angles fall in the circle's angular window.
+
+    Args:
+        centres: (N, 2) map-frame circle centres.
+        radii: (Q, N) each circle's radius as seen by each of the plan's Q scans.
+        skip: (Q, N) True for the pairs to leave out (a robot's own circle).
+
+    Returns:
+        (ray indices, circle indices, distance where the circle is entered, where it is
+        left), distances from the laser origin (the entry is d - r: a bound, not the exact
+        meeting point).
+    """
     none = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0),
             np.zeros(0))
     q_robot = plan.robots
     offs = np.concatenate(([0], np.cumsum(plan.counts)))[:-1]
     o = plan.origins[offs, :2]                                   # (Q, 2) laser origins
-    rel = world.pose[None, :, :2] - o[:, None, :]                 # (Q, N, 2)
+    rel = centres[None, :, :] - o[:, None, :]                     # (Q, N, 2)
     d = np.hypot(rel[..., 0], rel[..., 1])
-    r = world._ray_radius[q_robot]                                # (Q, N) at each laser's height
+    r = radii                                                     # (Q, N) at each laser's height
     entry = d - r
     far = np.maximum.reduceat(reach, offs)
-    pair = (entry < far[:, None]) & (q_robot[:, None] != np.arange(world.n)[None, :])
+    pair = entry < far[:, None]
+    if skip is not None:
+        pair &= ~skip
     qs, js = np.nonzero(pair)
     if not len(qs):
         return none

@@ -9,8 +9,10 @@ as arrays (one row per robot). A step, at ``physics_rate`` (100 Hz by default):
 3. robots that could touch a wall or each other (from the map's clearance field) are checked
    exactly with PyBullet collision detection against the wall mesh and the other robots; a move
    that would penetrate deeper is refused and the robot stops, as Stage does (collision.py);
-4. odometry and wheel angles are integrated; lidars that are due are cast in one batch at the
-   walls, then the beams that may reach another robot against it (robot_beams.py).
+4. the people, if any (``add_people``), are stepped when due (people/crowd);
+5. odometry and wheel angles are integrated; lidars that are due are cast in one batch at the
+   walls, then the beams that may reach another robot against it (robot_beams.py), then
+   those that may reach a person's leg against the legs (leg_beams.py).
 
 The walls are static concave triangle meshes: vertical quads on the outline of the map's solid
 cells (walls.py; sim/solidmap.py: occupied, and unknown unless the world says otherwise). The
@@ -24,11 +26,11 @@ import contextlib
 import math
 import os
 import sys
-from typing import Dict, Iterator, List, Optional, Sequence, Tuple
+from typing import Any, Dict, Iterator, List, Optional, Protocol, Sequence, Tuple
 
 import numpy as np
 
-from . import collision, kinematics, measure, robot_beams, walls
+from . import collision, kinematics, leg_beams, measure, robot_beams, walls
 from .clock import SimClock
 from .views import RobotView, Snapshot
 from .config import RobotSpec, WorldConfig, load_world_config, resolve_world
@@ -42,7 +44,26 @@ from . import small
 from .measure import ROBOT_GROUP, ROBOT_MASK, SELF_GROUP
 from .solidmap import SolidMap, solid_map
 
-__all__ = ["SimClock", "World", "RobotView", "Snapshot"]
+__all__ = ["SimClock", "World", "RobotView", "Snapshot", "People"]
+
+
+class People(Protocol):
+    """What the world steps and its lidars see of a crowd (people/crowd/crowd.py's Crowd).
+
+    Attributes:
+        next_ns: sim time (ns) of its next step.
+        body: its BodyConfig (the legs' ``leg_radius`` and ``leg_height``).
+    """
+
+    next_ns: int
+    body: Any
+
+    def advance(self, now_ns: int, robot_xy: np.ndarray, robot_radius: np.ndarray) -> None:
+        """Step every person to ``now_ns``, the robots at ``robot_xy`` with bounding radii
+        ``robot_radius`` in the way."""
+
+    def legs(self) -> np.ndarray:
+        """(K, 2) map-frame leg centres."""
 
 #: The batch size from which ray casts use ``ray_threads`` (smaller ones run on one thread:
 #: threads cost more than they save; measured on two cores through the C API, 100 rays took
@@ -89,6 +110,8 @@ class World:
         self.wall_bodies = walls.build_walls(self.client, self.solid, config.wall_height, gui,
                                             self.fmap.yaml_path)
         self._clearance = walls.clearance_field(self.solid)
+        self.people: Optional[People] = None   # see add_people
+        self.rays_at_legs = 0       # beams shortened by a person's leg (statistics)
         self.specs: List[RobotSpec] = list(config.robots)
         self.models: List[RobotModel] = [load_model(s.model) for s in self.specs]
         self._init_robots()
@@ -211,6 +234,11 @@ class World:
                                   % (self.config.path, names[0], "robot %r" % names[1]
                                      if len(names) > 1 else "a wall", -c[8]))
 
+    def add_people(self, people: Optional["People"]) -> None:
+        """Step ``people`` (people/crowd's Crowd) with the robots, and let the lidars see
+        their legs; None removes them."""
+        self.people = people
+
     # ----------------------------------------------------------------------------- control
     def command(self, robot: int, vx: float, vy: float = 0.0, w: float = 0.0) -> None:
         """Set a robot's commanded body velocity; it holds until the watchdog times out.
@@ -308,6 +336,9 @@ class World:
             if self.n and not self._idle:
                 self._physics_step()
             self.clock.tick()
+            people = self.people
+            if people is not None and self.clock.now_ns >= people.next_ns:
+                people.advance(self.clock.now_ns, self.pose[:, :2], self.radius)
             if self.clock.now_ns >= self._sensor_due_ns:
                 readings.extend(self.read_sensors())
         return readings
@@ -418,6 +449,10 @@ class World:
         self.lidar.remember(plan, self.pose, dist, hit)
         if lift and self.n > 1:
             robot_beams.cast_at_robots(self, plan, dist, hit)
+        if self.people is not None:
+            body = self.people.body
+            leg_beams.cast_at_legs(self, plan, dist, hit, self.people.legs(), body.leg_radius,
+                                   body.leg_height)
         return dist, hit
 
     def threads(self, rays: int) -> int:

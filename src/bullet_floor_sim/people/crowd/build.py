@@ -1,0 +1,121 @@
+"""A world's crowd from its ``people:`` section: the people's planning grid, their groups'
+regions and chains, a walker per person, and where each starts."""
+from __future__ import annotations
+
+from typing import Any, Dict, List, Optional, Tuple
+
+import numpy as np
+
+from ...data.rois import Roi, RoiError, load_rois
+from ...errors import ConfigError
+from ...nav.grid import PlannerConfig, PlanningGrid
+from ..markov import MarkovChain, usable_rois
+from ..agents import WalkerAgent
+from ..walker import GoalSampler, Walker, WalkerConfig, walkable_regions
+from .config import GroupConfig, PeopleConfig
+from .crowd import Crowd, Person
+from .routes import Routes
+
+__all__ = ["build_crowd"]
+
+#: A goal or start point keeps this much more than a person's radius from every wall (m).
+GOAL_CLEARANCE = 0.1
+#: Tries for a start point clear of everyone placed before.
+START_TRIES = 200
+
+
+def build_crowd(world: Any, config: Optional[PeopleConfig] = None) -> Optional[Crowd]:
+    """The crowd of ``world`` (a sim World), from ``config`` or its world file's section;
+    None when it has no people. The warnings about regions left out are its first log lines.
+
+    Raises:
+        ConfigError: a group has no regions to walk, or no room to start in.
+    """
+    cfg = config if config is not None else world.config.people
+    if not cfg.count:
+        return None
+    grid = PlanningGrid(world.fmap, PlannerConfig(robot_radius=cfg.body.radius),
+                        handling=world.config.map_handling)
+    sampler = GoalSampler(grid, clearance=cfg.body.radius + GOAL_CLEARANCE)
+    routes = Routes(grid, sampler)
+    chains: Dict[str, Tuple[MarkovChain, List[Roi]]] = {}
+    warnings: List[str] = []
+    people: List[Person] = []
+    for g, group in enumerate(cfg.groups):
+        chain, rois = _chain(world, group, sampler, chains, warnings)
+        wcfg = WalkerConfig(dwell_min=group.dwell[0], dwell_max=group.dwell[1],
+                            clearance=sampler.clearance)
+        for k in range(group.count):
+            walker = Walker(chain, rois, sampler, wcfg, seed=_seed(group, cfg, g, k))
+            speed = float(walker.rng_dwell.uniform(*group.speed))
+            people.append(Person("%s_%d" % (group.name, len(people) + 1), WalkerAgent(walker),
+                                 speed))
+    start = _starts(world, people, sampler, cfg.body.radius)
+    crowd = Crowd(people, start, routes, cfg.body, cfg.forces, cfg.rate, world.clock.now_ns)
+    now = world.clock.now_ns * 1e-9
+    for p in people:    # the first legs start at random within one longest dwell
+        assert p.agent is not None
+        w = p.agent.walker
+        p.agent.resume_at = now + float(w.rng_dwell.uniform(0.0, w.config.dwell_max))
+    crowd.log.extend(warnings)
+    return crowd
+
+
+def _chain(world: Any, group: GroupConfig, sampler: GoalSampler,
+           chains: Dict[str, Tuple[MarkovChain, List[Roi]]], warnings: List[str]
+           ) -> Tuple[MarkovChain, List[Roi]]:
+    """The chain and regions of a group's ROI file (built once per file)."""
+    path = group.rois or world.config.rois
+    if not path:
+        raise ConfigError("%s: people: the %s group has no regions to walk (give rois: in the "
+                          "people section or the world)" % (world.config.path, group.name))
+    if path not in chains:
+        try:
+            rois, bad = usable_rois(load_rois(path))
+        except RoiError as e:
+            raise ConfigError("%s: people: %s" % (world.config.path, e)) from None
+        rois, left_out = walkable_regions(rois, sampler)
+        if len(rois) < 2:
+            raise ConfigError("%s: people: %s has %d region(s) people can reach; a walk needs 2"
+                              % (world.config.path, path, len(rois)))
+        chain = MarkovChain.from_rois(rois)
+        warnings.extend(bad + left_out + chain.warnings)
+        chains[path] = (chain, rois)
+    return chains[path]
+
+
+def _seed(group: GroupConfig, cfg: PeopleConfig, g: int, k: int) -> Optional[int]:
+    """Person k of group g's walker seed: from the group's seed, else the section's (None:
+    fresh)."""
+    base = group.seed if group.seed is not None else cfg.seed
+    if base is None:
+        return None
+    key = [base, k] if group.seed is not None else [base, g, k]
+    return int(np.random.SeedSequence(key).generate_state(1)[0]) & 0x7FFFFFFF
+
+
+def _starts(world: Any, people: List[Person], sampler: GoalSampler, radius: float) -> np.ndarray:
+    """A goal point of a region drawn at random for each person, clear of the robots and of
+    the people placed before."""
+    robots = world.pose[:, :2] if world.n else np.zeros((0, 2))
+    robot_r = world.radius if world.n else np.zeros(0)
+    out = np.zeros((len(people), 2))
+    for i, p in enumerate(people):
+        assert p.agent is not None
+        w = p.agent.walker
+        for _ in range(START_TRIES):
+            roi = w.index.by_id[w.chain.ids[int(w.rng_region.integers(len(w.chain.ids)))]]
+            try:
+                x, y = sampler.sample(roi, w.rng_goal)
+            except RoiError:
+                continue
+            clear_people = i == 0 or np.hypot(*(out[:i] - (x, y)).T).min() > 2 * radius + 0.1
+            clear_robots = not len(robots) or bool(
+                (np.hypot(*(robots - (x, y)).T) > robot_r + radius + 0.2).all())
+            if clear_people and clear_robots:
+                out[i] = (x, y)
+                break
+        else:
+            raise ConfigError("%s: people: no room for %s after %d tries (too many people for "
+                              "the regions?)" % (world.config.path, p.name, START_TRIES))
+    return out
