@@ -12,11 +12,11 @@ from ...nav.grid import PlannerConfig, PlanningGrid
 from ..markov import MarkovChain, usable_rois
 from ..agents import WalkerAgent
 from ..walker import GoalSampler, Walker, WalkerConfig, walkable_regions
-from .config import GroupConfig, PeopleConfig
+from .config import BodyConfig, GroupConfig, PeopleConfig
 from .crowd import Crowd, Person
 from .routes import Routes
 
-__all__ = ["build_crowd"]
+__all__ = ["build_crowd", "routes_for"]
 
 #: A goal or start point keeps this much more than a person's radius from every wall (m).
 GOAL_CLEARANCE = 0.1
@@ -34,10 +34,8 @@ def build_crowd(world: Any, config: Optional[PeopleConfig] = None) -> Optional[C
     cfg = config if config is not None else world.config.people
     if not cfg.count:
         return None
-    grid = PlanningGrid(world.fmap, PlannerConfig(robot_radius=cfg.body.radius),
-                        handling=world.config.map_handling)
-    sampler = GoalSampler(grid, clearance=cfg.body.radius + GOAL_CLEARANCE)
-    routes = Routes(grid, sampler)
+    routes = routes_for(world, cfg.body)
+    sampler = routes.sampler
     chains: Dict[str, Tuple[MarkovChain, List[Roi]]] = {}
     warnings: List[str] = []
     people: List[Person] = []
@@ -59,6 +57,15 @@ def build_crowd(world: Any, config: Optional[PeopleConfig] = None) -> Optional[C
         p.agent.resume_at = now + float(w.rng_dwell.uniform(0.0, w.config.dwell_max))
     crowd.log.extend(warnings)
     return crowd
+
+
+def routes_for(world: Any, body: BodyConfig) -> Routes:
+    """Paths for people of ``body`` on ``world``'s floor: a planning grid whose footprint
+    is the body's radius (walls as the simulator makes them solid), and a goal sampler on it
+    that keeps ``GOAL_CLEARANCE`` more than that from every wall."""
+    grid = PlanningGrid(world.fmap, PlannerConfig(robot_radius=body.radius),
+                        handling=world.config.map_handling)
+    return Routes(grid, GoalSampler(grid, clearance=body.radius + GOAL_CLEARANCE))
 
 
 def _chain(world: Any, group: GroupConfig, sampler: GoalSampler,

@@ -232,7 +232,7 @@ class Crowd:
             ii, jj = ii.ravel(), jj.ravel()
             near = np.hypot(*(self.pos[ii] - robot_xy[jj]).T) < cfg.cutoff + robot_r[jj]
             force += repulsion(self.pos, heading, self.radius, robot_xy, robot_r,
-                               ii[near], jj[near], cfg)
+                               ii[near], jj[near], cfg, self.vel)
         clear, normal = self._wall_field(self.pos)
         force += wall_repulsion(clear, normal, self.radius, cfg)
         vel, _ = limit_speed(self.vel + force * dt, self.v0 * cfg.max_speed_factor)
@@ -256,7 +256,7 @@ class Crowd:
         i = np.concatenate((pairs[:, 0], pairs[:, 1]))
         j = np.concatenate((pairs[:, 1], pairs[:, 0]))
         return repulsion(self.pos, heading, self.radius, self.pos, self.radius, i, j,
-                         self.forces)
+                         self.forces, self.vel, self.vel)
 
     def _wall_field(self, xy: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
         """Clearance at each point and the unit direction in which it grows (central

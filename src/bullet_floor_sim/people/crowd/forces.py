@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Tuple
+from typing import Optional, Tuple
 
 import numpy as np
 
@@ -47,6 +47,8 @@ class ForceConfig:
         cutoff: people farther apart than this (centre to centre, m) do not interact.
         max_speed_factor: a person's speed is capped at this times its preferred speed
             (Helbing 2000: 1.3).
+        horizon: seconds ahead the repulsion looks: it acts at the distance two people will
+            be at their closest within this time, at their present velocities (0: now).
     """
 
     tau: float = 0.5
@@ -59,6 +61,7 @@ class ForceConfig:
     wall_range: float = 0.15
     cutoff: float = 2.5
     max_speed_factor: float = 1.3
+    horizon: float = 1.5
 
     def validate(self, where: str) -> None:
         """Raise ConfigError naming the first bad value."""
@@ -66,7 +69,7 @@ class ForceConfig:
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ConfigError("%s: %s must be a number > 0, got %r" % (where, name, v))
-        for name in ("strength", "contact", "wall_strength", "pass_angle"):
+        for name in ("strength", "contact", "wall_strength", "pass_angle", "horizon"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ConfigError("%s: %s must be a number >= 0, got %r" % (where, name, v))
@@ -85,7 +88,8 @@ def driving(vel: np.ndarray, desired: np.ndarray, tau: float) -> np.ndarray:
 
 def repulsion(pos: np.ndarray, heading: np.ndarray, radius: np.ndarray,
               other_pos: np.ndarray, other_radius: np.ndarray, i: np.ndarray, j: np.ndarray,
-              cfg: ForceConfig) -> np.ndarray:
+              cfg: ForceConfig, vel: Optional[np.ndarray] = None,
+              other_vel: Optional[np.ndarray] = None) -> np.ndarray:
     """The force on each person from others: pairs (i[k], j[k]) say person i[k] feels
     other j[k] (both directions of a person pair are two entries).
 
@@ -102,12 +106,22 @@ def repulsion(pos: np.ndarray, heading: np.ndarray, radius: np.ndarray,
     out = np.zeros_like(pos, dtype=float)
     if not len(i):
         return out
-    d = pos[i] - other_pos[j]
+    now = pos[i] - other_pos[j]
+    dist_now = np.hypot(now[:, 0], now[:, 1])
+    n_now = now / np.maximum(dist_now, 1e-9)[:, None]
+    d = now
+    if vel is not None and cfg.horizon > 0:   # where they will be closest, within the horizon
+        u = vel[i] - (other_vel[j] if other_vel is not None else 0.0)
+        uu = u[:, 0] ** 2 + u[:, 1] ** 2
+        t = np.clip(-(now[:, 0] * u[:, 0] + now[:, 1] * u[:, 1]) / np.maximum(uu, 1e-12),
+                    0.0, cfg.horizon)
+        d = now + u * t[:, None]
     dist = np.hypot(d[:, 0], d[:, 1])
-    n = d / np.maximum(dist, 1e-9)[:, None]
+    # head on, the predicted offset vanishes: then the side is the present one
+    n = np.where(dist[:, None] > 1e-6, d / np.maximum(dist, 1e-9)[:, None], n_now)
     r = radius[i] + other_radius[j]
     e = heading[i]
-    cos_phi = -(n[:, 0] * e[:, 0] + n[:, 1] * e[:, 1])
+    cos_phi = -(n_now[:, 0] * e[:, 0] + n_now[:, 1] * e[:, 1])
     lam = cfg.anisotropy
     mag = cfg.strength * np.exp((r - dist) / cfg.range) * (lam + (1.0 - lam) * 0.5 * (1.0 + cos_phi))
     turn = cfg.pass_angle * np.maximum(cos_phi, 0.0)
@@ -115,7 +129,8 @@ def repulsion(pos: np.ndarray, heading: np.ndarray, radius: np.ndarray,
     direction = np.column_stack((c * n[:, 0] - s * n[:, 1], s * n[:, 0] + c * n[:, 1]))
     # n points from the other to i: for someone ahead it points against e (-x where e is +x),
     # and turned counter-clockwise it gains a -y part: i's right
-    f = mag[:, None] * direction + (cfg.contact * np.maximum(r - dist, 0.0))[:, None] * n
+    f = (mag[:, None] * direction
+         + (cfg.contact * np.maximum(r - dist_now, 0.0))[:, None] * n_now)
     np.add.at(out, i, f)
     return out
 
