@@ -9,7 +9,9 @@ bare names) it publishes, stamped with sim time: ``odom`` and tf ``N/odom -> N/b
 Parameters: ``~world`` (name under worlds/ or a world.yaml path; default office),
 ``~real_time_factor`` (1.0; 0 = as fast as possible), ``~physics_rate`` (100), ``~gui``,
 ``~seed`` (-1 = random), ``~clock_rate`` (100), ``~odom_rate`` (50), ``~pose_rate`` (20),
-``~state_rate`` (10: battery and joint states), ``~publish_map`` (true),
+``~state_rate`` (10: battery and joint states), ``~people`` (-1: the world file's
+``people:`` section; N: that many, of its first group's kind), ``~people_rate`` (10: the
+crowd's ground truth, ros/sim/people_out.py), ``~publish_map`` (true),
 ``~ground_truth_tf`` (false: true publishes map -> N/odom from ground truth, for runs without
 amcl; a list of robot names does it for those robots only, e.g. a walker beside an observer
 that amcl localises),
@@ -59,6 +61,8 @@ from .params import set_map_handling
 from .sim.frames import gt_tf_robots, map_to_odom
 from .sim.outbox import Outbox
 from .sim.rsp import RobotStatePublishers
+from .sim.people_out import PeopleOutput
+from ..people.crowd.build import build_crowd
 from .sim.signals import StopSignals, set_rostime, stop_listening_to_own_clock
 from .sim.publish import Output, Tick, robot_outputs
 from .sim.wire import II, U32, TfWire, check_wires, quaternion, ros_time
@@ -155,6 +159,8 @@ class SimulatorNode:
         # wall seconds spent in World.step, and in building and sending messages (the
         # publishing overhead the log and bench/ros_bench.py report)
         self.time_stepping = self.time_publishing = 0.0
+        self.people_out = (PeopleOutput(pub, world.people, world.clock.now_ns)
+                           if world.people is not None else None)
         if publish_map:
             self._publish_map()
         self.initialpose = [rospy.Publisher(("/" + sp.name if sp.name else "") + "/initialpose",
@@ -252,10 +258,19 @@ class SimulatorNode:
         if odom_due or pose_due or state_due:
             self._robot_states(now_ns, odom_due, pose_due, state_due)
         out = self.out
+        if self.people_out is not None and steps % self.every["people"] == 0:
+            self._people(now_ns)
         for reading in scans:
             o = self.reading_out.get((type(reading), reading.robot))
             if o is not None and out.wanted(o.pub):
                 o.put_reading(out, reading)
+
+    def _people(self, now_ns: int) -> None:
+        """The crowd's ground truth, and its log: leg lines at debug level, the rest at info."""
+        assert self.people_out is not None and self.world.people is not None
+        self.people_out.put(self.out, *divmod(now_ns, 1_000_000_000))
+        for line in self.world.people.take_log():   # type: ignore[attr-defined]
+            (rospy.logdebug if ": leg " in line else rospy.loginfo)("simulator: %s", line)
 
     def _robot_states(self, now_ns: int, odom_due: bool, pose_due: bool,
                       state_due: bool) -> None:
@@ -407,12 +422,19 @@ def main(argv: Optional[List[str]] = None) -> int:
         world = World(config, physics_rate=float(rospy.get_param("~physics_rate", 100.0)),
                       gui=bool(rospy.get_param("~gui", False)), seed=None if seed < 0 else seed,
                       ray_threads=int(rospy.get_param("~ray_threads", 0)))
+        people = int(rospy.get_param("~people", -1))
+        crowd_cfg = world.config.people if people < 0 else world.config.people.with_count(people)
+        if crowd_cfg.seed is None and seed >= 0:
+            crowd_cfg = dataclasses.replace(crowd_cfg, seed=seed)
+        crowd = build_crowd(world, crowd_cfg)
+        world.add_people(crowd)
     except BulletFloorSimError as e:
         rospy.logfatal("simulator: %s", e)
         return 1
     set_map_handling(world.config.map_handling)  # before /map: nodes read it as the world does
     rates = {k: float(rospy.get_param("~%s_rate" % k, d))
-             for k, d in (("clock", 100.0), ("odom", 50.0), ("pose", 20.0), ("state", 10.0))}
+             for k, d in (("clock", 100.0), ("odom", 50.0), ("pose", 20.0), ("state", 10.0),
+                          ("people", 10.0))}
     try:
         wait = float(rospy.get_param("~max_command_wait", 2.0))
         gate = CommandGate([s.name for s in world.specs],
@@ -436,6 +458,10 @@ def main(argv: Optional[List[str]] = None) -> int:
         rospy.loginfo("simulator: world %s with robots %s; ray tests through %s",
                       world.config.path, ", ".join(s.name or "<empty>" for s in world.specs),
                       bullet_capi.status())
+        if world.people is not None:
+            rospy.loginfo("simulator: %d people walk the regions of %s", crowd.n,  # type: ignore
+                          ", ".join(sorted({g.rois or world.config.rois or ""
+                                            for g in world.config.people.groups})))
         for line in world.sections_report:
             rospy.loginfo("simulator: lidar beams at robots of %s", line)
         for line in world.solid.report:  # what the map's handling made solid or floor

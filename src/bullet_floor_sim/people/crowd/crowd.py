@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable, List, Optional, Sequence, Tuple
+from typing import Callable, List, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -35,7 +35,7 @@ from .config import BodyConfig
 from .forces import ForceConfig, driving, limit_speed, repulsion, wall_repulsion
 from .routes import Routes
 
-__all__ = ["Person", "Crowd", "MIN_CLEARANCE"]
+__all__ = ["Person", "PersonTruth", "Crowd", "MIN_CLEARANCE"]
 
 #: A person's centre never comes nearer a wall than this (m): its hips.
 MIN_CLEARANCE = 0.2
@@ -83,6 +83,21 @@ class Person:
     best_t: float = 0.0
     replanned: bool = False
     result: Optional[Tuple[str, str]] = None
+
+
+class PersonTruth(NamedTuple):
+    """One person's ground truth (map frame, m, m/s, rad); ``goal_region`` is the region of
+    the leg walked or last walked ("" before the first)."""
+
+    name: str
+    track_id: int
+    x: float
+    y: float
+    vx: float
+    vy: float
+    yaw: float
+    state: str
+    goal_region: str
 
 
 class Crowd:
@@ -298,6 +313,17 @@ class Crowd:
         right = self.pos + np.column_stack((s * half - c * swing, -c * half - s * swing))
         out = np.empty((2 * self.n, 2))
         out[0::2], out[1::2] = left, right
+        return out
+
+    def ground_truth(self) -> List[PersonTruth]:
+        """Every person now, in order (``track_id`` is the row + 1, constant for a run)."""
+        out = []
+        for i, p in enumerate(self.people):
+            leg = p.agent.leg if p.agent is not None else None
+            out.append(PersonTruth(
+                p.name, i + 1, float(self.pos[i, 0]), float(self.pos[i, 1]),
+                float(self.vel[i, 0]), float(self.vel[i, 1]), float(self.heading[i]), p.state,
+                leg.target_region if leg is not None else ""))
         return out
 
     def take_log(self) -> List[str]:
