@@ -65,6 +65,35 @@ def _world(n_robots: int, seed: int = 7, name: str = "office"):
     return world, time.perf_counter() - t0
 
 
+class Wanderer:
+    """Robots as reactive wanderers: cruise, turn away from what is ahead (call with the
+    readings of each step)."""
+
+    def __init__(self, world, rng) -> None:
+        import numpy as np
+
+        self.world, self.rng = world, rng
+        self.turn = np.zeros(world.n)
+        self.front = np.abs(world.lidar.angles[0]) < 0.6
+
+    def __call__(self, readings) -> None:
+        import numpy as np
+
+        from bullet_floor_sim.sim.sensors import Scan
+
+        world, turn = self.world, self.turn
+        for scan in readings:
+            if not isinstance(scan, Scan):
+                continue
+            i = scan.robot
+            if np.min(scan.ranges[self.front]) < 1.0 or world.stalled[i]:
+                turn[i] = turn[i] or float(self.rng.choice((-1.2, 1.2)))
+                world.command(i, 0.0, 0.0, turn[i])
+            else:
+                turn[i] = 0.0
+                world.command(i, 0.6, 0.0, float(self.rng.uniform(-0.3, 0.3)))
+
+
 def run_case(n_robots: int, sim_seconds: float, name: str = "office") -> dict:
     """Run one case in this process and return its numbers."""
     import numpy as np
@@ -72,23 +101,12 @@ def run_case(n_robots: int, sim_seconds: float, name: str = "office") -> dict:
     t_imports = time.perf_counter()
     world, load_s = _world(n_robots, name=name)
     load_total = time.perf_counter() - t_imports
-    from bullet_floor_sim.sim.sensors import Scan
     rng = np.random.default_rng(1)
     steps = int(round(sim_seconds / world.clock.dt))
-    turn = np.zeros(world.n)
-    front = np.abs(world.lidar.angles[0]) < 0.6
+    wander = Wanderer(world, rng)
     t0 = time.perf_counter()
     for _ in range(steps):
-        for scan in world.step():  # a reactive wanderer: cruise, turn away from what is ahead
-            if not isinstance(scan, Scan):
-                continue
-            i = scan.robot
-            if np.min(scan.ranges[front]) < 1.0 or world.stalled[i]:
-                turn[i] = turn[i] or float(rng.choice((-1.2, 1.2)))
-                world.command(i, 0.0, 0.0, turn[i])
-            else:
-                turn[i] = 0.0
-                world.command(i, 0.6, 0.0, float(rng.uniform(-0.3, 0.3)))
+        wander(world.step())
     wall = time.perf_counter() - t0
     out = {"robots": n_robots, "sim_s": sim_seconds, "wall_s": wall, "rtf": sim_seconds / wall,
            "load_s": load_s, "load_with_imports_s": load_total,

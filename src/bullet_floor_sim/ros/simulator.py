@@ -461,7 +461,7 @@ def main(argv: Optional[List[str]] = None) -> int:
         if world.people is not None:
             rospy.loginfo("simulator: %d people walk the regions of %s", crowd.n,  # type: ignore
                           ", ".join(sorted({g.rois or world.config.rois or ""
-                                            for g in world.config.people.groups})))
+                                            for g in crowd_cfg.groups})))
         for line in world.sections_report:
             rospy.loginfo("simulator: lidar beams at robots of %s", line)
         for line in world.solid.report:  # what the map's handling made solid or floor
