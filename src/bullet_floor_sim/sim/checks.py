@@ -2,11 +2,12 @@
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping, Tuple
+from dataclasses import fields
+from typing import Any, ClassVar, Dict, Mapping, Protocol, Tuple, Type, TypeVar
 
 from ..errors import ConfigError
 
-__all__ = ["is_number", "finite_positive", "positive", "reject_unknown"]
+__all__ = ["is_number", "finite_positive", "positive", "reject_unknown", "section"]
 
 
 def is_number(v: Any) -> bool:
@@ -34,3 +35,40 @@ def reject_unknown(doc: Mapping[str, Any], known: Tuple[str, ...], where: str) -
     if unknown:
         raise ConfigError("%s: unknown key(s) %s (known: %s)"
                           % (where, ", ".join(repr(k) for k in unknown), ", ".join(known)))
+
+
+class Section(Protocol):
+    """A world.yaml section's class: a dataclass whose fields are the keys, with defaults,
+    and ``validate(where)`` raising ConfigError."""
+
+    __dataclass_fields__: ClassVar[Dict[str, Any]]
+
+    def validate(self, where: str) -> None:
+        ...
+
+
+T = TypeVar("T", bound=Section)
+
+
+def section(cls: Type[T], doc: Any, where: str) -> T:
+    """A world.yaml section (``doc``: None or a mapping) read into ``cls``: its fields are
+    the keys with their defaults; a float field takes any finite number. Raises ConfigError
+    naming ``where`` and the key."""
+    if doc is None:
+        doc = {}
+    if not isinstance(doc, dict):
+        raise ConfigError("%s: expected a mapping, got %r" % (where, doc))
+    defaults: Dict[str, Any] = {f.name: f.default for f in fields(cls)}
+    reject_unknown(doc, tuple(defaults), where)
+    values: Dict[str, Any] = {}
+    for k, v in doc.items():
+        want = type(defaults[k])
+        if want is float and is_number(v):
+            v = float(v)
+        if not isinstance(v, want) or (want is float and not math.isfinite(v)):
+            raise ConfigError("%s: %s must be %s, got %r"
+                              % (where, k, "a finite number" if want is float else want.__name__, v))
+        values[k] = v
+    obj = cls(**values)
+    obj.validate(where)
+    return obj

@@ -25,13 +25,14 @@ from __future__ import annotations
 import math
 import os
 import re
-from dataclasses import dataclass, field, fields
-from typing import Any, ClassVar, Dict, List, Optional, Protocol, Tuple, Type, TypeVar
+from dataclasses import dataclass, field
+from typing import Any, Dict, List, Optional, Tuple
 
 from ..errors import ConfigError
 from ..people.crowd.config import PeopleConfig, parse_people
 from .checks import (finite_positive as _finite_positive, is_number as _is_number,
-                     positive as _positive, reject_unknown as _reject_unknown)
+                     positive as _positive, reject_unknown as _reject_unknown,
+                     section as _section)
 from .sensors import SENSORS, BatteryConfig, LaserConfig, OdometryConfig
 from .solidmap import MapHandling
 from ..yamlio import read_yaml
@@ -48,17 +49,7 @@ __all__ = [
 ]
 
 
-class _Section(Protocol):
-    """A world.yaml section's class: a dataclass whose fields are the keys, with defaults,
-    and ``validate(where)`` raising ConfigError."""
 
-    __dataclass_fields__: ClassVar[Dict[str, Any]]
-
-    def validate(self, where: str) -> None:
-        ...
-
-
-T = TypeVar("T", bound=_Section)
 _NAME_RE = re.compile(r"^([A-Za-z][A-Za-z0-9_]*)?$")
 
 
@@ -259,27 +250,6 @@ def _parse_robot(doc: Any, where: str) -> RobotSpec:
         sections[key] = _section(kind.config, doc.get(key), "%s: %s" % (where, key))
     return RobotSpec(name=name, model=model, pose=(float(pose[0]), float(pose[1]), float(pose[2])),
                      **sections)
-
-
-def _section(cls: Type[T], doc: Any, where: str) -> T:
-    if doc is None:
-        doc = {}
-    if not isinstance(doc, dict):
-        raise ConfigError("%s: expected a mapping, got %r" % (where, doc))
-    defaults: Dict[str, Any] = {f.name: f.default for f in fields(cls)}
-    _reject_unknown(doc, tuple(defaults), where)
-    values: Dict[str, Any] = {}
-    for k, v in doc.items():
-        want = type(defaults[k])
-        if want is float and _is_number(v):
-            v = float(v)
-        if not isinstance(v, want) or (want is float and not math.isfinite(v)):
-            raise ConfigError("%s: %s must be %s, got %r"
-                              % (where, k, "a finite number" if want is float else want.__name__, v))
-        values[k] = v
-    obj = cls(**values)
-    obj.validate(where)
-    return obj
 
 
 def _rel(base: str, p: str) -> str:

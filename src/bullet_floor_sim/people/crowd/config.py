@@ -25,7 +25,7 @@ from dataclasses import dataclass, field, fields, replace
 from typing import Any, Dict, Optional, Tuple
 
 from ...errors import ConfigError
-from ...sim.checks import is_number, reject_unknown as _reject_unknown
+from ...sim.checks import is_number, reject_unknown as _reject_unknown, section as _section
 from .forces import ForceConfig
 
 __all__ = ["BodyConfig", "GroupConfig", "PeopleConfig", "parse_people"]
@@ -204,18 +204,3 @@ def _seed(v: Any, where: str) -> Optional[int]:
 
 def _number(v: Any) -> bool:
     return is_number(v) and math.isfinite(v)
-
-
-def _section(cls: Any, doc: Any, where: str) -> Any:
-    if doc is None:
-        doc = {}
-    if not isinstance(doc, dict):
-        raise ConfigError("%s: expected a mapping, got %r" % (where, doc))
-    names = tuple(f.name for f in fields(cls))
-    _reject_unknown(doc, names, where)
-    for k, v in doc.items():
-        if not _number(v):
-            raise ConfigError("%s: %s must be a finite number, got %r" % (where, k, v))
-    obj = cls(**{k: float(v) for k, v in doc.items()})
-    obj.validate(where)
-    return obj
