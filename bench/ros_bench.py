@@ -25,6 +25,9 @@ Per robot count, three runs, each in its own process:
   holds what the subscribers' process and the kernel's sockets take from the two cores.
 * "still": no command (the core then skips the physics and the lidars reuse their wall
   distances, so it is mostly the node's publishing); ``BENCH ros_still ...``.
+* "people": office with its own two robots turning as in "moving" and 10, 50 and 200 people
+  walking its regions (people/crowd), the people's ground-truth topics subscribed too:
+  ``BENCH people rtf_10=... rtf_50=... rtf_200=...`` (target: rtf_50 >= 20).
 * "real": the 10-robot moving case on the largest real SLAM map shipped (malaga_campus,
   62 x 69 m) beside office's: ``BENCH ros_real world=... rtf_10=... office_rtf_10=...
   ratio=...`` (target: ratio >= 0.67).
@@ -55,6 +58,7 @@ def _free_port() -> int:
 
 
 REAL_WORLD = "malaga_campus"   # measured beside office: the largest real SLAM map shipped
+PEOPLE = (10, 50, 200)          # the people cases (office, its two robots)
 
 
 def _world_file(n: int, tmp: str, name: str = "office") -> str:
@@ -71,6 +75,27 @@ def _world_file(n: int, tmp: str, name: str = "office") -> str:
     return path
 
 
+def _people_world_file(people: int, tmp: str) -> str:
+    """office as its world file has it (two robots, their own lidars, its regions), with
+    ``people`` people walking them."""
+    from bullet_floor_sim.paths import worlds_dir
+
+    src = os.path.join(worlds_dir(), "office", "world.yaml")
+    with open(src) as f:
+        doc = yaml.safe_load(f)
+    doc["map"] = os.path.join(os.path.dirname(src), doc["map"])
+    doc["rois"] = os.path.join(os.path.dirname(src), doc["rois"])
+    doc["people"] = {"count": people, "seed": 1}
+    path = os.path.join(tmp, "office_people%d.yaml" % people)
+    with open(path, "w") as f:
+        yaml.safe_dump(doc, f)
+    return path
+
+
+GROUND_TRUTH = ("/ground_truth/people", "/ground_truth/tracked_persons",
+                "/ground_truth/people_markers")
+
+
 def _subscribe_everything(n: int, shares: list) -> list:
     """A subscriber on every topic of n robots, /tf and the node's publishing share (appended
     to ``shares``)."""
@@ -84,6 +109,7 @@ def _subscribe_everything(n: int, shares: list) -> list:
             subs.append(rospy.Subscriber("/robot%d/%s" % (i + 1, name), rospy.AnyMsg,
                                          lambda m: None))
     subs.append(rospy.Subscriber("/tf", rospy.AnyMsg, lambda m: None))
+    subs += [rospy.Subscriber(t, rospy.AnyMsg, lambda m: None) for t in GROUND_TRUTH]
     subs.append(rospy.Subscriber("/simulator/publishing_share", Float64,
                                  lambda m: shares.append(m.data)))
     return subs
@@ -100,17 +126,18 @@ def _seconds_to_stop(proc: subprocess.Popen) -> float:
         return float("inf")
 
 
-def run_case(n: int, window: float, moving: bool = True,
-             name: str = "office") -> Tuple[float, float, float]:
+def run_case(n: int, window: float, moving: bool = True, name: str = "office",
+             people: int = -1) -> Tuple[float, float, float]:
     """Achieved real-time factor of the node with n robots (sim s per wall s), the seconds
-    it took to exit on SIGINT, and its mean publishing share over the window."""
+    it took to exit on SIGINT, and its mean publishing share over the window. With
+    ``people`` >= 0: office's own two robots (``n`` must be 2) and that many people."""
     import rosgraph
     import rospy
     from geometry_msgs.msg import Twist
     from rosgraph_msgs.msg import Clock
 
     tmp = tempfile.mkdtemp(prefix="bfs_ros_bench_")
-    world = _world_file(n, tmp, name)
+    world = _people_world_file(people, tmp) if people >= 0 else _world_file(n, tmp, name)
     env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % _free_port(), ROS_HOME=tmp)
     os.environ.update(ROS_MASTER_URI=env["ROS_MASTER_URI"])
     core = subprocess.Popen(["roscore", "-p", env["ROS_MASTER_URI"].rsplit(":", 1)[1]], env=env,
@@ -203,6 +230,9 @@ def main() -> int:
         name = sys.argv[4] if len(sys.argv) == 5 else "office"
         print("%r %r %r" % run_case(int(sys.argv[2]), 10.0, sys.argv[3] == "moving", name))
         return 0
+    if len(sys.argv) == 3 and sys.argv[1] == "--people":
+        print("%r %r %r" % run_case(2, 10.0, True, people=int(sys.argv[2])))
+        return 0
     if len(sys.argv) == 3 and sys.argv[1] == "--core":
         n = int(sys.argv[2])
         print("%r" % run_core(n, {1: 60.0, 10: 15.0}.get(n, 3.0)))
@@ -214,6 +244,7 @@ def main() -> int:
         for mode in ("moving", "still"):
             rtf[n, mode], stop[n, mode], share[n, mode] = _sub("--case", str(n), mode)
     real = _sub("--case", "10", "moving", REAL_WORLD)[0]   # the largest real SLAM map
+    crowd = {p: _sub("--people", str(p)) for p in PEOPLE}
     print("%-7s %10s %10s %14s %10s %10s %16s" % ("robots", "rtf", "core_rtf", "core_rtf/rtf",
                                                   "pub_share", "rtf_still", "sigint_exit_s"))
     for n in sizes:
@@ -237,6 +268,12 @@ def main() -> int:
           % (REAL_WORLD, real, rtf[10, "moving"], real / rtf[10, "moving"]))
     print("BENCH ros_real world=%s rtf_10=%.1f office_rtf_10=%.1f ratio=%.2f"
           % (REAL_WORLD, real, rtf[10, "moving"], real / rtf[10, "moving"]))
+    print("office, its 2 robots turning, people walking, every topic and the ground truth "
+          "subscribed (target: rtf_50 >= 20):")
+    print("%-7s %10s %10s" % ("people", "rtf", "pub_share"))
+    for p in PEOPLE:
+        print("%-7d %10.1f %10.2f" % (p, crowd[p][0], crowd[p][2]))
+    print("BENCH people " + " ".join("rtf_%d=%.1f" % (p, crowd[p][0]) for p in PEOPLE))
     return 0
 
 

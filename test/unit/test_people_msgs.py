@@ -61,3 +61,76 @@ def test_a_changed_field_changes_the_md5sum(tmp_path):
     spec = msg_loader.load_msg_by_type(ctx, "people_msgs/Person", search)
     msg_loader.load_depends(ctx, spec, search)
     assert gentools.compute_md5(ctx, spec) != upstream_md5("people_msgs/Person")
+
+
+# ------------------------------------------------------------------------------- the wire
+def _truth():
+    from bullet_floor_sim.people.crowd.crowd import PersonTruth
+
+    return [PersonTruth("person_1", 1, 1.5, -2.25, 0.5, -1.0, 0.7, "walk", "7"),
+            PersonTruth("visitor_2", 2, 10.0, 3.0, 0.0, 0.0, -3.0, "idle", "")]
+
+
+def test_people_packed_as_genpy_would():
+    """The simulator packs /ground_truth/people itself: the bytes genpy makes of the same
+    message, and genpy reads them back."""
+    import io
+    import struct
+
+    pytest.importorskip("rospy")
+    from geometry_msgs.msg import Point
+
+    from bullet_floor_sim.msg import People, Person
+    from bullet_floor_sim.ros.sim.people_out import pack_people
+
+    truth = _truth()
+    data = pack_people(truth, 7, 12, 500, "map")
+    msg = People()
+    msg.header.seq, msg.header.stamp.secs, msg.header.stamp.nsecs = 7, 12, 500
+    msg.header.frame_id = "map"
+    msg.people = [Person(name=t.name, position=Point(t.x, t.y, 0.0),
+                         velocity=Point(t.vx, t.vy, 0.0), reliability=1.0,
+                         tagnames=["state", "goal_region"], tags=[t.state, t.goal_region])
+                  for t in truth]
+    buf = io.BytesIO()
+    msg.serialize(buf)
+    assert data == struct.pack("<I", len(buf.getvalue())) + buf.getvalue()
+    back = People().deserialize(data[4:])
+    assert [(p.name, p.position.x, p.velocity.y, p.tags) for p in back.people] == [
+        ("person_1", 1.5, -1.0, ["walk", "7"]), ("visitor_2", 10.0, 0.0, ["idle", ""])]
+
+
+def test_tracked_persons_packed_as_genpy_would():
+    import io
+    import math
+    import struct
+
+    pytest.importorskip("rospy")
+    from bullet_floor_sim.msg import TrackedPerson, TrackedPersons
+    from bullet_floor_sim.ros.sim.people_out import pack_tracked
+
+    truth = _truth()
+    data = pack_tracked(truth, 3_250_000_000, 7, 12, 500, "map")
+    msg = TrackedPersons()
+    msg.header.seq, msg.header.stamp.secs, msg.header.stamp.nsecs = 7, 12, 500
+    msg.header.frame_id = "map"
+    for t in truth:
+        tr = TrackedPerson(track_id=t.track_id, is_occluded=False, is_matched=True,
+                           detection_id=t.track_id)
+        tr.age.secs, tr.age.nsecs = 3, 250_000_000
+        tr.pose.pose.position.x, tr.pose.pose.position.y = t.x, t.y
+        tr.pose.pose.orientation.z = math.sin(0.5 * t.yaw)
+        tr.pose.pose.orientation.w = math.cos(0.5 * t.yaw)
+        tr.twist.twist.linear.x, tr.twist.twist.linear.y = t.vx, t.vy
+        pc, tc = [0.0] * 36, [0.0] * 36
+        for k in (14, 21, 28):      # z, roll, pitch unset (SPENCER: a huge variance)
+            pc[k] = tc[k] = 1e6
+        tc[35] = 1e6                # yaw rate unset
+        tr.pose.covariance, tr.twist.covariance = pc, tc
+        msg.tracks.append(tr)
+    buf = io.BytesIO()
+    msg.serialize(buf)
+    assert data == struct.pack("<I", len(buf.getvalue())) + buf.getvalue()
+    back = TrackedPersons().deserialize(data[4:])
+    assert [(t.track_id, t.is_matched, t.pose.pose.position.y) for t in back.tracks] == [
+        (1, True, -2.25), (2, True, 3.0)]

@@ -1,4 +1,5 @@
-"""rviz markers of the Markov chain (the walker publishes them on ``chain``)."""
+"""rviz markers: the Markov chain (the walker publishes them on ``chain``) and the people
+(the simulator, on ``/ground_truth/people_markers``)."""
 from __future__ import annotations
 
 import math
@@ -12,7 +13,7 @@ from ..data.rois import Roi
 from ..people.markov import MarkovChain
 from ..people.walker import anchor, region_label
 
-__all__ = ["chain_markers"]
+__all__ = ["chain_markers", "people_markers"]
 
 
 def chain_markers(chain: MarkovChain, rois: Sequence[Roi], frame_id: str, stamp: Any,
@@ -58,6 +59,52 @@ def chain_markers(chain: MarkovChain, rois: Sequence[Roi], frame_id: str, stamp:
         m.text = "%s\nstay %.2f" % (region_label(by_id[r]), chain.probability(r, r))
         out.markers.append(m)
     return out
+
+
+def people_markers(truth: Sequence[Any], legs: Any, leg_radius: float, leg_height: float,
+                   frame_id: str, stamp: Any) -> MarkerArray:
+    """Each person as a figure: its two legs where the lidar sees them (cylinders up to
+    ``leg_height``), a torso 0.5 m wide turned to its heading, a head, and a label with its
+    name, the region it is in and the one it walks to. ``truth``: Crowd.ground_truth rows
+    (with regions); ``legs``: Crowd.legs (2 rows per person). Ids are the person's number,
+    so each update replaces the last."""
+    out = MarkerArray()
+    for k, t in enumerate(truth):
+        color = _hue(t.track_id)
+        for side in (0, 1):
+            m = _marker(frame_id, stamp, "people_legs", 2 * k + side, Marker.CYLINDER)
+            m.pose.position.x, m.pose.position.y = legs[2 * k + side]
+            m.pose.position.z = 0.5 * leg_height
+            m.scale.x = m.scale.y = 2.0 * leg_radius
+            m.scale.z = leg_height
+            m.color = color
+            out.markers.append(m)
+        m = _marker(frame_id, stamp, "people_torso", k, Marker.CYLINDER)
+        m.pose.position.x, m.pose.position.y, m.pose.position.z = t.x, t.y, leg_height + 0.35
+        m.pose.orientation.z, m.pose.orientation.w = math.sin(0.5 * t.yaw), math.cos(0.5 * t.yaw)
+        m.scale.x, m.scale.y, m.scale.z = 0.28, 0.5, 0.7
+        m.color = color
+        out.markers.append(m)
+        m = _marker(frame_id, stamp, "people_head", k, Marker.SPHERE)
+        m.pose.position.x, m.pose.position.y, m.pose.position.z = t.x, t.y, leg_height + 0.85
+        m.scale.x = m.scale.y = m.scale.z = 0.22
+        m.color = color
+        out.markers.append(m)
+        m = _marker(frame_id, stamp, "people_labels", k, Marker.TEXT_VIEW_FACING)
+        m.pose.position.x, m.pose.position.y, m.pose.position.z = t.x, t.y, leg_height + 1.25
+        m.scale.z = 0.3
+        m.color = ColorRGBA(1.0, 1.0, 1.0, 1.0)
+        m.text = "%s\n%s -> %s" % (t.name, t.region or "-", t.goal_region or "-")
+        out.markers.append(m)
+    return out
+
+
+def _hue(n: int) -> ColorRGBA:
+    """A colour per person, hues spread by the golden angle."""
+    import colorsys
+
+    r, g, b = colorsys.hsv_to_rgb((n * 0.618034) % 1.0, 0.65, 0.95)
+    return ColorRGBA(r, g, b, 1.0)
 
 
 def _marker(frame_id: str, stamp: Any, ns: str, mid: int, kind: int) -> Marker:

@@ -87,7 +87,8 @@ class Person:
 
 class PersonTruth(NamedTuple):
     """One person's ground truth (map frame, m, m/s, rad); ``goal_region`` is the region of
-    the leg walked or last walked ("" before the first)."""
+    the leg walked or last walked ("" before the first), ``region`` the one it is in ("":
+    none, or not asked for)."""
 
     name: str
     track_id: int
@@ -98,6 +99,7 @@ class PersonTruth(NamedTuple):
     yaw: float
     state: str
     goal_region: str
+    region: str = ""
 
 
 class Crowd:
@@ -315,15 +317,18 @@ class Crowd:
         out[0::2], out[1::2] = left, right
         return out
 
-    def ground_truth(self) -> List[PersonTruth]:
-        """Every person now, in order (``track_id`` is the row + 1, constant for a run)."""
+    def ground_truth(self, regions: bool = False) -> List[PersonTruth]:
+        """Every person now, in order (``track_id`` is the row + 1, constant for a run);
+        with ``regions``, also the region each is in (a polygon query per person)."""
         out = []
         for i, p in enumerate(self.people):
             leg = p.agent.leg if p.agent is not None else None
+            x, y = float(self.pos[i, 0]), float(self.pos[i, 1])
+            here = p.agent.walker.region_at(x, y) if regions and p.agent is not None else ""
             out.append(PersonTruth(
-                p.name, i + 1, float(self.pos[i, 0]), float(self.pos[i, 1]),
-                float(self.vel[i, 0]), float(self.vel[i, 1]), float(self.heading[i]), p.state,
-                leg.target_region if leg is not None else ""))
+                p.name, i + 1, x, y, float(self.vel[i, 0]), float(self.vel[i, 1]),
+                float(self.heading[i]), p.state, leg.target_region if leg is not None else "",
+                here))
         return out
 
     def take_log(self) -> List[str]:
