@@ -121,3 +121,15 @@ def test_nav_bringup_forwards_every_launch_arg(name):
     assert forwarded.pop("nav") == "auto"
     assert set(forwarded) == declared - {"nav"}
     assert all(v == "$(arg %s)" % k for k, v in forwarded.items())
+
+
+def test_nav_bringup_keeps_the_launch_args_roslaunch_gives_it():
+    """What roslaunch runs: the args attribute, then __name:= and __log:= (rospy.myargv
+    drops every arg:=value: the user's world:=, people:= and the rest were lost)."""
+    pytest.importorskip("rospy")
+    from bullet_floor_sim.ros.nav_bringup import launch_args
+
+    argv = ["/opt/nav_bringup", "/x/demo.launch", "nav:=auto", "world:=malaga_corridor",
+            "people:=20", "__name:=nav_bringup", "__log:=/tmp/nav_bringup-2.log"]
+    assert launch_args(argv) == ["/x/demo.launch", "nav:=auto", "world:=malaga_corridor",
+                                 "people:=20"]

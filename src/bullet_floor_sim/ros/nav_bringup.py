@@ -17,7 +17,7 @@ import sys
 import time
 from typing import List, Optional, Tuple
 
-__all__ = ["main", "resolve_nav"]
+__all__ = ["main", "resolve_nav", "launch_args"]
 
 STOCK_PACKAGES = ("move_base", "amcl", "map_server")
 
@@ -56,13 +56,20 @@ def resolve_nav(requested: str, find=None) -> Tuple[str, str]:
         STOCK_PACKAGES)
 
 
+def launch_args(argv: List[str]) -> List[str]:
+    """The launch file and its ``arg:=value`` pairs from the node's command line, without
+    what roslaunch adds (``__name:=``, ``__log:=``) or a private parameter (``_x:=``).
+    (rospy.myargv would drop every ``arg:=value`` too: it takes them all for remappings.)"""
+    return [a for a in argv[1:] if not a.startswith("_")]
+
+
 def main(argv: Optional[List[str]] = None) -> int:
     """Entry point: ``nav_bringup LAUNCH_FILE [arg:=value ...]``."""
     import rospy
     import roslaunch
 
     rospy.init_node("nav_bringup")
-    args = rospy.myargv(argv if argv is not None else sys.argv)[1:]
+    args = launch_args(argv if argv is not None else sys.argv)
     if not args:
         rospy.logfatal("nav_bringup: usage: nav_bringup LAUNCH_FILE [arg:=value ...]")
         return 2
