@@ -73,10 +73,10 @@ def main(argv: Optional[List[str]] = None) -> int:
     if not args:
         rospy.logfatal("nav_bringup: usage: nav_bringup LAUNCH_FILE [arg:=value ...]")
         return 2
-    launch_file, launch_args = args[0], args[1:]
+    launch_file, given = args[0], args[1:]
     requested = "auto"
     rest = []
-    for a in launch_args:
+    for a in given:
         if a.startswith("nav:="):
             requested = a.split(":=", 1)[1]
         else:
