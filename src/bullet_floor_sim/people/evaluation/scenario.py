@@ -22,7 +22,7 @@ from ..walker import GoalSampler, Walker, WalkerConfig, WalkerError, walkable_re
 from .result import EvalConfig, EvalResult, EvaluationError, LegScore
 from .scoring import Record, score_leg
 
-__all__ = ["run", "world_model"]
+__all__ = ["run", "world_model", "ObserverDrive"]
 
 
 def run(config: Optional[EvalConfig] = None,
@@ -98,18 +98,16 @@ class _Scenario:
         self.follower = FollowerAgent(FollowBehaviour(grid, FollowConfig()))
         # path_follower in each namespace; the observer's yields (demo.launch's ~give_way)
         self.nav_walker = Navigator(grid, PathFollower())
-        self.nav_observer = Navigator(grid, PathFollower(), NavigatorConfig(give_way=True))
+        self.drive = ObserverDrive(world, cfg.observer, grid)
         self.pred_gt = OnlinePredictor(model)   # the same predictor on the walker's truth
         self.laser = [world.models[i].laser_pose for i in range(world.n)]  # x, y, z, yaw
         self.body = float(world.radius[cfg.walker])  # the walker's footprint radius
         self.scans: Dict[int, object] = {}
         self.gt_records: List[Record] = []
         self.trk_records: List[Record] = []
-        self.obs_goal_active = self.obs_goal_done = False
         self.n_ticks = self.visible = self.recalled = self.tracked = 0
         self.false_ticks = self.switches = self.failed = 0
         self.err_sum = 0.0
-        self.modes: Dict[str, int] = {}
         self.completed: List[LegScore] = []
         self.t0 = world.clock.now
 
@@ -200,8 +198,8 @@ class _Scenario:
         pstep = self.predictor.tick(t, [(tr.id, tr.x, tr.y, tr.vx, tr.vy) for tr in tracks])
         if cfg.follow:
             plans = {tid: plan for tid, (_p, plan) in pstep.destinations.items()}
-            fstep = self.follower.tick(t, pose_o, tracks, plans, self.obs_goal_done)
-            self._follow(t, pose_o, fstep.decision, scan_o)
+            fstep = self.follower.tick(t, pose_o, tracks, plans, self.drive.goal_done)
+            self.drive(t, pose_o, fstep.decision, scan_o)
         else:
             fstep = self.follower.pick(tracks)
             self.world.command(OBS, 0.0, 0.0, 0.0)
@@ -221,27 +219,6 @@ class _Scenario:
         if len(tracks) > len(match):
             self.false_ticks += 1
 
-    def _follow(self, t: float, pose_o: Sequence[float], dec, scan_o) -> None:
-        """The observer's navigation (path_follower) towards the follower's goals."""
-        OBS = self.cfg.observer
-        self.modes[dec.mode] = self.modes.get(dec.mode, 0) + 1
-        if dec.goal is not None:
-            try:
-                self.nav_observer.start(pose_o, dec.goal, t)
-                # the follower node's goal_done: the last goal sent is over (until the next)
-                self.obs_goal_active, self.obs_goal_done = True, False
-            except PlanError:
-                self.obs_goal_active, self.obs_goal_done = False, True
-        if not self.obs_goal_active:
-            self.world.command(OBS, 0.0, 0.0, 0.0)
-            return
-        st = self.nav_observer.update(pose_o, _obstacles(scan_o, self.laser[OBS]), t)
-        if st.state == "active":
-            self.world.command(OBS, st.v, 0.0, st.w)
-        else:
-            self.world.command(OBS, 0.0, 0.0, 0.0)
-            self.obs_goal_active, self.obs_goal_done = False, True
-
     def result(self) -> EvalResult:
         tracked = self.tracked
         return EvalResult(config=self.cfg, legs=self.completed, failed_legs=self.failed,
@@ -251,7 +228,39 @@ class _Scenario:
                           tracked_ticks=tracked, false_track_ticks=self.false_ticks,
                           id_switches=self.switches, handovers=self.predictor.handovers,
                           mean_track_error=self.err_sum / tracked if tracked else float("nan"),
-                          follow_modes=self.modes, warnings=self.warnings)
+                          follow_modes=self.drive.modes, warnings=self.warnings)
+
+
+class ObserverDrive:
+    """The observer's navigation (its path_follower, yielding as demo.launch's ~give_way)
+    towards the follower's goals, and the follower node's ``goal_done`` (the last goal sent
+    is over, until the next); ``modes`` counts the follower's decisions by mode."""
+
+    def __init__(self, world, observer: int, grid) -> None:
+        self.world, self.observer = world, observer
+        self.laser = world.models[observer].laser_pose
+        self.nav = Navigator(grid, PathFollower(), NavigatorConfig(give_way=True))
+        self.goal_active = self.goal_done = False
+        self.modes: Dict[str, int] = {}
+
+    def __call__(self, t: float, pose_o: Sequence[float], dec, scan_o) -> None:
+        OBS = self.observer
+        self.modes[dec.mode] = self.modes.get(dec.mode, 0) + 1
+        if dec.goal is not None:
+            try:
+                self.nav.start(pose_o, dec.goal, t)
+                self.goal_active, self.goal_done = True, False
+            except PlanError:
+                self.goal_active, self.goal_done = False, True
+        if not self.goal_active:
+            self.world.command(OBS, 0.0, 0.0, 0.0)
+            return
+        st = self.nav.update(pose_o, _obstacles(scan_o, self.laser), t)
+        if st.state == "active":
+            self.world.command(OBS, st.v, 0.0, st.w)
+        else:
+            self.world.command(OBS, 0.0, 0.0, 0.0)
+            self.goal_active, self.goal_done = False, True
 
 
 def _run(cfg: EvalConfig, world, say, t_wall: float) -> EvalResult:
