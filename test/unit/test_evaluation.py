@@ -134,3 +134,31 @@ def test_rescore_with_the_runs_own_parameters_gives_the_live_scores():
     probs = model.posterior(m[0], m[1:3], m[3:5])
     assert other.legs[0].scores["ground_truth"]["predictor"][k][1] == pytest.approx(
         -math.log(max(probs[leg.target_region], 1e-6)))
+
+
+def test_cli_people_run_scores_every_person(capsys):
+    assert evaluate_prediction.main(["--people", "3", "--seconds", "90", "--seed", "2",
+                                     "--quiet"]) == 0
+    out = capsys.readouterr().out
+    for name in ("person_1 *", "person_2", "person_3", "all"):
+        assert re.search(r"^%s\s+\d+\s+\d+" % re.escape(name), out, re.M), out
+    line = [x for x in out.splitlines() if x.startswith("EVAL ")][-1]
+    vals = dict(kv.split("=") for kv in line.split()[1:])
+    assert int(vals["people"]) == 3 and int(vals["legs"]) >= 3, line
+    for k in ("acc50", "acc50_gt", "seen50"):
+        assert 0.0 <= float(vals[k]) <= 1.0, line
+    assert 0.5 < float(vals["mota"]) <= 1.0, line     # the observer does track people
+    assert 0.0 < float(vals["motp"]) < 0.5, line       # within the match distance
+    assert evaluate_prediction.main(["--people", "2", "--chosen", "3"]) == 2
+    assert "chosen person 2 is not one of the 2" in capsys.readouterr().err
+
+
+def test_people_run_is_deterministic_for_a_seed():
+    from bullet_floor_sim.people.evaluation.crowd_run import CrowdEvalConfig, run_crowd
+
+    runs = [run_crowd(CrowdEvalConfig(people=2, sim_time=40.0, seed=5)) for _ in range(2)]
+    a, b = (r.mot for r in runs)
+    assert (a.truths, a.matches, a.misses, a.false_positives, a.switches) == \
+        (b.truths, b.matches, b.misses, b.false_positives, b.switches)
+    assert a.truths > 0
+    assert [len(v) for v in runs[0].legs.values()] == [len(v) for v in runs[1].legs.values()]

@@ -14,6 +14,11 @@ The last line is machine-readable::
 
     EVAL legs=<n> acc50=<predictor, tracker> acc50_gt=<...> markov50=<...> heading50=<...> \
 recall=<...> tracked=<...>
+
+With ``--people N`` (and ``--seconds``, ``--chosen``) N people walk the regions instead
+(people/evaluation/crowd_run.py): the table has a row per person and one overall, with the
+CLEAR MOT scores of the tracker, and the last line is
+``EVAL people=<n> legs=<n> mota=... motp=... switches=... acc50=... ...``.
 """
 from __future__ import annotations
 
@@ -44,6 +49,12 @@ def main(argv: Optional[List[str]] = None) -> int:
     p.add_argument("--no-follow", action="store_true",
                    help="the observer stays where it is (tracker-only baseline)")
     p.add_argument("--quiet", action="store_true", help="no line per leg")
+    p.add_argument("--people", type=int, default=0,
+                   help="N > 0: N people walk the regions instead of the walker robot; the "
+                        "observer tracks them all and follows --chosen (0: the walker robot)")
+    p.add_argument("--seconds", type=float, default=600.0,
+                   help="with --people: sim seconds to run (600)")
+    p.add_argument("--chosen", type=int, default=1, help="with --people: the person followed (1)")
     try:
         args = p.parse_args(sys.argv[1:] if argv is None else argv)
         if args.legs < 1:
@@ -51,9 +62,11 @@ def main(argv: Optional[List[str]] = None) -> int:
     except UsageError as e:
         print("evaluate_prediction: %s" % e, file=sys.stderr)
         return 2
+    say = None if args.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
+    if args.people:
+        return _people(args, say)
     cfg = EvalConfig(legs=args.legs, seed=args.seed, world=args.world,
                      follow=not args.no_follow)
-    say = None if args.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     try:
         result = run(cfg, say)
     except BulletFloorSimError as e:
@@ -75,6 +88,29 @@ def main(argv: Optional[List[str]] = None) -> int:
               tab["tracker"]["heading"][k][0], len(result.legs_of("change")),
               change["tracker"]["predictor"][k][0], change["tracker"]["markov"][k][0],
               change["tracker"]["heading"][k][0], result.recall, result.tracked_share))
+    return 0
+
+
+def _people(args, say) -> int:
+    """``--people N``: the people run, a row per person and overall."""
+    from ..people.evaluation.crowd_run import CrowdEvalConfig, format_crowd, run_crowd
+
+    try:
+        cfg = CrowdEvalConfig(people=args.people, sim_time=args.seconds, seed=args.seed,
+                              world=args.world, chosen=args.chosen - 1,
+                              follow=not args.no_follow)
+        result = run_crowd(cfg, say)
+    except BulletFloorSimError as e:
+        print("evaluate_prediction: %s" % e, file=sys.stderr)
+        return 2
+    print(format_crowd(result))
+    m = result.mot
+    print("EVAL people=%d legs=%d mota=%.3f motp=%.3f switches=%d acc50=%.3f acc50_seen=%.3f "
+          "acc50_gt=%.3f chosen_acc50=%.3f seen50=%.3f" % (
+              args.people, sum(len(v) for v in result.legs.values()), m.mota, m.motp,
+              m.switches, result.accuracy(), result.accuracy(seen=True),
+              result.accuracy(pipeline="ground_truth"),
+              result.accuracy(result.names[cfg.chosen]), result.seen_share()))
     return 0
 
 
