@@ -16,6 +16,8 @@ holds 41 (the boundary pose is shared with the next chunk).
   stamped with the current time arrive at 20 Hz, max_gap 2 s: one trajectory, every pose.
 * test_5: a recorder killed with SIGKILL; the next one on the same database and topic stores
   what the first left in its spill file: every pose but at most the last flush window.
+* test_6: a recorder of a people_msgs/People topic (the simulator's ground truth): each
+  person's every position stored once, as its own trajectory, named in the meta.
 """
 from __future__ import annotations
 
@@ -37,7 +39,7 @@ import rosgraph
 import rospkg
 import rospy
 import rostest
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import Point, PoseStamped
 from nav_msgs.msg import Path
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -45,7 +47,7 @@ from bullet_floor_sim.data.store import default_journal_path, open_store
 from bullet_floor_sim.data.store.journal import Journal
 from bullet_floor_sim.data.trajectory import (COLLECTION, DATABASE, STORED_TYPE, join_chunks,
                                               path_length, select_chunks)
-from bullet_floor_sim.msg import Trajectory
+from bullet_floor_sim.msg import People, Person, Trajectory
 from bullet_floor_sim.srv import SelectTrajectories, SelectTrajectoriesRequest
 
 NS = 1000000000
@@ -138,24 +140,27 @@ def stored(db, journal_dir=None):
 class RecorderProcess:
     """A trajectory_recorder of the test's own (its own database, ROS_HOME and topic)."""
 
-    def __init__(self, name, workdir, **params):
+    def __init__(self, name, workdir, people=False, **params):
         self.name = name
         self.db = os.path.join(workdir, "db")
         self.ros_home = os.path.join(workdir, "ros_home")
         self.journal_dir = os.path.join(self.ros_home, "bullet_floor_sim", "journal")
-        self.topic = "/%s/pose" % name
+        self.topic = "/%s/%s" % (name, "people" if people else "pose")
         self.log_path = os.path.join(workdir, name + ".log")
         os.makedirs(workdir, exist_ok=True)
         node = os.path.join(rospkg.RosPack().get_path("bullet_floor_sim"), "nodes",
                             "trajectory_recorder")
         params = dict({"max_gap": 0}, **params)
-        args = [sys.executable, node, "__name:=" + name, "_pose_topic:=" + self.topic,
-                "_db:=" + self.db, "_map:=office"]
+        topics = (["_people_topic:=" + self.topic, "_pose_topic:="] if people
+                  else ["_pose_topic:=" + self.topic])
+        args = [sys.executable, node, "__name:=" + name, "_db:=" + self.db,
+                "_map:=office"] + topics
         args += ["_%s:=%s" % kv for kv in sorted(params.items())]
         with open(self.log_path, "wb") as log:
             self.proc = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT,
                                          env=dict(os.environ, ROS_HOME=self.ros_home))
-        self.pub = rospy.Publisher(self.topic, PoseStamped, queue_size=100000)
+        self.pub = rospy.Publisher(self.topic, People if people else PoseStamped,
+                                   queue_size=100000)
         self.path = Latest("/%s/path" % name, Path)
         self.batch = Latest("/%s/trajectories/batch" % name, Trajectory)
         wait_for(lambda: self.pub.get_num_connections() > 0
@@ -415,6 +420,37 @@ class Trajectories(unittest.TestCase):
                           len(published))
         finally:
             again.close()
+
+    def test_6_every_person_is_its_own_trajectory(self):
+        rec = RecorderProcess("rec_people", os.path.join(self.tmp, "people"), people=True,
+                              period=1.0)
+        try:
+            sent = {"ann": [], "bob": []}
+            for k in range(60):                   # 20 Hz for 3 s: chunks close at 20 and 40
+                t = T0 + k * DT
+                msg = People()
+                msg.header.frame_id = "map"
+                msg.header.stamp = rospy.Time(t // NS, t % NS)
+                for name, y in (("ann", 1.0), ("bob", 4.0)):
+                    msg.people.append(Person(name=name, position=Point(0.1 * k, y, 0.0),
+                                             velocity=Point(2.0, 0.0, 0.0), reliability=1.0))
+                    # walking along +x: heading 0, the identity quaternion
+                    sent[name].append((t, 0.1 * k, y, 0.0, 0.0, 0.0, 0.0, 1.0))
+                rec.pub.publish(msg)
+            wait_for(lambda: len(rec.batch) >= 4, "rec_people's 4 closed chunks")
+            time.sleep(1.0)                       # the last messages arrive
+            self.assertEqual(rec.stop(signal.SIGINT), 0, rec.log())
+            chunks, docs = stored(rec.db, rec.journal_dir)
+            person = {d["uuid"]: d["_meta"]["person"] for d in docs}
+            joined = {person[j.uuid]: j for j in join_chunks(chunks)}
+            self.assertEqual(sorted(joined), ["ann", "bob"])
+            for name in ("ann", "bob"):
+                self.assertEqual(joined[name].poses, sent[name])
+                self.assertEqual(joined[name].chunks, 3)
+                self.assertTrue(joined[name].complete)
+            self.assertIn("every person of /rec_people/people", rec.log())
+        finally:
+            rec.close()
 
 
 def pose_tuple(m):

@@ -282,3 +282,52 @@ class ChunkQueue:
                                   item[0].sequence_id, item[0].uuid)
             finally:
                 self._queue.task_done()
+
+
+_NS = 1_000_000_000
+
+
+class PoseStream:
+    """One trajectory source of a recorder (a pose topic, or one person of a People topic):
+    its chunker, its spill file, and which clock its stamps are on. Not thread-safe: the
+    recorder calls it under its lock.
+
+    Args:
+        chunker: cuts the poses into chunks.
+        spill: the stream's own spill file.
+        person: the person's name (stored in each chunk's meta), None for a pose topic.
+    """
+
+    def __init__(self, chunker: Any, spill: ChunkSpill, person: Optional[str] = None) -> None:
+        self.chunker, self.spill, self.person = chunker, spill, person
+        self.received = 0
+        self.last_rx_ns: Optional[int] = None
+        self.stamps_on_clock = False   # the newest pose's stamp is on the recorder's clock
+
+    def add(self, pose: Pose, rx_ns: int) -> List[Chunk]:
+        """Record a pose received at ``rx_ns`` (the recorder's clock); the chunks it closed."""
+        self.received += 1
+        self.last_rx_ns = rx_ns
+        # the silence that ends a trajectory is measured on the stamps when they are on the
+        # recorder's clock (within the gap of it)
+        self.stamps_on_clock = abs(rx_ns - pose[0]) <= max(self.chunker.max_gap, 1.0) * _NS
+        closed = self.chunker.add(pose)
+        c = self.chunker
+        self.spill.track(c.uuid, c.sequence_id, c.region, c.open_poses)
+        return closed
+
+    def pose_clock(self, now_ns: int) -> int:
+        """Now on the poses' clock: the recorder's clock when the stamps are on it, else (a
+        publisher on another clock) the newest stamp plus the time since it arrived."""
+        if self.stamps_on_clock or self.last_rx_ns is None:
+            return now_ns
+        return self.chunker.open_poses[-1][0] + (now_ns - self.last_rx_ns)
+
+    def check_gap(self, now_ns: int) -> Optional[Chunk]:
+        """The trajectory that a silence of ``max_gap`` has ended, if any."""
+        if self.last_rx_ns is None or self.last_rx_ns == 0 or self.chunker.uuid is None:
+            return None
+        return self.chunker.check_gap(self.pose_clock(now_ns))
+
+
+__all__ += ["PoseStream"]

@@ -57,6 +57,22 @@ def pose_of_msg(msg: PoseStamped):
     return (s.secs * _NS + s.nsecs, p.x, p.y, p.z, q.x, q.y, q.z, q.w)
 
 
+def people_poses(msg):
+    """A people_msgs/People as (name, pose tuple) per person: the message's stamp, the
+    position, and the heading of the velocity when the person moves (else none: identity)."""
+    s = msg.header.stamp
+    t_ns = s.secs * _NS + s.nsecs
+    out = []
+    for p in msg.people:
+        v = p.velocity
+        qz, qw = 0.0, 1.0
+        if math.hypot(v.x, v.y) > 0.1:
+            yaw = math.atan2(v.y, v.x)
+            qz, qw = math.sin(0.5 * yaw), math.cos(0.5 * yaw)
+        out.append((p.name, (t_ns, p.position.x, p.position.y, p.position.z, 0.0, 0.0, qz, qw)))
+    return out
+
+
 def _time(t_ns: int) -> rospy.Time:
     secs, nsecs = divmod(int(t_ns), _NS)
     return rospy.Time(secs, nsecs)

@@ -19,7 +19,11 @@ the node exits. If the database is down, chunks are journalled and replayed when
 (data/store). A trajectory ends after ``~max_gap`` seconds without a pose, measured on the
 poses' stamps (on arrival times when the publisher stamps with another clock).
 
-Parameters: ``~pose_topic`` (pose), ``~db`` ("" = ``$ROS_HOME/bullet_floor_sim/db``; or
+With ``~people_topic`` (people_msgs/People, e.g. the simulator's ``/ground_truth/people``)
+every person is recorded too, each as its own trajectories (its own chunker and spill file),
+with ``"person": <name>`` in each chunk's ``_meta``; ``~pose_topic`` "" records people alone.
+
+Parameters: ``~pose_topic`` (pose), ``~people_topic`` (""), ``~db`` ("" = ``$ROS_HOME/bullet_floor_sim/db``; or
 ``mongodb://host:port/``), ``~period`` 30 s, ``~split`` period|region, ``~max_poses`` 20000,
 ``~max_gap`` 10 s (a silence that ends a trajectory; 0 = never), ``~map`` (map name for the
 stored meta; default the ROIs' map or the world's name), ``~world`` (default the running
@@ -39,7 +43,7 @@ import os
 import sys
 import threading
 from dataclasses import dataclass
-from typing import List, Optional, Sequence
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import rospy
 from geometry_msgs.msg import PoseStamped
@@ -49,15 +53,15 @@ from std_msgs.msg import Header
 from ..sim.config import load_world_config, resolve_world
 from ..errors import BulletFloorSimError
 from ..paths import worlds_dir
-from ..data.recording import ChunkQueue, ChunkSpill
+from ..data.recording import ChunkQueue, ChunkSpill, PoseStream
 from ..data.rois import Roi, load_rois
 from ..data.store import (DuplicateKeyError, StoreError, message_document, open_store,
                           ros_home)
 from ..data.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_GAP, DEFAULT_MAX_POSES,
                                DEFAULT_PERIOD, STORED_TYPE, Chunk, Chunker, RegionLocator,
                                check_max_poses, chunk_fields, chunk_id, ensure_indexes)
-from ..msg import Trajectory
-from .convert import chunk_to_msg, pose_of_msg
+from ..msg import People, Trajectory
+from .convert import chunk_to_msg, people_poses, pose_of_msg
 from .node import forward_store_log, run_node
 from .params import check_at_least, config_from_params
 from .soma import query_rois
@@ -65,6 +69,10 @@ from .soma import query_rois
 __all__ = ["main", "RecorderNode"]
 
 _NS = 1000000000
+
+
+def _ns(t: rospy.Time) -> int:
+    return t.secs * _NS + t.nsecs
 
 
 def rois_from_service(name: str, wait: float, map_name: str, config: str) -> List[Roi]:
@@ -99,6 +107,7 @@ class RecorderParams:
     db_timeout: float = 1.5
     db_retry_interval: float = 5.0
     pose_topic: str = "pose"
+    people_topic: str = ""
     spill_dir: str = ""
     flush_every: float = 2.0
     path_rate: float = 2.0
@@ -117,7 +126,9 @@ class RecorderParams:
 
 
 class RecorderNode:
-    """Parameters, subscriptions and the store; the chunking lives in data/trajectory.py.
+    """Parameters, subscriptions and the store; the chunking lives in data/trajectory.py,
+    one chunker per stream (data/recording.PoseStream): the pose topic's, and one per person
+    of ``~people_topic``.
 
     Raises:
         BulletFloorSimError: a bad parameter, an unreadable world or ROI file, or a store URI
@@ -128,79 +139,109 @@ class RecorderNode:
         forward_store_log()
         p = self.params = config_from_params(RecorderParams(), names={"map_name": "map"})
         self.frame_id = p.frame_id.lstrip("/")
-        split = p.split
         self.map_name = p.map_name
-        rois: List[Roi] = []
+        self.rois: List[Roi] = []
         self.rois_source = ""
-        if split == "region":
-            rois = self._load_rois(p)
+        if p.split == "region":
+            self.rois = self._load_rois(p)
         if not self.map_name:
-            self.map_name = rois[0].map_name if rois else self._world().name
-        self.chunker = Chunker(period=p.period, split=split, max_poses=p.max_poses,
-                               max_gap=p.max_gap,
-                               region_of=RegionLocator(rois) if rois else None)
-        check_max_poses(self.chunker.max_poses, self.frame_id)
+            self.map_name = self.rois[0].map_name if self.rois else self._world().name
+        check_max_poses(self._new_chunker().max_poses, self.frame_id)
         self.store = open_store(p.db or None, timeout=p.db_timeout,
                                 retry_interval=p.db_retry_interval)
         ensure_indexes(self.store)
-        self.topic = rospy.resolve_name(p.pose_topic)
-        self.spill = ChunkSpill(self._spill_path(p.spill_dir), p.flush_every)
+        self.topic = rospy.resolve_name(p.pose_topic) if p.pose_topic else ""
+        self.people_topic = rospy.resolve_name(p.people_topic) if p.people_topic else ""
+        if not (self.topic or self.people_topic):
+            raise BulletFloorSimError("trajectory_recorder: nothing to record: ~pose_topic and "
+                                      "~people_topic are both empty")
         self.lock = threading.Lock()
         self.finished = False
+        self.streams: Dict[str, PoseStream] = {}   # "" = the pose topic; else a person
         self.live: List[PoseStamped] = []
         self.live_dirty = False
         self.header_seq = 0
         self.stored_chunks = 0
         self.stored_poses = 0
-        self.received = 0
         self.rejected = 0
-        self.last_rx: Optional[rospy.Time] = None
-        self.stamps_on_clock = False   # the newest pose's stamp is on this node's clock
-        self.unconfirmed: List[Chunk] = []   # stored, but held in the store's memory
+        self.unconfirmed: List[Tuple[PoseStream, Chunk]] = []   # stored, held in memory
         self.batch_pub = rospy.Publisher("~trajectories/batch", Trajectory, queue_size=100)
         self.complete_pub = rospy.Publisher("~trajectories/complete", Trajectory,
                                             queue_size=100)
         self.path_pub = rospy.Publisher("~path", Path, queue_size=1, latch=True)
-        self._recover()
         self.queue = ChunkQueue(self._store, "trajectory_recorder")
-        # queue_size None: rospy keeps every message (a bounded queue drops the oldest).
-        self.sub = rospy.Subscriber(self.topic, PoseStamped, self._on_pose, queue_size=None)
+        self.subs = []
+        if self.topic:
+            self._open_stream("", self.topic)
+            # queue_size None: rospy keeps every message (a bounded queue drops the oldest).
+            self.subs.append(rospy.Subscriber(self.topic, PoseStamped, self._on_pose,
+                                              queue_size=None))
+        if self.people_topic:
+            self.subs.append(rospy.Subscriber(self.people_topic, People, self._on_people,
+                                              queue_size=None))
         rate = p.path_rate
         # reset: a clock that jumps back (the simulator restarted) does not stop the timer
         self.timer = rospy.Timer(rospy.Duration(1.0 / rate if rate > 0 else 1.0), self._tick,
                                  reset=True)
         self.path_rate = rate
+        what = " and ".join(t for t in (self.topic, self.people_topic and
+                                        "every person of " + self.people_topic) if t)
         rospy.loginfo("trajectory_recorder: %s -> %s %s.%s (map %s, split %s, period %.1f s, "
-                      "max %d poses/chunk%s)", self.topic, self.store.shown_uri, DATABASE,
-                      COLLECTION, self.map_name, split, self.chunker.period,
-                      self.chunker.max_poses, self.rois_source)
-        # The hook stores the open chunk; rospy calls it from the SIGINT/SIGTERM handler
+                      "max %d poses/chunk%s)", what, self.store.shown_uri, DATABASE,
+                      COLLECTION, self.map_name, p.split, p.period, p.max_poses,
+                      self.rois_source)
+        # The hook stores the open chunks; rospy calls it from the SIGINT/SIGTERM handler
         # before the node goes down. close() (after spinning) waits for it.
         rospy.on_shutdown(self.close)
 
+    @property
+    def received(self) -> int:
+        """Poses received over all streams."""
+        return sum(s.received for s in self.streams.values())
+
     def close(self) -> None:
-        """Store the open chunk (complete) and close the store: :meth:`shutdown`."""
+        """Store the open chunks (complete) and close the store: :meth:`shutdown`."""
         self.shutdown("shutdown")
 
+    def _new_chunker(self) -> Chunker:
+        p = self.params
+        return Chunker(period=p.period, split=p.split, max_poses=p.max_poses,
+                       max_gap=p.max_gap, region_of=RegionLocator(self.rois) if self.rois else None)
+
+    def _open_stream(self, key: str, topic: str) -> PoseStream:
+        """A new stream (its chunker and spill file); stores what a recorder killed before
+        left in that spill file."""
+        name = key or None
+        stream = PoseStream(self._new_chunker(),
+                            ChunkSpill(self._spill_path(self.params.spill_dir, topic, name),
+                                       self.params.flush_every), name)
+        self.streams[key] = stream
+        self._recover(stream, topic)
+        return stream
+
     # -- set-up -------------------------------------------------------------------------------
-    def _spill_path(self, directory: str) -> str:
-        """One spill file per database and pose topic (what the next recorder there reads)."""
+    def _spill_path(self, directory: str, topic: str, person: Optional[str]) -> str:
+        """One spill file per database and pose topic, or topic and person (what the next
+        recorder there reads)."""
         directory = directory or os.path.join(ros_home(), "bullet_floor_sim", "spill")
-        key = hashlib.sha1(("%s\0%s" % (self.store.uri, self.topic)).encode("utf-8"))
+        text = "%s\0%s" % (self.store.uri, topic) + ("" if person is None else "\0" + person)
+        key = hashlib.sha1(text.encode("utf-8"))
         return os.path.join(directory, key.hexdigest()[:16] + ".jsonl")
 
-    def _recover(self) -> None:
-        """Store what a recorder killed before its time left in the spill file. A chunk's
-        ``_id`` is the same every time it is stored (data/trajectory.chunk_id), so one that
-        reached the store (or its journal) before the kill is not stored twice."""
-        chunks = self.spill.recover()
-        kept = [c for c in chunks if self._store(c, None) != "duplicate"]
+    def _recover(self, stream: PoseStream, topic: str) -> None:
+        """Store what a recorder killed before its time left in the stream's spill file. A
+        chunk's ``_id`` is the same every time it is stored (data/trajectory.chunk_id), so
+        one that reached the store (or its journal) before the kill is not stored twice."""
+        chunks = stream.spill.recover()
+        kept = [c for c in chunks if self._store(c, (None, stream)) != "duplicate"]
         if self.store.held == 0:
-            self.spill.remove()
+            stream.spill.remove()
         if chunks:
             rospy.logwarn("trajectory_recorder: recovered %d chunks (%d poses) a previous "
-                          "recorder on %s left unstored in %s", len(kept),
-                          sum(len(c.poses) for c in kept), self.topic, self.spill.path)
+                          "recorder on %s%s left unstored in %s", len(kept),
+                          sum(len(c.poses) for c in kept), topic,
+                          "" if stream.person is None else " (%s)" % stream.person,
+                          stream.spill.path)
 
     def _world(self):
         # ~world, else the running simulator's world (sim.launch sets /simulator/world)
@@ -232,68 +273,71 @@ class RecorderNode:
 
     # -- poses --------------------------------------------------------------------------------
     def _on_pose(self, msg: PoseStamped) -> None:
-        if msg.header.frame_id.lstrip("/") != self.frame_id:
-            self.rejected += 1
-            rospy.logwarn_throttle(10.0, "trajectory_recorder: %s: pose in frame %r, not %r: "
-                                   "not recorded (%d so far)", self.topic,
-                                   msg.header.frame_id, self.frame_id, self.rejected)
+        if not self._frame_ok(msg.header.frame_id, self.topic):
             return
         pose = pose_of_msg(msg)
         if not all(math.isfinite(v) for v in pose[1:]):
-            self.rejected += 1
-            rospy.logwarn_throttle(10.0, "trajectory_recorder: %s: non-finite pose at %s: not "
-                                   "recorded (%d so far)", self.topic, msg.header.stamp,
-                                   self.rejected)
+            self._reject("%s: non-finite pose at %s" % (self.topic, msg.header.stamp))
             return
         with self.lock:
             if self.finished:
                 return
-            self.received += 1
-            self.last_rx = rospy.Time.now()
-            self._note_stamp(pose[0])
-            closed = self.chunker.add(pose)
+            closed = self.streams[""].add(pose, _ns(rospy.Time.now()))
             if closed:
                 self.live = [msg]
                 for chunk in closed:
-                    self._hand_over(chunk)
+                    self._hand_over(self.streams[""], chunk)
             else:
                 self.live.append(msg)
             self.live_dirty = True
-            c = self.chunker
-            self.spill.track(c.uuid, c.sequence_id, c.region, c.open_poses)
 
-    def _note_stamp(self, t_ns: int) -> None:
-        """Note whether the newest stamp is on this node's clock (within the gap of it), so
-        the silence that ends a trajectory is measured on the poses' own stamps."""
-        rx = self.last_rx.secs * _NS + self.last_rx.nsecs
-        self.stamps_on_clock = abs(rx - t_ns) <= max(self.chunker.max_gap, 1.0) * _NS
+    def _on_people(self, msg: People) -> None:
+        """Every person's position, each its own trajectory (stream)."""
+        if not self._frame_ok(msg.header.frame_id, self.people_topic):
+            return
+        poses = people_poses(msg)
+        with self.lock:
+            if self.finished:
+                return
+            rx = _ns(rospy.Time.now())
+            for name, pose in poses:
+                if not name or not all(math.isfinite(v) for v in pose[1:]):
+                    self._reject("%s: person %r: no name or a non-finite position at %s"
+                                 % (self.people_topic, name, msg.header.stamp))
+                    continue
+                stream = self.streams.get(name) or self._open_stream(name, self.people_topic)
+                for chunk in stream.add(pose, rx):
+                    self._hand_over(stream, chunk)
 
-    def _pose_clock(self, now: rospy.Time) -> int:
-        """Now on the poses' clock (ns): this node's clock when their stamps are on it, else
-        (a publisher on another clock) the newest stamp plus the time since it arrived."""
-        now_ns = now.secs * _NS + now.nsecs
-        if self.stamps_on_clock:
-            return now_ns
-        rx = self.last_rx.secs * _NS + self.last_rx.nsecs
-        return self.chunker.open_poses[-1][0] + (now_ns - rx)
+    def _frame_ok(self, frame: str, topic: str) -> bool:
+        if frame.lstrip("/") == self.frame_id:
+            return True
+        self._reject("%s: pose in frame %r, not %r" % (topic, frame, self.frame_id))
+        return False
+
+    def _reject(self, why: str) -> None:
+        self.rejected += 1
+        rospy.logwarn_throttle(10.0, "trajectory_recorder: %s: not recorded (%d so far)",
+                               why, self.rejected)
 
     def _tick(self, event) -> None:
         with self.lock:
             if self.finished:
                 return
             now = rospy.Time.now()
-            self.spill.flush_if_due()
-            ended = None
-            if self.last_rx is not None and not self.last_rx.is_zero() \
-                    and self.chunker.uuid is not None:
-                ended = self.chunker.check_gap(self._pose_clock(now))   # the one gap rule
-            if ended is not None:
-                rospy.loginfo("trajectory_recorder: no pose for %.1f s: trajectory %s ended "
-                              "after %d chunks", self.chunker.max_gap, ended.uuid,
+            for stream in list(self.streams.values()):
+                stream.spill.flush_if_due()
+                ended = stream.check_gap(_ns(now))   # the one gap rule
+                if ended is None:
+                    continue
+                rospy.loginfo("trajectory_recorder: %sno pose for %.1f s: trajectory %s ended "
+                              "after %d chunks", "" if stream.person is None
+                              else stream.person + ": ", stream.chunker.max_gap, ended.uuid,
                               ended.sequence_id + 1)
-                self._hand_over(ended)
-                self.live = []
-                self.live_dirty = True
+                self._hand_over(stream, ended)
+                if stream.person is None:
+                    self.live = []
+                    self.live_dirty = True
             if not self.live_dirty or self.path_rate <= 0:
                 return
             self.live_dirty = False
@@ -301,23 +345,27 @@ class RecorderNode:
         self.path_pub.publish(path)
 
     # -- storing ------------------------------------------------------------------------------
-    def _hand_over(self, chunk: Chunk) -> None:
-        """A closed chunk to the spill file and the store queue (lock held)."""
+    def _hand_over(self, stream: PoseStream, chunk: Chunk) -> None:
+        """A closed chunk to its stream's spill file and the store queue (lock held)."""
         chunk.frame_id = self.frame_id
         self.header_seq += 1
-        self.spill.closed(chunk)
-        self.queue.put(chunk, self.header_seq)
+        stream.spill.closed(chunk)
+        self.queue.put(chunk, (self.header_seq, stream))
 
-    def _store(self, chunk: Chunk, header_seq: Optional[int]) -> str:
+    def _store(self, chunk: Chunk, context: Tuple[Optional[int], PoseStream]) -> str:
         """Store one chunk (journalled if the database is down) and publish it: the queue's
-        worker, never the subscriber thread. Returns "stored", "duplicate", "refused" or
+        worker, never the subscriber thread. ``context``: the header seq (None for a
+        recovered chunk) and the chunk's stream. Returns "stored", "duplicate", "refused" or
         "closed"."""
+        header_seq, stream = context
         now = rospy.Time.now()
         stamp_ns = now.secs * _NS + now.nsecs
         chunk.frame_id = self.frame_id
         meta = {"map": self.map_name, "taken": "online", "closed_by": chunk.closed_by}
-        if chunk.region is not None or self.chunker.split == "region":
+        if chunk.region is not None or self.params.split == "region":
             meta["region"] = chunk.region
+        if stream.person is not None:
+            meta["person"] = stream.person
         seq = header_seq if header_seq is not None else 0
         doc = message_document(chunk_fields(chunk, stamp_ns, seq), STORED_TYPE, meta=meta,
                                inserted_by=rospy.get_name(), now=stamp_ns / 1e9,
@@ -326,7 +374,7 @@ class RecorderNode:
         try:
             self.store.insert(DATABASE, COLLECTION, doc)
         except DuplicateKeyError:  # stored before (a recovered chunk): nothing to do
-            self._confirm(chunk)
+            self._confirm(stream, chunk)
             return "duplicate"
         except StoreError as e:
             if self.store.closed:  # shutting down: the spill file keeps it for the next
@@ -334,9 +382,9 @@ class RecorderNode:
             rospy.logerr("trajectory_recorder: chunk %d of %s (%d poses) NOT stored, the "
                          "database refused it: %s", chunk.sequence_id, chunk.uuid,
                          len(chunk.poses), e)
-            self._confirm(chunk)
+            self._confirm(stream, chunk)
             return "refused"
-        self._confirm(chunk)
+        self._confirm(stream, chunk)
         self.stored_chunks += 1
         self.stored_poses += len(chunk.poses)
         pub = self.complete_pub if chunk.complete else self.batch_pub
@@ -344,13 +392,13 @@ class RecorderNode:
             pub.publish(chunk_to_msg(chunk, now, seq))
         return "stored"
 
-    def _confirm(self, chunk: Chunk) -> None:
+    def _confirm(self, stream: PoseStream, chunk: Chunk) -> None:
         """Let the spill file drop a chunk once its write is durable: in the database or the
         journal, not only in the store's memory (a full disk); then every earlier one too."""
-        self.unconfirmed.append(chunk)
+        self.unconfirmed.append((stream, chunk))
         if self.store.held == 0:
-            for c in self.unconfirmed:
-                self.spill.stored(c)
+            for st, c in self.unconfirmed:
+                st.spill.stored(c)
             self.unconfirmed = []
 
     def shutdown(self, reason: str = "") -> None:
@@ -360,19 +408,23 @@ class RecorderNode:
                 return
             self.finished = True
             self.timer.shutdown()
-            self.sub.unregister()
-            last = self.chunker.finish()
-            if last is not None:
-                self._hand_over(last)
+            for sub in self.subs:
+                sub.unregister()
+            for stream in self.streams.values():
+                last = stream.chunker.finish()
+                if last is not None:
+                    self._hand_over(stream, last)
         finished = self.queue.close(60.0)   # on a timeout the worker takes no more chunks
-        if finished and self.store.held == 0:
-            self.spill.remove()       # everything is stored or journalled
-        else:
-            self.spill.flush()
-            rospy.logerr("trajectory_recorder: %s; the chunks stay in %s for the next "
-                         "recorder", "the store did not take the last chunks within 60 s"
-                         if not finished else "the journal cannot take %d writes"
-                         % self.store.held, self.spill.path)
+        for stream in self.streams.values():
+            if finished and self.store.held == 0:
+                stream.spill.remove()       # everything is stored or journalled
+            else:
+                stream.spill.flush()
+        if not (finished and self.store.held == 0):
+            rospy.logerr("trajectory_recorder: %s; the chunks stay in the spill files for the "
+                         "next recorder (%s)", "the store did not take the last chunks within "
+                         "60 s" if not finished else "the journal cannot take %d writes"
+                         % self.store.held, ", ".join(s.spill.path for s in self.streams.values()))
         pending = self.store.pending
         self.store.close()
         rospy.loginfo("trajectory_recorder: %s: stored %d chunks (%d poses incl. shared "
