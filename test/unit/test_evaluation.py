@@ -162,3 +162,19 @@ def test_people_run_is_deterministic_for_a_seed():
         (b.truths, b.matches, b.misses, b.false_positives, b.switches)
     assert a.truths > 0
     assert [len(v) for v in runs[0].legs.values()] == [len(v) for v in runs[1].legs.values()]
+
+
+def test_people_run_predicts_each_leg_from_where_it_started():
+    """The ground-truth predictor of each person sees the dwells too, so it starts each leg
+    afresh: its prediction at half the leg is made from the leg's own start region."""
+    from bullet_floor_sim.people.evaluation.crowd_run import CrowdEvalConfig, run_crowd
+    from bullet_floor_sim.people.evaluation.result import FRACTIONS
+
+    r = run_crowd(CrowdEvalConfig(people=2, sim_time=120.0, seed=3))
+    k = FRACTIONS.index(0.5)
+    legs = [leg for v in r.legs.values() for leg in v]
+    assert len(legs) >= 8
+    assert len({leg.start_region for leg in legs}) >= 3      # the people went places
+    for leg in legs:
+        assert leg.moments["ground_truth"][k] is not None
+        assert leg.moments["ground_truth"][k][0] == leg.start_region

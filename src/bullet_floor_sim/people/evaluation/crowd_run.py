@@ -218,10 +218,11 @@ class _CrowdRun:
             if leg is not None and leg is not last:
                 self.gt_records[i], self.trk_records[i] = [], []
             self.current[i] = leg
+            g = truth[i]
+            # the predictor sees the dwells too (it cuts legs at the stops, as on a track)
+            pred = self.gt_pred[i].update(t, g.x, g.y, g.vx, g.vy)
             if leg is None:
                 continue
-            g = truth[i]
-            pred = self.gt_pred[i].update(t, g.x, g.y, g.vx, g.vy)
             if pred is not None:
                 self.gt_records[i].append(Record(t, pred, (g.x, g.y), (g.vx, g.vy)))
             track = pairs.get(p.name)
