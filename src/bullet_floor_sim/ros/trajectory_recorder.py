@@ -20,8 +20,9 @@ the node exits. If the database is down, chunks are journalled and replayed when
 poses' stamps (on arrival times when the publisher stamps with another clock).
 
 With ``~people_topic`` (people_msgs/People, e.g. the simulator's ``/ground_truth/people``)
-every person is recorded too, each as its own trajectories (its own chunker and spill file),
-with ``"person": <name>`` in each chunk's ``_meta``; ``~pose_topic`` "" records people alone.
+every person is recorded too, each as its own trajectories (its own chunker and spill
+file), with ``"person": <name>`` in each chunk's ``_meta``; ``~pose_topic`` "" records people
+alone.
 
 Parameters: ``~pose_topic`` (pose), ``~people_topic`` (""), ``~db`` ("" = ``$ROS_HOME/bullet_floor_sim/db``; or
 ``mongodb://host:port/``), ``~period`` 30 s, ``~split`` period|region, ``~max_poses`` 20000,

@@ -182,6 +182,7 @@ class World:
             for name, kind in SENSORS.items()}
         self._sensor_list = list(self.sensors.values())
         self._sensor_due_ns = self._next_sensor_ns()
+        self._set_due()
         # (what the views and ray casts use) SENSORS builds these classes under these names,
         # but its values are typed as the Sensor protocol: mypy cannot tell which is which
         self.lidar: Lidar = self.sensors["laser"]  # type: ignore[assignment]
@@ -238,6 +239,7 @@ class World:
         """Step ``people`` (people/crowd's Crowd) with the robots, and let the lidars see
         their legs; None removes them."""
         self.people = people
+        self._set_due()
 
     # ----------------------------------------------------------------------------- control
     def command(self, robot: int, vx: float, vy: float = 0.0, w: float = 0.0) -> None:
@@ -269,6 +271,7 @@ class World:
         for sensor in self._sensor_list:
             sensor.reset(self, rows)
         self._sensor_due_ns = self._next_sensor_ns()
+        self._set_due()
         self._safe_until_ns[:] = 0
         self._check_due_ns = 0
         self._sync_bodies(rows)
@@ -336,11 +339,15 @@ class World:
             if self.n and not self._idle:
                 self._physics_step()
             self.clock.tick()
-            people = self.people
-            if people is not None and self.clock.now_ns >= people.next_ns:
-                people.advance(self.clock.now_ns, self.pose[:, :2], self.radius)
-            if self.clock.now_ns >= self._sensor_due_ns:
-                readings.extend(self.read_sensors())
+            now = self.clock.now_ns
+            if now >= self._due_ns:     # the people's step, then the sensors' readings
+                people = self.people
+                if people is not None and now >= people.next_ns:
+                    people.advance(now, self.pose[:, :2], self.radius)
+                if now >= self._sensor_due_ns:
+                    readings.extend(self.read_sensors())
+                else:
+                    self._set_due()
         return readings
 
     def read_sensors(self) -> list:
@@ -351,7 +358,14 @@ class World:
             if sensor.next_ns <= now:
                 out.extend(sensor.read(self))
         self._sensor_due_ns = self._next_sensor_ns()
+        self._set_due()
         return out
+
+    def _set_due(self) -> None:
+        """When ``step`` next has something to do besides physics: a sensor or the people."""
+        people = self.people
+        self._due_ns = min(self._sensor_due_ns,
+                           people.next_ns if people is not None else self._sensor_due_ns)
 
     def _next_sensor_ns(self) -> int:
         """When the next sensor is due (sim ns)."""
