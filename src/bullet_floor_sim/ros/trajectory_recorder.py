@@ -25,8 +25,8 @@ file), with ``"person": <name>`` in each chunk's ``_meta``; ``~pose_topic`` "" r
 alone.
 
 Parameters: ``~pose_topic`` (pose), ``~people_topic`` (""), ``~db`` ("" =
-``$ROS_HOME/bullet_floor_sim/db``; or ``mongodb://host:port/``), ``~period`` 30 s, ``~split`` period|region, ``~max_poses`` 20000,
-``~max_gap`` 10 s (a silence that ends a trajectory; 0 = never), ``~map`` (map name for the
+``$ROS_HOME/bullet_floor_sim/db``; or ``mongodb://host:port/``), ``~period`` 30 s,
+``~split`` period|region, ``~max_poses`` 20000, ``~max_gap`` 10 s (a silence that ends a trajectory; 0 = never), ``~map`` (map name for the
 stored meta; default the ROIs' map or the world's name), ``~world`` (default the running
 simulator's ``/simulator/world``, else office), ``~rois_file``
 (default the world's rois.yaml), ``~rois_service`` /soma/query_rois (used first when it
