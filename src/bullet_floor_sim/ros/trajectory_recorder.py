@@ -25,16 +25,15 @@ file), with ``"person": <name>`` in each chunk's ``_meta``; ``~pose_topic`` "" r
 alone.
 
 Parameters: ``~pose_topic`` (pose), ``~people_topic`` (""), ``~db`` ("" =
-``$ROS_HOME/bullet_floor_sim/db``; or ``mongodb://host:port/``), ``~period`` 30 s,
-``~split`` period|region, ``~max_poses`` 20000, ``~max_gap`` 10 s (a silence that ends a trajectory; 0 = never), ``~map`` (map name for the
-stored meta; default the ROIs' map or the world's name), ``~world`` (default the running
-simulator's ``/simulator/world``, else office), ``~rois_file``
-(default the world's rois.yaml), ``~rois_service`` /soma/query_rois (used first when it
-answers within ``~rois_wait`` 2 s), ``~rois_config`` (""), ``~frame_id`` map,
-``~path_rate`` 2 Hz (0: no live path), ``~db_timeout`` 1.5 s (an unreachable database
-counts as down after that long), ``~db_retry_interval`` 5 s (how often a database found down
-is tried again), ``~flush_every`` 2 s and ``~spill_dir`` (default
-``$ROS_HOME/bullet_floor_sim/spill``).
+``$ROS_HOME/bullet_floor_sim/db``; or ``mongodb://host:port/``), ``~period`` 30 s, ``~split``
+period|region, ``~max_poses`` 20000, ``~max_gap`` 10 s (a silence that ends a trajectory; 0 =
+never), ``~map`` (map name for the stored meta; default the ROIs' map or the world's name),
+``~world`` (default the running simulator's ``/simulator/world``, else office), ``~rois_file``
+(default the world's rois.yaml), ``~rois_service`` /soma/query_rois (used first when it answers
+within ``~rois_wait`` 2 s), ``~rois_config`` (""), ``~frame_id`` map, ``~path_rate`` 2 Hz (0:
+no live path), ``~db_timeout`` 1.5 s (an unreachable database counts as down after that long),
+``~db_retry_interval`` 5 s (how often a database found down is tried again), ``~flush_every`` 2
+s and ``~spill_dir`` (default ``$ROS_HOME/bullet_floor_sim/spill``).
 """
 from __future__ import annotations
 
