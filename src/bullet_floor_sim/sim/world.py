@@ -26,12 +26,13 @@ import contextlib
 import math
 import os
 import sys
-from typing import Any, Dict, Iterator, List, Optional, Protocol, Sequence, Tuple
+from typing import Dict, Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from . import collision, kinematics, leg_beams, measure, robot_beams, walls
 from .clock import SimClock
+from .people import People
 from .views import RobotView, Snapshot
 from .config import RobotSpec, WorldConfig, load_world_config, resolve_world
 from ..errors import ConfigError
@@ -45,25 +46,6 @@ from .measure import ROBOT_GROUP, ROBOT_MASK, SELF_GROUP
 from .solidmap import SolidMap, solid_map
 
 __all__ = ["SimClock", "World", "RobotView", "Snapshot", "People"]
-
-
-class People(Protocol):
-    """What the world steps and its lidars see of a crowd (people/crowd/crowd.py's Crowd).
-
-    Attributes:
-        next_ns: sim time (ns) of its next step.
-        body: its BodyConfig (the legs' ``leg_radius`` and ``leg_height``).
-    """
-
-    next_ns: int
-    body: Any
-
-    def advance(self, now_ns: int, robot_xy: np.ndarray, robot_radius: np.ndarray) -> None:
-        """Step every person to ``now_ns``, the robots at ``robot_xy`` with bounding radii
-        ``robot_radius`` in the way."""
-
-    def legs(self) -> np.ndarray:
-        """(K, 2) map-frame leg centres."""
 
 #: The batch size from which ray casts use ``ray_threads`` (smaller ones run on one thread:
 #: threads cost more than they save; measured on two cores through the C API, 100 rays took
