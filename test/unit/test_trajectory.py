@@ -302,14 +302,16 @@ def db_pair(request, tmp_path, monkeypatch):
     return uri, uri  # one server, two databases would need a db option: clear in between
 
 
-def record(store, chunks, map_name="office"):
+def record(store, chunks, map_name="office", person=None):
     from bullet_floor_sim.data.store import insert_message
 
     ensure_indexes(store)
+    meta = {"map": map_name, "taken": "online"}
+    if person is not None:
+        meta["person"] = person
     for c in chunks:
         insert_message(store, DATABASE, COLLECTION, chunk_fields(c, c.end_ns), STORED_TYPE,
-                       meta={"map": map_name, "taken": "online"}, inserted_by="/test",
-                       now=c.end_ns / 1e9)
+                       meta=dict(meta), inserted_by="/test", now=c.end_ns / 1e9)
 
 
 def recorded_chunks(uuid_start=0):
@@ -487,6 +489,32 @@ def test_export_window_to_a_file_and_plot(tmp_path, capsys, monkeypatch):
 
     with Image.open(str(png)) as im:
         assert im.format == "PNG" and im.size[0] > 500
+
+
+def test_export_and_plot_one_person(tmp_path, capsys, monkeypatch):
+    """The recorder of a people topic names each person in the meta: --person keeps theirs
+    (the walker's trajectories, which name nobody, and the other person's are left out)."""
+    monkeypatch.setenv("ROS_HOME", str(tmp_path / "ros_home"))
+    db = str(tmp_path / "db")
+    _, walker = recorded_chunks()
+    _, ann = recorded_chunks(uuid_start=10)
+    _, bob = recorded_chunks(uuid_start=20)
+    with open_store(db) as store:
+        record(store, walker)
+        record(store, ann, person="ann")
+        record(store, bob, person="bob")
+        assert {c.uuid for c in select_chunks(store, person="ann")} == {c.uuid for c in ann}
+        assert {c.uuid for c in select_chunks(store, "office", person="bob")} == {
+            c.uuid for c in bob[:6]}
+        assert len(select_chunks(store)) == 3 * len(walker)
+    code, out, err = run_cli(["export", "--db", db, "--person", "ann"], capsys)
+    assert code == 0, err
+    assert [json.loads(x)["uuid"] for x in out.splitlines()] == [c.uuid for c in ann]
+    png = tmp_path / "ann.png"
+    code, _, err = run_cli(["plot", "--db", db, "--out", str(png), "--person", "bob",
+                            "--map", "office"], capsys)
+    assert code == 0, err
+    assert "plotted 2 trajectories (6 chunks)" in err
 
 
 def test_import_splits_an_oversize_line_and_renumbers(tmp_path, capsys, monkeypatch):

@@ -3,14 +3,15 @@ as JSON lines and pictures.
 
 A plain command-line tool (no ROS master needed, rospy is not imported)::
 
-    trajectories export --db URI [--map M] [--since T] [--until T] [--out FILE]
+    trajectories export --db URI [--map M] [--person P] [--since T] [--until T] [--out FILE]
     trajectories import --db URI --map M [FILE ...] [--max-poses N]
-    trajectories plot   --db URI --out traj.png [--map M] [--since T] [--until T]
+    trajectories plot   --db URI --out traj.png [--map M] [--person P] [--since T] [--until T]
                         [--world W | --map-yaml MAP] [--cell 0.25]
 
 ``--db`` is ``mongodb://host:port/`` or a directory for the embedded store (default
 ``$ROS_HOME/bullet_floor_sim/db``). Times are seconds (ROS time, sim time in simulation): a
-chunk is selected when it ends at or after ``--since`` and starts at or before ``--until``.
+chunk is selected when it ends at or after ``--since`` and starts at or before ``--until``;
+``--person`` keeps one person's trajectories (the recorder of a people topic names them).
 
 * ``export`` prints one JSON line per stored chunk: ``{"uuid", "sequence_id", "start_time",
   "end_time", "complete", "trajectory_length", "poses": [[t, x, y, yaw], ...]}``, t in
@@ -62,6 +63,8 @@ def _parser() -> argparse.ArgumentParser:
                        "$ROS_HOME/bullet_floor_sim/db)")
         q.add_argument("--map", dest="map_name", default="", help="only this map")
         if window:
+            q.add_argument("--person", default="", help="only this person's trajectories "
+                           "(those the recorder stored from a people topic)")
             q.add_argument("--since", help="only chunks ending at or after this time (s)")
             q.add_argument("--until", help="only chunks starting at or before this time (s)")
 
@@ -127,8 +130,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 # -- export -----------------------------------------------------------------------------------
 
 def export_chunks(store: Store, out: IO[str], map_name: str = "", since: Optional[int] = None,
-                  until: Optional[int] = None) -> Tuple[int, int]:
-    """Write the selected chunks as JSON lines to ``out``.
+                  until: Optional[int] = None, person: str = "") -> Tuple[int, int]:
+    """Write the selected chunks (of ``person`` when given) as JSON lines to ``out``.
 
     Returns:
         (chunks, poses) written.
@@ -142,7 +145,8 @@ def export_chunks(store: Store, out: IO[str], map_name: str = "", since: Optiona
     enabled = gc.isenabled()
     gc.disable()
     try:
-        for doc in iter_documents(store, map_name or None, since, until):
+        for doc in iter_documents(store, map_name or None, since, until,
+                                  person=person or None):
             write(document_to_json(doc))
             write("\n")
             chunks += 1
@@ -161,11 +165,11 @@ def _export(store: Store, args: argparse.Namespace, since: Optional[int],
     if args.out:
         try:
             with atomic_file(args.out) as f:  # an old file stays whole if the query fails
-                n, poses = export_chunks(store, f, args.map_name, since, until)
+                n, poses = export_chunks(store, f, args.map_name, since, until, args.person)
         except OSError as e:
             raise BulletFloorSimError("%s: cannot write (%s)" % (args.out, e.strerror or e))
     else:
-        n, poses = export_chunks(store, sys.stdout, args.map_name, since, until)
+        n, poses = export_chunks(store, sys.stdout, args.map_name, since, until, args.person)
         sys.stdout.flush()
     _note("exported %d chunks (%d poses) from %s in %.2f s" % (n, poses, store.shown_uri,
                                                                time.monotonic() - t0))
@@ -280,8 +284,8 @@ def _map_for_plot(args: argparse.Namespace):
 def _plot(store: Store, args: argparse.Namespace, since: Optional[int],
           until: Optional[int]) -> None:
     ensure_indexes(store)
-    chunks = [chunk_from_document(d)
-              for d in iter_documents(store, args.map_name or None, since, until)]
+    chunks = [chunk_from_document(d) for d in iter_documents(
+        store, args.map_name or None, since, until, person=args.person or None)]
     fmap = _map_for_plot(args)
     n = plot_trajectories(chunks, args.out, fmap, args.cell)
     _note("plotted %d trajectories (%d chunks) to %s" % (n, len(chunks), args.out))

@@ -283,9 +283,11 @@ class Head:
 
 def trajectory_heads(store: Any, map_name: Optional[str] = None,
                      since_ns: Optional[int] = None, until_ns: Optional[int] = None,
-                     database: str = DATABASE, collection: str = COLLECTION) -> List[Head]:
+                     database: str = DATABASE, collection: str = COLLECTION,
+                     person: Optional[str] = None) -> List[Head]:
     """The stored trajectories of ``map_name`` (all when empty) that reach into
-    [since, until], ordered by their first pose (then uuid).
+    [since, until], ordered by their first pose (then uuid); with ``person``, only that
+    person's (``_meta.person``, as the recorder of a people topic stores them).
 
     One ``latest(group_by=uuid, order_by=sequence_id)`` (an index walk reading the last chunk
     of each trajectory) and, for trajectories of several chunks, one indexed lookup of the
@@ -302,6 +304,8 @@ def trajectory_heads(store: Any, map_name: Optional[str] = None,
     heads = []
     for last in store.latest(database, collection, ["uuid"], "sequence_id"):
         if map_name and _map_of(last) != map_name:
+            continue
+        if person and (last.get("_meta") or {}).get("person") != person:
             continue
         end = _span(last)[1]
         if since_ns is not None and end < since_ns:
@@ -330,8 +334,8 @@ _PAGE_POSES = 20000
 
 def iter_documents(store: Any, map_name: Optional[str] = None, since_ns: Optional[int] = None,
                    until_ns: Optional[int] = None, heads: Optional[List[Head]] = None,
-                   database: str = DATABASE, collection: str = COLLECTION
-                   ) -> Iterator[Dict[str, Any]]:
+                   database: str = DATABASE, collection: str = COLLECTION,
+                   person: Optional[str] = None) -> Iterator[Dict[str, Any]]:
     """The stored chunks of ``map_name`` that end at or after ``since_ns`` and start at or
     before ``until_ns``, as documents: trajectory after trajectory (in order of their first
     pose), each in ``sequence_id`` order.
@@ -343,13 +347,15 @@ def iter_documents(store: Any, map_name: Optional[str] = None, since_ns: Optiona
     Args:
         heads: the trajectories to read (default: :func:`trajectory_heads` of the same
             selection).
+        person: only this person's trajectories (when ``heads`` is not given).
 
     Raises:
         StoreUnavailable: the database cannot be read now.
         TrajectoryError: a stored document is malformed.
     """
     if heads is None:
-        heads = trajectory_heads(store, map_name, since_ns, until_ns, database, collection)
+        heads = trajectory_heads(store, map_name, since_ns, until_ns, database, collection,
+                                 person)
     for head in heads:
         if head.only is not None:
             pages: Iterable[List[Dict[str, Any]]] = [[head.only]]
@@ -428,15 +434,18 @@ def document_to_json(doc: Dict[str, Any]) -> str:
 
 def select_chunks(store: Any, map_name: Optional[str] = None, since_ns: Optional[int] = None,
                   until_ns: Optional[int] = None, last_n: int = 0,
-                  database: str = DATABASE, collection: str = COLLECTION) -> List[Chunk]:
+                  database: str = DATABASE, collection: str = COLLECTION,
+                  person: Optional[str] = None) -> List[Chunk]:
     """Stored chunks of ``map_name`` (all maps when empty) overlapping [since, until], of the
-    ``last_n`` trajectories that end last (0: all), in :func:`iter_documents`' order.
+    ``last_n`` trajectories that end last (0: all), of ``person`` when given, in
+    :func:`iter_documents`' order.
 
     Raises:
         StoreUnavailable: the database cannot be read now.
         TrajectoryError: a stored document is malformed.
     """
-    heads = trajectory_heads(store, map_name, since_ns, until_ns, database, collection)
+    heads = trajectory_heads(store, map_name, since_ns, until_ns, database, collection,
+                             person)
     if last_n and last_n > 0:
         keep = {id(h) for h in sorted(heads, key=lambda h: (h.end_ns, str(h.uuid)))[-last_n:]}
         heads = [h for h in heads if id(h) in keep]
