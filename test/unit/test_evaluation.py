@@ -136,10 +136,13 @@ def test_rescore_with_the_runs_own_parameters_gives_the_live_scores():
         -math.log(max(probs[leg.target_region], 1e-6)))
 
 
-def test_cli_people_run_scores_every_person(capsys):
+def test_cli_people_run_scores_every_person(tmp_path, capsys):
+    png = str(tmp_path / "people.png")
     assert evaluate_prediction.main(["--people", "3", "--seconds", "90", "--seed", "2",
-                                     "--quiet"]) == 0
+                                     "--quiet", "--plot", png]) == 0
     out = capsys.readouterr().out
+    with open(png, "rb") as f:
+        assert f.read(8) == b"\x89PNG\r\n\x1a\n"
     for name in ("person_1 *", "person_2", "person_3", "all"):
         assert re.search(r"^%s\s+\d+\s+\d+" % re.escape(name), out, re.M), out
     line = [x for x in out.splitlines() if x.startswith("EVAL ")][-1]

@@ -17,7 +17,8 @@ recall=<...> tracked=<...>
 
 With ``--people N`` (and ``--seconds``, ``--chosen``) N people walk the regions instead
 (people/evaluation/crowd_run.py): the table has a row per person and one overall, with the
-CLEAR MOT scores of the tracker, and the last line is
+CLEAR MOT scores of the tracker; the plot (default ``people_<world>_<N>_<seed>.png``) the
+accuracy vs fraction of every person's legs and of the followed one's; the last line is
 ``EVAL people=<n> legs=<n> mota=... motp=... switches=... acc50=... ...``.
 """
 from __future__ import annotations
@@ -33,10 +34,11 @@ from .cli import Parser, UsageError
 __all__ = ["main"]
 
 
-def _default_plot(world: str, legs: int, seed: int) -> str:
+def _default_plot(world: str, count: int, seed: int, kind: str = "prediction") -> str:
+    """$ROS_HOME/bullet_floor_sim/<kind>_<world>_<legs or people>_<seed>.png"""
     home = os.environ.get("ROS_HOME") or os.path.join(os.path.expanduser("~"), ".ros")
     name = os.path.basename(world.rstrip("/")).replace(".yaml", "")
-    return os.path.join(home, "bullet_floor_sim", "prediction_%s_%d_%d.png" % (name, legs, seed))
+    return os.path.join(home, "bullet_floor_sim", "%s_%s_%d_%d.png" % (kind, name, count, seed))
 
 
 def main(argv: Optional[List[str]] = None) -> int:
@@ -93,7 +95,8 @@ def main(argv: Optional[List[str]] = None) -> int:
 
 def _people(args, say) -> int:
     """``--people N``: the people run, a row per person and overall."""
-    from ..people.evaluation.crowd_run import CrowdEvalConfig, format_crowd, run_crowd
+    from ..people.evaluation.crowd_run import (CrowdEvalConfig, format_crowd, plot_crowd,
+                                               run_crowd)
 
     try:
         cfg = CrowdEvalConfig(people=args.people, sim_time=args.seconds, seed=args.seed,
@@ -104,6 +107,12 @@ def _people(args, say) -> int:
         print("evaluate_prediction: %s" % e, file=sys.stderr)
         return 2
     print(format_crowd(result))
+    path = (_default_plot(args.world, args.people, args.seed, "people") if args.plot is None
+            else args.plot)
+    if path:
+        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+        plot_crowd(result, path)
+        print("plot: %s" % path)
     m = result.mot
     print("EVAL people=%d legs=%d mota=%.3f motp=%.3f switches=%d acc50=%.3f acc50_seen=%.3f "
           "acc50_gt=%.3f chosen_acc50=%.3f seen50=%.3f" % (

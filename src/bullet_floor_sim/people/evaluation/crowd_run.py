@@ -37,7 +37,8 @@ from .result import FRACTIONS, EvaluationError, LegScore
 from .scenario import ObserverDrive, _laser_in_map, _regions
 from .scoring import Record, score_leg
 
-__all__ = ["CrowdEvalConfig", "CrowdEvalResult", "run_crowd", "format_crowd", "LEG_CENTRE_OFFSET"]
+__all__ = ["CrowdEvalConfig", "CrowdEvalResult", "run_crowd", "format_crowd", "plot_crowd",
+           "LEG_CENTRE_OFFSET"]
 
 #: The tracker's centre_offset for people's legs (0.06 m legs: pi/4 x 0.06 m).
 LEG_CENTRE_OFFSET = 0.047
@@ -290,3 +291,35 @@ def format_crowd(result: CrowdEvalResult) -> str:
                                                           m.false_positives, m.switches,
                                                           m.truths, m.frames))
     return "\n".join(lines)
+
+
+def plot_crowd(result: CrowdEvalResult, path: str) -> None:
+    """Destination accuracy vs fraction of the leg observed, as a PNG: every person's legs
+    from the tracks (all legs, and the legs tracked by then), from ground truth, and the
+    followed person's from the tracks."""
+    from ..plotting import pyplot
+
+    plt = pyplot("evaluate_prediction --plot")
+    r = result
+    chosen = r.names[r.config.chosen]
+    fig, ax = plt.subplots(figsize=(7, 4.5), dpi=100)
+    xs = [100 * f for f in FRACTIONS]
+    for label, style, acc in (
+            ("all people, tracks (all legs)", "-", lambda f: r.accuracy(fraction=f)),
+            ("all people, tracks (legs tracked by then)", "-.",
+             lambda f: r.accuracy(fraction=f, seen=True)),
+            ("all people, ground truth", "--",
+             lambda f: r.accuracy(pipeline="ground_truth", fraction=f)),
+            ("%s (followed), tracks" % chosen, ":", lambda f: r.accuracy(chosen, fraction=f))):
+        ax.plot(xs, [100 * acc(f) for f in FRACTIONS], style, marker="o", label=label)
+    ax.set_xlabel("% of the leg observed")
+    ax.set_ylabel("top-1 destination accuracy (%)")
+    ax.set_ylim(0, 100)
+    ax.set_title("%d people, %s world, %d legs, seed %d, MOTA %.3f" % (
+        len(r.names), r.config.world, sum(len(v) for v in r.legs.values()), r.config.seed,
+        r.mot.mota))
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
