@@ -267,3 +267,39 @@ def test_people_section_errors_name_the_key(doc, says):
     with pytest.raises(ConfigError) as e:
         parse_people(doc, "w.yaml", ".")
     assert says in str(e.value) and "w.yaml: people" in str(e.value)
+
+
+# ------------------------------------------------------------------------------- tracking
+@pytest.mark.parametrize("a0, a1, b0, b1", [
+    ((2.6, 0.6), (3.8, 3.4), (3.8, 0.6), (2.6, 3.4)),    # their paths cross 1.4 m ahead
+    ((1.6, 2.5), (5.5, 2.5), (5.5, 2.9), (1.6, 2.9)),    # they meet head on, 0.4 m aside
+])
+def test_the_tracker_keeps_one_track_per_person_through_a_crossing(a0, a1, b0, b1):
+    """A robot at the west end of worlds/simple watches two people cross in front of it:
+    its tracker (the leg centre_offset of the people evaluation) keeps each person's track,
+    scored with CLEAR MOT against the ground truth."""
+    from bullet_floor_sim.people.agents import TrackerAgent
+    from bullet_floor_sim.people.evaluation.crowd_run import LEG_CENTRE_OFFSET
+    from bullet_floor_sim.people.evaluation.mot import ClearMot
+    from bullet_floor_sim.people.tracking import TrackerConfig
+    from bullet_floor_sim.sim.sensors import Scan
+
+    w = world("simple", [RobotSpec(name="r", pose=(0.6, 2.0, 0.0))])
+    try:
+        c = crowd(w, [a0, b0], forces=ForceConfig())
+        c.walk_to(0, a1, None, w.clock.now)
+        c.walk_to(1, b1, None, w.clock.now)
+        tracker = TrackerAgent.for_map(w.fmap, TrackerConfig(centre_offset=LEG_CENTRE_OFFSET))
+        mot, closest = ClearMot(0.5), math.inf
+        for _ in range(80):                                  # 8 s
+            scan = [s for s in w.step(10) if isinstance(s, Scan)][-1]
+            tracks = tracker.tick(w.clock.now, scan, (0.9, 2.0, 0.0)).tracks  # laser 0.3 ahead
+            mot.update({"a": tuple(c.pos[0]), "b": tuple(c.pos[1])},
+                       {t.id: (t.x, t.y) for t in tracks})
+            closest = min(closest, float(np.hypot(*(c.pos[0] - c.pos[1]))))
+        assert closest < 0.9                                 # they did come close
+        assert mot.switches == 0 and mot.false_positives <= 4
+        for name in ("a", "b"):
+            assert mot.per_person[name]["matched"] >= 0.75 * 80, mot.per_person
+    finally:
+        w.close()
