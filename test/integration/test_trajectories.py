@@ -278,6 +278,9 @@ class Trajectories(unittest.TestCase):
         self.assertEqual((r.count, r.path_topics), (0, []))
         r = select(SelectTrajectoriesRequest(map_name="lab"))
         self.assertEqual(r.count, 0)
+        r = select(SelectTrajectoriesRequest(person="person_1"))   # the walker names nobody
+        self.assertEqual(r.count, 0)
+        self.assertIn("person person_1", r.message)
         r = select(SelectTrajectoriesRequest(since=1010.0, until=1020.0))
         self.assertEqual(r.count, 1)
         self.assertIn("(7 chunks, 281 poses)", r.message)  # 1008-1010, ..., 1020-1022

@@ -12,7 +12,9 @@ Long trajectories are thinned for display to ``~max_points`` points (first and l
 
 The selection: ``~map`` ("" = every map), ``~since`` / ``~until`` (seconds, ROS time; 0 = no
 limit: chunks ending at or after since and starting at or before until), ``~last_n`` (the N
-trajectories that end last; 0 = all), ``~color_by`` time|trajectory, ``~paths`` false. The
+trajectories that end last; 0 = all), ``~person`` ("" = every trajectory; a name: that
+person's, as the recorder of a people topic stores them), ``~color_by`` time|trajectory,
+``~paths`` false. The
 service ``~select`` (bullet_floor_sim/SelectTrajectories) changes it at run time.
 
 New chunks appear without polling: the viewer subscribes to the recorder's
@@ -94,6 +96,7 @@ class Selection:
     last_n: int = 0
     color_by: str = "time"
     paths: bool = False
+    person: str = ""
 
     def check(self) -> None:
         """Raises BulletFloorSimError naming the bad field."""
@@ -120,6 +123,8 @@ class Selection:
 
     def describe(self) -> str:
         parts = ["map %s" % self.map_name if self.map_name else "every map"]
+        if self.person:
+            parts.append("person %s" % self.person)
         if self.since:
             parts.append("since %.3f s" % self.since)
         if self.until:
@@ -219,7 +224,8 @@ class ViewerNode:
 
     # -- loading ------------------------------------------------------------------------------
     def _reload(self, sel: Selection) -> Dict[Tuple[str, int], Chunk]:
-        chunks = select_chunks(self.store, sel.map_name, sel.since_ns, sel.until_ns, sel.last_n)
+        chunks = select_chunks(self.store, sel.map_name, sel.since_ns, sel.until_ns, sel.last_n,
+                               person=sel.person or None)
         return self._cap({(c.uuid, c.sequence_id): c for c in chunks}, sel.last_n)
 
     def _cap(self, chunks: Dict[Tuple[str, int], Chunk], last_n: int
@@ -256,7 +262,8 @@ class ViewerNode:
             try:  # an indexed lookup; the map and time limits are checked below
                 docs = self.store.find(DATABASE, COLLECTION, {"uuid": msg.uuid,
                                                               "sequence_id": msg.sequence_id})
-                found = [chunk_from_document(d) for d in docs]
+                found = [chunk_from_document(d) for d in docs if not sel.person
+                         or (d.get("_meta") or {}).get("person") == sel.person]
             except (StoreError, BulletFloorSimError) as e:
                 rospy.logwarn_throttle(30.0, "trajectory_viewer: cannot read chunk %d of %s "
                                        "back (%s); reloading later", msg.sequence_id, msg.uuid,
@@ -334,7 +341,8 @@ class ViewerNode:
     def _on_select(self, req) -> SelectTrajectoriesResponse:
         with self.lock:
             sel = Selection(req.map_name, req.since, req.until, req.last_n,
-                            req.color_by or self.selection.color_by, bool(req.paths))
+                            req.color_by or self.selection.color_by, bool(req.paths),
+                            req.person)
             try:
                 sel.check()
                 chunks = self._reload(sel)
