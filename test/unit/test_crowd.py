@@ -262,6 +262,7 @@ def test_people_section(tmp_path):
     ({"body": {"radius": 0.1}}, "the legs"),
     ({"forces": {"tau": "x"}}, "tau must be a finite number"),
     ({"groups": [{"name": "a b"}]}, "name must be a word"),
+    ({"groups": [{"count": 2, "together": "yes"}]}, "together must be true or false"),
 ])
 def test_people_section_errors_name_the_key(doc, says):
     with pytest.raises(ConfigError) as e:
@@ -301,5 +302,48 @@ def test_the_tracker_keeps_one_track_per_person_through_a_crossing(a0, a1, b0, b
         assert mot.switches == 0 and mot.false_positives <= 4
         for name in ("a", "b"):
             assert mot.per_person[name]["matched"] >= 0.75 * 80, mot.per_person
+    finally:
+        w.close()
+
+
+
+# ------------------------------------------------------------------------------- parties
+def test_coherence_pulls_the_far_members_to_the_centre():
+    from bullet_floor_sim.people.crowd.groups import coherence
+
+    # three members: centre (4/3, 0.1); threshold (3 - 1) / 2 = 1 m. Member 0 is 1.337 m
+    # away, member 1 1.670 m: pulled towards it at 1 m/s^2; member 2 (at (1, 0.3)) 0.389 m:
+    # left alone, as is the one outside the party
+    pos = np.array([(0.0, 0.0), (3.0, 0.0), (1.0, 0.3), (9.0, 9.0)])
+    f = coherence(pos, [np.array([0, 1, 2])], strength=1.0)
+    np.testing.assert_allclose(f, [(0.997199, 0.074790), (-0.998205, 0.059892), (0.0, 0.0),
+                                   (0.0, 0.0)],
+                               atol=1e-6)
+
+
+def test_a_party_walks_together():
+    """Three people walking together (the first leads by the chain, the others follow) and
+    four on their own, office, 120 s: the party's members stay within 3 m of their leader
+    and go where it goes."""
+    w = World.from_name("office", seed=1)
+    try:
+        cfg = parse_people({"seed": 2, "groups": [{"count": 3, "name": "party",
+                                                     "together": True}, {"count": 4}]},
+                           "w.yaml", ".")
+        c = build_crowd(w, cfg)
+        assert c is not None
+        w.add_people(c)
+        assert [(p.leader, p.rank, p.agent is None) for p in c.people[:3]] == [
+            (None, 0, False), (0, 1, True), (0, 2, True)]
+        assert c.people[1].speed == c.people[2].speed == c.people[0].speed
+        start = c.pos[:3].copy()
+        far = 0.0
+        for _ in range(1200):
+            w.step(10)
+            far = max(far, float(np.hypot(*(c.pos[1:3] - c.pos[0]).T).max()))
+        legs = [s for s in c.take_log() if s.startswith("party_1: leg ") and s.endswith(" s")]
+        assert len(legs) >= 3                  # the leader walked its legs
+        assert far < 3.0
+        assert (np.hypot(*(c.pos[:3] - start).T) > 2.0).all()   # and they all went along
     finally:
         w.close()

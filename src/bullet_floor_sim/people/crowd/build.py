@@ -2,7 +2,7 @@
 regions and chains, a walker per person, and where each starts."""
 from __future__ import annotations
 
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Dict, Iterator, List, Optional, Tuple
 
 import numpy as np
 
@@ -43,18 +43,22 @@ def build_crowd(world: Any, config: Optional[PeopleConfig] = None) -> Optional[C
         chain, rois = _chain(world, group, sampler, chains, warnings)
         wcfg = WalkerConfig(dwell_min=group.dwell[0], dwell_max=group.dwell[1],
                             clearance=sampler.clearance)
+        leader = len(people)
         for k in range(group.count):
+            name = "%s_%d" % (group.name, len(people) + 1)
+            if group.together and k > 0:   # a party member: the leader's pace, no chain
+                people.append(Person(name, None, people[leader].speed, leader=leader, rank=k))
+                continue
             walker = Walker(chain, rois, sampler, wcfg, seed=_seed(group, cfg, g, k))
             speed = float(walker.rng_dwell.uniform(*group.speed))
-            people.append(Person("%s_%d" % (group.name, len(people) + 1), WalkerAgent(walker),
-                                 speed))
+            people.append(Person(name, WalkerAgent(walker), speed))
     start = _starts(world, people, sampler, cfg.body.radius)
     crowd = Crowd(people, start, routes, cfg.body, cfg.forces, cfg.rate, world.clock.now_ns)
     now = world.clock.now_ns * 1e-9
     for p in people:    # the first legs start at random within one longest dwell
-        assert p.agent is not None
-        w = p.agent.walker
-        p.agent.resume_at = now + float(w.rng_dwell.uniform(0.0, w.config.dwell_max))
+        if p.agent is not None:
+            w = p.agent.walker
+            p.agent.resume_at = now + float(w.rng_dwell.uniform(0.0, w.config.dwell_max))
     crowd.log.extend(warnings)
     return crowd
 
@@ -102,20 +106,13 @@ def _seed(group: GroupConfig, cfg: PeopleConfig, g: int, k: int) -> Optional[int
 
 
 def _starts(world: Any, people: List[Person], sampler: GoalSampler, radius: float) -> np.ndarray:
-    """A goal point of a region drawn at random for each person, clear of the robots and of
-    the people placed before."""
+    """Where each person starts (``_candidates``), clear of the robots and of the people
+    placed before."""
     robots = world.pose[:, :2] if world.n else np.zeros((0, 2))
     robot_r = world.radius if world.n else np.zeros(0)
     out = np.zeros((len(people), 2))
     for i, p in enumerate(people):
-        assert p.agent is not None
-        w = p.agent.walker
-        for _ in range(START_TRIES):
-            roi = w.index.by_id[w.chain.ids[int(w.rng_region.integers(len(w.chain.ids)))]]
-            try:
-                x, y = sampler.sample(roi, w.rng_goal)
-            except RoiError:
-                continue
+        for x, y in _candidates(p, out, sampler):
             clear_people = i == 0 or np.hypot(*(out[:i] - (x, y)).T).min() > 2 * radius + 0.1
             clear_robots = not len(robots) or bool(
                 (np.hypot(*(robots - (x, y)).T) > robot_r + radius + 0.2).all())
@@ -123,6 +120,27 @@ def _starts(world: Any, people: List[Person], sampler: GoalSampler, radius: floa
                 out[i] = (x, y)
                 break
         else:
-            raise ConfigError("%s: people: no room for %s after %d tries (too many people for "
-                              "the regions?)" % (world.config.path, p.name, START_TRIES))
+            raise ConfigError("%s: people: no room for %s (too many people for the regions?)"
+                              % (world.config.path, p.name))
     return out
+
+
+def _candidates(p: Person, placed: np.ndarray, sampler: GoalSampler) -> Iterator[Tuple[float, float]]:
+    """Start points to try for ``p``: goal points of regions drawn at random from its walker;
+    for a party member, free points around its leader (already placed), nearest first."""
+    if p.agent is None:
+        assert p.leader is not None
+        lx, ly = placed[p.leader]
+        for r in (0.6, 1.0, 1.4, 1.8):
+            for a in np.linspace(0.0, 2.0 * np.pi, 12, endpoint=False):
+                x, y = lx + r * np.cos(a), ly + r * np.sin(a)
+                if sampler.acceptable(x, y):
+                    yield float(x), float(y)
+        return
+    w = p.agent.walker
+    for _ in range(START_TRIES):
+        roi = w.index.by_id[w.chain.ids[int(w.rng_region.integers(len(w.chain.ids)))]]
+        try:
+            yield sampler.sample(roi, w.rng_goal)
+        except RoiError:
+            continue

@@ -10,7 +10,8 @@
       seed: 1                   # people's random streams (None: fresh every run)
       rate: 20.0                # Hz the crowd is stepped at
       groups:                   # instead of count: a list of groups, each with count and
-        - {count: 5, name: visitor, speed: [0.8, 1.0]}   # any of rois, dwell, speed, seed
+        - {count: 5, name: visitor, speed: [0.8, 1.0]}   # any of rois, dwell, speed, seed,
+        - {count: 3, name: family, together: true}       # together (one party: groups.py)
       body: {radius: 0.25, leg_radius: 0.06, ...}        # BodyConfig
       forces: {strength: 2.0, ...}                       # forces.ForceConfig
 
@@ -74,6 +75,8 @@ class GroupConfig:
         dwell: (min, max) seconds at each goal.
         speed: (min, max) preferred speed, m/s; each person's is drawn uniformly.
         seed: the group's random streams (None: the section's seed, offset by the group).
+        together: they walk as one party: the first leads by the chain, the others follow
+            it at its speed and keep together (groups.py).
     """
 
     count: int = 1
@@ -82,6 +85,7 @@ class GroupConfig:
     dwell: Tuple[float, float] = (5.0, 20.0)
     speed: Tuple[float, float] = (0.8, 1.5)
     seed: Optional[int] = None
+    together: bool = False
 
 
 @dataclass(frozen=True)
@@ -108,9 +112,9 @@ class PeopleConfig:
         return replace(self, groups=(replace(first, count=n),) if n else ())
 
 
-_TOP_KEYS = ("count", "name", "rois", "dwell", "speed", "seed", "rate", "groups", "body",
-             "forces")
-_GROUP_KEYS = ("count", "name", "rois", "dwell", "speed", "seed")
+_TOP_KEYS = ("count", "name", "rois", "dwell", "speed", "seed", "together", "rate", "groups",
+             "body", "forces")
+_GROUP_KEYS = ("count", "name", "rois", "dwell", "speed", "seed", "together")
 
 
 def parse_people(doc: Any, where: str, base_dir: str) -> PeopleConfig:
@@ -177,6 +181,11 @@ def _group(doc: Any, where: str, base_dir: str, defaults: GroupConfig) -> GroupC
             values[key] = _range(doc[key], low, where, key)
     if "seed" in doc:
         values["seed"] = _seed(doc["seed"], where)
+    if "together" in doc:
+        if not isinstance(doc["together"], bool):
+            raise ConfigError("%s: together must be true or false, got %r"
+                              % (where, doc["together"]))
+        values["together"] = doc["together"]
     return replace(defaults, **values)
 
 

@@ -8,7 +8,8 @@ the agent a walk "succeeded" or was "aborted". The step, at the section's ``rate
 
 1. legs start, end and are re-planned (a person pushed far off its path, or without
    progress for ``STUCK_AFTER`` seconds, gets a new path; one without progress for
-   ``GIVE_UP_AFTER`` seconds gives the walk up: "aborted");
+   ``GIVE_UP_AFTER`` seconds gives the walk up: "aborted"); a party member sets off for its
+   leader's goal when the leader does (groups.py);
 2. each walking person steers at the point of its path ``LOOKAHEAD`` ahead, at its preferred
    speed, slowing within ``SLOW_WITHIN`` of the goal; the social forces (forces.py) of the
    walls, the people within the cutoff (found with a k-d tree) and the robots are added, and
@@ -33,6 +34,7 @@ from ..agents import WalkerAgent
 from ..walker import WalkerError
 from .config import BodyConfig
 from .forces import ForceConfig, driving, limit_speed, repulsion, wall_repulsion
+from .groups import SPACING, coherence
 from .routes import Routes
 
 __all__ = ["Person", "PersonTruth", "Crowd", "MIN_CLEARANCE"]
@@ -69,6 +71,8 @@ class Person:
         best, best_t: the nearest it has been to the goal, and when.
         replanned: it got a new path since it last came nearer.
         result: the walk's outcome for the agent, (outcome, detail), until it is told.
+        leader, rank: a party member's leader (index) and its rank (1, 2, ...; groups.py);
+            ``following`` is the leader's goal it walks to.
     """
 
     name: str
@@ -83,6 +87,9 @@ class Person:
     best_t: float = 0.0
     replanned: bool = False
     result: Optional[Tuple[str, str]] = None
+    leader: Optional[int] = None
+    rank: int = 0
+    following: Optional[Tuple[float, float]] = None
 
 
 class PersonTruth(NamedTuple):
@@ -134,6 +141,9 @@ class Crowd:
         self.log: List[str] = []
         self._target = self.pos.copy()
         self._slow = np.ones(n)
+        leaders = sorted({p.leader for p in self.people if p.leader is not None})
+        self.parties = [np.array([k] + [i for i, p in enumerate(self.people) if p.leader == k])
+                        for k in leaders]
 
     # ------------------------------------------------------------------------------ commands
     def walk_to(self, i: int, goal: Sequence[float], roi: Optional[Roi], now: float) -> None:
@@ -158,6 +168,8 @@ class Crowd:
         for i, p in enumerate(self.people):
             if p.agent is not None:
                 self._decide(i, p, now)
+            elif p.leader is not None:
+                self._join(i, p, now)
             self._steer(i, p, now)
         self._move(np.asarray(robot_xy, dtype=float).reshape(-1, 2),
                    np.asarray(robot_radius, dtype=float).reshape(-1))
@@ -184,6 +196,17 @@ class Crowd:
             except (PlanError, RoiError) as e:
                 p.state, p.result = "idle", ("aborted", str(e))
 
+    def _join(self, i: int, p: Person, now: float) -> None:
+        """A party member sets off for its leader's goal when the leader does."""
+        lead = self.people[p.leader]   # type: ignore[index]
+        if lead.state != "walk" or lead.goal is None or p.following == lead.goal:
+            return
+        p.following = lead.goal
+        try:
+            self.walk_to(i, lead.goal, lead.roi, now)
+        except (PlanError, RoiError) as e:
+            self.log.append("%s: cannot follow %s: %s" % (p.name, lead.name, e))
+
     def _steer(self, i: int, p: Person, now: float) -> None:
         """Where person i steers at (``_target``) and how fast (``_slow``); a walk that
         arrived or was given up ends here (its result goes to the agent)."""
@@ -199,7 +222,7 @@ class Crowd:
         pos = self.pos[i]
         assert p.goal is not None
         remaining = math.hypot(p.goal[0] - pos[0], p.goal[1] - pos[1])
-        if remaining < ARRIVE_WITHIN:
+        if remaining < ARRIVE_WITHIN + SPACING * p.rank:     # a party member stops short
             p.state, p.result = "idle", ("succeeded", "")
             return
         if remaining < p.best - 0.5:
@@ -250,6 +273,8 @@ class Crowd:
             near = np.hypot(*(self.pos[ii] - robot_xy[jj]).T) < cfg.cutoff + robot_r[jj]
             force += repulsion(self.pos, heading, self.radius, robot_xy, robot_r,
                                ii[near], jj[near], cfg, self.vel)
+        if self.parties:
+            force += coherence(self.pos, self.parties)
         clear, normal = self._wall_field(self.pos)
         force += wall_repulsion(clear, normal, self.radius, cfg)
         vel, _ = limit_speed(self.vel + force * dt, self.v0 * cfg.max_speed_factor)
