@@ -28,7 +28,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 from helpers import wait_for  # noqa: E402
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 from simple_room import expected_range  # noqa: E402
-from test_people_msgs import upstream_md5  # noqa: E402
+from test_upstream_types import upstream_md5  # noqa: E402
 
 
 class UpstreamPeople(People):

@@ -151,8 +151,15 @@ class RoiManagerTest(unittest.TestCase):
             vertices(self.newest("7")["7"])), 10, "the dragged vertex in the store")
         rospy.loginfo("drag saved after %.2f s", time.time() - t0)
         self.assertEqual(after[1:], before[1:])
-        history = self.query(query_type=0, returnmostrecent=False, roiids=["7"]).rois
+        answer = self.query(query_type=0, returnmostrecent=False, roiids=["7"])
+        history = answer.rois
         self.assertEqual([vertices(h)[0] for h in history], [before[0], (9.5, 1.3)])
+        # SOMA's unique_ids: one stored document id per ROI returned, a version each
+        newest = self.query(query_type=0, returnmostrecent=True, roiids=["7"])
+        self.assertEqual(len(answer.unique_ids), 2)
+        self.assertEqual(len(set(answer.unique_ids)), 2)
+        self.assertNotIn("7", answer.unique_ids)
+        self.assertEqual(newest.unique_ids, answer.unique_ids[1:])
         wait_for(lambda: "1" in self.changed, 5, "/soma/rois_changed")
         line = wait_for(lambda: next((m for m in self.markers.markers
                                       if m.type == Marker.LINE_STRIP

@@ -200,6 +200,7 @@ class RoiManagerNode:
             rospy.logerr("roi_manager: /soma/query_rois: %s", e)
             raise rospy.ServiceException(str(e))
         return SOMAQueryROIsResponse(configs=result["configs"], ids=result["ids"],
+                                     unique_ids=[str(d["_id"]) for d in result["rois"]],
                                      rois=[document_to_msg(d) for d in result["rois"]],
                                      queryjson=result["queryjson"])
 

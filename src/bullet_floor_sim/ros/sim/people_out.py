@@ -12,7 +12,7 @@
 
 All in the ``map`` frame, built only when someone subscribes. The first two are packed here
 straight to the wire (as wire.py packs the robots' topics; genpy took a third of the node's
-time with 50 people); test_people_msgs.py checks the bytes against genpy's.
+time with 50 people); test_upstream_types.py checks the bytes against genpy's.
 """
 from __future__ import annotations
 

@@ -1,9 +1,13 @@
-"""Our people messages have the md5sums of the originals (people_msgs, SPENCER).
+"""Every type we mirror has the md5sum of the original: people_msgs and SPENCER's people
+types, SOMA's ROI object and services (soma_msgs, soma_manager, soma_map_manager) and
+human_trajectory's Trajectory. Also: the simulator's People and TrackedPersons bytes are
+genpy's.
 
 Each upstream definition is kept as a test fixture (test/fixtures/upstream_msgs, with its
 source commit); genmsg computes its md5sum the way ROS does, resolving std_msgs and
 geometry_msgs from the installed packages, and it must equal the md5sum of the type this
-package generates from msg/. Equal md5sums are what a ROS 1 subscriber checks on connect.
+package generates from msg/ and srv/. Equal md5sums are what a ROS 1 client or subscriber
+checks on connect.
 """
 from __future__ import annotations
 
@@ -26,27 +30,38 @@ def _msg_dir(package: str) -> str:
 
 
 def upstream_md5(full_type: str) -> str:
-    """The md5sum ROS gives ``full_type`` as defined in the fixtures."""
+    """The md5sum ROS gives ``full_type`` (a message or a service) as defined in the
+    fixtures."""
     search = {"std_msgs": [_msg_dir("std_msgs")], "geometry_msgs": [_msg_dir("geometry_msgs")]}
     for pkg in os.listdir(FIXTURES):
         if os.path.isdir(os.path.join(FIXTURES, pkg)):
-            search[pkg] = [os.path.join(FIXTURES, pkg, "msg")]
+            search[pkg] = [os.path.join(FIXTURES, pkg, d) for d in ("msg", "srv")]
     ctx = genmsg.MsgContext.create_default()
-    spec = msg_loader.load_msg_by_type(ctx, full_type, search)
+    pkg, name = full_type.split("/")
+    if os.path.isfile(os.path.join(FIXTURES, pkg, "srv", name + ".srv")):
+        spec = msg_loader.load_srv_by_type(ctx, full_type, search)
+    else:
+        spec = msg_loader.load_msg_by_type(ctx, full_type, search)
     msg_loader.load_depends(ctx, spec, search)
     return gentools.compute_md5(ctx, spec)
 
 
 @pytest.mark.parametrize("ours, upstream", [
-    ("People", "people_msgs/People"), ("Person", "people_msgs/Person"),
-    ("TrackedPersons", "spencer_tracking_msgs/TrackedPersons"),
-    ("TrackedPerson", "spencer_tracking_msgs/TrackedPerson")])
+    ("msg/People", "people_msgs/People"), ("msg/Person", "people_msgs/Person"),
+    ("msg/TrackedPersons", "spencer_tracking_msgs/TrackedPersons"),
+    ("msg/TrackedPerson", "spencer_tracking_msgs/TrackedPerson"),
+    ("msg/SOMAROIObject", "soma_msgs/SOMAROIObject"),
+    ("srv/SOMAQueryROIs", "soma_manager/SOMAQueryROIs"),
+    ("srv/MapInfo", "soma_map_manager/MapInfo"),
+    ("msg/Trajectory", "human_trajectory/Trajectory")])
 def test_md5sum_equals_the_upstream_definitions(ours, upstream):
-    from bullet_floor_sim import msg
+    import importlib
 
+    kind, name = ours.split("/")
+    ours_type = getattr(importlib.import_module("bullet_floor_sim." + kind), name)
     expected = upstream_md5(upstream)
     assert len(expected) == 32
-    assert getattr(msg, ours)._md5sum == expected, (ours, upstream)
+    assert ours_type._md5sum == expected, (ours, upstream)
 
 
 def test_a_changed_field_changes_the_md5sum(tmp_path):
