@@ -4,6 +4,7 @@ as JSON lines and pictures.
 A plain command-line tool (no ROS master needed, rospy is not imported)::
 
     trajectories export --db URI [--map M] [--person P] [--since T] [--until T] [--out FILE]
+                        [--format jsonl|csv|trajnet|mcap] [--rate 2.5]
     trajectories import --db URI --map M [FILE ...] [--max-poses N]
     trajectories plot   --db URI --out traj.png [--map M] [--person P] [--since T] [--until T]
                         [--world W | --map-yaml MAP] [--cell 0.25]
@@ -17,6 +18,9 @@ chunk is selected when it ends at or after ``--since`` and starts at or before `
   "end_time", "complete", "trajectory_length", "poses": [[t, x, y, yaw], ...]}``, t in
   seconds with 9 decimals; trajectory after trajectory (in order of their first pose), each
   in sequence_id order. Memory stays bounded (the store is read a few chunks at a time).
+  ``--format`` csv, trajnet (TrajNet++ / ETH-UCY ``frame id x y`` at ``--rate``) or mcap (a
+  ROS 2 bag directory, ``--out`` needed) write every pose once instead
+  (data/trajectory/formats.py).
 * ``import`` reads such lines (files or stdin) back into the store as the recorder stores
   chunks (meta ``map`` from ``--map``, ``taken: "imported"``). A chunk already stored (same
   uuid and sequence_id) is skipped, so importing twice changes nothing. A line with more
@@ -46,6 +50,8 @@ from ..data.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_POSES, STORED_T
                                check_max_poses, chunk_fields, chunk_from_document,
                                chunk_from_json, document_to_json, ensure_indexes,
                                iter_documents, join_chunks, parse_time, split_poses)
+from ..data.trajectory.formats import (FORMATS, TRAJNET_RATE, write_csv, write_mcap,
+                                       write_trajnet)
 from .cli import Parser, UsageError
 
 __all__ = ["main", "export_chunks", "import_lines", "plot_trajectories"]
@@ -68,9 +74,15 @@ def _parser() -> argparse.ArgumentParser:
             q.add_argument("--since", help="only chunks ending at or after this time (s)")
             q.add_argument("--until", help="only chunks starting at or before this time (s)")
 
-    e = sub.add_parser("export", help="print stored chunks as JSON lines")
+    e = sub.add_parser("export", help="print stored chunks as JSON lines, or write them as "
+                       "CSV, TrajNet++ text or a ROS 2 bag")
     common(e)
-    e.add_argument("--out", help="write to this file instead of stdout")
+    e.add_argument("--out", help="write to this file (mcap: this bag directory) instead of "
+                   "stdout")
+    e.add_argument("--format", default="jsonl", choices=FORMATS,
+                   help="jsonl (default), csv, trajnet (frame id x y) or mcap (a ROS 2 bag)")
+    e.add_argument("--rate", type=float, default=TRAJNET_RATE,
+                   help="trajnet: samples a second (%g)" % TRAJNET_RATE)
     i = sub.add_parser("import", help="store JSON lines (files or stdin)")
     common(i, window=False)
     i.add_argument("files", nargs="*", metavar="FILE", help="JSON-lines files (default stdin)")
@@ -162,6 +174,10 @@ def export_chunks(store: Store, out: IO[str], map_name: str = "", since: Optiona
 def _export(store: Store, args: argparse.Namespace, since: Optional[int],
             until: Optional[int]) -> None:
     t0 = time.monotonic()
+    if args.format != "jsonl":
+        _export_as(store, args, since, until)
+        _note("exported as %s in %.2f s" % (args.format, time.monotonic() - t0))
+        return
     if args.out:
         try:
             with atomic_file(args.out) as f:  # an old file stays whole if the query fails
@@ -173,6 +189,32 @@ def _export(store: Store, args: argparse.Namespace, since: Optional[int],
         sys.stdout.flush()
     _note("exported %d chunks (%d poses) from %s in %.2f s" % (n, poses, store.shown_uri,
                                                                time.monotonic() - t0))
+
+
+def _export_as(store: Store, args: argparse.Namespace, since: Optional[int],
+               until: Optional[int]) -> None:
+    """The csv, trajnet and mcap exports (data/trajectory/formats.py)."""
+    ensure_indexes(store)
+    chunks = (chunk_from_document(d) for d in iter_documents(
+        store, args.map_name or None, since, until, person=args.person or None))
+    if args.format == "mcap":
+        if not args.out:
+            raise UsageError("--format mcap needs --out DIR (the ROS 2 bag directory to create)")
+        n = write_mcap(chunks, args.out)
+        _note("%d poses to the ROS 2 bag %s" % (n, args.out))
+        return
+    write = {"csv": write_csv,
+             "trajnet": lambda c, f: write_trajnet(c, f, args.rate)}[args.format]
+    if args.out:
+        try:
+            with atomic_file(args.out) as f:
+                n = write(chunks, f)
+        except OSError as e:
+            raise BulletFloorSimError("%s: cannot write (%s)" % (args.out, e.strerror or e))
+    else:
+        n = write(chunks, sys.stdout)
+        sys.stdout.flush()
+    _note("%d %s" % (n, "lines" if args.format == "trajnet" else "poses"))
 
 
 # -- import -----------------------------------------------------------------------------------

@@ -1,0 +1,141 @@
+"""Stored trajectories in the formats other tools read (``trajectories export --format``).
+
+Every writer takes chunks in export order (trajectory after trajectory, each in
+``sequence_id`` order, as :func:`~.documents.iter_documents` yields them) and writes each
+pose once: a chunk's first pose is left out when it repeats the last pose of the chunk before
+it (the boundary pose two chunks share).
+
+* ``csv``: ``uuid,t,x,y,yaw``, one row per pose, t in seconds with 9 decimals, coordinates
+  as Python writes them (they read back exactly).
+* ``trajnet``: the TrajNet++ / ETH-UCY text that trajectory-prediction benchmarks read:
+  ``frame id x y`` per line, positions sampled at a fixed ``rate`` (2.5 Hz, the ETH-UCY
+  rate) by linear interpolation, frames counted from the first sample of the export, people
+  numbered 1, 2, ... in export order, lines ordered by frame then id.
+* ``mcap``: a ROS 2 bag (rosbag2, MCAP storage, CDR encoding; rosbags, no ROS 2 install
+  needed): each trajectory on its own topic ``/trajectories/t_<uuid hex>`` as
+  ``geometry_msgs/msg/PoseStamped`` in ``map``, one message per pose at its stamp.
+"""
+from __future__ import annotations
+
+import math
+from typing import IO, Any, Dict, Iterable, Iterator, List, Tuple
+
+from ...errors import BulletFloorSimError
+from .chunks import Chunk, Pose
+
+__all__ = ["FORMATS", "poses_once", "write_csv", "write_trajnet", "write_mcap",
+           "TRAJNET_RATE", "mcap_topic"]
+
+FORMATS = ("jsonl", "csv", "trajnet", "mcap")
+#: Samples a second of the trajnet export (ETH-UCY's 0.4 s).
+TRAJNET_RATE = 2.5
+_NS = 1_000_000_000
+
+
+def poses_once(chunks: Iterable[Chunk]) -> Iterator[Tuple[str, Pose]]:
+    """(uuid, pose) of every pose, each once (see the module doc)."""
+    last: Dict[str, Pose] = {}
+    for c in chunks:
+        for k, p in enumerate(c.poses):
+            if k == 0 and last.get(c.uuid) == p:
+                continue
+            yield c.uuid, p
+        if c.poses:
+            last[c.uuid] = c.poses[-1]
+
+
+def _yaw(p: Pose) -> float:
+    qx, qy, qz, qw = p[4:8]
+    return math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+
+
+def write_csv(chunks: Iterable[Chunk], out: IO[str]) -> int:
+    """Write ``uuid,t,x,y,yaw`` rows; returns how many poses."""
+    out.write("uuid,t,x,y,yaw\n")
+    n = 0
+    for uuid, p in poses_once(chunks):
+        s, ns = divmod(p[0], _NS)
+        out.write("%s,%d.%09d,%r,%r,%r\n" % (uuid, s, ns, p[1], p[2], _yaw(p)))
+        n += 1
+    return n
+
+
+def write_trajnet(chunks: Iterable[Chunk], out: IO[str], rate: float = TRAJNET_RATE) -> int:
+    """Write ``frame id x y`` lines sampled at ``rate`` Hz; returns how many lines."""
+    if not (math.isfinite(rate) and rate > 0):
+        raise BulletFloorSimError("trajnet: rate must be a positive number of Hz, got %r"
+                                  % (rate,))
+    tracks: Dict[str, List[Pose]] = {}
+    for uuid, p in poses_once(chunks):
+        tracks.setdefault(uuid, []).append(p)
+    rows: List[Tuple[int, int, float, float]] = []
+    for person, poses in enumerate(tracks.values(), 1):
+        rows.extend((k, person, x, y) for k, x, y in _samples(poses, rate))
+    if not rows:
+        return 0
+    first = min(r[0] for r in rows)
+    rows.sort(key=lambda r: (r[0], r[1]))
+    for k, person, x, y in rows:
+        out.write("%d %d %.4f %.4f\n" % (k - first, person, x, y))
+    return len(rows)
+
+
+def _samples(poses: List[Pose], rate: float) -> Iterator[Tuple[int, float, float]]:
+    """(sample number since t = 0, x, y) at every multiple of 1 / rate the poses span,
+    interpolated linearly between the poses around it."""
+    step_ns = _NS / rate
+    k = math.ceil(poses[0][0] / step_ns)
+    j = 0
+    while k * step_ns <= poses[-1][0]:
+        t = k * step_ns
+        while j + 1 < len(poses) and poses[j + 1][0] < t:
+            j += 1
+        a = poses[j]
+        b = poses[min(j + 1, len(poses) - 1)]
+        f = 0.0 if b[0] == a[0] else (t - a[0]) / (b[0] - a[0])
+        yield k, a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2])
+        k += 1
+
+
+def mcap_topic(uuid: str) -> str:
+    """The topic a trajectory goes on in the mcap export."""
+    return "/trajectories/t_" + "".join(ch for ch in uuid if ch.isalnum())
+
+
+def write_mcap(chunks: Iterable[Chunk], path: str, frame_id: str = "map") -> int:
+    """Write a ROS 2 bag directory ``path`` (MCAP storage); returns how many poses.
+
+    Raises:
+        BulletFloorSimError: rosbags is missing, or ``path`` exists.
+    """
+    try:
+        from rosbags.rosbag2 import StoragePlugin, Writer
+        from rosbags.typesys import Stores, get_typestore
+    except ImportError:
+        raise BulletFloorSimError("mcap export needs the rosbags package (Python >= 3.10; "
+                                  "make setup installs it)") from None
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    types = store.types
+    msgtype = "geometry_msgs/msg/PoseStamped"
+    conns: Dict[str, Any] = {}
+    n = 0
+    try:
+        writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
+    except Exception as e:   # rosbags' WriterError: the directory exists
+        raise BulletFloorSimError("%s: %s" % (path, e)) from None
+    with writer:
+        for uuid, p in poses_once(chunks):
+            if uuid not in conns:
+                conns[uuid] = writer.add_connection(mcap_topic(uuid), msgtype, typestore=store)
+            s, ns = divmod(p[0], _NS)
+            msg = types[msgtype](
+                header=types["std_msgs/msg/Header"](
+                    stamp=types["builtin_interfaces/msg/Time"](sec=s, nanosec=ns),
+                    frame_id=frame_id),
+                pose=types["geometry_msgs/msg/Pose"](
+                    position=types["geometry_msgs/msg/Point"](x=p[1], y=p[2], z=p[3]),
+                    orientation=types["geometry_msgs/msg/Quaternion"](x=p[4], y=p[5], z=p[6],
+                                                                      w=p[7])))
+            writer.write(conns[uuid], p[0], store.serialize_cdr(msg, msgtype))
+            n += 1
+    return n

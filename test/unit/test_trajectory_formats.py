@@ -1,0 +1,121 @@
+"""Trajectories out in other formats (data/trajectory/formats.py, ``trajectories export
+--format``): every pose once, read back with the format's own reader and compared."""
+from __future__ import annotations
+
+import csv
+import io
+import math
+
+import pytest
+
+from bullet_floor_sim.data.store import open_store
+from bullet_floor_sim.data.trajectory import Chunker, join_chunks, pose_from_xy_yaw
+from bullet_floor_sim.data.trajectory.formats import (mcap_topic, poses_once, write_csv,
+                                                      write_mcap, write_trajnet)
+from bullet_floor_sim.ros import trajectories as cli
+
+from test_trajectory import record
+
+NS = 1_000_000_000
+
+
+def chunked(uuid, poses, period=1.0):
+    """The chunks a recorder makes of ``poses`` (boundary poses shared)."""
+    c = Chunker(period=period, new_uuid=lambda: uuid)
+    out = []
+    for p in poses:
+        out += c.add(p)
+    last = c.finish()
+    return out + ([last] if last is not None else [])
+
+
+def walk(t0_s, n, vx, vy, x0=0.0, y0=1.0, hz=20):
+    """n poses at ``hz`` from t0 on a straight line at (vx, vy) m/s, heading along it."""
+    yaw = math.atan2(vy, vx)
+    return [pose_from_xy_yaw(int(round((t0_s + k / hz) * NS)), x0 + vx * k / hz,
+                             y0 + vy * k / hz, yaw) for k in range(n)]
+
+
+def test_every_pose_once():
+    poses = walk(100.0, 70, 1.0, 0.0)
+    chunks = chunked("a", poses)
+    assert len(chunks) == 4 and sum(len(c.poses) for c in chunks) == 73   # 3 shared
+    assert [p for _, p in poses_once(chunks)] == poses
+
+
+def test_csv_reads_back_exactly():
+    a, b = walk(100.0, 50, 0.7, 0.3), walk(100.5, 30, -0.5, 0.1, x0=5.0)
+    chunks = chunked("ann", a) + chunked("bob", b)
+    buf = io.StringIO()
+    assert write_csv(chunks, buf) == 80
+    rows = list(csv.reader(io.StringIO(buf.getvalue())))
+    assert rows[0] == ["uuid", "t", "x", "y", "yaw"]
+    want = [("ann", p) for p in a] + [("bob", p) for p in b]
+    assert len(rows) == 81
+    for (uuid, p), (u, t, x, y, yaw) in zip(want, rows[1:]):
+        s, ns = t.split(".")
+        assert (u, int(s) * NS + int(ns), float(x), float(y)) == (uuid, p[0], p[1], p[2])
+        assert float(yaw) == pytest.approx(math.atan2(0.3, 0.7) if uuid == "ann"
+                                           else math.atan2(0.1, -0.5), abs=1e-12)
+
+
+def test_trajnet_samples_at_the_rate_by_interpolation():
+    # ann from t = 100.05 s on, 20 Hz, x = 0.5 (t - 100.05), y = 1; bob from t = 100.9 s.
+    # 2.5 Hz samples fall on t = 100.4, 100.8, ... : frame 0 is ann's at 100.4
+    a = walk(100.05, 60, 0.5, 0.0)                 # to t = 103.0
+    b = walk(100.9, 20, 0.0, -1.0, x0=2.0, y0=3.0)  # to t = 101.85
+    buf = io.StringIO()
+    n = write_trajnet(chunked("ann", a) + chunked("bob", b), buf, rate=2.5)
+    lines = [tuple(float(v) for v in line.split()) for line in buf.getvalue().splitlines()]
+    assert n == len(lines) == 7 + 2        # ann: 100.4 .. 102.8; bob: 101.2, 101.6
+    assert [ln[:2] for ln in lines] == [(0, 1), (1, 1), (2, 1), (2, 2), (3, 1), (3, 2), (4, 1),
+                                        (5, 1), (6, 1)]
+    for frame, person, x, y in lines:
+        t = 100.4 + 0.4 * frame
+        if person == 1:
+            assert (x, y) == pytest.approx((0.5 * (t - 100.05), 1.0), abs=6e-5)
+        else:
+            assert (x, y) == pytest.approx((2.0, 3.0 - (t - 100.9)), abs=6e-5)
+
+
+def test_mcap_reads_back_with_rosbags(tmp_path):
+    pytest.importorskip("rosbags")
+    from rosbags.rosbag2 import Reader
+    from rosbags.typesys import Stores, get_typestore
+
+    a, b = walk(100.0, 50, 0.7, 0.3), walk(100.5, 30, -0.5, 0.1, x0=5.0)
+    path = str(tmp_path / "bag")
+    assert write_mcap(chunked("ann-1", a) + chunked("bob-2", b), path) == 80
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    got = {}
+    with Reader(path) as reader:
+        assert reader.connections[0].msgtype == "geometry_msgs/msg/PoseStamped"
+        for conn, stamp, raw in reader.messages():
+            m = store.deserialize_cdr(raw, conn.msgtype)
+            t = m.header.stamp.sec * NS + m.header.stamp.nanosec
+            assert t == stamp and m.header.frame_id == "map"
+            q, o = m.pose.position, m.pose.orientation
+            got.setdefault(conn.topic, []).append((t, q.x, q.y, q.z, o.x, o.y, o.z, o.w))
+    assert got == {mcap_topic("ann-1"): a, mcap_topic("bob-2"): b}
+    with pytest.raises(Exception, match="bag"):
+        write_mcap(chunked("c", a), path)          # an existing bag is not overwritten
+
+
+def test_cli_formats(tmp_path, capsys):
+    db = str(tmp_path / "db")
+    a = walk(100.0, 50, 0.7, 0.3)
+    with open_store(db) as store:
+        record(store, chunked("ann", a), person="ann")
+    assert cli.main(["export", "--db", db, "--format", "csv"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == 51 and out[1].startswith("ann,100.000000000,0.0,1.0,")
+    assert cli.main(["export", "--db", db, "--format", "trajnet", "--rate", "5"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 13 and lines[0] == "0 1 0.0000 1.0000"    # t = 100.0 .. 102.4
+    assert cli.main(["export", "--db", db, "--format", "mcap"]) == 2
+    assert "--format mcap needs --out" in capsys.readouterr().err
+    if pytest.importorskip("rosbags"):
+        assert cli.main(["export", "--db", db, "--format", "mcap", "--person", "ann",
+                         "--out", str(tmp_path / "b")]) == 0
+        assert "50 poses to the ROS 2 bag" in capsys.readouterr().err
+    assert join_chunks(chunked("ann", a))[0].poses == a
