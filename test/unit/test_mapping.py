@@ -1,0 +1,110 @@
+"""The embedded mapper's grid from exact scans of worlds/simple, against the world's map, and
+a saved map read back as map_server reads it."""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from bullet_floor_sim.mapping.occupancy import MapperConfig, OccupancyMapper
+from bullet_floor_sim.mapping.save import save_map
+from bullet_floor_sim.paths import worlds_dir
+from bullet_floor_sim.sim.config import (LaserConfig, OdometryConfig, RobotSpec,
+                                         load_world_config, resolve_world)
+from bullet_floor_sim.sim.floormap import load_map, map_from_grid
+from bullet_floor_sim.sim.world import World
+
+EXACT = LaserConfig(fov=360.0, resolution=1.0, noise_std=0.0)
+STILL = OdometryConfig(noise_trans=0.0, noise_rot=0.0, noise_rot_per_m=0.0)
+POSES = [(1.0, 1.0, 0.0), (1.0, 3.0, 0.0), (3.0, 2.0, 0.0), (5.2, 0.6, 0.0), (5.2, 3.4, 0.0),
+         (3.0, 0.6, 0.0), (3.6, 3.4, 0.0)]
+
+
+def mapped(config=MapperConfig()):
+    cfg = load_world_config(resolve_world("simple", worlds_dir()))
+    spec = RobotSpec(name="r", pose=POSES[0], laser=EXACT, odometry=STILL)
+    w = World(dataclasses.replace(cfg, robots=[spec]), seed=1)
+    mapper = OccupancyMapper(config, centre=POSES[0][:2])
+    try:
+        for pose in POSES:
+            w.spawn[0] = pose
+            w.reset([0])
+            scan = w.step(10)[-1]
+            x, y, yaw = pose
+            mapper.update((x + 0.3 * math.cos(yaw), y + 0.3 * math.sin(yaw), yaw), scan.ranges,
+                          scan.angle_min, scan.angle_increment, scan.range_max)
+        return mapper, w.fmap
+    finally:
+        w.close()
+
+
+def on_world(mapper, fmap):
+    """The mapper's grid sampled at the world map's cell centres."""
+    g = mapper.grid()
+    rows, cols = np.mgrid[0:fmap.height, 0:fmap.width]
+    x, y = fmap.cell_to_world(cols, rows)
+    r = np.floor((y - mapper.origin[1]) / mapper.config.resolution).astype(int)
+    c = np.floor((x - mapper.origin[0]) / mapper.config.resolution).astype(int)
+    return g[r, c]
+
+
+def test_the_map_of_exact_scans_agrees_with_the_world():
+    mapper, fmap = mapped()
+    ours, world = on_world(mapper, fmap), fmap.grid
+    free = (ours == 0) & (world == 0)
+    iou_free = free.sum() / ((ours == 0) | (world == 0)).sum()
+    assert iou_free > 0.95     # the room seen from seven places (0.978: 1-degree beams leave gaps)
+    occ = ours == 100
+    assert occ.sum() > 300                     # the walls' faces and the pillar's
+    assert (world[occ] == 100).all()           # every occupied cell is a wall cell
+    assert not (ours[world == 100] == 0).any()  # no wall cell reads free
+    # the walls' faces: wall cells beside free ones, all seen from somewhere
+    wall = world == 100
+    beside = np.zeros_like(wall)
+    beside[1:, :] |= world[:-1, :] == 0
+    beside[:-1, :] |= world[1:, :] == 0
+    beside[:, 1:] |= world[:, :-1] == 0
+    beside[:, :-1] |= world[:, 1:] == 0
+    face = wall & beside
+    assert (ours[face] == 100).mean() > 0.98           # (1.000)
+
+
+def test_the_grid_grows_to_what_is_seen():
+    m = OccupancyMapper(MapperConfig(resolution=0.1, trace_range=30.0), centre=(0.0, 0.0))
+    assert m.logodds.shape == (200, 200) and m.origin == (-10.0, -10.0)
+    m.update((0.0, 0.0, 0.0), [25.0], 0.0, 0.0, 30.0)          # a wall 25 m east
+    g = m.grid()
+    assert m.origin == (-10.0, -10.0) and g.shape[1] >= 351     # grown east by 15 m + 5
+    row = int(math.floor(10.0 / 0.1))
+    col = int(math.floor(25.0 / 0.1)) + 100
+    assert g[row, col] == 100 and g[row, col - 1] == -1         # one hit: occupied; free
+    for _ in range(3):                                          # space needs 4 crossings
+        m.update((0.0, 0.0, 0.0), [25.0], 0.0, 0.0, 30.0)
+    g = m.grid()
+    assert g[row, col] == 100 and (g[row, 100:col] == 0).all()
+    m.update((0.0, 0.0, math.pi), [8.0], 0.0, 0.0, 30.0)         # 8 m west: within the grid
+    assert m.origin == (-10.0, -10.0)
+    m.update((0.0, 0.0, math.pi), [14.0], 0.0, 0.0, 30.0)        # 14 m west: grows west
+    # the end cell is the one just beyond the surface at x = -14: [-14.1, -14.0), 41 cells
+    # left of the old edge, plus 5 m to spare
+    assert m.origin[0] == pytest.approx(-10.0 - 4.1 - 5.0)
+
+
+def test_save_map_reads_back_as_map_server_reads_it(tmp_path):
+    grid = np.full((40, 60), -1, dtype=np.int8)
+    grid[5:35, 5:55] = 0
+    grid[5, 5:55] = 100
+    grid[10:20, 30] = 100
+    fmap = map_from_grid(grid, 0.05, (-1.5, 2.25, 0.0))
+    pgm, yml = save_map(fmap, str(tmp_path / "maps" / "office"))
+    with open(pgm, "rb") as f:
+        assert f.read(3) == b"P5\n"
+    back = load_map(yml)
+    assert back.resolution == pytest.approx(0.05)
+    assert back.origin == pytest.approx((-1.5, 2.25, 0.0))
+    np.testing.assert_array_equal(back.grid, grid)
+    with open(yml) as f:
+        text = f.read()
+    assert "occupied_thresh: 0.65\nfree_thresh: 0.196\n" in text and "image: office.pgm" in text
