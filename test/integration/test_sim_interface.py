@@ -180,6 +180,38 @@ class SimInterface(unittest.TestCase):
         self.assertEqual(map_handling(), world.map_handling)
         self.assertEqual(map_handling().unknown, "wall")
 
+    def test_10_save_map_loads_back_as_a_world(self):
+        """save_map (map_saver's stand-in) writes the /map the simulator serves; it loads
+        back cell for cell as map_server reads it, and as a world with a robot."""
+        import subprocess
+        import tempfile
+
+        import numpy as np
+
+        from bullet_floor_sim.paths import worlds_dir
+        from bullet_floor_sim.sim.config import load_world_config, resolve_world
+        from bullet_floor_sim.sim.floormap import load_map
+        from bullet_floor_sim.sim.world import World
+
+        tmp = tempfile.mkdtemp(prefix="bfs_save_map_")
+        name = os.path.join(tmp, "saved")
+        out = subprocess.run(["rosrun", "bullet_floor_sim", "save_map", "-f", name],
+                             stderr=subprocess.PIPE, universal_newlines=True, timeout=60)
+        self.assertEqual(out.returncode, 0, out.stderr)
+        original = load_map(load_world_config(resolve_world("simple", worlds_dir())).map_yaml)
+        saved = load_map(name + ".yaml")
+        np.testing.assert_array_equal(saved.grid, original.grid)
+        self.assertEqual((saved.resolution, saved.origin), (original.resolution,
+                                                            original.origin))
+        with open(os.path.join(tmp, "world.yaml"), "w") as f:
+            f.write("map: saved.yaml\nrobots:\n  - {name: r, pose: [1.5, 2.0, 0.0]}\n")
+        w = World.from_name(os.path.join(tmp, "world.yaml"))
+        try:
+            self.assertEqual(w.fmap.grid.shape, original.grid.shape)
+            self.assertEqual(len(w.step(10)), 1)          # the robot scans its new world
+        finally:
+            w.close()
+
 
 def _vec(x, y, z):
     from geometry_msgs.msg import Vector3
