@@ -108,3 +108,41 @@ def test_save_map_reads_back_as_map_server_reads_it(tmp_path):
     with open(yml) as f:
         text = f.read()
     assert "occupied_thresh: 0.65\nfree_thresh: 0.196\n" in text and "image: office.pgm" in text
+
+
+# ------------------------------------------------------------------------------- frontiers
+def test_frontier_cells_by_hand():
+    from bullet_floor_sim.mapping.frontiers import frontiers
+
+    g = np.full((12, 12), 100, dtype=np.int8)
+    g[1:11, 1:11] = 0
+    g[1:11, 7:11] = -1            # the east part not seen yet
+    g[5, 3] = -1                  # one unknown cell in the middle: a 4-cell ring, too small
+    found = frontiers(map_from_grid(g, 0.1), min_cells=5)
+    assert len(found) == 1
+    assert sorted(map(tuple, found[0].cells)) == [(r, 6) for r in range(1, 11)]
+    assert found[0].centroid == pytest.approx((0.65, 0.6))
+    assert len(frontiers(map_from_grid(g, 0.1), min_cells=4)) == 2
+
+
+def test_explorer_goes_to_the_nearest_reachable_frontier_and_stops_when_done():
+    from bullet_floor_sim.mapping.frontiers import Explorer, frontiers
+
+    world = load_map(load_world_config(resolve_world("office", worlds_dir())).map_yaml)
+    seen = world.grid.copy()
+    rows, cols = np.mgrid[0:world.height, 0:world.width]
+    x, y = world.cell_to_world(cols, rows)
+    seen[(y < 8.9) | (y > 11.1) | (x > 20.0)] = -1      # only the corridor's west part known
+    partial = map_from_grid(seen, world.resolution, world.origin)
+    explorer = Explorer()
+    goal = explorer.next_goal(partial, (3.0, 10.0, 0.0))
+    assert goal is not None
+    cells = np.vstack([f.cells for f in frontiers(partial)])
+    fx, fy = partial.cell_to_world(cells[:, 1], cells[:, 0])
+    assert np.hypot(fx - goal[0], fy - goal[1]).min() <= 1.0 + 0.1   # beside a frontier
+    assert 8.9 < goal[1] < 11.1                     # in the known corridor
+    assert math.hypot(goal[0] - 3.0, goal[1] - 10.0) < 3.0   # office 1's door, the nearest
+    explorer.goal_failed(goal)
+    second = explorer.next_goal(partial, (3.0, 10.0, 0.0))
+    assert second is not None and math.hypot(second[0] - goal[0], second[1] - goal[1]) > 0.5
+    assert Explorer().next_goal(world, (3.0, 10.0, 0.0)) is None    # all known: done

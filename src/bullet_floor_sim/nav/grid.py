@@ -14,7 +14,7 @@ from __future__ import annotations
 import heapq
 import math
 from dataclasses import dataclass
-from typing import List, Optional, Sequence, Tuple, Union
+from typing import Any, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -106,6 +106,7 @@ class PlanningGrid:
         cost[self.clearance < cfg.robot_radius] = np.inf
         self.cost = cost
         self._flat = None  # type: Optional[List[float]]
+        self._graph: Optional[Tuple[Any, np.ndarray]] = None
 
     # -- coordinates -----------------------------------------------------------------------
     def to_cell(self, x: float, y: float) -> Tuple[int, int]:
@@ -160,6 +161,15 @@ class PlanningGrid:
         """The straight segment a-b (map frame) stays on passable cells."""
         return math.isfinite(self._segment_cost(self.cost, np.asarray(a[:2], dtype=float),
                                                 np.asarray(b[:2], dtype=float)))
+
+    def graph(self) -> Tuple[Any, np.ndarray]:
+        """The passable cells as an undirected scipy sparse graph, with A*'s step costs (8
+        neighbours, a diagonal only where both cells beside it are passable, each step its
+        length in cells times 1 + cost_weight x the mean of the two cells' costs), and the
+        node of each cell (-1: not passable). Built once."""
+        if self._graph is None:
+            self._graph = _grid_graph(self.cost, self.config.cost_weight)
+        return self._graph
 
     # -- planning --------------------------------------------------------------------------
     def plan(self, start: Sequence[float],
@@ -381,3 +391,29 @@ def path_length(path: np.ndarray) -> float:
     if len(path) < 2:
         return 0.0
     return float(np.hypot(*np.diff(path, axis=0).T).sum())
+
+
+def _grid_graph(cost: np.ndarray, weight: float) -> Tuple[Any, np.ndarray]:
+    """PlanningGrid.graph's graph and node index of a cost grid."""
+    from scipy.sparse import coo_matrix
+
+    ok = np.isfinite(cost)
+    node = np.full(ok.shape, -1, dtype=np.int64)
+    node[ok] = np.arange(int(ok.sum()))
+
+    h, w = ok.shape
+    rows, cols, vals = [], [], []
+    for dr, dc, step in ((0, 1, 1.0), (1, 0, 1.0), (1, 1, _SQRT2), (1, -1, _SQRT2)):
+        a = (slice(0, h - dr), slice(max(0, -dc), w - max(0, dc)))
+        b = (slice(dr, h), slice(max(0, dc), w + min(0, dc)))
+        both = ok[a] & ok[b]
+        if dr and dc:   # no corner cutting
+            both &= ok[(a[0], b[1])] & ok[(b[0], a[1])]
+        ca, cb = np.where(both, cost[a], 0.0), np.where(both, cost[b], 0.0)
+        rows.append(node[a][both])
+        cols.append(node[b][both])
+        vals.append(step * (1.0 + weight * 0.5 * (ca[both] + cb[both])))
+    n = int(ok.sum())
+    graph = coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                       shape=(n, n)).tocsr()
+    return graph, node

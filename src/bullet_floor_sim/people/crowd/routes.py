@@ -11,7 +11,6 @@ from the start cell, and the last stretch to the goal point a straight line insi
 """
 from __future__ import annotations
 
-import math
 from typing import Dict, Sequence
 
 import numpy as np
@@ -22,7 +21,6 @@ from ..walker import GoalSampler
 
 __all__ = ["Routes"]
 
-_SQRT2 = math.sqrt(2.0)
 _ROOT = -1
 
 
@@ -37,11 +35,8 @@ class Routes:
     def __init__(self, grid: PlanningGrid, sampler: GoalSampler) -> None:
         self.grid = grid
         self.sampler = sampler
-        ok = np.isfinite(grid.cost)
-        self._node = np.full(ok.shape, -1, dtype=np.int64)
-        self._node[ok] = np.arange(int(ok.sum()))
-        self._cells = np.argwhere(ok)            # node -> (row, col)
-        self._graph = _grid_graph(grid.cost, ok, self._node, grid.config.cost_weight)
+        self._graph, self._node = grid.graph()
+        self._cells = np.argwhere(self._node >= 0)       # node -> (row, col)
         self._trees: Dict[str, np.ndarray] = {}
 
     def tree(self, roi: Roi) -> np.ndarray:
@@ -97,26 +92,3 @@ class Routes:
         else:
             rest = grid.plan(entry, g)[1:]
         return np.vstack((np.asarray(start[:2], dtype=float)[None, :], pts[1:], rest))
-
-
-def _grid_graph(cost: np.ndarray, ok: np.ndarray, node: np.ndarray, weight: float):
-    """The passable cells as an undirected sparse graph: edges to the 8 neighbours (a
-    diagonal only where both cells beside it are passable), each weighted as A* weighs the
-    step (its length times 1 + weight x the mean of the two cells' costs)."""
-    from scipy.sparse import coo_matrix
-
-    h, w = ok.shape
-    rows, cols, vals = [], [], []
-    for dr, dc, step in ((0, 1, 1.0), (1, 0, 1.0), (1, 1, _SQRT2), (1, -1, _SQRT2)):
-        a = (slice(0, h - dr), slice(max(0, -dc), w - max(0, dc)))
-        b = (slice(dr, h), slice(max(0, dc), w + min(0, dc)))
-        both = ok[a] & ok[b]
-        if dr and dc:   # no corner cutting
-            both &= ok[(a[0], b[1])] & ok[(b[0], a[1])]
-        ca, cb = np.where(both, cost[a], 0.0), np.where(both, cost[b], 0.0)
-        rows.append(node[a][both])
-        cols.append(node[b][both])
-        vals.append(step * (1.0 + weight * 0.5 * (ca[both] + cb[both])))
-    n = int(ok.sum())
-    return coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                      shape=(n, n)).tocsr()

@@ -1,0 +1,130 @@
+"""Frontier exploration (Yamauchi 1997): go to the nearest reachable boundary between known
+free space and unknown space, until none is left.
+
+* :func:`frontiers`: the free cells beside unknown ones, in 8-connected clusters of at least
+  ``min_cells``;
+* :class:`Explorer`: the next goal: of the passable cells within ``reach`` of a frontier
+  cluster (the robot cannot stand on a frontier: unknown counts as wall for planning), the
+  one nearest to the robot along the planner's grid (one Dijkstra from the robot, scipy);
+  clusters found unreachable are remembered and skipped, goals tried and failed too.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..nav.grid import PlannerConfig, PlanningGrid
+from ..sim.floormap import FloorMap
+
+__all__ = ["Frontier", "frontiers", "Explorer", "ExplorerConfig"]
+
+
+@dataclass(frozen=True)
+class Frontier:
+    """A cluster of frontier cells: their (row, col) and the centroid in the map frame."""
+
+    cells: np.ndarray
+    centroid: Tuple[float, float]
+
+    @property
+    def size(self) -> int:
+        return len(self.cells)
+
+
+def frontiers(fmap: FloorMap, min_cells: int = 4) -> List[Frontier]:
+    """The frontier clusters of a trinary map (100 / 0 / -1), largest first."""
+    from scipy.ndimage import binary_dilation, label
+
+    g = np.asarray(fmap.grid)
+    unknown = g < 0
+    near_unknown = binary_dilation(unknown, structure=np.array([[0, 1, 0], [1, 1, 1],
+                                                                [0, 1, 0]], dtype=bool))
+    cells = (g == 0) & near_unknown
+    labels, n = label(cells, structure=np.ones((3, 3), dtype=bool))
+    out = []
+    for k in range(1, n + 1):
+        rc = np.argwhere(labels == k)
+        if len(rc) < min_cells:
+            continue
+        x, y = fmap.cell_to_world(rc[:, 1].mean(), rc[:, 0].mean())
+        out.append(Frontier(rc, (float(x), float(y))))
+    out.sort(key=lambda f: -f.size)
+    return out
+
+
+@dataclass
+class ExplorerConfig:
+    """Exploration parameters.
+
+    Attributes:
+        robot_radius: the robot's footprint (the planner's inflation).
+        min_frontier: smallest frontier worth a trip, metres of boundary.
+        reach: a goal is a passable cell at most this far from its frontier (m): the robot
+            sees the unknown beyond from there.
+        blacklist_radius: a failed goal rules out goals this close to it (m).
+    """
+
+    robot_radius: float = 0.34
+    min_frontier: float = 0.3
+    reach: float = 1.0
+    blacklist_radius: float = 0.5
+
+
+@dataclass
+class Explorer:
+    """Picks exploration goals on the map being built."""
+
+    config: ExplorerConfig = field(default_factory=ExplorerConfig)
+    failed: List[Tuple[float, float]] = field(default_factory=list)
+
+    def next_goal(self, fmap: FloorMap, pose: Sequence[float]
+                  ) -> Optional[Tuple[float, float]]:
+        """The next goal (map frame), or None when no frontier is reachable: the map is
+        done."""
+        from scipy.ndimage import distance_transform_edt
+
+        c = self.config
+        grid = PlanningGrid(fmap, PlannerConfig(robot_radius=c.robot_radius,
+                                                resolution=fmap.resolution))
+        found = frontiers(fmap, max(1, int(math.ceil(c.min_frontier / fmap.resolution))))
+        if not found:
+            return None
+        dist = _distances(grid, pose)
+        if dist is None:
+            return None
+        near = np.zeros(grid.cost.shape, dtype=bool)
+        for f in found:
+            near[f.cells[:, 0] // grid.factor, f.cells[:, 1] // grid.factor] = True
+        to_frontier = distance_transform_edt(~near) * grid.resolution
+        ok = np.isfinite(dist) & (to_frontier <= c.reach)
+        for fx, fy in self.failed:
+            col, row = grid.to_cell(fx, fy)
+            k = int(math.ceil(c.blacklist_radius / grid.resolution))
+            ok[max(0, row - k):row + k + 1, max(0, col - k):col + k + 1] = False
+        if not ok.any():
+            return None
+        flat = np.where(ok, dist, np.inf).argmin()
+        row, col = divmod(int(flat), grid.width)
+        return grid.to_world(col, row)
+
+    def goal_failed(self, goal: Sequence[float]) -> None:
+        """The navigation gave up on ``goal``: do not send one near it again."""
+        self.failed.append((float(goal[0]), float(goal[1])))
+
+
+def _distances(grid: PlanningGrid, pose: Sequence[float]) -> Optional[np.ndarray]:
+    """Path length (m, the planner's step costs) from the robot to every passable cell; inf
+    where unreachable. None when the robot has no passable cell near it."""
+    from scipy.sparse.csgraph import dijkstra
+
+    start = grid.free_cell_near(float(pose[0]), float(pose[1]))
+    if start is None:
+        return None
+    graph, node = grid.graph()
+    d = dijkstra(graph, directed=False, indices=int(node[start[1], start[0]]))
+    out = np.full(node.shape, np.inf)
+    out[node >= 0] = d * grid.resolution
+    return out
