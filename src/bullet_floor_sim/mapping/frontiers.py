@@ -3,10 +3,11 @@ free space and unknown space, until none is left.
 
 * :func:`frontiers`: the free cells beside unknown ones, in 8-connected clusters of at least
   ``min_cells``;
-* :class:`Explorer`: the next goal: of the passable cells within ``reach`` of a frontier
-  cluster (the robot cannot stand on a frontier: unknown counts as wall for planning), the
-  one nearest to the robot along the planner's grid (one Dijkstra from the robot, scipy);
-  clusters found unreachable are remembered and skipped, goals tried and failed too.
+* :class:`Explorer`: the next goal: of the known free, passable cells within ``reach`` of a
+  frontier cluster, the one nearest to the robot along the planner's grid (one Dijkstra from
+  the robot, scipy). Unknown space is passable for planning, as navfn's ``allow_unknown``
+  (the robot's own lidar stops it short of what it finds there); goals tried and failed are
+  ruled out.
 """
 from __future__ import annotations
 
@@ -64,13 +65,15 @@ class ExplorerConfig:
         min_frontier: smallest frontier worth a trip, metres of boundary.
         reach: a goal is a passable cell at most this far from its frontier (m): the robot
             sees the unknown beyond from there.
-        blacklist_radius: a failed goal rules out goals this close to it (m).
+        blacklist_radius: a failed or reached goal rules out goals this close to it (m).
+        min_distance: goals nearer the robot than this (along the grid) are not sent.
     """
 
     robot_radius: float = 0.34
     min_frontier: float = 0.3
     reach: float = 1.0
     blacklist_radius: float = 0.5
+    min_distance: float = 0.5
 
 
 @dataclass
@@ -81,14 +84,15 @@ class Explorer:
     failed: List[Tuple[float, float]] = field(default_factory=list)
 
     def next_goal(self, fmap: FloorMap, pose: Sequence[float]
-                  ) -> Optional[Tuple[float, float]]:
-        """The next goal (map frame), or None when no frontier is reachable: the map is
-        done."""
+                  ) -> Optional[Tuple[float, float, float]]:
+        """The next goal (x, y, yaw facing the nearest frontier cell, map frame), or None when
+        no frontier is reachable: the map is done."""
         from scipy.ndimage import distance_transform_edt
 
         c = self.config
         grid = PlanningGrid(fmap, PlannerConfig(robot_radius=c.robot_radius,
-                                                resolution=fmap.resolution))
+                                                resolution=fmap.resolution,
+                                                unknown_is_obstacle=False))
         found = frontiers(fmap, max(1, int(math.ceil(c.min_frontier / fmap.resolution))))
         if not found:
             return None
@@ -99,19 +103,27 @@ class Explorer:
         for f in found:
             near[f.cells[:, 0] // grid.factor, f.cells[:, 1] // grid.factor] = True
         to_frontier = distance_transform_edt(~near) * grid.resolution
-        ok = np.isfinite(dist) & (to_frontier <= c.reach)
+        known_free = np.asarray(fmap.grid)[::grid.factor, ::grid.factor] == 0
+        ok = np.isfinite(dist) & (to_frontier <= c.reach) & known_free
         for fx, fy in self.failed:
             col, row = grid.to_cell(fx, fy)
             k = int(math.ceil(c.blacklist_radius / grid.resolution))
             ok[max(0, row - k):row + k + 1, max(0, col - k):col + k + 1] = False
+        ok &= dist >= c.min_distance          # a trip that shows something new
         if not ok.any():
             return None
         flat = np.where(ok, dist, np.inf).argmin()
         row, col = divmod(int(flat), grid.width)
-        return grid.to_world(col, row)
+        x, y = grid.to_world(col, row)
+        # face the nearest frontier cell: the lidar looks at what is unknown
+        fr = np.vstack([f.cells for f in found])
+        cx, cy = (np.asarray(v, dtype=float) for v in fmap.cell_to_world(fr[:, 1], fr[:, 0]))
+        k = int(np.argmin(np.hypot(cx - x, cy - y)))
+        return x, y, math.atan2(float(cy[k]) - y, float(cx[k]) - x)
 
     def goal_failed(self, goal: Sequence[float]) -> None:
-        """The navigation gave up on ``goal``: do not send one near it again."""
+        """The navigation gave up on ``goal``, or reached it: do not send one near it
+        again."""
         self.failed.append((float(goal[0]), float(goal[1])))
 
 

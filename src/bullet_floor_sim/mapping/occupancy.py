@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence, Tuple
+from typing import Sequence, Tuple, Union
 
 import numpy as np
 
@@ -35,8 +35,9 @@ class MapperConfig:
     Attributes:
         resolution: cell size (gmapping's ``delta`` default, 0.05 m).
         hit_occupied, hit_free: log-odds added to a beam's end cell and to the cells it
-            crosses (probabilities 0.7 and 0.4: an end seen once reads occupied, a cell
-            crossed four times free).
+            crosses (probabilities 0.7 and 0.15: as in gmapping's counting, one observation
+            decides, an end seen once reads occupied and a cell crossed once free; an
+            occupied cell crossed twice (a person who walked on) reads free again).
         clamp_low, clamp_high: log-odds bounds.
         trace_range: free space is marked out to this distance along a beam.
         occupied_thresh, free_thresh: probabilities of the trinary read-out (map_server's).
@@ -44,7 +45,7 @@ class MapperConfig:
 
     resolution: float = 0.05
     hit_occupied: float = _logit(0.7)
-    hit_free: float = _logit(0.4)
+    hit_free: float = _logit(0.15)
     clamp_low: float = -4.0
     clamp_high: float = 4.0
     trace_range: float = 12.0
@@ -70,8 +71,8 @@ class OccupancyMapper:
                        float(centre[1]) - n * c.resolution / 2.0)
         self.scans = 0
 
-    def update(self, laser: Sequence[float], ranges: Sequence[float], angle_min: float,
-               angle_increment: float, range_max: float) -> None:
+    def update(self, laser: Sequence[float], ranges: Union[np.ndarray, Sequence[float]],
+               angle_min: float, angle_increment: float, range_max: float) -> None:
         """Add one scan taken from ``laser`` (x, y, yaw of the laser in the map frame)."""
         c = self.config
         r = np.asarray(ranges, dtype=float)
@@ -95,6 +96,21 @@ class OccupancyMapper:
         np.add.at(L, (rows, cols), c.hit_occupied)
         np.clip(L, c.clamp_low, c.clamp_high, out=L)
         self.scans += 1
+
+    def clear_disc(self, x: float, y: float, radius: float) -> None:
+        """Mark the cells within ``radius`` of (x, y) free: where the robot stands (its own
+        lidar may not see under it)."""
+        res = self.config.resolution
+        self._grow(np.array([[x - radius, y - radius], [x + radius, y + radius]]))
+        (r0, r1), (c0, c1) = (self._cells(np.array([[x - radius, y - radius],
+                                                     [x + radius, y + radius]])))
+        rows, cols = np.mgrid[r0:r1 + 1, c0:c1 + 1]
+        cx = self.origin[0] + (cols + 0.5) * res
+        cy = self.origin[1] + (rows + 0.5) * res
+        inside = np.hypot(cx - x, cy - y) <= radius
+        L = self.logodds
+        L[rows[inside], cols[inside]] = np.minimum(L[rows[inside], cols[inside]],
+                                                   _logit(self.config.free_thresh) - 0.1)
 
     def _traced(self, ox: float, oy: float, angles: np.ndarray, lengths: np.ndarray,
                 stops_at_hit: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
