@@ -1,0 +1,134 @@
+"""The embedded mapper: a map from one robot's scans where no SLAM package is installed
+(mapping.launch's ``slam:=embedded``; mapping/occupancy.py).
+
+Each scan (``scan``, sensor_msgs/LaserScan) is added at the laser's pose in ``~odom_frame``
+at the scan's stamp (tf): the robot's estimated pose, odometry, without scan matching. The
+node broadcasts ``~map_frame`` -> ``~odom_frame`` as the identity on /tf_static (gmapping
+broadcasts its correction there), and serves the map as gmapping does: ``map`` (nav_msgs/OccupancyGrid,
+latched) and ``map_metadata`` every ``~map_update_interval`` seconds of sim time, and the
+``dynamic_map`` service (nav_msgs/GetMap).
+
+Parameters: ``~map_frame`` (map), ``~odom_frame`` (odom), ``~delta`` (0.05 m, gmapping's
+name for the cell size), ``~map_update_interval`` (5 s), ``~trace_range`` (12 m: free space
+is traced that far along a beam).
+"""
+from __future__ import annotations
+
+import math
+import sys
+import threading
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+import rospy
+import tf2_ros
+from geometry_msgs.msg import TransformStamped
+from nav_msgs.msg import MapMetaData, OccupancyGrid
+from nav_msgs.srv import GetMap, GetMapResponse
+from sensor_msgs.msg import LaserScan
+
+from ..errors import BulletFloorSimError
+from ..mapping.occupancy import MapperConfig, OccupancyMapper
+from .convert import occupancy_grid
+from .node import run_node
+from .params import check_at_least, config_from_params
+
+__all__ = ["main", "MapperParams"]
+
+
+@dataclass
+class MapperParams:
+    """The node's parameters (see the module doc)."""
+
+    map_frame: str = "map"
+    odom_frame: str = "odom"
+    delta: float = 0.05
+    map_update_interval: float = 5.0
+    trace_range: float = 12.0
+
+    def check(self) -> None:
+        check_at_least(self, "mapper", ("delta", "map_update_interval", "trace_range"))
+
+
+class MapperNode:
+    """Scans in, the map out (see the module doc)."""
+
+    def __init__(self) -> None:
+        p = self.params = config_from_params(MapperParams())
+        self.config = MapperConfig(resolution=p.delta, trace_range=p.trace_range)
+        self.mapper: Optional[OccupancyMapper] = None
+        self.lock = threading.Lock()
+        self.tf = tf2_ros.Buffer(rospy.Duration(30.0))
+        self.listener = tf2_ros.TransformListener(self.tf)
+        self.broadcaster = tf2_ros.StaticTransformBroadcaster()
+        self.map_pub = rospy.Publisher("map", OccupancyGrid, queue_size=1, latch=True)
+        self.meta_pub = rospy.Publisher("map_metadata", MapMetaData, queue_size=1, latch=True)
+        self.service = rospy.Service("dynamic_map", GetMap, self._on_get_map)
+        self.sub = rospy.Subscriber("scan", LaserScan, self._on_scan, queue_size=5)
+        self.timer = rospy.Timer(rospy.Duration(p.map_update_interval), self._publish,
+                                 reset=True)
+        self._broadcast()
+        self.skipped = 0
+        rospy.loginfo("mapper: the embedded mapper (no SLAM package: odometry poses, no scan "
+                      "matching) maps %s at %.3f m/cell; %s -> %s is the identity",
+                      rospy.resolve_name("scan"), p.delta, p.map_frame, p.odom_frame)
+
+    def _laser_pose(self, msg: LaserScan) -> Optional[Sequence[float]]:
+        try:
+            t = self.tf.lookup_transform(self.params.odom_frame, msg.header.frame_id,
+                                         msg.header.stamp, rospy.Duration(0.2))
+        except (tf2_ros.LookupException, tf2_ros.ConnectivityException,
+                tf2_ros.ExtrapolationException) as e:
+            self.skipped += 1
+            rospy.logwarn_throttle(10.0, "mapper: no pose for a scan (%s); %d skipped", e,
+                                   self.skipped)
+            return None
+        q, v = t.transform.rotation, t.transform.translation
+        yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        return v.x, v.y, yaw
+
+    def _on_scan(self, msg: LaserScan) -> None:
+        pose = self._laser_pose(msg)
+        if pose is None:
+            return
+        with self.lock:
+            if self.mapper is None:
+                self.mapper = OccupancyMapper(self.config, centre=pose[:2])
+            self.mapper.update(pose, msg.ranges, msg.angle_min, msg.angle_increment,
+                               msg.range_max)
+
+    def _grid(self) -> Optional[OccupancyGrid]:
+        with self.lock:
+            if self.mapper is None:
+                return None
+            fmap = self.mapper.floor_map()
+        return occupancy_grid(fmap, self.params.map_frame, rospy.Time.now())
+
+    def _publish(self, _event=None) -> None:
+        grid = self._grid()
+        if grid is not None:
+            self.map_pub.publish(grid)
+            self.meta_pub.publish(grid.info)
+
+    def _on_get_map(self, _req) -> GetMapResponse:
+        grid = self._grid()
+        if grid is None:
+            raise rospy.ServiceException("mapper: no scan mapped yet")
+        return GetMapResponse(map=grid)
+
+    def _broadcast(self) -> None:
+        """map -> odom, the identity, on /tf_static."""
+        t = TransformStamped()
+        t.header.stamp = rospy.Time.now()
+        t.header.frame_id, t.child_frame_id = self.params.map_frame, self.params.odom_frame
+        t.transform.rotation.w = 1.0
+        self.broadcaster.sendTransform(t)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Entry point of ``rosrun bullet_floor_sim mapper``."""
+    return run_node("mapper", MapperNode, argv, errors=(BulletFloorSimError, ValueError))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
