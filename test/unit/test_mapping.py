@@ -170,3 +170,32 @@ def test_exploring_office_maps_95_percent_within_15_minutes():
         assert near_wall[ours == 100].mean() > 0.99
     finally:
         w.close()
+
+
+def test_scan_matching_finds_the_true_pose_near_a_wrong_guess():
+    """A map of worlds/simple from three exact scans; a fourth scan from another place, given
+    to the matcher with a guess 10 cm and 2.3 degrees off, is placed back where it was
+    taken (within the search's steps); from the true pose it stays there."""
+    cfg = load_world_config(resolve_world("simple", worlds_dir()))
+    w = World(dataclasses.replace(cfg, robots=[RobotSpec(name="r", pose=POSES[0], laser=EXACT,
+                                                         odometry=STILL)]), seed=1)
+    m = OccupancyMapper(centre=POSES[0][:2])
+    try:
+        scans = []
+        for pose in POSES[:3] + [(2.0, 1.5, 0.4)]:
+            w.spawn[0] = pose
+            w.reset([0])
+            scans.append((pose, w.step(10)[-1]))
+        for (x, y, yaw), s in scans[:3]:
+            m.update((x + 0.3 * math.cos(yaw), y + 0.3 * math.sin(yaw), yaw), s.ranges,
+                     s.angle_min, s.angle_increment, s.range_max)
+        (x, y, yaw), s = scans[3]
+        true = (x + 0.3 * math.cos(yaw), y + 0.3 * math.sin(yaw), yaw)
+        args = (s.ranges, s.angle_min, s.angle_increment, s.range_max)
+        got = m.match((true[0] + 0.08, true[1] - 0.06, true[2] + 0.04), *args)
+        assert math.hypot(got[0] - true[0], got[1] - true[1]) <= 0.026
+        assert abs(got[2] - true[2]) <= 0.011
+        assert m.match(true, *args) == pytest.approx(true)
+        assert OccupancyMapper().match(true, *args) == true         # an empty map: the guess
+    finally:
+        w.close()

@@ -97,6 +97,44 @@ class OccupancyMapper:
         np.clip(L, c.clamp_low, c.clamp_high, out=L)
         self.scans += 1
 
+    def match(self, guess: Sequence[float], ranges: Union[np.ndarray, Sequence[float]],
+              angle_min: float, angle_increment: float, range_max: float,
+              window: Tuple[float, float] = (0.15, 0.08),
+              steps: Tuple[float, float] = (0.025, 0.01)) -> Tuple[float, float, float]:
+        """The laser pose near ``guess`` (x, y, yaw) at which the scan's end points best fit
+        the map so far: a correlative search over +-``window`` (m, rad) in ``steps``, each
+        pose scored by the occupied evidence (positive log-odds) under its end points. The
+        guess stands when nothing scores higher, or the map is still empty."""
+        r = np.asarray(ranges, dtype=float)
+        a = angle_min + angle_increment * np.arange(len(r))
+        hit = np.isfinite(r) & (r > 0) & (r < range_max)
+        if hit.sum() < 10 or not (self.logodds > 0).any():
+            return (float(guess[0]), float(guess[1]), float(guess[2]))
+        r, a = r[hit] + SURFACE, a[hit]
+        (w_xy, w_th), (s_xy, s_th) = window, steps
+        offs = np.arange(-w_xy, w_xy + 1e-9, s_xy)
+        dx, dy = (v.ravel() for v in np.meshgrid(offs, offs))
+        evidence = np.maximum(self.logodds, 0.0)
+        h, w = evidence.shape
+        res = self.config.resolution
+        best = (-1.0, 0.0, 0.0, 0.0, 0.0)          # score, correction size, dx, dy, dth
+        for dth in np.arange(-w_th, w_th + 1e-9, s_th):
+            th = float(guess[2]) + dth
+            px = float(guess[0]) + r * np.cos(a + th)
+            py = float(guess[1]) + r * np.sin(a + th)
+            cols = np.floor((px[None, :] + dx[:, None] - self.origin[0]) / res).astype(np.int64)
+            rows = np.floor((py[None, :] + dy[:, None] - self.origin[1]) / res).astype(np.int64)
+            inside = (rows >= 0) & (cols >= 0) & (rows < h) & (cols < w)
+            score = np.where(inside, evidence[np.clip(rows, 0, h - 1), np.clip(cols, 0, w - 1)],
+                             0.0).sum(axis=1)
+            # ties go to the smallest correction (the guess itself when nothing is better)
+            size = np.hypot(dx, dy) + abs(dth)
+            k = int(np.lexsort((size, -score))[0])
+            if (score[k] > best[0] + 1e-9
+                    or (abs(score[k] - best[0]) <= 1e-9 and size[k] < best[1])):
+                best = (float(score[k]), float(size[k]), float(dx[k]), float(dy[k]), float(dth))
+        return (float(guess[0]) + best[2], float(guess[1]) + best[3], float(guess[2]) + best[4])
+
     def clear_disc(self, x: float, y: float, radius: float) -> None:
         """Mark the cells within ``radius`` of (x, y) free: where the robot stands (its own
         lidar may not see under it)."""
