@@ -73,11 +73,12 @@ def explore(world: Any, robot: int = 0, seconds: float = 900.0, map_every: float
                 % (t - t0, 100 * out.curve[-1][1], len(out.goals)))
             next_curve = t + 30.0
         if nav is None:
-            goal = explorer.next_goal(mapper.floor_map(), (x, y, yaw))
+            built = mapper.floor_map()
+            goal = explorer.next_goal(built, (x, y, yaw))
             if goal is None:
                 out.finished = True
                 break
-            nav = Navigator(PlanningGrid(mapper.floor_map(), PlannerConfig(
+            nav = Navigator(PlanningGrid(built, PlannerConfig(
                 robot_radius=float(world.radius[robot]), unknown_is_obstacle=False)),
                 PathFollower())
             try:

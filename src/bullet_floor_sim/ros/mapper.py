@@ -14,7 +14,6 @@ is traced that far along a beam).
 """
 from __future__ import annotations
 
-import math
 import sys
 import threading
 from dataclasses import dataclass
@@ -29,7 +28,7 @@ from sensor_msgs.msg import LaserScan
 
 from ..errors import BulletFloorSimError
 from ..mapping.occupancy import MapperConfig, OccupancyMapper
-from .convert import occupancy_grid
+from .convert import occupancy_grid, yaw
 from .node import run_node
 from .params import check_at_least, config_from_params
 
@@ -83,9 +82,8 @@ class MapperNode:
             rospy.logwarn_throttle(10.0, "mapper: no pose for a scan (%s); %d skipped", e,
                                    self.skipped)
             return None
-        q, v = t.transform.rotation, t.transform.translation
-        yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-        return v.x, v.y, yaw
+        v = t.transform.translation
+        return v.x, v.y, yaw(t.transform.rotation)
 
     def _on_scan(self, msg: LaserScan) -> None:
         pose = self._laser_pose(msg)

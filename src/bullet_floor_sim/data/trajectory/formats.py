@@ -21,7 +21,7 @@ import math
 from typing import IO, Any, Dict, Iterable, Iterator, List, Tuple
 
 from ...errors import BulletFloorSimError
-from .chunks import Chunk, Pose
+from .chunks import Chunk, Pose, yaw_of
 
 __all__ = ["FORMATS", "poses_once", "write_csv", "write_trajnet", "write_mcap",
            "TRAJNET_RATE", "mcap_topic"]
@@ -44,18 +44,13 @@ def poses_once(chunks: Iterable[Chunk]) -> Iterator[Tuple[str, Pose]]:
             last[c.uuid] = c.poses[-1]
 
 
-def _yaw(p: Pose) -> float:
-    qx, qy, qz, qw = p[4:8]
-    return math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
-
-
 def write_csv(chunks: Iterable[Chunk], out: IO[str]) -> int:
     """Write ``uuid,t,x,y,yaw`` rows; returns how many poses."""
     out.write("uuid,t,x,y,yaw\n")
     n = 0
     for uuid, p in poses_once(chunks):
         s, ns = divmod(p[0], _NS)
-        out.write("%s,%d.%09d,%r,%r,%r\n" % (uuid, s, ns, p[1], p[2], _yaw(p)))
+        out.write("%s,%d.%09d,%r,%r,%r\n" % (uuid, s, ns, p[1], p[2], yaw_of(p)))
         n += 1
     return n
 

@@ -154,10 +154,7 @@ class Crowd:
             PlanError: no path.
         """
         p = self.people[i]
-        if roi is None:
-            p.path = self.routes.grid.plan(self.pos[i], goal)
-        else:
-            p.path = self.routes.route(self.pos[i], roi, goal)
+        p.path = self._path(i, goal, roi)
         p.k, p.goal, p.roi, p.state = 0, (float(goal[0]), float(goal[1])), roi, "walk"
         p.best, p.best_t, p.replanned = math.inf, now, False
 
@@ -246,13 +243,16 @@ class Crowd:
         assert p.goal is not None
         p.replanned = True
         try:
-            if p.roi is None:
-                p.path = self.routes.grid.plan(self.pos[i], p.goal)
-            else:
-                p.path = self.routes.route(self.pos[i], p.roi, p.goal)
+            p.path = self._path(i, p.goal, p.roi)
         except (PlanError, RoiError):
             return
         p.k = 0
+
+    def _path(self, i: int, goal: Sequence[float], roi: Optional[Roi]) -> np.ndarray:
+        """Person i's path to ``goal``: by its region's tree, or by A* (no region)."""
+        if roi is None:
+            return self.routes.grid.plan(self.pos[i], goal)
+        return self.routes.route(self.pos[i], roi, goal)
 
     def _move(self, robot_xy: np.ndarray, robot_r: np.ndarray) -> None:
         """Forces, integration and the wall rule (module doc, steps 2-3)."""

@@ -122,16 +122,18 @@ class PeopleOutput:
         """Queue both messages for the crowd's state now."""
         self.seq += 1
         wall = time.perf_counter()
-        if wall - self._markers_wall >= self.markers_wall_period and out.wanted(self.markers_pub):
+        markers = (wall - self._markers_wall >= self.markers_wall_period
+                   and out.wanted(self.markers_pub))
+        want_people, want_tracked = out.wanted(self.people_pub), out.wanted(self.tracked_pub)
+        if not (markers or want_people or want_tracked):
+            return
+        truth = self.crowd.ground_truth(regions=markers)   # the regions for the labels only
+        if markers:
             self._markers_wall = wall
             body = self.crowd.body
             out.put(self.markers_pub, _bytes(people_markers(
-                self.crowd.ground_truth(regions=True), self.crowd.legs(), body.leg_radius,
-                body.leg_height, self.frame, rospy.Time(secs, nsecs))))
-        want_people, want_tracked = out.wanted(self.people_pub), out.wanted(self.tracked_pub)
-        if not (want_people or want_tracked):
-            return
-        truth = self.crowd.ground_truth()
+                truth, self.crowd.legs(), body.leg_radius, body.leg_height, self.frame,
+                rospy.Time(secs, nsecs))))
         if want_people:
             out.put(self.people_pub, pack_people(truth, self.seq, secs, nsecs, self.frame))
         if want_tracked:
