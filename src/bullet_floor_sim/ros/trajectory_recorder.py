@@ -71,10 +71,6 @@ __all__ = ["main", "RecorderNode"]
 _NS = 1000000000
 
 
-def _ns(t: rospy.Time) -> int:
-    return t.secs * _NS + t.nsecs
-
-
 def rois_from_service(name: str, wait: float, map_name: str, config: str) -> List[Roi]:
     """The most recent ROIs of ``map_name`` (and ``config``) from a SOMAQueryROIs service.
 
@@ -282,7 +278,7 @@ class RecorderNode:
         with self.lock:
             if self.finished:
                 return
-            closed = self.streams[""].add(pose, _ns(rospy.Time.now()))
+            closed = self.streams[""].add(pose, rospy.Time.now().to_nsec())
             if closed:
                 self.live = [msg]
                 for chunk in closed:
@@ -299,7 +295,7 @@ class RecorderNode:
         with self.lock:
             if self.finished:
                 return
-            rx = _ns(rospy.Time.now())
+            rx = rospy.Time.now().to_nsec()
             for name, pose in poses:
                 if not name or not all(math.isfinite(v) for v in pose[1:]):
                     self._reject("%s: person %r: no name or a non-finite position at %s"
@@ -327,7 +323,7 @@ class RecorderNode:
             now = rospy.Time.now()
             for stream in list(self.streams.values()):
                 stream.spill.flush_if_due()
-                ended = stream.check_gap(_ns(now))   # the one gap rule
+                ended = stream.check_gap(now.to_nsec())   # the one gap rule
                 if ended is None:
                     continue
                 rospy.loginfo("trajectory_recorder: %sno pose for %.1f s: trajectory %s ended "
