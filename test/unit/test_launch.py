@@ -39,6 +39,9 @@ def frame_params(params):
     ("markov_walker.launch", ("robot:=robot1",)),
     ("demo.launch", ("nav:=auto",)),
     ("observer.launch", ()),
+    ("mapping.launch", ()),
+    ("mapping.launch", ("slam:=embedded", "explore:=true", "nav:=builtin")),
+    ("mapping.launch", ("slam:=gmapping", "explore:=true", "nav:=stock")),
 ])
 def test_every_launch_file_parses(name, args):
     nodes, _ = load(name, *args)
@@ -106,7 +109,8 @@ def test_demo_builtin_and_auto():
     assert "demo.launch" in nodes["/nav_bringup"].args
 
 
-@pytest.mark.parametrize("name", ["demo.launch", "navigation.launch", "two_robots.launch"])
+@pytest.mark.parametrize("name", ["demo.launch", "navigation.launch", "two_robots.launch",
+                                  "mapping.launch"])
 def test_nav_bringup_forwards_every_launch_arg(name):
     """nav:=auto re-runs the file through nav_bringup: every arg the user can give must be in
     its args (an arg left out would silently fall back to its default)."""
@@ -118,7 +122,9 @@ def test_nav_bringup_forwards_every_launch_arg(name):
     bringup = [n for n in root.iter("node") if n.get("type") == "nav_bringup"]
     assert len(bringup) == 1
     forwarded = dict(re.findall(r"(\w+):=(\$\(arg \w+\)|\S+)", bringup[0].get("args")))
-    assert forwarded.pop("nav") == "auto"
+    # nav:=auto (the navigation files), or the user's nav and slam (mapping.launch: either
+    # may be auto)
+    assert forwarded.pop("nav") in ("auto", "$(arg nav)")
     assert set(forwarded) == declared - {"nav"}
     assert all(v == "$(arg %s)" % k for k, v in forwarded.items())
 
@@ -133,3 +139,65 @@ def test_nav_bringup_keeps_the_launch_args_roslaunch_gives_it():
             "people:=20", "__name:=nav_bringup", "__log:=/tmp/nav_bringup-2.log"]
     assert launch_args(argv) == ["/x/demo.launch", "nav:=auto", "world:=malaga_corridor",
                                  "people:=20"]
+
+
+def test_mapping_embedded_explore_namespaced_and_single():
+    """mapping.launch's nodes and frames: no /map and no ground-truth tf from the simulator,
+    the mapper on the robot's scan and odometry frame, the explorer and the path follower in
+    the robot's namespace, the follower localising by tf and planning through unknown space;
+    with single_robot:=true the same with bare names."""
+    nodes, params = load("mapping.launch", "slam:=embedded", "explore:=true", "nav:=builtin")
+    assert {"/simulator", "/mapper", "/robot1/explorer", "/robot1/path_follower"} <= set(nodes)
+    assert params["/simulator/publish_map"] is False
+    assert params["/simulator/ground_truth_tf"] is False
+    assert dict(nodes["/mapper"].remap_args)["scan"] == "/robot1/base_scan"
+    assert params["/mapper/odom_frame"] == "robot1/odom"
+    assert params["/robot1/explorer/base_frame"] == "robot1/base_footprint"
+    assert dict(nodes["/robot1/explorer"].remap_args)["map"] == "/map"
+    assert params["/robot1/path_follower/localisation"] == "tf"
+    assert params["/robot1/path_follower/allow_unknown"] is True
+    nodes, params = load("mapping.launch", "slam:=embedded", "explore:=true", "nav:=builtin",
+                         "single_robot:=true")
+    assert {"/mapper", "/explorer", "/path_follower"} <= set(nodes)
+    assert dict(nodes["/mapper"].remap_args)["scan"] == "/base_scan"
+    assert params["/mapper/odom_frame"] == "odom"
+    assert params["/explorer/base_frame"] == "base_footprint"
+    assert params["/simulator/single_robot"] is True
+
+
+def test_mapping_gmapping_and_stock_move_base_without_amcl():
+    nodes, params = load("mapping.launch", "slam:=gmapping", "explore:=true", "nav:=stock")
+    assert {"/slam_gmapping", "/robot1/move_base", "/robot1/explorer"} <= set(nodes)
+    assert "/robot1/amcl" not in nodes and "/mapper" not in nodes
+    assert params["/slam_gmapping/odom_frame"] == "robot1/odom"
+    assert params["/slam_gmapping/base_frame"] == "robot1/base_footprint"
+    assert params["/slam_gmapping/map_frame"] == "map"
+    assert dict(nodes["/slam_gmapping"].remap_args)["scan"] == "/robot1/base_scan"
+    assert params["/robot1/move_base/global_costmap/robot_base_frame"] == \
+        "robot1/base_footprint"
+    nodes, params = load("mapping.launch", "slam:=slam_toolbox")
+    assert {"/slam_toolbox", "/simulator"} <= set(nodes)
+    assert params["/slam_toolbox/scan_topic"] == "/robot1/base_scan"
+    assert not any(n.endswith(("explorer", "move_base", "path_follower")) for n in nodes)
+    nodes, _ = load("mapping.launch")             # slam:=auto: the bringup decides
+    assert set(nodes) == {"/mapping_bringup"}
+
+
+def test_slam_auto_takes_the_first_slam_package_installed():
+    pytest.importorskip("rospy")
+    from bullet_floor_sim.ros.nav_bringup import resolve_slam
+
+    def finder(*installed):
+        def find(pkg):
+            if pkg not in installed:
+                raise LookupError(pkg)
+            return "/opt/" + pkg
+        return find
+
+    assert resolve_slam("auto", finder("gmapping", "slam_toolbox"))[0] == "gmapping"
+    assert resolve_slam("auto", finder("slam_toolbox"))[0] == "slam_toolbox"
+    choice, why = resolve_slam("auto", finder())
+    assert choice == "embedded" and "gmapping or slam_toolbox" in why
+    assert resolve_slam("embedded", finder("gmapping"))[0] == "embedded"
+    with pytest.raises(ValueError, match="slam:='cartographer'"):
+        resolve_slam("cartographer")

@@ -1,19 +1,26 @@
 """The embedded mapper: a map from one robot's scans where no SLAM package is installed
 (mapping.launch's ``slam:=embedded``; mapping/occupancy.py).
 
-Each scan (``scan``, sensor_msgs/LaserScan) is added at the laser's pose in ``~odom_frame``
-at the scan's stamp (tf): the robot's estimated pose, odometry, without scan matching. The
-node broadcasts ``~map_frame`` -> ``~odom_frame`` as the identity on /tf_static (gmapping
-broadcasts its correction there), and serves the map as gmapping does: ``map`` (nav_msgs/OccupancyGrid,
-latched) and ``map_metadata`` every ``~map_update_interval`` seconds of sim time, and the
-``dynamic_map`` service (nav_msgs/GetMap).
+Each scan (``scan``, sensor_msgs/LaserScan) comes with the laser's pose in ``~odom_frame``
+at the scan's stamp (tf). Once the robot has moved ``~linearUpdate`` metres or turned
+``~angularUpdate`` radians since the last scan taken, the scan is matched against the map so
+far and added at the matched pose (mapping/slam.py: the robot's estimated pose is odometry
+corrected by scan matching; ``~match`` false: odometry alone). The node broadcasts the
+correction, ``~map_frame`` -> ``~odom_frame``, on /tf every ``~transform_publish_period``
+seconds (stamped that far ahead, as gmapping does), and serves the map as gmapping does:
+``map`` (nav_msgs/OccupancyGrid, latched) and ``map_metadata`` every
+``~map_update_interval`` seconds of sim time, and the ``dynamic_map`` service
+(nav_msgs/GetMap). The map frame is where odometry started.
 
-Parameters: ``~map_frame`` (map), ``~odom_frame`` (odom), ``~delta`` (0.05 m, gmapping's
-name for the cell size), ``~map_update_interval`` (5 s), ``~trace_range`` (12 m: free space
-is traced that far along a beam).
+Parameters (gmapping's names where gmapping has one): ``~map_frame`` (map), ``~odom_frame``
+(odom), ``~delta`` (0.05 m, the cell size), ``~map_update_interval`` (5 s),
+``~linearUpdate`` (0.25 m), ``~angularUpdate`` (0.25 rad), ``~sigma`` (0.05 m, the scan
+matcher's likelihood field), ``~match`` (true), ``~transform_publish_period`` (0.05 s),
+``~trace_range`` (12 m: free space is traced that far along a beam).
 """
 from __future__ import annotations
 
+import math
 import sys
 import threading
 from dataclasses import dataclass
@@ -27,7 +34,8 @@ from nav_msgs.srv import GetMap, GetMapResponse
 from sensor_msgs.msg import LaserScan
 
 from ..errors import BulletFloorSimError
-from ..mapping.occupancy import MapperConfig, OccupancyMapper
+from ..mapping.occupancy import MapperConfig
+from ..mapping.slam import ScanMatchingMapper, SlamConfig
 from .convert import occupancy_grid, yaw
 from .node import run_node
 from .params import check_at_least, config_from_params
@@ -43,34 +51,50 @@ class MapperParams:
     odom_frame: str = "odom"
     delta: float = 0.05
     map_update_interval: float = 5.0
+    linear_update: float = SlamConfig.linear_update
+    angular_update: float = SlamConfig.angular_update
+    sigma: float = MapperConfig.sigma
+    match: bool = True
+    transform_publish_period: float = 0.05
     trace_range: float = 12.0
 
     def check(self) -> None:
-        check_at_least(self, "mapper", ("delta", "map_update_interval", "trace_range"))
+        check_at_least(self, "mapper", ("delta", "map_update_interval", "sigma",
+                                        "transform_publish_period", "trace_range"))
+        check_at_least(self, "mapper", ("linear_update", "angular_update"), strict=False)
+
+
+#: gmapping's parameter names for our fields
+GMAPPING_NAMES = {"linear_update": "linearUpdate", "angular_update": "angularUpdate"}
 
 
 class MapperNode:
     """Scans in, the map out (see the module doc)."""
 
     def __init__(self) -> None:
-        p = self.params = config_from_params(MapperParams())
-        self.config = MapperConfig(resolution=p.delta, trace_range=p.trace_range)
-        self.mapper: Optional[OccupancyMapper] = None
+        p = self.params = config_from_params(MapperParams(), names=GMAPPING_NAMES)
+        self.slam = ScanMatchingMapper(
+            SlamConfig(linear_update=p.linear_update, angular_update=p.angular_update,
+                       match=p.match),
+            MapperConfig(resolution=p.delta, trace_range=p.trace_range, sigma=p.sigma))
         self.lock = threading.Lock()
         self.tf = tf2_ros.Buffer(rospy.Duration(30.0))
         self.listener = tf2_ros.TransformListener(self.tf)
-        self.broadcaster = tf2_ros.StaticTransformBroadcaster()
+        self.broadcaster = tf2_ros.TransformBroadcaster()
         self.map_pub = rospy.Publisher("map", OccupancyGrid, queue_size=1, latch=True)
         self.meta_pub = rospy.Publisher("map_metadata", MapMetaData, queue_size=1, latch=True)
         self.service = rospy.Service("dynamic_map", GetMap, self._on_get_map)
         self.sub = rospy.Subscriber("scan", LaserScan, self._on_scan, queue_size=5)
         self.timer = rospy.Timer(rospy.Duration(p.map_update_interval), self._publish,
                                  reset=True)
-        self._broadcast()
+        self.tf_timer = rospy.Timer(rospy.Duration(p.transform_publish_period),
+                                    self._broadcast, reset=True)
         self.skipped = 0
-        rospy.loginfo("mapper: the embedded mapper (no SLAM package: odometry poses, no scan "
-                      "matching) maps %s at %.3f m/cell; %s -> %s is the identity",
-                      rospy.resolve_name("scan"), p.delta, p.map_frame, p.odom_frame)
+        rospy.loginfo("mapper: the embedded mapper (no SLAM package installed: %s) maps %s at "
+                      "%.3f m/cell and broadcasts %s -> %s",
+                      "odometry corrected by scan matching" if p.match
+                      else "odometry poses, no scan matching", rospy.resolve_name("scan"),
+                      p.delta, p.map_frame, p.odom_frame)
 
     def _laser_pose(self, msg: LaserScan) -> Optional[Sequence[float]]:
         try:
@@ -90,16 +114,13 @@ class MapperNode:
         if pose is None:
             return
         with self.lock:
-            if self.mapper is None:
-                self.mapper = OccupancyMapper(self.config, centre=pose[:2])
-            self.mapper.update(pose, msg.ranges, msg.angle_min, msg.angle_increment,
-                               msg.range_max)
+            self.slam.add(pose, msg.ranges, msg.angle_min, msg.angle_increment, msg.range_max)
 
     def _grid(self) -> Optional[OccupancyGrid]:
         with self.lock:
-            if self.mapper is None:
+            if self.slam.mapper is None:
                 return None
-            fmap = self.mapper.floor_map()
+            fmap = self.slam.mapper.floor_map()
         return occupancy_grid(fmap, self.params.map_frame, rospy.Time.now())
 
     def _publish(self, _event=None) -> None:
@@ -114,12 +135,15 @@ class MapperNode:
             raise rospy.ServiceException("mapper: no scan mapped yet")
         return GetMapResponse(map=grid)
 
-    def _broadcast(self) -> None:
-        """map -> odom, the identity, on /tf_static."""
+    def _broadcast(self, _event=None) -> None:
+        """map -> odom, the correction, stamped one period ahead (as gmapping's tf_delay)."""
+        with self.lock:
+            x, y, th = self.slam.correction
         t = TransformStamped()
-        t.header.stamp = rospy.Time.now()
+        t.header.stamp = rospy.Time.now() + rospy.Duration(self.params.transform_publish_period)
         t.header.frame_id, t.child_frame_id = self.params.map_frame, self.params.odom_frame
-        t.transform.rotation.w = 1.0
+        t.transform.translation.x, t.transform.translation.y = x, y
+        t.transform.rotation.z, t.transform.rotation.w = math.sin(th / 2), math.cos(th / 2)
         self.broadcaster.sendTransform(t)
 
 

@@ -1,15 +1,18 @@
-"""Resolve ``nav:=auto`` and launch a navigation launch file with the choice made.
+"""Resolve ``nav:=auto`` and ``slam:=auto`` and launch a launch file with the choices made.
 
 roslaunch cannot branch on whether a package is installed, so a launch file given
-``nav:=auto`` starts this node instead of its navigation nodes::
+``nav:=auto`` (or mapping.launch given ``slam:=auto``) starts this node instead of its
+navigation (SLAM) nodes::
 
     nav_bringup $(find bullet_floor_sim)/launch/navigation.launch nav:=auto world:=office ...
 
-It picks ``stock`` when ``rospack`` finds move_base, amcl and map_server (ros-noetic-navigation
-is installed), else ``builtin`` (the embedded path follower), says which and why in the log,
-and runs the same launch file with ``nav:=<choice>`` as its child: the launch file stays the
-single description of both set-ups, and ``roslaunch --files``/``roslaunch-check`` see every node
-when ``nav`` is given explicitly.
+For ``nav`` it picks ``stock`` when ``rospack`` finds move_base, amcl and map_server
+(ros-noetic-navigation is installed), else ``builtin`` (the embedded path follower); for
+``slam``, ``gmapping`` when rospack finds it, else ``slam_toolbox``, else ``embedded`` (our
+mapper). It says which and why in the log, and runs the same launch file with the choices as
+its child: the launch file stays the single description of every set-up, and
+``roslaunch --files``/``roslaunch-check`` see every node when the choices are given
+explicitly.
 """
 from __future__ import annotations
 
@@ -17,9 +20,28 @@ import sys
 import time
 from typing import List, Optional, Tuple
 
-__all__ = ["main", "resolve_nav", "launch_args"]
+__all__ = ["main", "resolve_nav", "resolve_slam", "launch_args"]
 
 STOCK_PACKAGES = ("move_base", "amcl", "map_server")
+#: the SLAM packages slam:=auto looks for, in order of preference (gmapping: the tutorial's)
+SLAM_PACKAGES = ("gmapping", "slam_toolbox")
+SLAM_CHOICES = SLAM_PACKAGES + ("embedded",)
+
+
+def _finder(find):
+    if find is not None:
+        return find
+    import rospkg
+
+    return rospkg.RosPack().get_path
+
+
+def _installed(pkg: str, find) -> bool:
+    try:
+        find(pkg)
+    except Exception:  # rospkg.ResourceNotFound, or anything a custom finder raises
+        return False
+    return True
 
 
 def resolve_nav(requested: str, find=None) -> Tuple[str, str]:
@@ -39,21 +61,36 @@ def resolve_nav(requested: str, find=None) -> Tuple[str, str]:
         raise ValueError("nav:=%r: expected auto, stock or builtin" % requested)
     if requested != "auto":
         return requested, "nav:=%s requested" % requested
-    if find is None:
-        import rospkg
-
-        find = rospkg.RosPack().get_path
-    missing = []
-    for pkg in STOCK_PACKAGES:
-        try:
-            find(pkg)
-        except Exception:  # rospkg.ResourceNotFound, or anything a custom finder raises
-            missing.append(pkg)
+    find = _finder(find)
+    missing = [pkg for pkg in STOCK_PACKAGES if not _installed(pkg, find)]
     if missing:
         return "builtin", ("stock navigation not installed (rospack cannot find %s): using the "
                            "embedded path follower" % ", ".join(missing))
     return "stock", "found %s: using stock map_server + amcl + move_base" % ", ".join(
         STOCK_PACKAGES)
+
+
+def resolve_slam(requested: str, find=None) -> Tuple[str, str]:
+    """The mapper to use and why: ``gmapping``, ``slam_toolbox`` or ``embedded`` (as
+    :func:`resolve_nav`; ``auto`` takes the first SLAM package installed).
+
+    Raises:
+        ValueError: ``requested`` is not auto or one of the three.
+    """
+    if requested not in SLAM_CHOICES + ("auto",):
+        raise ValueError("slam:=%r: expected auto, %s" % (requested, ", ".join(SLAM_CHOICES)))
+    if requested != "auto":
+        return requested, "slam:=%s requested" % requested
+    find = _finder(find)
+    for pkg in SLAM_PACKAGES:
+        if _installed(pkg, find):
+            return pkg, "found %s: using it" % pkg
+    return "embedded", ("no SLAM package installed (rospack cannot find %s): using the "
+                        "embedded mapper" % " or ".join(SLAM_PACKAGES))
+
+
+#: what each ``<arg>:=auto`` is resolved by
+RESOLVERS = {"nav": resolve_nav, "slam": resolve_slam}
 
 
 def launch_args(argv: List[str]) -> List[str]:
@@ -74,22 +111,25 @@ def main(argv: Optional[List[str]] = None) -> int:
         rospy.logfatal("nav_bringup: usage: nav_bringup LAUNCH_FILE [arg:=value ...]")
         return 2
     launch_file, given = args[0], args[1:]
-    requested = "auto"
+    requested = {"nav": "auto"}             # nav is always resolved; slam when it is given
     rest = []
     for a in given:
-        if a.startswith("nav:="):
-            requested = a.split(":=", 1)[1]
+        key, _, value = a.partition(":=")
+        if key in RESOLVERS:
+            requested[key] = value
         else:
             rest.append(a)
-    try:
-        mode, why = resolve_nav(requested)
-    except ValueError as e:
-        rospy.logfatal("nav_bringup: %s", e)
-        return 2
-    rospy.loginfo("nav_bringup: nav:=%s (%s)", mode, why)
-    rospy.set_param("~nav", mode)
+    for key, value in requested.items():
+        try:
+            choice, why = RESOLVERS[key](value)
+        except ValueError as e:
+            rospy.logfatal("nav_bringup: %s", e)
+            return 2
+        rospy.loginfo("nav_bringup: %s:=%s (%s)", key, choice, why)
+        rospy.set_param("~" + key, choice)
+        rest.append("%s:=%s" % (key, choice))
     run_id = rospy.get_param("/run_id", None) or roslaunch.rlutil.get_or_generate_uuid(None, False)
-    parent = roslaunch.parent.ROSLaunchParent(run_id, [(launch_file, rest + ["nav:=" + mode])],
+    parent = roslaunch.parent.ROSLaunchParent(run_id, [(launch_file, rest)],
                                               is_core=False)
     parent.start()
     try:

@@ -4,9 +4,11 @@ Run it in a robot's namespace (``<group ns="robot1">``), or at the root for a ro
 name. Like move_base it serves ``move_base`` (move_base_msgs/MoveBaseAction: feedback with the
 current pose, preemption by a new goal or a cancel, ABORTED with a reason when there is no
 path) and turns ``move_base_simple/goal`` (PoseStamped) into an action goal. It localises from
-ground truth (``base_pose_ground_truth``), reads obstacles from ``base_scan``, drives
-``cmd_vel``, and plans on the map from ``~map_topic`` (``/map``, latched: the simulator's or
-map_server's). The plan is published where stock move_base with global_planner publishes it,
+ground truth (``base_pose_ground_truth``), or with ``~localisation:=tf`` from ``odom`` and the
+tf from ``~global_frame`` to odometry's frame (a SLAM node's or amcl's correction), reads
+obstacles from ``base_scan``, drives ``cmd_vel``, and plans on the map from ``~map_topic``
+(``/map``: the simulator's, map_server's or a mapper's, taken again whenever it changes).
+The plan is published where stock move_base with global_planner publishes it,
 ``move_base/GlobalPlanner/plan``, so one rviz config serves both.
 
 Parameters (defaults suit a Scitos A5): ``~robot_radius`` 0.34, ``~inflation_radius`` 0.6,
@@ -14,10 +16,13 @@ Parameters (defaults suit a Scitos A5): ``~robot_radius`` 0.34, ``~inflation_rad
 ``~xy_goal_tolerance`` 0.15, ``~yaw_goal_tolerance`` 0.15, ``~controller_frequency`` 10,
 ``~blocked_timeout`` 30, ``~progress_timeout`` 60, ``~give_way`` false (true: when blocked
 where no path passes, retreat to a wider place, wait and go on: nav/planner.Navigator),
-``~global_frame`` map, ``~map_topic`` /map.
+``~global_frame`` map, ``~map_topic`` /map, ``~localisation`` ground_truth | tf,
+``~allow_unknown`` false (true: plan through unknown space, as navfn's ``allow_unknown``;
+exploration needs it).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 import threading
@@ -38,6 +43,9 @@ from sensor_msgs.msg import LaserScan
 from ..nav.planner import (FollowerConfig, Navigator, NavigatorConfig, PlanError,
                             PlannerConfig, PlanningGrid, PathFollower, obstacles_in_base,
                             path_length)
+from ..errors import BulletFloorSimError
+from ..geometry import compose
+from ..sim.solidmap import MapHandling
 from .convert import grid_from_msg, yaw as yaw_of
 from .params import check_at_least, config_from_params, map_handling
 from .node import run_node
@@ -63,6 +71,8 @@ class PathFollowerParams:
     give_way: bool = False
     global_frame: str = "map"
     map_topic: str = "/map"
+    localisation: str = "ground_truth"
+    allow_unknown: bool = False
 
     def check(self) -> None:
         """Raises BulletFloorSimError naming the first parameter that is not a number > 0
@@ -71,6 +81,9 @@ class PathFollowerParams:
         check_at_least(self, "path_follower", [n for n in numbers if n != "inflation_radius"],
                        what="a number")
         check_at_least(self, "path_follower", ["inflation_radius"], strict=False, what="a number")
+        if self.localisation not in ("ground_truth", "tf"):
+            raise BulletFloorSimError("path_follower: ~localisation must be ground_truth or tf, "
+                                      "got %r" % self.localisation)
 
 
 class PathFollowerNode:
@@ -80,7 +93,9 @@ class PathFollowerNode:
         p = config_from_params(PathFollowerParams())
         self.planner_cfg = PlannerConfig(robot_radius=p.robot_radius,
                                          inflation_radius=p.inflation_radius,
-                                         resolution=p.planning_resolution)
+                                         resolution=p.planning_resolution,
+                                         unknown_is_obstacle=not p.allow_unknown)
+        self.allow_unknown = p.allow_unknown
         self.follower_cfg = FollowerConfig(
             robot_radius=p.robot_radius, max_linear=p.max_linear, max_angular=p.max_angular,
             xy_tolerance=p.xy_goal_tolerance, yaw_tolerance=p.yaw_goal_tolerance)
@@ -102,20 +117,27 @@ class PathFollowerNode:
         self.have_map = threading.Event()
         rospy.Subscriber(p.map_topic, OccupancyGrid, self._on_map,
                          queue_size=1)
-        rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_pose, queue_size=1)
+        if p.localisation == "tf":
+            rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=1)
+        else:
+            rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_pose, queue_size=1)
         rospy.Subscriber("base_scan", LaserScan, self._on_scan, queue_size=1)
         rospy.Subscriber("move_base_simple/goal", PoseStamped, self._on_simple_goal,
                          queue_size=1)
         self.server = actionlib.SimpleActionServer("move_base", MoveBaseAction,
                                                    execute_cb=self._execute, auto_start=False)
         self.server.start()
-        rospy.loginfo("path_follower: serving %s (embedded navigation, ground-truth "
-                      "localisation)", rospy.resolve_name("move_base"))
+        rospy.loginfo("path_follower: serving %s (embedded navigation, %s localisation%s)",
+                      rospy.resolve_name("move_base"), p.localisation.replace("_", "-"),
+                      ", unknown space passable" if p.allow_unknown else "")
 
     # -- inputs ------------------------------------------------------------------------------
     def _on_map(self, msg: OccupancyGrid) -> None:
+        handling = map_handling()
+        if self.allow_unknown:
+            handling = dataclasses.replace(handling or MapHandling(), unknown="free")
         try:
-            self.grid = PlanningGrid(grid_from_msg(msg), self.planner_cfg, handling=map_handling())
+            self.grid = PlanningGrid(grid_from_msg(msg), self.planner_cfg, handling=handling)
         except Exception as e:  # a broken map must not kill the node: say so and keep the old
             rospy.logerr("path_follower: cannot use the map (%s): %s", msg.header.frame_id, e)
             return
@@ -128,6 +150,21 @@ class PathFollowerNode:
         p = msg.pose.pose
         self.base_frame = msg.child_frame_id
         self.pose = (p.position.x, p.position.y, yaw_of(p.orientation))
+
+    def _on_odom(self, msg: Odometry) -> None:
+        """The pose in the global frame: odometry carried by the tf from the global frame to
+        odometry's frame (map -> odom)."""
+        try:
+            t = self.tf_buffer.lookup_transform(self.global_frame, msg.header.frame_id,
+                                                rospy.Time(0))
+        except tf2_ros.TransformException as e:
+            rospy.logwarn_throttle(10.0, "path_follower: no transform %s -> %s yet: %s",
+                                   self.global_frame, msg.header.frame_id, e)
+            return
+        tr, p = t.transform, msg.pose.pose
+        self.base_frame = msg.child_frame_id
+        self.pose = compose((tr.translation.x, tr.translation.y, yaw_of(tr.rotation)),
+                            (p.position.x, p.position.y, yaw_of(p.orientation)))
 
     def _on_scan(self, msg: LaserScan) -> None:
         laser = self.laser.get(msg.header.frame_id)

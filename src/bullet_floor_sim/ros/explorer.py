@@ -1,0 +1,164 @@
+"""Frontier exploration through move_base (mapping.launch's ``explore:=true``).
+
+The node reads the map being built (``map``, nav_msgs/OccupancyGrid: the embedded mapper's or
+a SLAM package's), picks the nearest reachable frontier (mapping/frontiers.py) from the
+robot's pose (tf ``~global_frame`` -> ``~base_frame``) and sends it to ``move_base``
+(move_base_msgs/MoveBaseAction: the embedded path follower or stock move_base, either with
+unknown space passable). When the goal ends, reached or not, its place is ruled out and,
+on the first map built after that, the next goal is picked. When no reachable frontier is
+left it logs so, publishes ``~finished`` (std_msgs/Bool, latched) true and sends no more
+goals.
+
+Parameters: ``~global_frame`` (map), ``~base_frame`` (base_footprint), ``~robot_radius``
+(0.34), ``~min_frontier`` (0.3 m), ``~reach`` (1.0 m), ``~blacklist_radius`` (0.5 m),
+``~min_distance`` (0.5 m) (ExplorerConfig's), ``~goal_timeout`` (120 s of sim time: a goal
+not ended by then is cancelled and ruled out).
+"""
+from __future__ import annotations
+
+import math
+import sys
+import threading
+from dataclasses import dataclass
+from typing import Optional, Sequence, Tuple
+
+import actionlib
+import rospy
+import tf2_ros
+from actionlib_msgs.msg import GoalStatus
+from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
+from nav_msgs.msg import OccupancyGrid
+from std_msgs.msg import Bool
+
+from ..mapping.frontiers import Explorer, ExplorerConfig
+from .convert import grid_from_msg, yaw
+from .node import run_node
+from .params import check_at_least, config_from_params
+
+__all__ = ["main", "ExplorerParams"]
+
+_DONE = {GoalStatus.SUCCEEDED: "reached", GoalStatus.ABORTED: "aborted",
+         GoalStatus.REJECTED: "rejected", GoalStatus.PREEMPTED: "preempted",
+         GoalStatus.RECALLED: "recalled", GoalStatus.LOST: "lost"}
+
+
+@dataclass
+class ExplorerParams:
+    """The node's parameters (see the module doc)."""
+
+    global_frame: str = "map"
+    base_frame: str = "base_footprint"
+    robot_radius: float = ExplorerConfig.robot_radius
+    min_frontier: float = ExplorerConfig.min_frontier
+    reach: float = ExplorerConfig.reach
+    blacklist_radius: float = ExplorerConfig.blacklist_radius
+    min_distance: float = ExplorerConfig.min_distance
+    goal_timeout: float = 120.0
+
+    def check(self) -> None:
+        check_at_least(self, "explorer", ("robot_radius", "min_frontier", "reach",
+                                          "goal_timeout"))
+        check_at_least(self, "explorer", ("blacklist_radius", "min_distance"), strict=False)
+
+
+class ExplorerNode:
+    """Map in, move_base goals out (see the module doc)."""
+
+    def __init__(self) -> None:
+        p = self.params = config_from_params(ExplorerParams())
+        self.explorer = Explorer(ExplorerConfig(
+            robot_radius=p.robot_radius, min_frontier=p.min_frontier, reach=p.reach,
+            blacklist_radius=p.blacklist_radius, min_distance=p.min_distance))
+        self.map: Optional[OccupancyGrid] = None
+        self.lock = threading.Lock()
+        self.tf = tf2_ros.Buffer()
+        self.listener = tf2_ros.TransformListener(self.tf)
+        self.finished_pub = rospy.Publisher("~finished", Bool, queue_size=1, latch=True)
+        self.finished_pub.publish(Bool(False))
+        rospy.Subscriber("map", OccupancyGrid, self._on_map, queue_size=1)
+        self.client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+        self.goals = self.failed = 0
+
+    def _on_map(self, msg: OccupancyGrid) -> None:
+        with self.lock:
+            self.map = msg
+
+    def _fresh_map(self, after: rospy.Time) -> Optional[OccupancyGrid]:
+        with self.lock:
+            m = self.map
+        return m if m is not None and m.header.stamp >= after else None
+
+    def _pose(self) -> Optional[Tuple[float, float, float]]:
+        try:
+            t = self.tf.lookup_transform(self.params.global_frame, self.params.base_frame,
+                                         rospy.Time(0), rospy.Duration(1.0))
+        except tf2_ros.TransformException as e:
+            rospy.logwarn_throttle(10.0, "explorer: no pose (%s -> %s): %s",
+                                   self.params.global_frame, self.params.base_frame, e)
+            return None
+        v = t.transform.translation
+        return v.x, v.y, yaw(t.transform.rotation)
+
+    def run(self) -> None:
+        """Explore, then stay up: ``~finished`` stays latched for late subscribers."""
+        self.explore()
+        rospy.spin()
+
+    def explore(self) -> None:
+        """Send goals until no reachable frontier is left (or shutdown)."""
+        rospy.loginfo("explorer: waiting for %s", rospy.resolve_name("move_base"))
+        while not self.client.wait_for_server(rospy.Duration(5.0)):
+            if rospy.is_shutdown():
+                return
+            rospy.logwarn_throttle(30.0, "explorer: no move_base action server yet at %s",
+                                   rospy.resolve_name("move_base"))
+        since = rospy.Time(0)
+        while not rospy.is_shutdown():
+            msg, pose = self._fresh_map(since), self._pose()
+            if msg is None or pose is None:
+                rospy.sleep(0.5)
+                continue
+            fmap = grid_from_msg(msg)
+            goal = self.explorer.next_goal(fmap, pose)
+            if goal is None:
+                free = float((fmap.grid == 0).sum()) * fmap.resolution ** 2
+                rospy.loginfo("explorer: finished: no reachable frontier left after %d goals "
+                              "(%d not reached); %.0f m^2 of free space mapped", self.goals,
+                              self.failed, free)
+                self.finished_pub.publish(Bool(True))
+                return
+            self._go(goal)
+            since = rospy.Time.now()         # the next goal is picked on a map built after
+
+    def _go(self, goal: Sequence[float]) -> None:
+        """Send ``goal`` and wait for it to end (or time out); rule its place out after."""
+        g = MoveBaseGoal()
+        g.target_pose.header.frame_id = self.params.global_frame
+        g.target_pose.header.stamp = rospy.Time.now()
+        g.target_pose.pose.position.x, g.target_pose.pose.position.y = goal[0], goal[1]
+        g.target_pose.pose.orientation.z = math.sin(goal[2] / 2.0)
+        g.target_pose.pose.orientation.w = math.cos(goal[2] / 2.0)
+        self.goals += 1
+        rospy.loginfo("explorer: goal %d: (%.2f, %.2f)", self.goals, goal[0], goal[1])
+        self.client.send_goal(g)
+        if not self.client.wait_for_result(rospy.Duration(self.params.goal_timeout)):
+            self.client.cancel_goal()
+            rospy.logwarn("explorer: goal %d not reached in %.0f s: cancelled", self.goals,
+                          self.params.goal_timeout)
+            self.failed += 1
+        else:
+            state = self.client.get_state()
+            if state != GoalStatus.SUCCEEDED:
+                self.failed += 1
+                rospy.logwarn("explorer: goal %d %s: %s", self.goals,
+                              _DONE.get(state, str(state)), self.client.get_goal_status_text())
+        self.explorer.goal_failed(goal)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Entry point of ``rosrun bullet_floor_sim explorer``."""
+    return run_node("explorer", ExplorerNode, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
