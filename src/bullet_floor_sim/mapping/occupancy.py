@@ -18,13 +18,14 @@ import numpy as np
 
 from ..sim.floormap import FloorMap, map_from_grid
 
-__all__ = ["MapperConfig", "OccupancyMapper"]
+__all__ = ["MapperConfig", "OccupancyMapper", "SURFACE", "logit"]
 
 #: How far beyond a beam's end its end cell is taken (m): past float32 rounding of a range.
 SURFACE = 1e-3
 
 
-def _logit(p: float) -> float:
+def logit(p: float) -> float:
+    """log(p / (1 - p))."""
     return math.log(p / (1.0 - p))
 
 
@@ -41,20 +42,16 @@ class MapperConfig:
         clamp_low, clamp_high: log-odds bounds.
         trace_range: free space is marked out to this distance along a beam.
         occupied_thresh, free_thresh: probabilities of the trinary read-out (map_server's).
-        sigma: scan matching's likelihood field: the standard deviation (m) of an end
-            point's distance to the nearest occupied cell (gmapping's ``sigma``).
     """
 
     resolution: float = 0.05
-    hit_occupied: float = _logit(0.7)
-    hit_free: float = _logit(0.15)
+    hit_occupied: float = logit(0.7)
+    hit_free: float = logit(0.15)
     clamp_low: float = -4.0
     clamp_high: float = 4.0
     trace_range: float = 12.0
     occupied_thresh: float = 0.65
     free_thresh: float = 0.196
-    sigma: float = 0.05
-    match_prior: float = 0.1
 
 
 class OccupancyMapper:
@@ -96,103 +93,17 @@ class OccupancyMapper:
         free_cells = self._traced(ox, oy, a[ok], free_to[ok], ends_traced)
         L = self.logodds
         L[free_cells] += c.hit_free
-        rows, cols = self._cells(ends[hit])
+        rows, cols = self.cells(ends[hit])
         np.add.at(L, (rows, cols), c.hit_occupied)
         np.clip(L, c.clamp_low, c.clamp_high, out=L)
         self.scans += 1
-
-    def match(self, guess: Sequence[float], ranges: Union[np.ndarray, Sequence[float]],
-              angle_min: float, angle_increment: float, range_max: float,
-              window: Tuple[float, float] = (0.15, 0.08),
-              steps: Tuple[float, float] = (0.025, 0.01)) -> Tuple[float, float, float]:
-        """The laser pose near ``guess`` (x, y, yaw) at which the scan's end points best fit
-        the map so far: a correlative search over +-``window`` (m, rad) in ``steps``, each
-        pose scored by the likelihood field of the occupied cells (a Gaussian of an end
-        point's distance to the nearest one, ``sigma`` of the config, as gmapping's scan
-        matcher scores), an end point counting only where the map is free just before it
-        along its beam (1.5 cells back). The points scored are those that, at the guess,
-        lie within 2 sigma of a mapped wall with free space before them: what the robot
-        sees for the first time (a wall coming into view, space beyond what was traced
-        free) cannot pull the scan back onto what is mapped, a wall scores the same
-        wherever along it a scan lands (nothing slides a scan along a corridor), and a
-        wall's far face does not pull a beam that meets its near face. Ties go to the
-        smallest correction; the guess stands when nothing scores higher, or fewer than 10
-        points count."""
-        r = np.asarray(ranges, dtype=float)
-        a = angle_min + angle_increment * np.arange(len(r))
-        hit = np.isfinite(r) & (r > 0) & (r < range_max)
-        if hit.sum() < 10 or not (self.logodds > _logit(self.config.occupied_thresh)).any():
-            return (float(guess[0]), float(guess[1]), float(guess[2]))
-        # within the traced range, less a margin: the space traced free by the scans before
-        # ends at trace_range, and a shift that brought more end points inside it would win
-        hit &= r < self.config.trace_range - 1.0
-        if hit.sum() < 10:
-            return (float(guess[0]), float(guess[1]), float(guess[2]))
-        r, a = r[hit] + SURFACE, a[hit]
-        (w_xy, w_th), (s_xy, s_th) = window, steps
-        offs = np.arange(-w_xy, w_xy + 1e-9, s_xy)
-        dx, dy = (v.ravel() for v in np.meshgrid(offs, offs))
-        field, free, (r0, c0) = self._likelihood(float(guess[0]), float(guess[1]),
-                                                 float(r.max()) + w_xy)
-        prior = self.config.match_prior * len(r)
-        h, w = field.shape
-        res = self.config.resolution
-        x0, y0 = self.origin[0] + c0 * res, self.origin[1] + r0 * res
-        best = (-1.0, 0.0, 0.0, 0.0, 0.0)          # score, correction size, dx, dy, dth
-        for dth in np.arange(-w_th, w_th + 1e-9, s_th):
-            th = float(guess[2]) + dth
-            ca, sa = np.cos(a + th), np.sin(a + th)
-
-            def at(d: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
-                return self._window_cells(guess, d * ca, d * sa, dx, dy, (x0, y0), (h, w))
-
-            score = (field[at(r)] * free[at(r - 1.5 * res)]).sum(axis=1) - prior * (
-                (dx ** 2 + dy ** 2) / w_xy ** 2 + (dth / w_th) ** 2)
-            # ties go to the smallest correction (the guess itself when nothing is better)
-            size = np.hypot(dx, dy) + abs(dth)
-            k = int(np.lexsort((size, -score))[0])
-            if (score[k] > best[0] + 1e-9
-                    or (abs(score[k] - best[0]) <= 1e-9 and size[k] < best[1])):
-                best = (float(score[k]), float(size[k]), float(dx[k]), float(dy[k]), float(dth))
-        return (float(guess[0]) + best[2], float(guess[1]) + best[3], float(guess[2]) + best[4])
-
-    def _likelihood(self, x: float, y: float, reach: float
-                    ) -> Tuple[np.ndarray, np.ndarray, Tuple[int, int]]:
-        """Over the cells within ``reach`` of (x, y), with a 1-cell rim for what lies off
-        them: the likelihood field of the occupied cells and the free cells (0 and false on
-        the rim), and the (row, col) of the first cell in the grid."""
-        from scipy.ndimage import distance_transform_edt
-
-        c = self.config
-        (r0, r1), (c0, c1) = self._cells(np.array([[x - reach, y - reach],
-                                                    [x + reach, y + reach]]))
-        h, w = self.logodds.shape
-        r0, c0 = max(0, int(r0)), max(0, int(c0))
-        r1, c1 = min(h, int(r1) + 1), min(w, int(c1) + 1)
-        window = self.logodds[r0:r1, c0:c1]
-        occupied = window > _logit(c.occupied_thresh)
-        d = distance_transform_edt(~occupied) * c.resolution
-        field = np.pad(np.exp(-0.5 * (d / c.sigma) ** 2), 1)
-        free = np.pad(window < _logit(c.free_thresh), 1)
-        return field, free, (r0 - 1, c0 - 1)
-
-    def _window_cells(self, guess: Sequence[float], px: np.ndarray, py: np.ndarray,
-                      dx: np.ndarray, dy: np.ndarray, corner: Tuple[float, float],
-                      shape: Tuple[int, int]) -> Tuple[np.ndarray, np.ndarray]:
-        """The window cells (rows, cols: candidates x points) of the points ``px, py``
-        (relative to ``guess``) under each candidate shift; off the window: its rim."""
-        res = self.config.resolution
-        cols = np.floor((float(guess[0]) + px[None, :] + dx[:, None] - corner[0]) / res)
-        rows = np.floor((float(guess[1]) + py[None, :] + dy[:, None] - corner[1]) / res)
-        return (np.clip(rows, 0, shape[0] - 1).astype(np.int64),
-                np.clip(cols, 0, shape[1] - 1).astype(np.int64))
 
     def clear_disc(self, x: float, y: float, radius: float) -> None:
         """Mark the cells within ``radius`` of (x, y) free: where the robot stands (its own
         lidar may not see under it)."""
         res = self.config.resolution
         self._grow(np.array([[x - radius, y - radius], [x + radius, y + radius]]))
-        (r0, r1), (c0, c1) = (self._cells(np.array([[x - radius, y - radius],
+        (r0, r1), (c0, c1) = (self.cells(np.array([[x - radius, y - radius],
                                                      [x + radius, y + radius]])))
         rows, cols = np.mgrid[r0:r1 + 1, c0:c1 + 1]
         cx = self.origin[0] + (cols + 0.5) * res
@@ -200,7 +111,7 @@ class OccupancyMapper:
         inside = np.hypot(cx - x, cy - y) <= radius
         L = self.logodds
         L[rows[inside], cols[inside]] = np.minimum(L[rows[inside], cols[inside]],
-                                                   _logit(self.config.free_thresh) - 0.1)
+                                                   logit(self.config.free_thresh) - 0.1)
 
     def _traced(self, ox: float, oy: float, angles: np.ndarray, lengths: np.ndarray,
                 stops_at_hit: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
@@ -214,15 +125,16 @@ class OccupancyMapper:
         t = np.minimum(k * step, lengths[rep])
         x = ox + t * np.cos(angles[rep])
         y = oy + t * np.sin(angles[rep])
-        rows, cols = self._cells(np.column_stack((x, y)))
+        rows, cols = self.cells(np.column_stack((x, y)))
         # leave out the samples in a hitting beam's end cell (that cell is marked occupied)
         ends = np.column_stack((ox + lengths * np.cos(angles), oy + lengths * np.sin(angles)))
-        er, ec = self._cells(ends)
+        er, ec = self.cells(ends)
         keep = ~(stops_at_hit[rep] & (rows == er[rep]) & (cols == ec[rep]))
         flat = np.unique(rows[keep] * self.logodds.shape[1] + cols[keep])
         return np.divmod(flat, self.logodds.shape[1])
 
-    def _cells(self, xy: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    def cells(self, xy: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+        """(rows, cols) of the grid cells of points (N, 2) in the map frame (may be off it)."""
         res = self.config.resolution
         cols = np.floor((xy[:, 0] - self.origin[0]) / res).astype(np.int64)
         rows = np.floor((xy[:, 1] - self.origin[1]) / res).astype(np.int64)
@@ -231,7 +143,7 @@ class OccupancyMapper:
     def _grow(self, xy: np.ndarray) -> None:
         """Pad the grid (with 5 m to spare) so that every point lies on it."""
         res = self.config.resolution
-        rows, cols = self._cells(xy)
+        rows, cols = self.cells(xy)
         h, w = self.logodds.shape
         margin = int(round(5.0 / res))
         down = max(0, -int(rows.min()) + margin) if rows.min() < 0 else 0
@@ -246,8 +158,8 @@ class OccupancyMapper:
         """The trinary grid (rows from the bottom): 100 occupied, 0 free, -1 unknown."""
         c = self.config
         out = np.full(self.logodds.shape, -1, dtype=np.int8)
-        out[self.logodds > _logit(c.occupied_thresh)] = 100
-        out[self.logodds < _logit(c.free_thresh)] = 0
+        out[self.logodds > logit(c.occupied_thresh)] = 100
+        out[self.logodds < logit(c.free_thresh)] = 0
         return out
 
     def floor_map(self) -> FloorMap:

@@ -4,7 +4,7 @@ scan-matcher step, without its particle filter).
 :class:`ScanMatchingMapper` takes each scan with the laser's odometry pose. Once the robot
 has moved ``linear_update`` metres or turned ``angular_update`` radians since the last scan it
 took (gmapping's ``linearUpdate``/``angularUpdate``), the scan is matched against the map so
-far (:meth:`OccupancyMapper.match`, starting from odometry carried by the last correction)
+far (mapping/matcher.py, starting from odometry carried by the last correction)
 and added at the matched pose. The correction is the map frame's transform to the odometry
 frame (``map -> odom``, what gmapping broadcasts); the map frame is where odometry started.
 
@@ -19,6 +19,7 @@ from typing import Optional, Sequence, Tuple, Union
 import numpy as np
 
 from ..geometry import compose, inverse
+from .matcher import MatcherConfig, match
 from .occupancy import MapperConfig, OccupancyMapper
 
 __all__ = ["SlamConfig", "ScanMatchingMapper"]
@@ -47,12 +48,15 @@ class ScanMatchingMapper:
     Args:
         config: update thresholds and whether to match.
         mapper_config: the grid's parameters.
+        matcher_config: the scan matcher's.
     """
 
     def __init__(self, config: SlamConfig = SlamConfig(),
-                 mapper_config: MapperConfig = MapperConfig()) -> None:
+                 mapper_config: MapperConfig = MapperConfig(),
+                 matcher_config: MatcherConfig = MatcherConfig()) -> None:
         self.config = config
         self.mapper_config = mapper_config
+        self.matcher_config = matcher_config
         self.mapper: Optional[OccupancyMapper] = None
         self.correction: Pose = (0.0, 0.0, 0.0)
         self.last: Optional[Pose] = None        # odometry pose of the last scan taken
@@ -81,7 +85,8 @@ class ScanMatchingMapper:
             self.mapper = OccupancyMapper(self.mapper_config, centre=guess[:2])
         pose = guess
         if self.config.match:
-            pose = self.mapper.match(guess, ranges, angle_min, angle_increment, range_max)
+            pose = match(self.mapper, guess, ranges, angle_min, angle_increment, range_max,
+                         self.matcher_config)
         self.correction = compose(pose, inverse(odom_laser))
         self.mapper.update(pose, ranges, angle_min, angle_increment, range_max)
         self.last = (float(odom_laser[0]), float(odom_laser[1]), float(odom_laser[2]))

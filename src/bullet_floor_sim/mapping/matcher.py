@@ -1,0 +1,133 @@
+"""Scan matching against the occupancy grid being built: where, near a guess, a scan fits the
+map best (the embedded mapper's correction of odometry; mapping/slam.py).
+
+A correlative search (Olson 2009): every candidate pose on a grid of shifts and turns around
+the guess is scored, then the best one is refined on a grid four times finer around it. A
+candidate's score:
+
+* the likelihood field of the occupied cells at each end point (a Gaussian of its distance to
+  the nearest one, ``sigma``; gmapping's scan matcher scores the same way),
+* an end point counting only where the map is free 1.5 cells before it along its beam: a
+  wall's far face does not pull a beam that meets its near face,
+* less a prior on the correction, ``prior`` x points x (squared share of the search window):
+  a weak but consistent pull (a corridor's few features, the edge of what has been traced
+  free) does not slide the scan, while a real odometry error, a few centimetres per scan,
+  costs almost nothing.
+
+Only end points within ``trace_range - 1`` m count: the free space traced by the scans before
+ends at ``trace_range``, and a shift that brought more end points inside it would win.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence, Tuple, Union
+
+import numpy as np
+
+from .occupancy import OccupancyMapper, SURFACE, logit
+
+__all__ = ["MatcherConfig", "match"]
+
+Pose = Tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class MatcherConfig:
+    """Search and score parameters (metres, radians).
+
+    Attributes:
+        window: the search's half-widths (shift, turn).
+        steps: the coarse grid's steps (shift, turn); the refinement's are a quarter.
+        sigma: the likelihood field's standard deviation (gmapping's ``sigma``).
+        prior: the correction's cost, in points' worth per point at the window's edge.
+        min_points: fewer end points than this: the guess stands.
+    """
+
+    window: Tuple[float, float] = (0.15, 0.08)
+    steps: Tuple[float, float] = (0.025, 0.01)
+    sigma: float = 0.05
+    prior: float = 0.1
+    min_points: int = 10
+
+
+def match(mapper: OccupancyMapper, guess: Sequence[float],
+          ranges: Union[np.ndarray, Sequence[float]], angle_min: float,
+          angle_increment: float, range_max: float,
+          config: MatcherConfig = MatcherConfig()) -> Pose:
+    """The laser pose near ``guess`` (x, y, yaw) at which the scan best fits ``mapper``'s
+    map (see the module doc). Ties go to the smallest correction; the guess stands when
+    nothing scores higher, too few end points count, or the map has no wall yet."""
+    g = (float(guess[0]), float(guess[1]), float(guess[2]))
+    r = np.asarray(ranges, dtype=float)
+    a = angle_min + angle_increment * np.arange(len(r))
+    ok = (np.isfinite(r) & (r > 0) & (r < range_max)
+          & (r < mapper.config.trace_range - 1.0))
+    if ok.sum() < config.min_points or not (mapper.logodds > logit(
+            mapper.config.occupied_thresh)).any():
+        return g
+    scorer = _Scorer(mapper, g, r[ok] + SURFACE, a[ok], config)
+    (w_xy, w_th), (s_xy, s_th) = config.window, config.steps
+    best = scorer.best(_grid(0.0, w_xy, s_xy), _grid(0.0, w_th, s_th), (0.0, 0.0, 0.0, -np.inf))
+    best = scorer.best(_grid(0.0, s_xy, s_xy / 4), _grid(best[2], s_th, s_th / 4), best,
+                       centre=best[:2])
+    return (g[0] + best[0], g[1] + best[1], g[2] + best[2])
+
+
+def _grid(centre: float, half: float, step: float) -> np.ndarray:
+    return centre + np.arange(-half, half + 1e-9, step)
+
+
+class _Scorer:
+    """The score of candidate corrections of one scan (see the module doc)."""
+
+    def __init__(self, mapper: OccupancyMapper, guess: Pose, r: np.ndarray, a: np.ndarray,
+                 config: MatcherConfig) -> None:
+        from scipy.ndimage import distance_transform_edt
+
+        self.guess, self.r, self.a, self.config = guess, r, a, config
+        res = self.res = mapper.config.resolution
+        reach = float(r.max()) + config.window[0] + config.steps[0]
+        (r0, r1), (c0, c1) = mapper.cells(np.array([[guess[0] - reach, guess[1] - reach],
+                                                    [guess[0] + reach, guess[1] + reach]]))
+        h, w = mapper.logodds.shape
+        r0, c0 = max(0, int(r0)), max(0, int(c0))
+        r1, c1 = min(h, int(r1) + 1), min(w, int(c1) + 1)
+        window = mapper.logodds[r0:r1, c0:c1]
+        occupied = window > logit(mapper.config.occupied_thresh)
+        d = distance_transform_edt(~occupied) * res
+        # a rim of one cell (field 0, not free) stands for everything off the window
+        self.field = np.pad(np.exp(-0.5 * (d / config.sigma) ** 2), 1)
+        self.free = np.pad(window < logit(mapper.config.free_thresh), 1)
+        self.corner = (mapper.origin[0] + (c0 - 1) * res, mapper.origin[1] + (r0 - 1) * res)
+        self.prior = config.prior * len(r)
+
+    def best(self, shifts: np.ndarray, turns: np.ndarray, best: Tuple[float, ...],
+             centre: Tuple[float, float] = (0.0, 0.0)) -> Tuple[float, float, float, float]:
+        """(dx, dy, dth, score) of the best candidate of ``centre`` + shifts x shifts and
+        ``turns``, or ``best`` when none scores higher."""
+        dx, dy = (v.ravel() for v in np.meshgrid(centre[0] + shifts, centre[1] + shifts))
+        (w_xy, w_th) = self.config.window
+        for dth in turns:
+            score = self._fit(dth, dx, dy) - self.prior * (
+                (dx ** 2 + dy ** 2) / w_xy ** 2 + (dth / w_th) ** 2)
+            # ties go to the smallest correction (the guess itself when nothing is better)
+            size = np.hypot(dx, dy) + abs(dth)
+            k = int(np.lexsort((size, -score))[0])
+            if score[k] > best[3] + 1e-9 or (abs(score[k] - best[3]) <= 1e-9 and size[k]
+                                             < np.hypot(best[0], best[1]) + abs(best[2])):
+                best = (float(dx[k]), float(dy[k]), float(dth), float(score[k]))
+        return best  # type: ignore[return-value]
+
+    def _fit(self, dth: float, dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
+        """The likelihood of the end points with free space before them, per shift."""
+        th = self.guess[2] + dth
+        ca, sa = np.cos(self.a + th), np.sin(self.a + th)
+        h, w = self.field.shape
+
+        def cells(d: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+            cols = np.floor((self.guess[0] + d * ca - self.corner[0] + dx[:, None]) / self.res)
+            rows = np.floor((self.guess[1] + d * sa - self.corner[1] + dy[:, None]) / self.res)
+            return (np.clip(rows, 0, h - 1).astype(np.int64),
+                    np.clip(cols, 0, w - 1).astype(np.int64))
+
+        return (self.field[cells(self.r)] * self.free[cells(self.r - 1.5 * self.res)]).sum(axis=1)
