@@ -1,12 +1,13 @@
 """Frontier exploration through move_base (mapping.launch's ``explore:=true``).
 
-The node reads the map being built (``map``, nav_msgs/OccupancyGrid: the embedded mapper's or
-a SLAM package's), picks the nearest reachable frontier (mapping/frontiers.py) from the
-robot's pose (tf ``~global_frame`` -> ``~base_frame``) and sends it to ``move_base``
+The node reads the map being built (the ``dynamic_map`` service, nav_msgs/GetMap, where the
+mapper serves it, else the ``map`` topic: the embedded mapper's or a SLAM package's), picks
+the nearest reachable frontier (mapping/frontiers.py) from the robot's pose (tf
+``~global_frame`` -> ``~base_frame``) and sends it to ``move_base``
 (move_base_msgs/MoveBaseAction: the embedded path follower or stock move_base, either with
-unknown space passable). When the goal ends, reached or not, its place is ruled out and,
-on the first map built after that, the next goal is picked. When no reachable frontier is
-left it logs so, publishes ``~finished`` (std_msgs/Bool, latched) true and sends no more
+unknown space passable). When the goal ends, reached or not, its place is ruled out and the
+next goal is picked. When no reachable frontier is left on a map built after the last goal
+ended, it logs so, publishes ``~finished`` (std_msgs/Bool, latched) true and sends no more
 goals.
 
 Parameters: ``~global_frame`` (map), ``~base_frame`` (base_footprint), ``~robot_radius``
@@ -23,11 +24,13 @@ from dataclasses import dataclass
 from typing import Optional, Sequence, Tuple
 
 import actionlib
+from actionlib import CommState
 import rospy
 import tf2_ros
 from actionlib_msgs.msg import GoalStatus
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid
+from nav_msgs.srv import GetMap
 from std_msgs.msg import Bool
 
 from ..mapping.frontiers import Explorer, ExplorerConfig
@@ -76,17 +79,19 @@ class ExplorerNode:
         self.finished_pub = rospy.Publisher("~finished", Bool, queue_size=1, latch=True)
         self.finished_pub.publish(Bool(False))
         rospy.Subscriber("map", OccupancyGrid, self._on_map, queue_size=1)
-        self.client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+        self.client = actionlib.ActionClient("move_base", MoveBaseAction)
         self.goals = self.failed = 0
+        self.dynamic_map: Optional[rospy.ServiceProxy] = None
+        try:
+            rospy.wait_for_service("dynamic_map", timeout=10.0)
+            self.dynamic_map = rospy.ServiceProxy("dynamic_map", GetMap)
+        except rospy.ROSException:
+            rospy.loginfo("explorer: no %s service: goals are picked on %s",
+                          rospy.resolve_name("dynamic_map"), rospy.resolve_name("map"))
 
     def _on_map(self, msg: OccupancyGrid) -> None:
         with self.lock:
             self.map = msg
-
-    def _fresh_map(self, after: rospy.Time) -> Optional[OccupancyGrid]:
-        with self.lock:
-            m = self.map
-        return m if m is not None and m.header.stamp >= after else None
 
     def _pose(self) -> Optional[Tuple[float, float, float]]:
         try:
@@ -112,14 +117,17 @@ class ExplorerNode:
                 return
             rospy.logwarn_throttle(30.0, "explorer: no move_base action server yet at %s",
                                    rospy.resolve_name("move_base"))
-        since = rospy.Time(0)
+        ended = rospy.Time(0)                 # when the last goal ended
         while not rospy.is_shutdown():
-            msg, pose = self._fresh_map(since), self._pose()
+            msg, pose = self._latest_map(), self._pose()
             if msg is None or pose is None:
                 rospy.sleep(0.5)
                 continue
             fmap = grid_from_msg(msg)
             goal = self.explorer.next_goal(fmap, pose)
+            if goal is None and msg.header.stamp < ended:
+                rospy.sleep(0.5)               # done, unless the next map shows more
+                continue
             if goal is None:
                 free = float((fmap.grid == 0).sum()) * fmap.resolution ** 2
                 rospy.loginfo("explorer: finished: no reachable frontier left after %d goals "
@@ -128,7 +136,20 @@ class ExplorerNode:
                 self.finished_pub.publish(Bool(True))
                 return
             self._go(goal)
-            since = rospy.Time.now()         # the next goal is picked on a map built after
+            ended = rospy.Time.now()
+
+    def _latest_map(self) -> Optional[OccupancyGrid]:
+        """The map as it is now from the mapper's ``dynamic_map`` service where it answers
+        (the embedded mapper renders it on demand), else the last ``map`` message."""
+        if self.dynamic_map is not None:
+            try:
+                return self.dynamic_map().map
+            except (rospy.ServiceException, rospy.ROSException) as e:
+                rospy.logwarn_throttle(30.0, "explorer: %s does not answer (%s): using %s",
+                                       self.dynamic_map.resolved_name, e,
+                                       rospy.resolve_name("map"))
+        with self.lock:
+            return self.map
 
     def _go(self, goal: Sequence[float]) -> None:
         """Send ``goal`` and wait for it to end (or time out); rule its place out after."""
@@ -140,18 +161,24 @@ class ExplorerNode:
         g.target_pose.pose.orientation.w = math.cos(goal[2] / 2.0)
         self.goals += 1
         rospy.loginfo("explorer: goal %d: (%.2f, %.2f)", self.goals, goal[0], goal[1])
-        self.client.send_goal(g)
-        if not self.client.wait_for_result(rospy.Duration(self.params.goal_timeout)):
-            self.client.cancel_goal()
-            rospy.logwarn("explorer: goal %d not reached in %.0f s: cancelled", self.goals,
-                          self.params.goal_timeout)
-            self.failed += 1
+        # actionlib's ActionClient, not the SimpleActionClient: its send_goal races the
+        # server's first status (actionlib issue #206: a spurious error line per goal)
+        gh = self.client.send_goal(g)
+        deadline = rospy.Time.now() + rospy.Duration(self.params.goal_timeout)
+        while gh.get_comm_state() != CommState.DONE and not rospy.is_shutdown():
+            if rospy.Time.now() > deadline:
+                gh.cancel()
+                rospy.logwarn("explorer: goal %d not reached in %.0f s: cancelled",
+                              self.goals, self.params.goal_timeout)
+                self.failed += 1
+                break
+            rospy.sleep(0.2)
         else:
-            state = self.client.get_state()
-            if state != GoalStatus.SUCCEEDED:
+            state = gh.get_goal_status()
+            if state != GoalStatus.SUCCEEDED and not rospy.is_shutdown():
                 self.failed += 1
                 rospy.logwarn("explorer: goal %d %s: %s", self.goals,
-                              _DONE.get(state, str(state)), self.client.get_goal_status_text())
+                              _DONE.get(state, str(state)), gh.get_goal_status_text())
         self.explorer.goal_failed(goal)
 
 

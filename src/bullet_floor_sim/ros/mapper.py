@@ -34,6 +34,7 @@ from nav_msgs.srv import GetMap, GetMapResponse
 from sensor_msgs.msg import LaserScan
 
 from ..errors import BulletFloorSimError
+from ..mapping.matcher import MatcherConfig
 from ..mapping.occupancy import MapperConfig
 from ..mapping.slam import ScanMatchingMapper, SlamConfig
 from .convert import occupancy_grid, yaw
@@ -53,7 +54,7 @@ class MapperParams:
     map_update_interval: float = 5.0
     linear_update: float = SlamConfig.linear_update
     angular_update: float = SlamConfig.angular_update
-    sigma: float = MapperConfig.sigma
+    sigma: float = MatcherConfig.sigma
     match: bool = True
     transform_publish_period: float = 0.05
     trace_range: float = 12.0
@@ -76,7 +77,8 @@ class MapperNode:
         self.slam = ScanMatchingMapper(
             SlamConfig(linear_update=p.linear_update, angular_update=p.angular_update,
                        match=p.match),
-            MapperConfig(resolution=p.delta, trace_range=p.trace_range, sigma=p.sigma))
+            MapperConfig(resolution=p.delta, trace_range=p.trace_range),
+            MatcherConfig(sigma=p.sigma))
         self.lock = threading.Lock()
         self.tf = tf2_ros.Buffer(rospy.Duration(30.0))
         self.listener = tf2_ros.TransformListener(self.tf)
@@ -87,6 +89,7 @@ class MapperNode:
         self.sub = rospy.Subscriber("scan", LaserScan, self._on_scan, queue_size=5)
         self.timer = rospy.Timer(rospy.Duration(p.map_update_interval), self._publish,
                                  reset=True)
+        self.sent = rospy.Time(0)
         self.tf_timer = rospy.Timer(rospy.Duration(p.transform_publish_period),
                                     self._broadcast, reset=True)
         self.skipped = 0
@@ -137,10 +140,14 @@ class MapperNode:
 
     def _broadcast(self, _event=None) -> None:
         """map -> odom, the correction, stamped one period ahead (as gmapping's tf_delay)."""
+        stamp = rospy.Time.now() + rospy.Duration(self.params.transform_publish_period)
+        if stamp <= self.sent:           # the timer catching up (rtf > 1): once per stamp
+            return
+        self.sent = stamp
         with self.lock:
             x, y, th = self.slam.correction
         t = TransformStamped()
-        t.header.stamp = rospy.Time.now() + rospy.Duration(self.params.transform_publish_period)
+        t.header.stamp = stamp
         t.header.frame_id, t.child_frame_id = self.params.map_frame, self.params.odom_frame
         t.transform.translation.x, t.transform.translation.y = x, y
         t.transform.rotation.z, t.transform.rotation.w = math.sin(th / 2), math.cos(th / 2)
