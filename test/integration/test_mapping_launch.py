@@ -2,6 +2,7 @@
 """rostest node: mapping.launch with the embedded mapper (mapping.test)."""
 from __future__ import annotations
 
+import math
 import os
 import subprocess
 import sys
@@ -79,17 +80,20 @@ class MappingTest(unittest.TestCase):
         occ_ok = near[wr[occ], wc[occ]].mean()
         rospy.loginfo("mapping: %d free cells (%.3f free in the world), %d occupied (%.3f on "
                       "or beside a wall)", (mine == 0).sum(), free_ok, occ.sum(), occ_ok)
-        # odometry poses without scan matching: the turn's yaw error skews far walls (seed 3:
-        # 0.962 of the free cells and 0.724 of the occupied ones agree)
+        # seed 3: 0.990 of the free cells and 0.933 of the occupied ones agree (odometry
+        # alone, before scan matching: 0.962 and 0.724, the turn's yaw error skewing far walls)
         self.assertGreater((mine == 0).sum(), 5000)
-        self.assertGreater(free_ok, 0.9)
+        self.assertGreater(free_ok, 0.97)
         self.assertGreater(occ.sum(), 300)
-        self.assertGreater(occ_ok, 0.5)
-        # the map frame is the mapper's
+        self.assertGreater(occ_ok, 0.85)
+        # the mapper broadcasts its correction of odometry, map -> robot1/odom: small after
+        # a turn and 2 m
         buf = tf2_ros.Buffer()
         tf2_ros.TransformListener(buf)
         t = buf.lookup_transform("map", "robot1/odom", rospy.Time(0), rospy.Duration(5.0))
-        self.assertEqual((t.transform.translation.x, t.transform.rotation.w), (0.0, 1.0))
+        v = t.transform.translation
+        self.assertLess(math.hypot(v.x, v.y), 0.2)
+        self.assertGreater(t.transform.rotation.w, math.cos(0.05))     # under 0.1 rad
         # and save_map saves it
         name = os.path.join(tempfile.mkdtemp(prefix="bfs_mapping_"), "built")
         out = subprocess.run(["rosrun", "bullet_floor_sim", "save_map", "-f", name],
