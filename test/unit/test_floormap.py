@@ -233,3 +233,22 @@ def test_bad_origin_and_unknown_key_and_thresholds(tmp_path):
     y = write_map(tmp_path, [[0]], name="m.pgm", mode="fancy")
     with pytest.raises(MapError, match=r"mode must be one of trinary/scale/raw, got 'fancy'"):
         load_map(y)
+
+
+def test_crop_known_keeps_the_known_cells_and_a_margin_in_place():
+    """A 100 x 80 map at 0.1 m, all unknown but a 3 x 4 block at rows 40-42, cols 50-53:
+    cropped with a 0.2 m margin it is 7 x 8 cells, and every cell keeps its place."""
+    from bullet_floor_sim.sim.floormap import crop_known
+
+    grid = np.full((80, 100), -1, dtype=np.int8)
+    grid[40:43, 50:54] = 0
+    grid[41, 52] = 100
+    fmap = map_from_grid(grid, 0.1, (-3.0, 2.0, 0.0))
+    small = crop_known(fmap, 0.2)
+    assert small.grid.shape == (7, 8)
+    assert small.origin == pytest.approx((-3.0 + 4.8, 2.0 + 3.8, 0.0))
+    assert small.value_at(*[float(v) for v in fmap.cell_to_world(52, 41)]) == 100
+    assert (small.grid == 0).sum() == 11 and (small.grid == -1).sum() == 7 * 8 - 12
+    assert crop_known(fmap, 100.0) is fmap                     # nothing cut off
+    unknown = map_from_grid(np.full((5, 5), -1, dtype=np.int8), 0.1)
+    assert crop_known(unknown, 0.2) is unknown

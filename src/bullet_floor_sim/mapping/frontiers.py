@@ -7,7 +7,8 @@ free space and unknown space, until none is left.
   frontier cluster, the one nearest to the robot along the planner's grid (one Dijkstra from
   the robot, scipy). Unknown space is passable for planning, as navfn's ``allow_unknown``
   (the robot's own lidar stops it short of what it finds there); goals tried and failed are
-  ruled out.
+  ruled out. Only the known part of the map and a margin are searched (a SLAM node's map is
+  mostly unknown: gmapping's is 200 m square).
 """
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..nav.grid import PlannerConfig, PlanningGrid
-from ..sim.floormap import FloorMap
+from ..sim.floormap import FloorMap, crop_known
 
 __all__ = ["Frontier", "frontiers", "Explorer", "ExplorerConfig"]
 
@@ -90,6 +91,7 @@ class Explorer:
         from scipy.ndimage import distance_transform_edt
 
         c = self.config
+        fmap = crop_known(fmap, c.reach + 2.0 * c.robot_radius + 1.0)
         grid = PlanningGrid(fmap, PlannerConfig(robot_radius=c.robot_radius,
                                                 resolution=fmap.resolution,
                                                 unknown_is_obstacle=False))

@@ -45,6 +45,7 @@ from ..nav.planner import (FollowerConfig, Navigator, NavigatorConfig, PlanError
                             path_length)
 from ..errors import BulletFloorSimError
 from ..geometry import compose
+from ..sim.floormap import crop_known
 from ..sim.solidmap import MapHandling
 from .convert import grid_from_msg, yaw as yaw_of
 from .params import check_at_least, config_from_params, map_handling
@@ -137,7 +138,10 @@ class PathFollowerNode:
         if self.allow_unknown:
             handling = dataclasses.replace(handling or MapHandling(), unknown="free")
         try:
-            self.grid = PlanningGrid(grid_from_msg(msg), self.planner_cfg, handling=handling)
+            fmap = grid_from_msg(msg)
+            if self.allow_unknown:   # a map being built: plan on its known part and a margin
+                fmap = crop_known(fmap, 3.0)
+            self.grid = PlanningGrid(fmap, self.planner_cfg, handling=handling)
         except Exception as e:  # a broken map must not kill the node: say so and keep the old
             rospy.logerr("path_follower: cannot use the map (%s): %s", msg.header.frame_id, e)
             return

@@ -27,6 +27,7 @@ from ..yamlio import read_yaml
 
 __all__ = [
     "FloorMap",
+    "crop_known",
     "load_map",
     "map_from_grid",
     "merge_rectangles",
@@ -162,6 +163,27 @@ def map_from_grid(grid: np.ndarray, resolution: float,
         raise MapError("<grid>: grid must be a non-empty 2-D array, got shape %s" % (grid.shape,))
     ox, oy, yaw = (float(v) for v in origin)
     return FloorMap(grid=grid, resolution=float(resolution), origin=(ox, oy, yaw))
+
+
+def crop_known(fmap: FloorMap, margin: float) -> FloorMap:
+    """The part of ``fmap`` around its known cells (free or occupied), ``margin`` metres wider
+    on each side (within the map): what a SLAM node's fixed-size map being built amounts to
+    (gmapping's is 200 m square by default). ``fmap`` itself when nothing is cut off or
+    nothing is known."""
+    grid = np.asarray(fmap.grid)
+    known = grid >= 0
+    if not known.any():
+        return fmap
+    rows, cols = np.nonzero(known.any(axis=1))[0], np.nonzero(known.any(axis=0))[0]
+    k = int(math.ceil(margin / fmap.resolution))
+    r0, r1 = max(0, int(rows[0]) - k), min(fmap.height, int(rows[-1]) + k + 1)
+    c0, c1 = max(0, int(cols[0]) - k), min(fmap.width, int(cols[-1]) + k + 1)
+    if (r0, c0, r1, c1) == (0, 0, fmap.height, fmap.width):
+        return fmap
+    x, y = fmap._grid_to_world(np.asarray(c0 * fmap.resolution),
+                               np.asarray(r0 * fmap.resolution))
+    return map_from_grid(grid[r0:r1, c0:c1], fmap.resolution,
+                         (float(x), float(y), fmap.origin[2]))
 
 
 def _read_yaml(path: str) -> Dict[str, Any]:
