@@ -115,3 +115,40 @@ def test_reachable_is_the_component_of_the_point():
     assert reachable(world, 1.5, 1.5).sum() == 1
     with pytest.raises(ValueError, match="not a free cell"):
         reachable(world, 2.5, 1.5)
+
+
+def test_compare_maps_scores_a_saved_map_placed_at_the_robots_start(tmp_path, capsys):
+    """office's own map, re-framed at robot1's start (3, 10) as a SLAM node would save it:
+    compare_maps finds it equal to the world's; placed at robot2's start instead, it is not.
+    Bad input is one line and status 2."""
+    from PIL import Image
+
+    from bullet_floor_sim.mapping.save import save_map
+    from bullet_floor_sim.ros.compare_maps import main
+    from bullet_floor_sim.sim.floormap import load_map
+
+    world = load_map(load_world_config(resolve_world("office", worlds_dir())).map_yaml)
+    ox, oy, _ = world.origin
+    save_map(map_from_grid(world.grid, world.resolution, (ox - 3.0, oy - 10.0, 0.0)),
+             str(tmp_path / "built"))
+    built = str(tmp_path / "built.yaml")
+    assert main([built, "--world", "office", "--plot", str(tmp_path / "cmp.png")]) == 0
+    out = capsys.readouterr().out
+    assert "free IoU 1.000," in out and "(F1 within a cell 1.000), 100.0 %" in out
+    # occupied IoU: every wall face found, but the map's own wall interiors and blocks of
+    # furniture are occupied cells no lidar sees: faces / occupied cells
+    from scipy.ndimage import binary_dilation
+
+    free = reachable(world, 3.0, 10.0)
+    walls = world.grid == 100
+    faces = walls & binary_dilation(free, structure=np.ones((3, 3), dtype=bool))
+    assert "occupied IoU %.3f" % (faces.sum() / walls.sum()) in out
+    with Image.open(tmp_path / "cmp.png") as png:
+        assert png.size[0] == 1980 and png.size[1] > 400
+    assert main([built, "--world", "office", "--robot", "robot2"]) == 0
+    free_iou = float(capsys.readouterr().out.split("free IoU ")[1].split(",")[0])
+    assert free_iou < 0.5                   # turned about and 9 m off
+    assert main([built, "--world", "office", "--robot", "robot9"]) == 2
+    assert "--robot robot9: the world has robot1, robot2" in capsys.readouterr().err
+    assert main([str(tmp_path / "missing.yaml"), "--world", "office"]) == 2
+    assert "missing.yaml" in capsys.readouterr().err
