@@ -40,7 +40,7 @@ def frame_params(params):
     ("demo.launch", ("nav:=auto",)),
     ("observer.launch", ()),
     ("mapping.launch", ()),
-    ("mapping.launch", ("slam:=embedded", "explore:=true", "nav:=builtin")),
+    ("mapping.launch", ("slam:=embedded", "explore:=true", "nav:=builtin", "rviz:=true")),
     ("mapping.launch", ("slam:=gmapping", "explore:=true", "nav:=stock")),
 ])
 def test_every_launch_file_parses(name, args):
@@ -60,6 +60,10 @@ def test_navigation_stock_single_robot_bare_names():
     assert params["/simulator/ground_truth_tf"] is False
     assert params["/simulator/publish_initialpose"] is True
     assert params["/simulator/single_robot"] is True
+    nodes, _ = load("mapping.launch", "slam:=embedded", "rviz:=true", "single_robot:=true")
+    assert nodes["/rviz"].args.endswith("rviz/mapping_single.rviz")
+    nodes, _ = load("mapping.launch", "slam:=embedded", "rviz:=true")
+    assert nodes["/rviz"].args.endswith("rviz/mapping.rviz")
 
 
 def test_two_robots_stock_prefixed_frames_without_leading_slash():
@@ -163,6 +167,10 @@ def test_mapping_embedded_explore_namespaced_and_single():
     assert params["/mapper/odom_frame"] == "odom"
     assert params["/explorer/base_frame"] == "base_footprint"
     assert params["/simulator/single_robot"] is True
+    nodes, _ = load("mapping.launch", "slam:=embedded", "rviz:=true", "single_robot:=true")
+    assert nodes["/rviz"].args.endswith("rviz/mapping_single.rviz")
+    nodes, _ = load("mapping.launch", "slam:=embedded", "rviz:=true")
+    assert nodes["/rviz"].args.endswith("rviz/mapping.rviz")
 
 
 def test_mapping_gmapping_and_stock_move_base_without_amcl():

@@ -145,9 +145,14 @@ class ExplorerNode:
             try:
                 return self.dynamic_map().map
             except (rospy.ServiceException, rospy.ROSException) as e:
-                rospy.logwarn_throttle(30.0, "explorer: %s does not answer (%s): using %s",
-                                       self.dynamic_map.resolved_name, e,
-                                       rospy.resolve_name("map"))
+                with self.lock:
+                    first = self.map is None
+                if first:        # no map yet: nothing scanned, nothing to say
+                    rospy.loginfo_throttle(30.0, "explorer: waiting for the first map")
+                else:
+                    rospy.logwarn_throttle(30.0, "explorer: %s does not answer (%s): using %s",
+                                           self.dynamic_map.resolved_name, e,
+                                           rospy.resolve_name("map"))
         with self.lock:
             return self.map
 
