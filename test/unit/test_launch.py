@@ -60,10 +60,6 @@ def test_navigation_stock_single_robot_bare_names():
     assert params["/simulator/ground_truth_tf"] is False
     assert params["/simulator/publish_initialpose"] is True
     assert params["/simulator/single_robot"] is True
-    nodes, _ = load("mapping.launch", "slam:=embedded", "rviz:=true", "single_robot:=true")
-    assert nodes["/rviz"].args.endswith("rviz/mapping_single.rviz")
-    nodes, _ = load("mapping.launch", "slam:=embedded", "rviz:=true")
-    assert nodes["/rviz"].args.endswith("rviz/mapping.rviz")
 
 
 def test_two_robots_stock_prefixed_frames_without_leading_slash():
@@ -183,6 +179,7 @@ def test_mapping_gmapping_and_stock_move_base_without_amcl():
     assert dict(nodes["/slam_gmapping"].remap_args)["scan"] == "/robot1/base_scan"
     assert params["/robot1/move_base/global_costmap/robot_base_frame"] == \
         "robot1/base_footprint"
+    assert params["/robot1/move_base/GlobalPlanner/allow_unknown"] is True
     nodes, params = load("mapping.launch", "slam:=slam_toolbox")
     assert {"/slam_toolbox", "/simulator"} <= set(nodes)
     assert params["/slam_toolbox/scan_topic"] == "/robot1/base_scan"

@@ -144,6 +144,10 @@ def test_explorer_goes_to_the_nearest_reachable_frontier_and_stops_when_done():
     assert np.hypot(fx - goal[0], fy - goal[1]).min() <= 1.0 + 0.1   # beside a frontier
     assert 8.9 < goal[1] < 11.1                     # in the known corridor
     assert math.hypot(goal[0] - 3.0, goal[1] - 10.0) < 3.0   # office 1's door, the nearest
+    # a failed goal off the known part of the map (below its crop) rules nothing out here
+    far = Explorer()
+    far.goal_failed((3.0, 4.0))
+    assert far.next_goal(partial, (3.0, 10.0, 0.0)) == goal
     explorer.goal_failed(goal)
     second = explorer.next_goal(partial, (3.0, 10.0, 0.0))
     assert second is not None and math.hypot(second[0] - goal[0], second[1] - goal[1]) > 0.5
@@ -198,5 +202,7 @@ def test_scan_matching_finds_the_true_pose_near_a_wrong_guess():
         assert abs(got[2] - true[2]) <= 0.003
         assert match(m, true, *args) == pytest.approx(true, abs=0.01)
         assert match(OccupancyMapper(), true, *args) == true         # an empty map: the guess
+        far = (true[0] + 60.0, true[1], true[2])     # no wall of the map near: the guess
+        assert match(m, far, *args) == far
     finally:
         w.close()

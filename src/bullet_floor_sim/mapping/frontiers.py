@@ -110,6 +110,8 @@ class Explorer:
         for fx, fy in self.failed:
             col, row = grid.to_cell(fx, fy)
             k = int(math.ceil(c.blacklist_radius / grid.resolution))
+            if row + k < 0 or col + k < 0:      # off the (cropped) grid below or left
+                continue
             ok[max(0, row - k):row + k + 1, max(0, col - k):col + k + 1] = False
         ok &= dist >= c.min_distance          # a trip that shows something new
         if not ok.any():

@@ -66,6 +66,8 @@ def match(mapper: OccupancyMapper, guess: Sequence[float],
             mapper.config.occupied_thresh)).any():
         return g
     scorer = _Scorer(mapper, g, r[ok] + SURFACE, a[ok], config)
+    if not scorer.walls:
+        return g
     (w_xy, w_th), (s_xy, s_th) = config.window, config.steps
     best = scorer.best(_grid(0.0, w_xy, s_xy), _grid(0.0, w_th, s_th), (0.0, 0.0, 0.0, -np.inf))
     best = scorer.best(_grid(0.0, s_xy, s_xy / 4), _grid(best[2], s_th, s_th / 4), best,
@@ -94,6 +96,9 @@ class _Scorer:
         r1, c1 = min(h, int(r1) + 1), min(w, int(c1) + 1)
         window = mapper.logodds[r0:r1, c0:c1]
         occupied = window > logit(mapper.config.occupied_thresh)
+        self.walls = bool(occupied.any())     # none near the guess: nothing to match against
+        if not self.walls:
+            return
         d = distance_transform_edt(~occupied) * res
         # a rim of one cell (field 0, not free) stands for everything off the window
         self.field = np.pad(np.exp(-0.5 * (d / config.sigma) ** 2), 1)

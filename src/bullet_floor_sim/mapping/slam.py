@@ -74,21 +74,35 @@ class ScanMatchingMapper:
         return (math.hypot(d[0], d[1]) >= self.config.linear_update
                 or abs(d[2]) >= self.config.angular_update)
 
-    def add(self, odom_laser: Sequence[float], ranges: Union[np.ndarray, Sequence[float]],
-            angle_min: float, angle_increment: float, range_max: float) -> bool:
-        """Take the scan from the laser at ``odom_laser`` (odometry frame) if it is due:
-        match it, update the correction and the map. Returns whether it was taken."""
+    def place(self, odom_laser: Sequence[float], ranges: Union[np.ndarray, Sequence[float]],
+              angle_min: float, angle_increment: float, range_max: float) -> Optional[Pose]:
+        """Where the scan from the laser at ``odom_laser`` (odometry frame) goes in the map,
+        or None when it is not due. Reads the map only (a node can run it outside the lock
+        that guards the map's readers)."""
         if not self.due(odom_laser):
-            return False
+            return None
         guess = self.in_map(odom_laser)
+        if self.mapper is None or not self.config.match:
+            return guess
+        return match(self.mapper, guess, ranges, angle_min, angle_increment, range_max,
+                     self.matcher_config)
+
+    def commit(self, odom_laser: Sequence[float], pose: Sequence[float],
+               ranges: Union[np.ndarray, Sequence[float]], angle_min: float,
+               angle_increment: float, range_max: float) -> None:
+        """Add the scan at ``pose`` (from :meth:`place`): the correction and the map."""
         if self.mapper is None:
-            self.mapper = OccupancyMapper(self.mapper_config, centre=guess[:2])
-        pose = guess
-        if self.config.match:
-            pose = match(self.mapper, guess, ranges, angle_min, angle_increment, range_max,
-                         self.matcher_config)
+            self.mapper = OccupancyMapper(self.mapper_config, centre=pose[:2])
         self.correction = compose(pose, inverse(odom_laser))
         self.mapper.update(pose, ranges, angle_min, angle_increment, range_max)
         self.last = (float(odom_laser[0]), float(odom_laser[1]), float(odom_laser[2]))
         self.taken += 1
+
+    def add(self, odom_laser: Sequence[float], ranges: Union[np.ndarray, Sequence[float]],
+            angle_min: float, angle_increment: float, range_max: float) -> bool:
+        """:meth:`place` and :meth:`commit` the scan if it is due; whether it was taken."""
+        pose = self.place(odom_laser, ranges, angle_min, angle_increment, range_max)
+        if pose is None:
+            return False
+        self.commit(odom_laser, pose, ranges, angle_min, angle_increment, range_max)
         return True

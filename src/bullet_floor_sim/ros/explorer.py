@@ -7,13 +7,14 @@ the nearest reachable frontier (mapping/frontiers.py) from the robot's pose (tf
 (move_base_msgs/MoveBaseAction: the embedded path follower or stock move_base, either with
 unknown space passable). When the goal ends, reached or not, its place is ruled out and the
 next goal is picked. When no reachable frontier is left on a map built after the last goal
-ended, it logs so, publishes ``~finished`` (std_msgs/Bool, latched) true and sends no more
+ended (or ``~finish_wait`` seconds after it: gmapping builds no new map while the robot stands
+still), it logs so, publishes ``~finished`` (std_msgs/Bool, latched) true and sends no more
 goals.
 
 Parameters: ``~global_frame`` (map), ``~base_frame`` (base_footprint), ``~robot_radius``
 (0.34), ``~min_frontier`` (0.3 m), ``~reach`` (1.0 m), ``~blacklist_radius`` (0.5 m),
 ``~min_distance`` (0.5 m) (ExplorerConfig's), ``~goal_timeout`` (120 s of sim time: a goal
-not ended by then is cancelled and ruled out).
+not ended by then is cancelled and ruled out), ``~finish_wait`` (10 s).
 """
 from __future__ import annotations
 
@@ -57,10 +58,11 @@ class ExplorerParams:
     blacklist_radius: float = ExplorerConfig.blacklist_radius
     min_distance: float = ExplorerConfig.min_distance
     goal_timeout: float = 120.0
+    finish_wait: float = 10.0
 
     def check(self) -> None:
         check_at_least(self, "explorer", ("robot_radius", "min_frontier", "reach",
-                                          "goal_timeout"))
+                                          "goal_timeout", "finish_wait"))
         check_at_least(self, "explorer", ("blacklist_radius", "min_distance"), strict=False)
 
 
@@ -125,7 +127,8 @@ class ExplorerNode:
                 continue
             fmap = grid_from_msg(msg)
             goal = self.explorer.next_goal(fmap, pose)
-            if goal is None and msg.header.stamp < ended:
+            if (goal is None and msg.header.stamp < ended
+                    and rospy.Time.now() - ended < rospy.Duration(self.params.finish_wait)):
                 rospy.sleep(0.5)               # done, unless the next map shows more
                 continue
             if goal is None:

@@ -62,7 +62,11 @@ class MapperParams:
     def check(self) -> None:
         check_at_least(self, "mapper", ("delta", "map_update_interval", "sigma",
                                         "transform_publish_period", "trace_range"))
-        check_at_least(self, "mapper", ("linear_update", "angular_update"), strict=False)
+        for field, name in GMAPPING_NAMES.items():
+            v = getattr(self, field)
+            if not (math.isfinite(v) and v >= 0):
+                raise BulletFloorSimError("mapper: ~%s must be a number >= 0, got %r"
+                                          % (name, v))
 
 
 #: gmapping's parameter names for our fields
@@ -116,8 +120,13 @@ class MapperNode:
         pose = self._laser_pose(msg)
         if pose is None:
             return
-        with self.lock:
-            self.slam.add(pose, msg.ranges, msg.angle_min, msg.angle_increment, msg.range_max)
+        args = (msg.ranges, msg.angle_min, msg.angle_increment, msg.range_max)
+        # matching reads the map only and this callback is its only writer: the lock (which
+        # the map's readers and the tf broadcast take) is held for the update alone
+        placed = self.slam.place(pose, *args)
+        if placed is not None:
+            with self.lock:
+                self.slam.commit(pose, placed, *args)
 
     def _grid(self) -> Optional[OccupancyGrid]:
         with self.lock:

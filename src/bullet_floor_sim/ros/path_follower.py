@@ -134,10 +134,10 @@ class PathFollowerNode:
 
     # -- inputs ------------------------------------------------------------------------------
     def _on_map(self, msg: OccupancyGrid) -> None:
-        handling = map_handling()
-        if self.allow_unknown:
-            handling = dataclasses.replace(handling or MapHandling(), unknown="free")
         try:
+            handling = map_handling()
+            if self.allow_unknown:
+                handling = dataclasses.replace(handling or MapHandling(), unknown="free")
             fmap = grid_from_msg(msg)
             if self.allow_unknown:   # a map being built: plan on its known part and a margin
                 fmap = crop_known(fmap, 3.0)
