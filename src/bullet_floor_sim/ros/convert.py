@@ -2,11 +2,12 @@
 from __future__ import annotations
 
 import math
-from typing import Any, List, Sequence
+from typing import Any, List, Sequence, Tuple
 
 import numpy as np
 import rospy
 from geometry_msgs.msg import Point, Pose, PoseStamped, Quaternion
+from move_base_msgs.msg import MoveBaseGoal
 from nav_msgs.msg import MapMetaData, OccupancyGrid
 from std_msgs.msg import Header
 
@@ -20,6 +21,22 @@ _NS = 1000000000
 def yaw(q: Any) -> float:
     """Yaw (rad) of a geometry_msgs/Quaternion."""
     return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def planar(t: Any) -> Tuple[float, float, float]:
+    """(x, y, yaw) of a geometry_msgs/Transform (a TransformStamped's ``transform``)."""
+    return t.translation.x, t.translation.y, yaw(t.rotation)
+
+
+def move_base_goal(x: float, y: float, heading: float, frame_id: str) -> MoveBaseGoal:
+    """A move_base goal at (x, y) facing ``heading`` in ``frame_id``, stamped now."""
+    g = MoveBaseGoal()
+    g.target_pose.header.frame_id = frame_id
+    g.target_pose.header.stamp = rospy.Time.now()
+    g.target_pose.pose.position.x, g.target_pose.pose.position.y = x, y
+    g.target_pose.pose.orientation.z = math.sin(heading / 2.0)
+    g.target_pose.pose.orientation.w = math.cos(heading / 2.0)
+    return g
 
 
 def grid_from_msg(msg: OccupancyGrid) -> FloorMap:

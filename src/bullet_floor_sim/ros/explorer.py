@@ -18,7 +18,6 @@ not ended by then is cancelled and ruled out), ``~finish_wait`` (10 s).
 """
 from __future__ import annotations
 
-import math
 import sys
 import threading
 from dataclasses import dataclass
@@ -29,13 +28,13 @@ from actionlib import CommState
 import rospy
 import tf2_ros
 from actionlib_msgs.msg import GoalStatus
-from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
+from move_base_msgs.msg import MoveBaseAction
 from nav_msgs.msg import OccupancyGrid
 from nav_msgs.srv import GetMap
 from std_msgs.msg import Bool
 
 from ..mapping.frontiers import Explorer, ExplorerConfig
-from .convert import grid_from_msg, yaw
+from .convert import grid_from_msg, move_base_goal, planar
 from .node import run_node
 from .params import check_at_least, config_from_params
 
@@ -103,8 +102,7 @@ class ExplorerNode:
             rospy.logwarn_throttle(10.0, "explorer: no pose (%s -> %s): %s",
                                    self.params.global_frame, self.params.base_frame, e)
             return None
-        v = t.transform.translation
-        return v.x, v.y, yaw(t.transform.rotation)
+        return planar(t.transform)
 
     def run(self) -> None:
         """Explore, then stay up: ``~finished`` stays latched for late subscribers."""
@@ -161,12 +159,7 @@ class ExplorerNode:
 
     def _go(self, goal: Sequence[float]) -> None:
         """Send ``goal`` and wait for it to end (or time out); rule its place out after."""
-        g = MoveBaseGoal()
-        g.target_pose.header.frame_id = self.params.global_frame
-        g.target_pose.header.stamp = rospy.Time.now()
-        g.target_pose.pose.position.x, g.target_pose.pose.position.y = goal[0], goal[1]
-        g.target_pose.pose.orientation.z = math.sin(goal[2] / 2.0)
-        g.target_pose.pose.orientation.w = math.cos(goal[2] / 2.0)
+        g = move_base_goal(goal[0], goal[1], goal[2], self.params.global_frame)
         self.goals += 1
         rospy.loginfo("explorer: goal %d: (%.2f, %.2f)", self.goals, goal[0], goal[1])
         # actionlib's ActionClient, not the SimpleActionClient: its send_goal races the

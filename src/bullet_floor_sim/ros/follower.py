@@ -33,7 +33,7 @@ import rospy
 import tf2_ros
 from actionlib_msgs.msg import GoalStatus
 from geometry_msgs.msg import PointStamped
-from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
+from move_base_msgs.msg import MoveBaseAction
 from nav_msgs.msg import OccupancyGrid, Odometry
 from std_msgs.msg import String
 
@@ -43,7 +43,7 @@ from ..people.follow import FollowBehaviour, FollowConfig
 from ..nav.planner import PlannerConfig, PlanningGrid
 from ..msg import Destination, TrackArray
 from .params import config_from_params, map_handling
-from .convert import grid_from_msg, yaw as yaw_of
+from .convert import grid_from_msg, move_base_goal, planar, yaw as yaw_of
 from .node import run_node
 
 __all__ = ["main", "FollowerNode"]
@@ -131,8 +131,7 @@ class FollowerNode:
             rospy.logwarn_throttle(10.0, "follower: no pose (tf %s -> %s): %s", self.frame,
                                    self.base_frame, e)
             return None
-        tr = t.transform
-        return tr.translation.x, tr.translation.y, yaw_of(tr.rotation)
+        return planar(t.transform)
 
     def step(self) -> None:
         pose = self._pose()
@@ -156,12 +155,8 @@ class FollowerNode:
             pt.point.x, pt.point.y = target.x, target.y
             self.target_pub.publish(pt)
         if dec.goal is not None:
-            g = MoveBaseGoal()
-            g.target_pose.header.stamp, g.target_pose.header.frame_id = rospy.Time.now(), self.frame
-            g.target_pose.pose.position.x, g.target_pose.pose.position.y = dec.goal[:2]
-            g.target_pose.pose.orientation.z = math.sin(dec.goal[2] / 2.0)
-            g.target_pose.pose.orientation.w = math.cos(dec.goal[2] / 2.0)
-            self.client.send_goal(g)
+            self.client.send_goal(move_base_goal(dec.goal[0], dec.goal[1], dec.goal[2],
+                                                 self.frame))
             self.goal_sent = True
 
     def run(self) -> None:

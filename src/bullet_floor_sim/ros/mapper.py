@@ -37,7 +37,7 @@ from ..errors import BulletFloorSimError
 from ..mapping.matcher import MatcherConfig
 from ..mapping.occupancy import MapperConfig
 from ..mapping.slam import ScanMatchingMapper, SlamConfig
-from .convert import occupancy_grid, yaw
+from .convert import occupancy_grid, planar
 from .node import run_node
 from .params import check_at_least, config_from_params
 
@@ -113,8 +113,7 @@ class MapperNode:
             rospy.logwarn_throttle(10.0, "mapper: no pose for a scan (%s); %d skipped", e,
                                    self.skipped)
             return None
-        v = t.transform.translation
-        return v.x, v.y, yaw(t.transform.rotation)
+        return planar(t.transform)
 
     def _on_scan(self, msg: LaserScan) -> None:
         pose = self._laser_pose(msg)

@@ -51,7 +51,7 @@ import rospy
 from actionlib.action_client import CommState
 from actionlib_msgs.msg import GoalStatus
 from geometry_msgs.msg import PoseStamped
-from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
+from move_base_msgs.msg import MoveBaseAction
 from nav_msgs.msg import OccupancyGrid
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
@@ -63,7 +63,7 @@ from ..data.rois import Roi, id_order
 from ..people.agents import MAX_REGOALS, REGOAL_WITHIN, WalkerAgent, WalkerStep
 from ..people.walker import (GoalSampler, Leg, RegionIndex, Walker, WalkerConfig, WalkerError,
                              walkable_regions)
-from .convert import yaw as yaw_of
+from .convert import move_base_goal, yaw as yaw_of
 from .params import config_from_params, map_handling
 from .soma import query_rois
 from .node import run_node
@@ -426,12 +426,7 @@ class MarkovWalkerNode:
     def _send(self, leg: Leg) -> None:
         """Send the leg's goal and say where it goes (~goal_region, ~goal)."""
         gx, gy, yaw = leg.goal
-        goal = MoveBaseGoal()
-        goal.target_pose.header.frame_id = self.frame_id
-        goal.target_pose.header.stamp = rospy.Time.now()
-        goal.target_pose.pose.position.x, goal.target_pose.pose.position.y = gx, gy
-        goal.target_pose.pose.orientation.z = math.sin(yaw / 2.0)
-        goal.target_pose.pose.orientation.w = math.cos(yaw / 2.0)
+        goal = move_base_goal(gx, gy, yaw, self.frame_id)
         self.pub_goal_region.publish(String(leg.target_region))
         self.pub_goal.publish(goal.target_pose)
         self.goal_handle = self.client.send_goal(goal)

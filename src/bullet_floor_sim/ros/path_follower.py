@@ -47,7 +47,7 @@ from ..errors import BulletFloorSimError
 from ..geometry import compose
 from ..sim.floormap import crop_known
 from ..sim.solidmap import MapHandling
-from .convert import grid_from_msg, yaw as yaw_of
+from .convert import grid_from_msg, planar, yaw as yaw_of
 from .params import check_at_least, config_from_params, map_handling
 from .node import run_node
 
@@ -165,9 +165,9 @@ class PathFollowerNode:
             rospy.logwarn_throttle(10.0, "path_follower: no transform %s -> %s yet: %s",
                                    self.global_frame, msg.header.frame_id, e)
             return
-        tr, p = t.transform, msg.pose.pose
+        p = msg.pose.pose
         self.base_frame = msg.child_frame_id
-        self.pose = compose((tr.translation.x, tr.translation.y, yaw_of(tr.rotation)),
+        self.pose = compose(planar(t.transform),
                             (p.position.x, p.position.y, yaw_of(p.orientation)))
 
     def _on_scan(self, msg: LaserScan) -> None:
@@ -183,8 +183,7 @@ class PathFollowerNode:
                 rospy.logwarn_throttle(10.0, "path_follower: no transform %s -> %s yet: %s",
                                        self.base_frame, msg.header.frame_id, e)
                 return
-            tr = t.transform
-            laser = (tr.translation.x, tr.translation.y, yaw_of(tr.rotation))
+            laser = planar(t.transform)
             self.laser[msg.header.frame_id] = laser
         self.obstacles = obstacles_in_base(msg.ranges, msg.angle_min, msg.angle_increment,
                                            msg.range_max, laser)

@@ -47,7 +47,7 @@ from ..people.tracking import PoseHistory, StaticMap, TrackerConfig
 from ..msg import Track as TrackMsg
 from ..msg import TrackArray
 from .params import config_from_params, map_handling
-from .convert import grid_from_msg, yaw as yaw_of
+from .convert import grid_from_msg, planar, yaw as yaw_of
 from .node import run_node
 
 __all__ = ["main", "PeopleTrackerNode", "POSE_SOURCES"]
@@ -125,8 +125,7 @@ class PeopleTrackerNode:
             if self.source == "amcl":
                 t = self.tf_buffer.lookup_transform(self.frame, frame, msg.header.stamp,
                                                     rospy.Duration(0.2))
-                tr = t.transform
-                return tr.translation.x, tr.translation.y, yaw_of(tr.rotation)
+                return planar(t.transform)
             base = self._gt_at(msg.header.stamp)
             if base is None:
                 rospy.logwarn_throttle(10.0, "people_tracker: no base_pose_ground_truth at the "
@@ -139,8 +138,7 @@ class PeopleTrackerNode:
                     self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
                 t = self.tf_buffer.lookup_transform(self.base_frame, frame, rospy.Time(0),
                                                     rospy.Duration(0.5))
-                tr = t.transform
-                off = (tr.translation.x, tr.translation.y, yaw_of(tr.rotation))
+                off = planar(t.transform)
                 self.laser_in_base[frame] = off
                 # placed from ground truth, the node needs no more tf: /tf at 50 Hz of sim
                 # time kept a Python thread busy enough to delay the ground-truth poses by
