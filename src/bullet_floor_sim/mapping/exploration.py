@@ -24,13 +24,13 @@ from typing import Any, Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..nav.planner import Navigator, PathFollower, PlanError, PlanningGrid, obstacles_in_base
-from ..nav.grid import PlannerConfig
-from ..sim.sensors import Scan
-from .frontiers import Explorer, ExplorerConfig
-from .compare import reachable, sample
-from .occupancy import MapperConfig, OccupancyMapper
 from ..geometry import compose
+from ..nav.grid import PlannerConfig
+from ..nav.planner import Navigator, PathFollower, PlanError, PlanningGrid, obstacles_in_base
+from ..sim.sensors import Scan
+from .compare import reachable, sample
+from .frontiers import Explorer, ExplorerConfig
+from .occupancy import MapperConfig, OccupancyMapper
 from .slam import ScanMatchingMapper, SlamConfig
 
 __all__ = ["ExploreResult", "explore", "coverage"]

@@ -5,7 +5,7 @@ from typing import Any, Tuple
 
 from ..errors import BulletFloorSimError
 
-__all__ = ["pyplot", "draw_map"]
+__all__ = ["pyplot", "draw_map", "shade"]
 
 
 def pyplot(what: str) -> Any:
@@ -27,17 +27,23 @@ def pyplot(what: str) -> Any:
     return plt
 
 
+def shade(grid: Any) -> Any:
+    """A trinary map grid as grey levels: walls black, free white, unknown grey."""
+    import numpy as np
+
+    g = np.asarray(grid)
+    return np.where(g == 100, 0.0, np.where(g == 0, 1.0, 0.8))
+
+
 def draw_map(ax: Any, fmap: Any) -> Tuple[float, float, float, float]:
     """Draw a floor map on matplotlib axes in map coordinates (walls black, free white,
     unknown grey, rotated by the origin's yaw) and return its unrotated extent
     (x0, x1, y0, y1)."""
-    import numpy as np
     from matplotlib.transforms import Affine2D
 
-    shade = np.where(fmap.grid == 100, 0.0, np.where(fmap.grid == 0, 1.0, 0.8))
     ox, oy, yaw = fmap.origin
     w, h = fmap.width * fmap.resolution, fmap.height * fmap.resolution
-    ax.imshow(shade, cmap="gray", vmin=0.0, vmax=1.0, origin="lower",
+    ax.imshow(shade(fmap.grid), cmap="gray", vmin=0.0, vmax=1.0, origin="lower",
               extent=(ox, ox + w, oy, oy + h), interpolation="nearest",
               transform=Affine2D().rotate_around(ox, oy, yaw) + ax.transData)
     return ox, ox + w, oy, oy + h

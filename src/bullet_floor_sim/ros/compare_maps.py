@@ -56,14 +56,15 @@ def main(argv: Optional[List[str]] = None) -> int:
 
 
 def plot(built: Any, world: Any, frame: Any, region: np.ndarray, path: str, title: str) -> None:
-    """Three panels: the world's map, the built map in the world's frame, and their
+    """Three panels: the world's map, the built map in the world's frame (both shaded as
+    people/plotting.draw_map shades a map), and their
     agreement (white: free in both; black: a wall face both have, within a cell; red: a
     face the built map lacks; blue: built occupied where the world has no wall near; grey:
     free in the world, unknown in the built map)."""
     from scipy.ndimage import binary_dilation
 
     from ..mapping.compare import sample
-    from ..people.plotting import pyplot
+    from ..people.plotting import pyplot, shade
 
     plt = pyplot("--plot")
     ours, truth = sample(built, world, frame), np.asarray(world.grid)
@@ -76,7 +77,6 @@ def plot(built: Any, world: Any, frame: Any, region: np.ndarray, path: str, titl
     rgb[faces & ~near_ours] = (0.85, 0.1, 0.1)
     rgb[faces & near_ours] = (0.0, 0.0, 0.0)
     rgb[(ours == 100) & ~near_wall] = (0.1, 0.3, 0.9)
-    shade = lambda g: np.where(g == 100, 0.0, np.where(g == 0, 1.0, 0.7))  # noqa: E731
     fig, axes = plt.subplots(1, 3, figsize=(18, 1.0 + 6.0 * truth.shape[0] / truth.shape[1]))
     try:
         for ax, img, name in zip(axes, (shade(truth), shade(ours), rgb),
