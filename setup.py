@@ -5,6 +5,7 @@ from catkin_pkg.python_setup import generate_distutils_setup
 setup(**generate_distutils_setup(
     packages=[
         "bullet_floor_sim",
+        "bullet_floor_sim.building",
         "bullet_floor_sim.data",
         "bullet_floor_sim.data.store",
         "bullet_floor_sim.data.trajectory",

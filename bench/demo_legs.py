@@ -35,7 +35,7 @@ from typing import Tuple
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
-from eval_worlds import shipped  # noqa: E402
+from eval_worlds import shipped, study_check, world_label  # noqa: E402
 from ros_bench import _free_port  # noqa: E402
 
 _WAIT = re.compile(r"waited for (?:cmd_vel of|subscribers) ([^;]*)")
@@ -120,7 +120,7 @@ def run_world(world: str, n: int, rtf: float, seed: int, timeout: float, port: i
         got = list(legs.legs[:n])
     out = _summary(world, rtf, got, os.path.join(home, "launch.log"))
     kept = os.path.join(tempfile.gettempdir(),  # one name per run, so runs can go side by side
-                        "bfs_demo_legs_%s_rtf%g_seed%d.log" % (world, rtf, seed))
+                        "bfs_demo_legs_%s_rtf%g_seed%d.log" % (world_label(world), rtf, seed))
     shutil.move(os.path.join(home, "launch.log"), kept)  # the nodes' output, for a look
     shutil.rmtree(home, ignore_errors=True)
     print("  %s: the nodes' output is in %s" % (world, kept), file=sys.stderr)
@@ -152,20 +152,28 @@ def main() -> int:
     p.add_argument("--rtf", type=float, default=0.0, help="demo.launch rtf (0 = flat out)")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--timeout", type=float, default=3600.0, help="wall seconds per world")
-    p.add_argument("--worlds", nargs="*", default=None, help="default: every shipped world")
+    p.add_argument("--worlds", nargs="*", default=None,
+                   help="names under worlds/ or world.yaml paths (default: every shipped world)")
+    p.add_argument("--allow-unreachable", action="store_true",
+                   help="run a world whose map check finds a region the walker cannot reach "
+                        "or an observer cut off (check_world); the output says so")
     args = p.parse_args()
+    worlds = args.worlds or shipped()
+    notes = study_check(worlds, args.allow_unreachable)   # exits on a refusal
     rows = []
     master, port = _master()
     legs = _Legs()
     try:
         _listen(port, "robot1", legs)
-        for w in args.worlds or shipped():
+        for w in worlds:
             print("== %s: demo.launch rtf:=%g, %d legs, seed %d" % (w, args.rtf, args.legs,
                                                                       args.seed),
                   file=sys.stderr, flush=True)
             rows.append(run_world(w, args.legs, args.rtf, args.seed, args.timeout, port, legs))
     finally:
         _stop(master, 10.0)
+    for n in notes:
+        print("  note: %s" % n, file=sys.stderr)
     for r in rows:
         for leg in r["failed"]:
             print("  %s given up: %s -> %s, %s: %s" % (r["world"], leg.get("from"),

@@ -24,18 +24,44 @@ sys.path.insert(0, os.path.join(HERE, "..", "src"))
 
 from bullet_floor_sim.people.evaluation import FRACTIONS, EvalConfig, run  # noqa: E402
 from bullet_floor_sim.paths import worlds_dir  # noqa: E402
+from bullet_floor_sim.sim.config import world_label  # noqa: E402
 
 COLUMNS = ("world", "legs", "given_up", "trk25", "trk50", "trk75", "gt25", "gt50", "gt75",
            "markov50", "heading50", "margin", "tracked", "rtf")
 
 
+#: Worlds made for tests, not buildings: simple's one room, corridor's one corridor.
+TEST_WORLDS = ("simple", "corridor")
+
+
 def shipped() -> list:
     d = worlds_dir()
     return sorted(w for w in os.listdir(d) if os.path.isfile(os.path.join(d, w, "world.yaml"))
-                  and w != "simple")  # simple has one robot: no observer
+                  and w not in TEST_WORLDS)
 
 
-def row(world: str, legs: int, seed: int) -> dict:
+def study_check(worlds: list, allow: bool) -> list:
+    """The map check of every world before any runs (building/check.py): exits with one line
+    per world that would refuse, unless ``allow``; then returns those lines as notes."""
+    from bullet_floor_sim.errors import BulletFloorSimError
+    from bullet_floor_sim.people.evaluation import EvalConfig
+    from bullet_floor_sim.people.evaluation.scenario import refuse_unreachable
+    from bullet_floor_sim.building import Building
+
+    notes, refused = [], []
+    for w in worlds:
+        try:
+            b = Building.load(w)
+            notes += ["%s: %s" % (w, n) for n in refuse_unreachable(
+                b, EvalConfig(world=w, allow_unreachable=allow), b)]
+        except BulletFloorSimError as e:
+            refused.append(str(e))
+    if refused:
+        sys.exit("\n".join(refused))
+    return notes
+
+
+def row(world: str, legs: int, seed: int, allow: bool = False) -> dict:
     t0 = time.time()
     last = [t0]
 
@@ -44,10 +70,10 @@ def row(world: str, legs: int, seed: int) -> dict:
             last[0] = time.time()
             print("  %s: %s" % (world, line), file=sys.stderr, flush=True)
 
-    r = run(EvalConfig(legs=legs, seed=seed, world=world), progress)
+    r = run(EvalConfig(legs=legs, seed=seed, world=world, allow_unreachable=allow), progress)
     tab = r.table()
     k = {f: FRACTIONS.index(f) for f in (0.25, 0.5, 0.75)}
-    out = {"world": world, "legs": len(r.legs),
+    out = {"world": world_label(world), "legs": len(r.legs),
            "given_up": r.failed_legs / max(1, len(r.legs) + r.failed_legs),
            "markov50": tab["tracker"]["markov"][k[0.5]][0],
            "heading50": tab["tracker"]["heading"][k[0.5]][0],
@@ -78,13 +104,18 @@ def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--legs", type=int, default=200)
     p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--worlds", nargs="*", default=None, help="default: every shipped world")
+    p.add_argument("--worlds", nargs="*", default=None,
+                   help="names under worlds/ or world.yaml paths (default: every shipped world)")
+    p.add_argument("--allow-unreachable", action="store_true",
+                   help="run a world whose map check finds a region the walker cannot reach "
+                        "or an observer cut off (check_world); the output says so")
     args = p.parse_args()
     worlds = args.worlds or shipped()
+    study_check(worlds, args.allow_unreachable)   # every world refused before any runs
     rows = []
     for w in worlds:
         print("== %s: %d legs, seed %d" % (w, args.legs, args.seed), file=sys.stderr, flush=True)
-        rows.append(row(w, args.legs, args.seed))
+        rows.append(row(w, args.legs, args.seed, args.allow_unreachable))
         for n in rows[-1]["notes"]:
             print("  note: %s" % n, file=sys.stderr)
         print("  done: %s" % _eval_line(rows[-1], None), file=sys.stderr, flush=True)

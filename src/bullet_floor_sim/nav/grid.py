@@ -107,6 +107,7 @@ class PlanningGrid:
         self.cost = cost
         self._flat = None  # type: Optional[List[float]]
         self._graph: Optional[Tuple[Any, np.ndarray]] = None
+        self._roomiest: Optional[np.ndarray] = None
 
     # -- coordinates -----------------------------------------------------------------------
     def to_cell(self, x: float, y: float) -> Tuple[int, int]:
@@ -328,6 +329,18 @@ class PlanningGrid:
             u = parent[u]
         out.reverse()
         return out
+
+    def roomiest(self, cols: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """The largest wall clearance (m) of a map cell centre within each planning cell,
+        plus half a map cell: twice it is a passage's width through that cell to a map cell
+        (exact for an even number of free cells between walls along the grid)."""
+        if self._roomiest is None:
+            k, (h, w) = self.factor, self._fine.shape
+            pad = np.full((self.height * k, self.width * k), -np.inf)
+            pad[:h, :w] = self._fine
+            self._roomiest = pad.reshape(self.height, k, self.width, k).max(axis=(1, 3)) \
+                + 0.5 * self.fmap.resolution
+        return self._roomiest[rows, cols]
 
     def clearance_along(self, pts: np.ndarray) -> np.ndarray:
         """Wall clearance (m) at map-frame points (N, 2), from the map's own cells (finer

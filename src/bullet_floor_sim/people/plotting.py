@@ -5,7 +5,7 @@ from typing import Any, Tuple
 
 from ..errors import BulletFloorSimError
 
-__all__ = ["pyplot", "draw_map", "shade"]
+__all__ = ["pyplot", "draw_map", "shade", "save_figure"]
 
 
 def pyplot(what: str) -> Any:
@@ -47,3 +47,19 @@ def draw_map(ax: Any, fmap: Any) -> Tuple[float, float, float, float]:
               extent=(ox, ox + w, oy, oy + h), interpolation="nearest",
               transform=Affine2D().rotate_around(ox, oy, yaw) + ax.transData)
     return ox, ox + w, oy, oy + h
+
+
+def save_figure(plt: Any, fig: Any, path: str, title: str, fontsize: int = 9) -> None:
+    """Title, lay out and write a figure as ``--plot PATH`` asks, then close it.
+
+    Raises:
+        BulletFloorSimError: the file cannot be written.
+    """
+    try:
+        fig.suptitle(title, fontsize=fontsize)
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+    except OSError as e:
+        raise BulletFloorSimError("--plot %s: cannot write it: %s" % (path, e)) from None
+    finally:
+        plt.close(fig)

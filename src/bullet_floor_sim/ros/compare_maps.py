@@ -64,7 +64,7 @@ def plot(built: Any, world: Any, frame: Any, region: np.ndarray, path: str, titl
     from scipy.ndimage import binary_dilation
 
     from ..mapping.compare import sample
-    from ..people.plotting import pyplot, shade
+    from ..people.plotting import pyplot, save_figure, shade
 
     plt = pyplot("--plot")
     ours, truth = sample(built, world, frame), np.asarray(world.grid)
@@ -86,13 +86,10 @@ def plot(built: Any, world: Any, frame: Any, region: np.ndarray, path: str, titl
             ax.set_title(name)
             ax.set_xticks([])
             ax.set_yticks([])
-        fig.suptitle(title, fontsize=9)
-        fig.tight_layout()
-        fig.savefig(path, dpi=110)
-    except OSError as e:
-        raise BulletFloorSimError("--plot %s: cannot write it: %s" % (path, e)) from None
-    finally:
+    except BaseException:
         plt.close(fig)
+        raise
+    save_figure(plt, fig, path, title)
 
 
 if __name__ == "__main__":

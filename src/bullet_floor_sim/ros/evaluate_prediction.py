@@ -37,7 +37,9 @@ __all__ = ["main"]
 def _default_plot(world: str, count: int, seed: int, kind: str = "prediction") -> str:
     """$ROS_HOME/bullet_floor_sim/<kind>_<world>_<legs or people>_<seed>.png"""
     home = os.environ.get("ROS_HOME") or os.path.join(os.path.expanduser("~"), ".ros")
-    name = os.path.basename(world.rstrip("/")).replace(".yaml", "")
+    from ..sim.config import world_label
+
+    name = world_label(world)
     return os.path.join(home, "bullet_floor_sim", "%s_%s_%d_%d.png" % (kind, name, count, seed))
 
 
@@ -51,6 +53,9 @@ def main(argv: Optional[List[str]] = None) -> int:
     p.add_argument("--no-follow", action="store_true",
                    help="the observer stays where it is (tracker-only baseline)")
     p.add_argument("--quiet", action="store_true", help="no line per leg")
+    p.add_argument("--allow-unreachable", action="store_true",
+                   help="run even when the walker cannot reach a region or the observer the "
+                        "walker (check_world); the output says so")
     p.add_argument("--people", type=int, default=0,
                    help="N > 0: N people walk the regions instead of the walker robot; the "
                         "observer tracks them all and follows --chosen (0: the walker robot)")
@@ -68,7 +73,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     if args.people:
         return _people(args, say)
     cfg = EvalConfig(legs=args.legs, seed=args.seed, world=args.world,
-                     follow=not args.no_follow)
+                     follow=not args.no_follow, allow_unreachable=args.allow_unreachable)
     try:
         result = run(cfg, say)
     except BulletFloorSimError as e:

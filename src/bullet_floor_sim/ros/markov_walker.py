@@ -34,8 +34,12 @@ people.walker.WalkerConfig fields as ``~<field>`` (``~retry_delay``, ``~max_pick
 ``~frame_id`` (map), ``~regoal_within`` (1.5 m) and ``~max_regoals`` (1): a goal the navigation
 gives up on this close is replaced by another in its region (people/agents.WalkerAgent).
 
-Problems (no ROIs, service missing, no map, no action server, unreachable regions) are one
-line each in the log and retried; the node does not exit.
+Problems (no ROIs, service missing, no map, no action server) are one line each in the log
+and retried; the node does not exit. Regions it cannot reach (another part of the floor, or
+no point ``~clearance`` from the walls) are different: on the first ROIs it exits with one
+error naming them and the fixes (check_world says more), unless ``~allow_unreachable``
+(false) lets it walk the rest, which it then logs as an error. Later ROI edits that leave a
+region out are warnings.
 """
 from __future__ import annotations
 
@@ -116,6 +120,7 @@ class MarkovWalkerNode:
             raise WalkerError("~regoal_within must be a finite number >= 0 and ~max_regoals an "
                               "integer >= 0, got %r and %r" % self.regoal)
         self.robot_radius = float(gp("~robot_radius", PlannerConfig.robot_radius))
+        self.allow_unreachable = bool(gp("~allow_unreachable", False))
         self.query_service = str(gp("~query_service", "/soma/query_rois"))
         self.map_info_service = str(gp("~map_info_service", "/soma/map_info"))
         self.requery_period = float(gp("~requery_period", 30.0))
@@ -270,8 +275,20 @@ class MarkovWalkerNode:
             return True
         usable = good
         good, unreachable = walkable_regions(good, sampler)
-        for w in warnings + unreachable:
+        for w in warnings:
             rospy.logwarn("markov_walker: %s", w)
+        if unreachable and self.chain is None and not self.allow_unreachable:
+            from ..building.check import FIXES
+
+            rospy.logfatal("markov_walker: refusing to walk: %s. Fixes: %s; or set "
+                           "~allow_unreachable (rosrun bullet_floor_sim check_world WORLD "
+                           "shows the floor)", "; ".join(unreachable), "; ".join(FIXES))
+            rospy.signal_shutdown("regions cannot be reached")
+            return False
+        for w in unreachable:
+            (rospy.logerr if self.chain is None else rospy.logwarn)(
+                "markov_walker: %s%s", w, " (going on: ~allow_unreachable)"
+                if self.chain is None else "")
         if not good:
             self.complain("rois", "markov_walker: none of the %d ROIs of config %s is usable "
                           "and reachable; retrying" % (len(rois), self.roi_config))

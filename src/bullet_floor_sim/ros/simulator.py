@@ -56,6 +56,7 @@ from ..sim.config import load_world_config, resolve_world
 from ..errors import BulletFloorSimError, CommandError, ConfigError
 from ..sim.pacing import BacklogGate, CommandGate, tcp_unread, waits_line
 from ..paths import worlds_dir
+from ..sim.solidmap import cleaned_map
 from ..sim.world import World
 from .params import set_map_handling
 from .sim.frames import gt_tf_robots, map_to_odom
@@ -82,6 +83,9 @@ class SimulatorNode:
         rtf: real-time factor to hold (0 = as fast as possible).
         rates: Hz of "clock", "odom" (and tf), "pose" (ground truth), "state" (battery, joints).
         publish_map: publish the world's map, latched, on /map and /map_metadata.
+        serve_cleaned: publish it with the world's map handling's changes made
+            (sim/solidmap.cleaned_map), so that amcl and move_base see the building the
+            simulator does.
         ground_truth_tf: publish map -> N/odom from ground truth: True for every robot, or
             the names of the robots to do it for.
         initialpose: publish spawn poses, latched, on N/initialpose.
@@ -107,7 +111,7 @@ class SimulatorNode:
                  initialpose: bool = False,
                  clock_wall_period: float = 0.001, flush_period: float = 0.002,
                  send_share: float = 0.1, report_period: float = 10.0,
-                 gate: Optional[CommandGate] = None,
+                 gate: Optional[CommandGate] = None, serve_cleaned: bool = False,
                  backlog: Optional[BacklogGate] = None) -> None:
         check_wires()
         self.world = world
@@ -162,7 +166,7 @@ class SimulatorNode:
         self.people_out = (PeopleOutput(pub, world.people, world.clock.now_ns)
                            if world.people is not None else None)
         if publish_map:
-            self._publish_map()
+            self._publish_map(serve_cleaned)
         self.initialpose = [rospy.Publisher(("/" + sp.name if sp.name else "") + "/initialpose",
                                             PoseWithCovarianceStamped, queue_size=1, latch=True)
                             for sp in world.specs] if initialpose else []
@@ -213,8 +217,9 @@ class SimulatorNode:
         return EmptyResponse()
 
     # ------------------------------------------------------------------------- output
-    def _publish_map(self) -> None:
-        fmap = self.world.fmap
+    def _publish_map(self, cleaned: bool) -> None:
+        fmap = (cleaned_map(self.world.fmap, self.world.config.map_handling) if cleaned
+                else self.world.fmap)
         info = MapMetaData()
         info.map_load_time = ros_time(self.world.clock.now_ns)
         info.resolution = fmap.resolution
@@ -406,6 +411,22 @@ class SimulatorNode:
 
 
 
+def _log_check(world: World) -> None:
+    """The map check (building/check.py, as ``check_world`` prints it) in the log: what the
+    map handling changed, what each footprint reaches; a warning for each region the first
+    robot cannot reach and a second robot cut off from it."""
+    from ..building import Building
+    from ..building.check import check_building, study_problems
+
+    report = check_building(Building(world.config, world.fmap))
+    for line in report.lines():
+        rospy.loginfo("simulator: check_world: %s", line)
+    names = [s.name or "robot" for s in world.config.robots]
+    if names and world.config.rois:
+        for p in study_problems(report, names[0], names[1] if len(names) > 1 else None):
+            rospy.logwarn("simulator: check_world: %s", p)
+
+
 def main(argv: Optional[List[str]] = None) -> int:
     """Entry point of ``rosrun bullet_floor_sim simulator``."""
     rospy.init_node("simulator", disable_signals=True)
@@ -446,7 +467,8 @@ def main(argv: Optional[List[str]] = None) -> int:
                              bool(rospy.get_param("~publish_initialpose", False)),
                              send_share=float(rospy.get_param("~send_share", 0.1)),
                              report_period=float(rospy.get_param("~report_period", 10.0)),
-                             gate=gate, backlog=backlog)
+                             gate=gate, backlog=backlog,
+                             serve_cleaned=bool(rospy.get_param("~serve_cleaned", False)))
     except BulletFloorSimError as e:
         rospy.logfatal("simulator: %s", e)
         world.close()
@@ -464,8 +486,8 @@ def main(argv: Optional[List[str]] = None) -> int:
                                             for g in crowd_cfg.groups})))
         for line in world.sections_report:
             rospy.loginfo("simulator: lidar beams at robots of %s", line)
-        for line in world.solid.report:  # what the map's handling made solid or floor
-            rospy.loginfo("simulator: map %s: %s", world.fmap.yaml_path, line)
+        if rospy.get_param("~check_world", True):
+            _log_check(world)
         node.spin(stop)
     except BulletFloorSimError as e:
         rospy.logfatal("simulator: %s", e)

@@ -46,6 +46,7 @@ __all__ = [
     "WorldConfig",
     "load_world_config",
     "resolve_world",
+    "world_label",
 ]
 
 
@@ -168,6 +169,17 @@ def resolve_world(world: str, worlds_dir: str) -> str:
         raise ConfigError("world %r: no such world file %s (known worlds: %s)"
                           % (world, path, ", ".join(known) or "none"))
     return path
+
+
+def world_label(world: str) -> str:
+    """A short name for ``world:=`` (a name, or a world.yaml path: its directory's name, or
+    the file's stem when it is not called world.yaml), safe in a file name."""
+    if not (world.endswith((".yaml", ".yml")) or os.sep in world):
+        return world
+    path = os.path.abspath(os.path.expanduser(world))
+    stem = os.path.splitext(os.path.basename(path))[0]
+    name = os.path.basename(os.path.dirname(path)) if stem == "world" else stem
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", name) or "world"
 
 
 def load_world_config(path: str) -> WorldConfig:

@@ -41,7 +41,7 @@ from ..errors import ConfigError
 from .floormap import FloorMap
 from .mapcache import load_entry, map_cache_dir, map_key, store_entry
 
-__all__ = ["MapHandling", "SolidMap", "solid_map", "UNKNOWN_MODES"]
+__all__ = ["MapHandling", "SolidMap", "solid_map", "cleaned_map", "UNKNOWN_MODES"]
 
 UNKNOWN_MODES = ("wall", "free")
 _SLIVER_WINDOW = 0.6  # metres: the neighbourhood whose free share tells floor from a ray fan
@@ -111,6 +111,22 @@ def solid_map(fmap: FloorMap, handling: MapHandling = MapHandling()) -> SolidMap
             _store(disk, cached)
         fmap._derived[key] = cached
     return cached
+
+
+def cleaned_map(fmap: FloorMap, handling: MapHandling = MapHandling()) -> FloorMap:
+    """The user's map with the handling's changes made, for map_server, amcl and move_base:
+    removed speckle and unknown slivers become free (0), closed gaps occupied (100); unknown
+    cells that stay solid stay unknown (-1), as the map had them. A node that applies the
+    same handling to it gets the same solid cells back."""
+    grid = np.asarray(fmap.grid)
+    solid = np.asarray(solid_map(fmap, handling).fmap.grid) == 100
+    out = grid.copy()
+    out[(grid != 0) & ~solid] = 0
+    out[(grid == 0) & solid] = 100
+    return FloorMap(grid=out.astype(np.int8), resolution=fmap.resolution, origin=fmap.origin,
+                    yaml_path=fmap.yaml_path, image_path=fmap.image_path, negate=fmap.negate,
+                    occupied_thresh=fmap.occupied_thresh, free_thresh=fmap.free_thresh,
+                    mode=fmap.mode)
 
 
 def _distance(solid: np.ndarray) -> np.ndarray:

@@ -42,6 +42,9 @@ class EvalConfig:
         match_distance: a track within this distance (m) of the walker tracks it.
         visible_beams: the walker is visible when this many observer beams end on its body.
         prediction: the predictor's parameters (default: PredictionConfig()).
+        allow_unreachable: run even when the map check (building/check.py) finds a region
+            the walker cannot reach or an observer cut off from it (else the run refuses);
+            what it found is then among the result's warnings.
     """
 
     legs: int = 200
@@ -55,6 +58,7 @@ class EvalConfig:
     match_distance: float = 0.5
     visible_beams: int = 3
     prediction: Optional[PredictionConfig] = None
+    allow_unreachable: bool = False
 
     def check(self) -> None:
         if not (isinstance(self.legs, int) and self.legs >= 1):

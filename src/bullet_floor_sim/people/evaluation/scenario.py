@@ -9,20 +9,20 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from ...data.rois import load_rois
 from ...sim.sensors import Scan
-from ...nav.planner import (Navigator, NavigatorConfig, PathFollower, PlanError, PlanningGrid,
+from ...nav.planner import (Navigator, NavigatorConfig, PathFollower, PlanError,
                             obstacles_in_base)
 from ..agents import FollowerAgent, PredictorAgent, TrackerAgent, WalkerAgent
 from ..follow import FollowBehaviour, FollowConfig
-from ..markov import MarkovChain, usable_rois
+from ..markov import MarkovChain
 from ..prediction import DestinationModel, OnlinePredictor, PredictionConfig
 from ..tracking import TrackerConfig
-from ..walker import GoalSampler, Walker, WalkerConfig, WalkerError, walkable_regions
+from ..walker import Walker, WalkerConfig, WalkerError
+from ...building import Building, robot_footprint
 from .result import EvalConfig, EvalResult, EvaluationError, LegScore
 from .scoring import Record, score_leg
 
-__all__ = ["run", "world_model", "ObserverDrive"]
+__all__ = ["run", "world_model", "ObserverDrive", "refuse_unreachable"]
 
 
 def run(config: Optional[EvalConfig] = None,
@@ -49,16 +49,33 @@ def run(config: Optional[EvalConfig] = None,
         world.close()
 
 
-def _regions(world):
+def _regions(world, building=None):
     """The planning grid, the walker's goal sampler, the regions the walker can reach, their
     chain, and the warnings about the map and the regions left out."""
-    grid = PlanningGrid(world.fmap, handling=world.config.map_handling)
-    wcfg = WalkerConfig()
-    sampler = GoalSampler(grid, wcfg.clearance, wcfg.margin, wcfg.goal_tries)
-    rois, warnings = usable_rois(load_rois(world.config.rois))
-    rois, unreachable = walkable_regions(rois, sampler)
+    b = building or Building(world.config, world.fmap)
+    fp = robot_footprint()
+    sampler = b.sampler(fp)
+    rois, warnings = b.regions()
+    rois, unreachable = b.walkable(fp)
     chain = MarkovChain.from_rois(rois)
-    return grid, sampler, rois, chain, world.solid.report + warnings + unreachable + chain.warnings
+    return (sampler.grid, sampler, rois, chain,
+            world.solid.report + warnings + unreachable + chain.warnings)
+
+
+def refuse_unreachable(world, cfg: EvalConfig, building=None) -> List[str]:
+    """The map check of a study (building/check.py): raises EvaluationError naming what the
+    walker cannot reach (and the passages, and the fixes) unless ``cfg.allow_unreachable``;
+    then returns it as warnings that say the run went on."""
+    from ...building.check import FIXES, check_building, study_problems
+
+    b = building or Building(world.config, world.fmap)
+    names = [r.name or "robot" for r in world.config.robots]
+    problems = study_problems(check_building(b), names[cfg.walker], names[cfg.observer])
+    if problems and not cfg.allow_unreachable:
+        raise EvaluationError("evaluate: world %s: %s. Fixes: %s; or allow it with "
+                              "--allow-unreachable" % (cfg.world, "; ".join(problems),
+                                                       "; ".join(FIXES)))
+    return ["going on as allowed (--allow-unreachable): %s" % p for p in problems]
 
 
 def world_model(world_name: str, prediction: Optional[PredictionConfig] = None
@@ -86,7 +103,10 @@ class _Scenario:
         if not world.config.rois:
             raise EvaluationError("evaluate: world %s has no rois file" % cfg.world)
         self.cfg, self.world, self.say, self.t_wall = cfg, world, say, t_wall
-        grid, sampler, rois, chain, self.warnings = _regions(world)
+        building = Building(world.config, world.fmap)
+        allowed = refuse_unreachable(world, cfg, building)
+        grid, sampler, rois, chain, self.warnings = _regions(world, building)
+        self.warnings = allowed + self.warnings
         self.model = model = DestinationModel(grid, rois, chain, cfg.prediction)
         self.uniform = {r: 1.0 / len(chain.ids) for r in chain.ids}
         # the agents the nodes run: markov_walker, people_tracker (observer.launch's

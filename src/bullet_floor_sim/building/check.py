@@ -1,0 +1,277 @@
+"""The map check (``check_world``): what a footprint can reach on a world's floor.
+
+For each footprint (the robot's, a person's) :func:`check_building` reports
+
+* the floor it can plan on (cells where the disc fits), and for each start (a robot's spawn
+  pose; for a person, the part of the floor most regions lie on) the share of that floor
+  connected to it;
+* which regions have a goal point in that part, which lie in another part, and which have no
+  point with the goal clearance at all;
+* the narrowest passage on the route between each pair of neighbouring regions (the chain's
+  edges): the least width of the floor (to a map cell) along the cheapest path the planner gives,
+  and where it is;
+
+and what each map-handling rule changed (sim/solidmap.py). :func:`study_problems` turns the
+report into what would make a study degrade silently: a region the walker cannot reach, an
+observer that cannot reach the walker's floor.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..data.rois import Roi
+from ..people.walker import region_label
+from . import Building, Footprint, person_footprint, robot_footprint
+
+__all__ = ["Passage", "StartReach", "FootprintCheck", "WorldCheck", "check_building",
+           "study_problems", "FIXES"]
+
+#: What a user can do about a region or a start cut off, in the order worth trying.
+FIXES = ("remove furniture specks from the map (world.yaml clean: {speckle: 0.05}, in m^2)",
+         "close one-cell slits (clean: {close_gaps: ...})",
+         "a smaller footprint (the planner's robot_radius)",
+         "move the robot's start pose, or the region, onto the connected floor")
+
+
+@dataclass
+class Passage:
+    """The route between two neighbouring regions: ``width`` (m, the floor's least width
+    along it; 0 when there is no route) at ``at`` (x, y; None: no route)."""
+
+    a: str
+    b: str
+    width: float
+    at: Optional[Tuple[float, float]]
+    path: Optional[np.ndarray] = field(default=None, repr=False)
+    no_route: bool = False              # the footprint cannot pass: ``at`` is where it narrows
+
+    def describe(self) -> str:
+        if self.at is None:
+            return "no route"
+        return "%s%.2f m wide at (%.1f, %.1f)" % ("blocked: narrows to " if self.no_route else "",
+                                                   self.width, self.at[0], self.at[1])
+
+
+@dataclass
+class StartReach:
+    """What one start reaches: its part of the floor (``area``, m^2; ``share`` of the floor
+    the footprint can plan on), and the region ids in it and not."""
+
+    name: str
+    xy: Tuple[float, float]
+    component: int
+    area: float
+    share: float
+    reachable: List[str]
+    unreachable: List[str]
+
+
+@dataclass
+class FootprintCheck:
+    """One footprint's report."""
+
+    footprint: Footprint
+    passable: float                     # m^2 where the disc fits
+    starts: List[StartReach]
+    no_goal: List[str]                  # regions with no point of the goal clearance
+    passages: List[Passage]
+    component_mask: Optional[np.ndarray] = field(default=None, repr=False)
+
+
+@dataclass
+class WorldCheck:
+    """The whole report of one world."""
+
+    world: str
+    path: str
+    free: float                         # m^2 of floor that is not solid
+    handling: List[str]                 # one line per change the map handling made
+    regions: Dict[str, str]             # id -> label
+    footprints: List[FootprintCheck]
+
+    def lines(self) -> List[str]:
+        """The report as text, one fact a line."""
+        out = ["world %s (%s): %.0f m^2 of floor not solid" % (self.world, self.path, self.free)]
+        out += ["map handling: %s" % h for h in self.handling] or ["map handling: changed nothing"]
+        for fc in self.footprints:
+            fp = fc.footprint
+            out.append("%s footprint (radius %.2f m, goals %.2f m from walls): %.0f m^2 to plan "
+                       "on" % (fp.name, fp.radius, fp.clearance, fc.passable))
+            for s in fc.starts:
+                out.append("  from %s at (%.1f, %.1f): %.0f m^2 connected (%.0f %%); regions "
+                           "reached %d of %d%s" % (
+                               s.name, s.xy[0], s.xy[1], s.area, 100 * s.share,
+                               len(s.reachable), len(self.regions),
+                               "" if not s.unreachable else
+                               "; cut off: " + ", ".join(self._names(s.unreachable))))
+            if fc.no_goal:
+                out.append("  no goal point in: " + ", ".join(self._names(fc.no_goal)))
+            for p in sorted(fc.passages, key=lambda p: p.width):
+                out.append("  passage %s - %s: %s" % (self.regions[p.a], self.regions[p.b],
+                                                     p.describe()))
+        return out
+
+    def _names(self, ids: Sequence[str]) -> List[str]:
+        return ['"%s" (%s)' % (i, self.regions[i]) for i in ids]
+
+    def footprint(self, name: str) -> FootprintCheck:
+        return next(fc for fc in self.footprints if fc.footprint.name == name)
+
+
+def check_building(b: Building, robots: Optional[Sequence[str]] = None) -> WorldCheck:
+    """The report of a building (see the module doc) for its robots (all of them, or those
+    named) and a person."""
+    rois, _ = b.regions()
+    specs = [r for r in b.config.robots if robots is None or r.name in robots]
+    starts = [(r.name or "robot", (float(r.pose[0]), float(r.pose[1]))) for r in specs]
+    fps = [_footprint_check(b, robot_footprint(), rois, starts)]
+    fps.append(_footprint_check(b, person_footprint(b.config), rois, []))
+    solid = b.solid
+    free = float((np.asarray(solid.fmap.grid) == 0).sum()) * b.fmap.resolution ** 2
+    return WorldCheck(b.name, b.config.path, free, list(solid.report),
+                      {r.id: region_label(r) for r in rois}, fps)
+
+
+def _footprint_check(b: Building, fp: Footprint, rois: List[Roi],
+                     starts: List[Tuple[str, Tuple[float, float]]]) -> FootprintCheck:
+    sampler = b.sampler(fp)
+    grid = sampler.grid
+    cell = grid.resolution ** 2
+    area = np.bincount(sampler.labels.ravel()).astype(float) * cell
+    area[0] = 0.0
+    passable = float(area.sum())
+    comps = {r.id: set(int(v) for v in sampler.cells_in(r)[2]) for r in rois}
+    no_goal = [i for i, s in comps.items() if not s]
+    if not starts:   # a person starts where most regions are (walkable_regions' main part)
+        counts: Dict[int, int] = {}
+        for s in comps.values():
+            for k in s:
+                counts[k] = counts.get(k, 0) + 1
+        if counts:
+            main = max(counts, key=lambda k: (counts[k], area[k]))
+            r, c = np.argwhere(sampler.labels == main)[0]
+            starts = [("the regions' floor", grid.to_world(c, r))]
+    reach = []
+    for name, xy in starts:
+        k = sampler.component_at(*xy)
+        got = [i for i, s in comps.items() if k and k in s]
+        reach.append(StartReach(name, xy, k, float(area[k]) if k else 0.0,
+                                float(area[k]) / passable if k and passable else 0.0, got,
+                                [i for i, s in comps.items() if s and i not in got]))
+    mask = np.isin(sampler.labels, [s.component for s in reach if s.component])
+    return FootprintCheck(fp, passable, reach, no_goal, _passages(b, sampler, rois, comps),
+                          mask)
+
+
+#: The disc radius (m) of the fallback route that shows where a cut-off region's way narrows.
+THIN = 0.05
+
+
+def _passages(b: Building, sampler, rois: List[Roi], comps: Dict[str, set]) -> List[Passage]:
+    """The narrowest passage between each pair of neighbouring regions (the chain's rule):
+    the cheapest path between their roomiest goal points (one Dijkstra per region over the
+    planner's graph), and where the floor along it is narrowest (to a map cell). A pair the
+    footprint cannot pass between gets the route of a THIN disc instead, with ``no_route``:
+    where the way is too narrow for it."""
+    from ..people.markov import MarkovChain
+
+    if len(rois) < 2:
+        return []
+    chain = MarkovChain.from_rois(rois)
+    pairs = sorted({(min(i, j), max(i, j)) for i in chain.ids for j in chain.neighbours(i)})
+    best = {}  # type: Dict[str, Tuple[float, float]]
+    for roi in rois:   # the region's goal point with most clearance
+        x, y, _ = sampler.cells_in(roi)
+        if len(x):
+            k = int(np.argmax(sampler.grid.clearance_along(np.column_stack([x, y]))))
+            best[roi.id] = (float(x[k]), float(y[k]))
+    out = _routes(sampler.grid, pairs, best)
+    cut = [(p.a, p.b) for p in out if p.at is None]
+    if cut:
+        thin = {(p.a, p.b): p for p in _routes(b.grid(THIN), cut, _centres(rois))}
+        for p in out:
+            q = thin.get((p.a, p.b))
+            if q is not None and q.at is not None:
+                p.width, p.at, p.path, p.no_route = q.width, q.at, q.path, True
+    return out
+
+
+def _centres(rois: List[Roi]) -> Dict[str, Tuple[float, float]]:
+    """A point inside each region (its polygon's representative point)."""
+    from ..data.rois import roi_polygon
+
+    out = {}
+    for r in rois:
+        p = roi_polygon(r).representative_point()
+        out[r.id] = (float(p.x), float(p.y))
+    return out
+
+
+def _routes(grid, pairs: Sequence[Tuple[str, str]],
+            at: Dict[str, Tuple[float, float]]) -> List[Passage]:
+    """The cheapest route on ``grid`` between the points of each pair, as Passages."""
+    from scipy.sparse.csgraph import dijkstra
+
+    graph, node = grid.graph()
+    cells = {}
+    for i, xy in at.items():
+        c = grid.free_cell_near(*xy)
+        if c is not None:
+            cells[i] = int(node[c[1], c[0]])
+    valid = np.flatnonzero(node.ravel() >= 0)   # node id -> flat cell index
+    out = []
+    for a in sorted({p[0] for p in pairs}):
+        pred = None
+        if a in cells:
+            _, pred = dijkstra(graph, directed=False, indices=cells[a],
+                               return_predecessors=True)
+        for _, t in [p for p in pairs if p[0] == a]:
+            u = cells.get(t, -9999)
+            if pred is None or u < 0 or (u != cells[a] and pred[u] < 0):
+                out.append(Passage(a, t, 0.0, None))
+                continue
+            nodes = [u]
+            while pred[nodes[-1]] >= 0:
+                nodes.append(int(pred[nodes[-1]]))
+            flat = valid[np.array(nodes[::-1])]
+            rows, cols = flat // grid.width, flat % grid.width
+            clear = grid.roomiest(cols, rows)
+            k = int(np.argmin(clear))
+            path = np.array([grid.to_world(c, r) for c, r in zip(cols, rows)])
+            out.append(Passage(a, t, 2.0 * max(0.0, float(clear[k])),
+                               (float(path[k, 0]), float(path[k, 1])), path))
+    return out
+
+
+def study_problems(report: WorldCheck, walker: str, observer: Optional[str]) -> List[str]:
+    """Why a study of ``walker`` (observed by ``observer``) would degrade: regions the
+    walker cannot reach (with the narrowest passage on their way), an observer on another
+    part of the floor. Empty when there is nothing."""
+    fc = report.footprint("robot")
+    starts = {s.name: s for s in fc.starts}
+    w = starts[walker]
+    out = []
+    if w.unreachable:
+        cut = []
+        for i in w.unreachable:
+            ways = [p for p in fc.passages if i in (p.a, p.b) and p.at is not None]
+            way = max(ways, key=lambda p: p.width) if ways else None
+            cut.append('"%s" (%s)%s' % (i, report.regions[i], "" if way is None else
+                                        " (its widest way in: %s)" % way.describe()))
+        out.append("%s at (%.1f, %.1f) cannot reach region(s) %s: they lie on another part of "
+                   "the floor than its start for a %.2f m wide footprint"
+                   % (walker, w.xy[0], w.xy[1], ", ".join(cut), 2 * fc.footprint.radius))
+    if fc.no_goal:
+        out.append("region(s) %s have no point %.2f m from every wall for %s"
+                   % (", ".join('"%s" (%s)' % (i, report.regions[i]) for i in fc.no_goal),
+                      fc.footprint.clearance, walker))
+    if observer is not None and observer in starts:
+        o = starts[observer]
+        if o.component != w.component:
+            out.append("%s at (%.1f, %.1f) starts on a part of the floor (%.0f m^2) that %s's "
+                       "(%.0f m^2) is not connected to: it can never reach the walker"
+                       % (observer, o.xy[0], o.xy[1], o.area, walker, w.area))
+    return out

@@ -1,0 +1,130 @@
+"""The building model and the map check (building/, check_world), on two rooms of known
+geometry joined by one door."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bullet_floor_sim.building import Building, person_footprint, robot_footprint
+from bullet_floor_sim.building.check import check_building, study_problems
+from bullet_floor_sim.people.evaluation import EvalConfig, EvaluationError, run
+from bullet_floor_sim.ros import check_world
+from bullet_floor_sim.sim.config import load_world_config, world_label
+from bullet_floor_sim.sim.floormap import load_map
+from bullet_floor_sim.sim.solidmap import MapHandling, cleaned_map, solid_map
+
+RES = 0.05
+
+
+def two_rooms(tmp_path, door: float, speck: bool = False, clean: str = "",
+              robot2=(6.0, 2.0)) -> str:
+    """Two 3.95 x 4 m rooms (x 0.1-4.05 and 4.15-8.1, y 0.1-4.1) split by a 0.1 m wall with
+    a door ``door`` wide from y = 1.8; ``speck``: one occupied cell in the door's middle."""
+    h, w = 84, 164
+    occ = np.zeros((h, w), dtype=bool)   # row 0 = y 0 (flipped when written)
+    occ[:2, :] = occ[-2:, :] = occ[:, :2] = occ[:, -2:] = True
+    occ[:, 81:83] = True                         # x 4.05-4.15
+    r0, r1 = int(round(1.8 / RES)), int(round((1.8 + door) / RES))
+    occ[r0:r1, 81:83] = False
+    if speck:
+        occ[(r0 + r1) // 2, 81] = True
+    img = np.where(occ, 0, 254).astype(np.uint8)
+    (tmp_path / "map.pgm").write_bytes(b"P5\n%d %d\n255\n" % (w, h) + np.flipud(img).tobytes())
+    (tmp_path / "map.yaml").write_text("image: map.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n"
+                                       "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    (tmp_path / "rois.yaml").write_text(
+        'map_name: rooms\nconfig: "1"\nrois:\n'
+        '  - {id: "1", type: office, points: [[0.1, 0.1], [4.1, 0.1], [4.1, 4.1], [0.1, 4.1]]}\n'
+        '  - {id: "2", type: lab, points: [[4.1, 0.1], [8.1, 0.1], [8.1, 4.1], [4.1, 4.1]]}\n')
+    (tmp_path / "world.yaml").write_text(
+        "map: map.yaml\nrois: rois.yaml\n%s\nrobots:\n"
+        "  - {name: robot1, pose: [2.0, 2.0, 0.0]}\n"
+        "  - {name: robot2, pose: [%g, %g, 0.0]}\n" % (clean, robot2[0], robot2[1]))
+    return str(tmp_path / "world.yaml")
+
+
+def test_a_door_wider_than_the_footprint_joins_the_rooms(tmp_path):
+    b = Building(load_world_config(two_rooms(tmp_path, door=1.0)))
+    report = check_building(b)
+    robot = report.footprint("robot")
+    assert [s.reachable for s in robot.starts] == [["1", "2"], ["1", "2"]]
+    assert all(s.share == pytest.approx(1.0) for s in robot.starts)
+    (p,) = robot.passages
+    # the narrowest point of the route is the door: 1.0 m wide, at x = 4.1, y = 2.3
+    assert p.width == pytest.approx(1.0, abs=0.1) and not p.no_route
+    assert p.at[0] == pytest.approx(4.1, abs=0.1) and p.at[1] == pytest.approx(2.3, abs=0.15)
+    assert study_problems(report, "robot1", "robot2") == []
+
+
+def test_a_door_narrower_than_the_footprint_cuts_the_second_room_off(tmp_path):
+    b = Building(load_world_config(two_rooms(tmp_path, door=0.6)))
+    report = check_building(b)
+    robot, person = report.footprint("robot"), report.footprint("person")
+    r1, r2 = robot.starts
+    assert r1.reachable == ["1"] and r1.unreachable == ["2"]
+    assert r2.reachable == ["2"] and r2.unreachable == ["1"]
+    assert r1.share == pytest.approx(0.5, abs=0.05)        # two rooms of one size
+    (p,) = robot.passages
+    assert p.no_route and p.width == pytest.approx(0.6, abs=0.1)   # where it narrows: the door
+    assert p.at[0] == pytest.approx(4.1, abs=0.1) and p.at[1] == pytest.approx(2.1, abs=0.15)
+    # a person (0.5 m wide) passes the 0.6 m door
+    assert person.starts[0].reachable == ["1", "2"] and not person.passages[0].no_route
+    problems = study_problems(report, "robot1", "robot2")
+    assert len(problems) == 2
+    assert 'cannot reach region(s) "2" (lab 2)' in problems[0] and "blocked: narrows to 0.6" \
+        in problems[0]
+    assert "robot2" in problems[1] and "never reach the walker" in problems[1]
+    text = "\n".join(report.lines())
+    assert 'cut off: "2" (lab 2)' in text and "0.68" not in text
+
+
+def test_the_study_refuses_to_start_unless_allowed(tmp_path):
+    path = two_rooms(tmp_path, door=0.6)
+    with pytest.raises(EvaluationError, match=r'cannot reach region\(s\) "2" \(lab 2\).*'
+                                              r"clean: \{speckle.*--allow-unreachable"):
+        run(EvalConfig(world=path, legs=1))
+    # allowed: it runs, and its result says what it went on without
+    r = run(EvalConfig(world=path, legs=1, allow_unreachable=True, max_sim_time=1.0))
+    notes = [w for w in r.warnings if w.startswith("going on as allowed (--allow-unreachable)")]
+    assert len(notes) == 2 and 'region(s) "2"' in notes[0] and "robot2" in notes[1]
+
+
+def test_specks_in_a_door_block_it_until_cleaned(tmp_path):
+    blocked = check_building(Building(load_world_config(two_rooms(tmp_path, 1.2, speck=True))))
+    assert blocked.footprint("robot").starts[0].unreachable == ["2"]
+    clean = two_rooms(tmp_path, 1.2, speck=True, clean="clean: {speckle: 0.01}")
+    b = Building(load_world_config(clean))
+    report = check_building(b)
+    assert report.footprint("robot").starts[0].reachable == ["1", "2"]
+    assert any("1 occupied blobs (1 cells)" in line for line in report.handling)
+    # the cleaned map has the speck as floor, and handling it again changes nothing more
+    served = cleaned_map(b.fmap, b.config.map_handling)
+    assert int((np.asarray(b.fmap.grid) == 100).sum()) - int(
+        (np.asarray(served.grid) == 100).sum()) == 1
+    again = solid_map(served, MapHandling(speckle=0.01))
+    assert np.array_equal(again.fmap.grid, b.solid.fmap.grid)
+
+
+def test_check_world_cli(tmp_path, capsys):
+    path = two_rooms(tmp_path, 0.6)
+    assert check_world.main([path, "--plot", str(tmp_path / "c.png"),
+                             "--write-cleaned", str(tmp_path / "cleaned")]) == 1
+    out = capsys.readouterr().out
+    assert "study: would refuse" in out and (tmp_path / "c.png").stat().st_size > 10000
+    served = load_map(str(tmp_path / "cleaned.yaml"))
+    assert np.array_equal(served.grid, load_map(str(tmp_path / "map.yaml")).grid)
+    ok = tmp_path / "ok"
+    ok.mkdir()
+    assert check_world.main([two_rooms(ok, 1.0)]) == 0
+    assert capsys.readouterr().out.rstrip().endswith("study: ok")
+    assert check_world.main([str(tmp_path / "nothing.yaml")]) == 2
+    assert "no such world file" in capsys.readouterr().err
+
+
+def test_footprints_and_labels(tmp_path):
+    cfg = load_world_config(two_rooms(tmp_path, 1.0))
+    assert robot_footprint().radius == 0.34 and robot_footprint().clearance == 0.45
+    assert person_footprint(cfg).radius == 0.25
+    assert world_label("office") == "office"
+    assert world_label(str(tmp_path / "world.yaml")) == tmp_path.name
+    assert world_label("/data/my maps/lab3.yaml") == "lab3"
