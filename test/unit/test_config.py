@@ -37,7 +37,8 @@ def test_world_by_path_and_unknown_world(tmp_path):
     p = write_world(tmp_path, "map: map.yaml\nrobots: []\n")
     assert resolve_world(p, worlds_dir()) == p
     with pytest.raises(ConfigError, match=r"world 'nowhere': no such world file .*known worlds: "
-                                          r"malaga_campus, malaga_corridor, malaga_faculty, office, simple"):
+                                          r"corridor, malaga_campus, malaga_corridor, malaga_faculty, "
+                                          r"office, simple"):
         resolve_world("nowhere", worlds_dir())
 
 

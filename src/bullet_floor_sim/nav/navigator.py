@@ -13,7 +13,7 @@ from typing import Optional, Sequence, Tuple
 import numpy as np
 
 from ..geometry import wrap_angle, wrap_angles
-from .grid import PlanError, PlanningGrid
+from .grid import PlanError, PlanningGrid, path_length
 from .pursuit import FollowerCommand, PathFollower, to_map
 
 __all__ = ["NavStatus", "Navigator", "NavigatorConfig", "give_way_point"]
@@ -89,7 +89,9 @@ class NavigatorConfig:
         replan_after: blocked this long -> plan again, around the obstacles in the scan.
         blocked_timeout: blocked this long in total since the last 0.1 m of progress towards
             the goal -> abort.
-        progress_timeout: no 0.1 m of progress towards the goal for this long -> abort.
+        progress_timeout: no 0.1 m of progress along the path to the goal for this long -> abort
+            (a new plan, such as the long way round what blocks it, starts the count afresh
+            from its length; the time does not restart).
         obstacle_range: scan points farther than this (m) are ignored when replanning.
         sidestep: how far (m) to step aside when no path passes an obstacle.
         stall_time: commanded to move but moved less than 2 cm and turned less than 0.05 rad
@@ -97,12 +99,22 @@ class NavigatorConfig:
             ahead): plan again at once, around the obstacles in the scan; stalled again soon
             after (it cannot even turn): back up 0.15 m when that brings it no nearer a wall
             of the map and the scan shows nothing behind.
-        give_way: when no path passes what blocks it, retreat (before stepping aside) to the
-            nearest free place (a roomy one first) at least ``give_way_clear`` m from every
-            point the map does not know, within ``give_way_reach`` m, wait ``give_way_wait`` s
-            there and go on to the goal: the robot that yields in a passage too narrow for two
-            (the observer; the walker keeps its way), at most 3 times a goal. False: wait
-            where it is.
+        give_way: when no path passes what blocks it, yield at once (the observer): retreat
+            to the nearest passing place (nav/passing.py: out of the way of the narrow
+            passage's middle, within ``passing_reach`` m), else to the nearest free place (a
+            roomy one first) at least ``give_way_clear`` m from every point the map does not
+            know, within ``give_way_reach`` m; wait there and go on to the goal, at most 3
+            times a goal.
+        heading_rule: without ``give_way``, a robot that meets another head-on in a passage
+            too narrow for two yields (as above) when it heads west (cos(yaw) < 0; due north
+            or south: when it heads south): of two robots facing each other exactly one does.
+        deadlock_time: blocked with no progress towards the goal this long, a robot that has
+            the right of way yields too (what blocks it does not: a robot parked, or one with
+            another rule).
+        other_radius: the radius (m) of what it meets, for the passing places (default: its
+            own).
+        pass_wait_max: the longest wait (s) at a passing place; it waits as long as what it
+            yielded to takes to come that far at 0.4 m/s, at least ``give_way_wait``.
     """
 
     replan_after: float = 2.0
@@ -115,6 +127,11 @@ class NavigatorConfig:
     give_way_clear: float = 1.2
     give_way_reach: float = 5.0
     give_way_wait: float = 3.0
+    heading_rule: bool = True
+    deadlock_time: float = 10.0
+    other_radius: Optional[float] = None
+    passing_reach: float = 25.0
+    pass_wait_max: float = 30.0
 
 
 @dataclass
@@ -165,6 +182,9 @@ class Navigator:
         self.retreats = 0
         self._seen = np.zeros((0, 2))             # the last scan's points in the map frame
         self._known = np.zeros(0, dtype=bool)     # which of them are on the map's walls
+        self._rebase = False       # a new path to the goal: progress counts along it
+        self._wait_for = self.config.give_way_wait  # at the place it retreats to
+        self._axis: Optional[np.ndarray] = None   # nav/passing.narrow_axis, on first need
 
     @property
     def path(self) -> np.ndarray:
@@ -190,6 +210,7 @@ class Navigator:
         self._last_cmd = (0.0, 0.0)
         self._still_since = None
         self._retreat, self._resume_at, self._backup_until = None, None, None
+        self._rebase = False
         self._last_stall = -math.inf
         self._stuck = None
         self.retreats = 0
@@ -249,14 +270,18 @@ class Navigator:
             return self._wait_then_resume(pose, now)
         cmd = self.follower.compute(pose, obstacles, self._known)
         if cmd.state == "done" and self._retreat:
-            self._retreat, self._resume_at = None, now + cfg.give_way_wait
+            self._retreat, self._resume_at = None, now + self._wait_for
             return NavStatus(0.0, 0.0, "active", "giving way", cmd.distance_to_goal)
         if cmd.state == "done":
             self.goal = None
             return NavStatus(0.0, 0.0, "succeeded", "goal reached", cmd.distance_to_goal)
-        if self._retreat is None and cmd.distance_to_goal < self._best - 0.1:
+        left = self._path_left(pose, cmd.distance_to_goal)
+        if self._rebase and self._retreat is None:
+            # a new path (the long way round, past a sidestep): progress is along it now
+            self._best, self._rebase = left, False
+        if self._retreat is None and left < self._best - 0.1:
             # (retreating, the distance is to the place it retreats to: no progress)
-            self._best = cmd.distance_to_goal
+            self._best = left
             self._best_t = now
             self._blocked_total = 0.0   # the time blocked counts since the last progress
             self._stuck = None          # and the time stalled
@@ -358,10 +383,13 @@ class Navigator:
         try:
             path = self.grid.plan(pose, self._retreat or self.goal, obstacles=world)
         except PlanError:
-            if self.config.give_way and self.retreats < _MAX_RETREATS:  # it gets out of the way
-                path = self._out_of_the_way(pose, world)
-                if path is not None:
+            if self.retreats < _MAX_RETREATS and len(world) and self._yields(pose, world):
+                path = self._to_passing_place(pose, world)
+                if path is None and self.config.give_way:
+                    path = self._out_of_the_way(pose, world)
+                if path is not None:   # it gets out of the way
                     self._retreat = (float(path[-1, 0]), float(path[-1, 1]))
+                    self._wait_for = self._pass_wait(world, self._retreat)
                     self.retreats += 1
                     self._blocked_total = 0.0
                     self.follower.set_path(path, None)
@@ -370,7 +398,66 @@ class Navigator:
             if path is None:
                 return  # nothing better: wait for the obstacle to move
         self.replans += 1
+        self._rebase = self._retreat is None
         self.follower.set_path(path, None if self._retreat else self.goal[2])
+
+    def _yields(self, pose: Sequence[float], world: np.ndarray) -> bool:
+        """Whether this robot gives way to what blocks it (``world``, the points of it):
+        always with ``give_way``; after ``deadlock_time`` without progress; else as
+        nav/passing.gives_way decides."""
+        from .passing import gives_way
+
+        cfg = self.config
+        if cfg.give_way:
+            return True
+        if self._last_t is not None and self._last_t - self._best_t >= cfg.deadlock_time:
+            return True
+        return gives_way(self.grid, self._narrow_axis(), pose, world, self._other_radius(),
+                         cfg.passing_reach, cfg.heading_rule)
+
+    def _other_radius(self) -> float:
+        r = self.config.other_radius
+        return self.grid.config.robot_radius if r is None else r
+
+    def _narrow_axis(self) -> np.ndarray:
+        from .passing import narrow_axis
+
+        if self._axis is None:
+            self._axis = narrow_axis(self.grid, self._other_radius())
+        return self._axis
+
+    def _to_passing_place(self, pose: Sequence[float], world: np.ndarray
+                          ) -> Optional[np.ndarray]:
+        """A path around ``world`` to the nearest passing place (nav/passing.py), or None."""
+        from .passing import passing_place
+
+        return self._plan_aside(pose, world, passing_place(
+            self.grid, self._narrow_axis(), pose, world, self._other_radius(),
+            self.config.passing_reach))
+
+    def _plan_aside(self, pose: Sequence[float], world: np.ndarray,
+                    point: Optional[Tuple[float, float]]) -> Optional[np.ndarray]:
+        """A path around ``world`` to ``point``; None without a point or a path."""
+        if point is None:
+            return None
+        try:
+            return self.grid.plan(pose, point, obstacles=world)
+        except PlanError:
+            return None
+
+    def _pass_wait(self, world: np.ndarray, place: Tuple[float, float]) -> float:
+        """How long to wait at ``place`` for what it yields to (at ``world``) to come by."""
+        cfg = self.config
+        d = float(np.min(np.hypot(world[:, 0] - place[0], world[:, 1] - place[1])))
+        return min(cfg.pass_wait_max, max(cfg.give_way_wait, d / 0.4))
+
+    def _path_left(self, pose: Sequence[float], fallback: float) -> float:
+        """The length (m) of the path still to drive (``fallback`` with no path)."""
+        left = self.follower.remaining()
+        if not len(left):
+            return fallback
+        return float(math.hypot(left[0, 0] - pose[0], left[0, 1] - pose[1])
+                     + path_length(left))
 
     def _out_of_the_way(self, pose: Sequence[float], world: np.ndarray) -> Optional[np.ndarray]:
         """A path, around ``world`` (the points the map does not know), to the nearest place
@@ -379,14 +466,9 @@ class Navigator:
         if not len(world):
             return None
         centre = world.mean(axis=0)
-        point = give_way_point(self.grid, world, pose, centre, cfg.give_way_clear,
-                               cfg.give_way_reach, 0.6, obstacles=world)
-        if point is None:
-            return None
-        try:
-            return self.grid.plan(pose, point, obstacles=world)
-        except PlanError:
-            return None
+        return self._plan_aside(pose, world, give_way_point(
+            self.grid, world, pose, centre, cfg.give_way_clear, cfg.give_way_reach, 0.6,
+            obstacles=world))
 
     def _wait_then_resume(self, pose: Sequence[float], now: float) -> NavStatus:
         """Out of the way: wait, then plan to the goal again (around what the scan shows)."""
@@ -403,6 +485,7 @@ class Navigator:
                 return self._abort("cannot go on after giving way: %s" % e,
                                    FollowerCommand(0.0, 0.0, "blocked", 0.0))
         self._resume_at = None
+        self._rebase = True
         self.follower.set_path(path, self.goal[2])
         return NavStatus(0.0, 0.0, "active", "going on")
 

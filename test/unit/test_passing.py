@@ -1,0 +1,103 @@
+"""Passing in narrow corridors (nav/passing.py, the Navigator's yielding): the ``corridor``
+world, a corridor 20 m x 1.4 m between two halls, robots facing each other in it."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from bullet_floor_sim.nav.passing import narrow_axis, passing_place
+from bullet_floor_sim.nav.planner import Navigator, NavigatorConfig, PlanningGrid
+from bullet_floor_sim.sim.world import World
+
+from bullet_floor_sim.sim.floormap import map_from_grid
+from test_planner import _drive, _drive_unicycle
+
+CORRIDOR_Y = (2.95, 4.35)   # the corridor's wall faces; it runs x 4.80 .. 24.80
+
+
+def test_the_narrow_axis_is_the_corridor_and_passing_places_are_in_the_halls():
+    world = World.from_name("corridor", seed=1)
+    try:
+        grid = PlanningGrid(world.fmap)
+        axis = narrow_axis(grid, 0.34)
+        # the corridor's middle line (clearance 0.7 < 0.34 + 0.34 + 0.05), nothing in the halls
+        assert len(axis) > 150
+        assert np.all(np.abs(axis[:, 1] - 3.65) <= 0.1)
+        assert axis[:, 0].min() < 5.0 and axis[:, 0].max() > 24.6
+        assert not np.any((axis[:, 0] < 4.4) | (axis[:, 0] > 25.2))
+        # a robot at x 8 facing one at x 10 in the corridor: the nearest place is in the west
+        # hall, 0.78 m (two radii and the margin) off the corridor's line
+        blocker = np.array([[9.7, 3.65], [9.75, 3.4], [9.75, 3.9]])
+        p = passing_place(grid, axis, (8.0, 3.65), blocker, 0.34, 25.0)
+        assert p is not None and p[0] < 4.65
+        d = np.min(np.hypot(axis[:, 0] - p[0], axis[:, 1] - p[1]))
+        assert 0.78 - 0.01 <= d <= 0.78 + 0.2
+        # out of reach, or cut off by the blocker: none
+        assert passing_place(grid, axis, (8.0, 3.65), blocker, 0.34, 3.0) is None
+        assert passing_place(grid, axis, (12.0, 3.65), blocker, 0.34, 25.0)[0] > 24.95
+    finally:
+        world.close()
+
+
+def _meet(configs, seed=2):
+    world = World.from_name("corridor", seed=seed)
+    try:
+        grid = PlanningGrid(world.fmap)
+        navs = [Navigator(grid, config=c) for c in configs]
+        goals = [(27.0, 3.65, 0.0), (2.6, 3.65, math.pi)]
+        return _drive(world, navs, goals, limit=300.0) + (navs,)
+    finally:
+        world.close()
+
+
+def test_two_robots_facing_each_other_in_a_narrow_corridor_both_arrive():
+    out, minclear, navs = _meet([NavigatorConfig(), NavigatorConfig()])
+    for i in range(2):
+        state, t, err, pose = out[i]
+        assert state == "succeeded", out
+        assert err <= 0.15 and minclear[i] > 0.3
+    # the one heading west (robot2) yielded into the east hall; robot1 never did
+    assert navs[1].retreats >= 1 and navs[0].retreats == 0
+
+
+def test_a_robot_parked_in_a_loop_corridor_is_passed_the_long_way_round():
+    # a ring corridor 1.4 m wide round a 21 x 7 m block; a robot parked on the short way
+    g = np.full((int(10.0 / 0.05), int(24.0 / 0.05)), 100, dtype=np.int8)
+    g[2:-2, 2:-2] = 0
+    g[int(1.5 / 0.05):int(8.5 / 0.05), int(1.5 / 0.05):int(22.5 / 0.05)] = 100
+    grid = PlanningGrid(map_from_grid(g, 0.05))
+    parked = np.array([[12.0 + 0.35 * math.cos(a), 0.8 + 0.35 * math.sin(a)]
+                       for a in np.linspace(0, 2 * math.pi, 40, endpoint=False)])
+    nav = Navigator(grid)
+    nav.start((6.0, 0.8, 0.0), (18.0, 0.8), 0.0)
+    pose, t, st = _drive_unicycle(nav, (6.0, 0.8, 0.0), parked, 0.0, 400.0)
+    # about 55 m round: more than progress_timeout (60 s) with the goal getting no nearer
+    # as the crow flies, which aborted it before progress counted along the path
+    assert st.state == "succeeded", (st, pose, t)
+    assert math.hypot(pose[0] - 18.0, pose[1] - 0.8) < 0.2 and t > 80.0
+    assert nav.retreats == 0
+
+
+def test_the_robot_nearer_its_passing_place_yields_whatever_its_heading():
+    world = World.from_name("corridor", seed=1)
+    try:
+        grid = PlanningGrid(world.fmap)
+        face = np.array([[10.0 - 0.35 * math.cos(a), 3.65 + 0.35 * math.sin(a)]
+                         for a in np.linspace(-1.2, 1.2, 9)])   # the side of it facing west
+        near_west = Navigator(grid)
+        near_west.start((8.0, 3.65, 0.0), (27.0, 3.65), 0.0)
+        assert near_west._yields((8.0, 3.65, 0.0), face)   # 4 m to its hall, the other 15 m
+        far = Navigator(grid)
+        far.start((20.0, 3.65, 0.0), (27.0, 3.65), 0.0)
+        blocker = np.array([[21.7, 3.65], [21.75, 3.4], [21.75, 3.9]])
+        # heading east, 15 m from the west hall, the other 3 m from the east one: it waits
+        assert not far._yields((20.0, 3.65, math.pi), blocker)
+        # mid-corridor, each about 10 m from its hall: the heading rule, the one heading west
+        mid = Navigator(grid)
+        mid.start((15.2, 3.65, math.pi), (2.0, 3.65), 0.0)
+        tie = np.array([[14.55, 3.65], [14.6, 3.4], [14.6, 3.9]])
+        assert mid._yields((15.2, 3.65, math.pi), tie)
+        assert not mid._yields((15.2, 3.65, 0.0), tie)
+    finally:
+        world.close()
