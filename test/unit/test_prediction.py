@@ -569,3 +569,32 @@ def test_bad_input_names_it(world, model):
         log_loss({"a": 1.0}, "a", floor=0.0)
     with pytest.raises(PredictionError, match="top1: no probabilities"):
         top1({})
+
+
+def test_calibration_tempers_the_evidence_then_mixes_the_prior_in_by_hand():
+    from bullet_floor_sim.people.prediction.calibration import brier, calibrate
+
+    probs, prior = {"a": 0.9, "b": 0.1, "c": 0.0}, {"a": 0.5, "b": 0.3, "c": 0.2}
+    assert calibrate(probs, prior) == probs                       # T 1, mix 0: unchanged
+    # T = 2: P ∝ prior^(1/2) P^(1/2): a sqrt(.45), b sqrt(.03), c stays 0
+    wa, wb = math.sqrt(0.5 * 0.9), math.sqrt(0.3 * 0.1)
+    q = calibrate(probs, prior, temperature=2.0)
+    assert q["a"] == pytest.approx(wa / (wa + wb)) and q["c"] == 0.0
+    # then 0.2 of the prior over the live regions (a, b: 0.5 / 0.8 and 0.3 / 0.8)
+    q = calibrate(probs, prior, temperature=2.0, prior_mix=0.2)
+    assert q["a"] == pytest.approx(0.8 * wa / (wa + wb) + 0.2 * 0.625)
+    assert q["b"] == pytest.approx(0.8 * wb / (wa + wb) + 0.2 * 0.375)
+    assert sum(q.values()) == pytest.approx(1.0)
+    # a wrong answer's log-loss is bounded by the mix: -ln(0.2 * 0.375)
+    assert -math.log(calibrate({"a": 1.0, "b": 0.0 + 1e-12}, {"a": 0.5, "b": 0.5},
+                               1.0, 0.2)["b"]) <= -math.log(0.2 * 0.5) + 1e-9
+    assert brier({"a": 0.75, "b": 0.25}, "a") == pytest.approx(0.125)
+    assert brier({"a": 1.0}, "b") == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize("field,value", [("temperature", 0.5), ("prior_mix", 1.0),
+                                         ("prior_mix", -0.1)])
+def test_calibration_parameters_are_checked(field, value):
+    cfg = PredictionConfig(**{field: value})
+    with pytest.raises(PredictionError, match=field):
+        cfg.check()

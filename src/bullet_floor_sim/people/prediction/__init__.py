@@ -38,6 +38,9 @@ points ahead of Q stay consistent while the next region's all do.
   reachable gets probability 0 and a reason (:meth:`DestinationModel.posterior_details`).
   Sums are taken in log space (log-sum-exp).
 
+The posterior is then calibrated (prediction/calibration.py): the evidence tempered by
+1/``temperature`` and the prior mixed back in with weight ``prior_mix``.
+
 Baselines for evaluation: :meth:`DestinationModel.markov_baseline` (the chain row alone) and
 :meth:`DestinationModel.heading_baseline` (the region the current heading points at).
 

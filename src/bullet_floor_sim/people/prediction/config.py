@@ -57,6 +57,8 @@ class PredictionConfig:
             4 s: shorter than the walker's shortest dwell (5 s), so the leg taken over is
             the one under way.
         handover_speed: ... near enough: within 0.5 m + this speed (m/s) x the gap.
+        temperature, prior_mix: calibration (prediction/calibration.py): the evidence
+            tempered by 1/temperature, then the prior mixed back in with weight prior_mix.
     """
 
     beta: float = 5.0
@@ -72,6 +74,8 @@ class PredictionConfig:
     snap_distance: float = 0.6
     handover_time: float = 4.0
     handover_speed: float = 1.5
+    temperature: float = 1.0
+    prior_mix: float = 0.0
 
     def check(self) -> None:
         """Raise PredictionError naming the first bad parameter."""
@@ -90,6 +94,13 @@ class PredictionConfig:
         if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 1):
             raise PredictionError("prediction: max_goals_per_region must be an integer >= 1, "
                                   "got %r" % (v,))
+        v = self.temperature
+        if not (_is_number(v) and math.isfinite(v) and v >= 1.0):
+            raise PredictionError("prediction: temperature must be a number >= 1, got %r" % (v,))
+        v = self.prior_mix
+        if not (_is_number(v) and 0.0 <= v < 1.0):
+            raise PredictionError("prediction: prior_mix must be a number in [0, 1), got %r"
+                                  % (v,))
         v = self.heading_epsilon
         if not (_is_number(v) and 0.0 <= v < 1.0):
             raise PredictionError("prediction: heading_epsilon must be a number in [0, 1), "

@@ -14,6 +14,7 @@ from ...nav.planner import PlanningGrid
 from ...data.rois import Roi, roi_polygon
 from ...geometry import wrap_angle
 from ..walker import RegionIndex, anchor
+from .calibration import calibrate
 from .config import PredictionConfig, PredictionError, _check_xy, _is_number, _quote
 
 __all__ = ["DestinationModel"]
@@ -364,7 +365,7 @@ class DestinationModel:
                                   % (_quote(r0), "; ".join(reasons.values())))
         total = float(logsumexp(list(logw.values())))
         probs = {g: (math.exp(logw[g] - total) if g in logw else 0.0) for g in prior}
-        return probs, reasons
+        return calibrate(probs, prior, self.config.temperature, self.config.prior_mix), reasons
 
     # ---- baselines -------------------------------------------------------------------------
 
