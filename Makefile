@@ -7,7 +7,7 @@ VENV_PY := $(REPO)/.venv/bin/python
 ROSENV := source $(REPO)/.venv/bin/activate && source $(REPO)/.ws/devel/setup.bash &&
 WORLD ?= office
 
-.PHONY: setup test unit-test integration-test lint demo bench eval demo-legs clean
+.PHONY: setup test unit-test integration-test lint demo bench eval demo-legs corpus clean
 
 setup:
 	bash tools/setup.sh
@@ -50,7 +50,14 @@ demo: setup
 bench: setup
 	$(ROSENV) $(VENV_PY) bench/run_all.py
 
-# The destination-prediction study on every shipped world: one table, an EVAL line per world
+# The corpus of real buildings (worlds/corpus.yaml): download each source, check it, build
+# a world under $BFS_CORPUS (~/.cache/bullet_floor_sim/corpus). Offline: FROM=DIR with the files.
+FROM ?=
+corpus: setup
+	$(ROSENV) $(VENV_PY) tools/corpus.py $(if $(FROM),--from $(FROM))
+
+# The destination-prediction study on every shipped world and every corpus world built: one table,
+# an EVAL line per world
 # (LEGS legs each, seed SEED; 200 legs take 3-10 min a world).
 LEGS ?= 200
 SEED ?= 1

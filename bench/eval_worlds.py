@@ -8,7 +8,7 @@ line each (and a ``done:`` line on stderr as each world ends, so a run cut short
 measured). ``margin`` is the predictor's least lead in top-1 over the better of the two
 baselines at any fraction from 25 % on, from tracker and from ground-truth tracks:
 
-    make eval                      # 200 legs, seed 1, every world
+    make eval                      # 200 legs, seed 1, every world (the corpus's too, once built)
     .venv/bin/python bench/eval_worlds.py --legs 40 --seed 5 --worlds office malaga_campus
 """
 from __future__ import annotations
@@ -23,7 +23,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 
 from bullet_floor_sim.people.evaluation import FRACTIONS, EvalConfig, run  # noqa: E402
-from bullet_floor_sim.paths import worlds_dir  # noqa: E402
+from bullet_floor_sim.paths import corpus_dir, corpus_worlds, worlds_dir  # noqa: E402
 from bullet_floor_sim.sim.config import world_label  # noqa: E402
 
 COLUMNS = ("world", "legs", "given_up", "trk25", "trk50", "trk75", "gt25", "gt50", "gt75",
@@ -35,9 +35,16 @@ TEST_WORLDS = ("simple", "corridor")
 
 
 def shipped() -> list:
+    """The shipped buildings (worlds/), then the corpus buildings built (tools/corpus.py);
+    a note on stderr when the corpus has not been built."""
     d = worlds_dir()
-    return sorted(w for w in os.listdir(d) if os.path.isfile(os.path.join(d, w, "world.yaml"))
-                  and w not in TEST_WORLDS)
+    out = sorted(w for w in os.listdir(d) if os.path.isfile(os.path.join(d, w, "world.yaml"))
+                 and w not in TEST_WORLDS)
+    corpus = corpus_worlds()
+    if not corpus:
+        print("note: the corpus of real buildings is not built (make corpus; %s): the shipped "
+              "worlds only" % corpus_dir(), file=sys.stderr)
+    return out + corpus
 
 
 def study_check(worlds: list, allow: bool) -> list:

@@ -4,7 +4,7 @@ from __future__ import annotations
 import functools
 import os
 
-__all__ = ["package_root", "worlds_dir"]
+__all__ = ["package_root", "worlds_dir", "corpus_dir", "corpus_worlds"]
 
 
 @functools.lru_cache(maxsize=None)
@@ -33,3 +33,20 @@ def package_root() -> str:
 def worlds_dir() -> str:
     """The package's worlds/ directory."""
     return os.path.join(package_root(), "worlds")
+
+
+def corpus_dir() -> str:
+    """Where tools/corpus.py builds the corpus of real buildings: $BFS_CORPUS, else
+    $XDG_CACHE_HOME (~/.cache)/bullet_floor_sim/corpus."""
+    return os.environ.get("BFS_CORPUS") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"),
+        "bullet_floor_sim", "corpus")
+
+
+def corpus_worlds() -> list:
+    """The world.yaml paths of the corpus buildings built so far (sorted by name)."""
+    d = corpus_dir()
+    if not os.path.isdir(d):
+        return []
+    return [os.path.join(d, n, "world.yaml") for n in sorted(os.listdir(d))
+            if os.path.isfile(os.path.join(d, n, "world.yaml"))]

@@ -112,6 +112,29 @@ class Building:
             self._rois = usable_rois(load_rois(self.config.rois)) if self.config.rois else ([], [])
         return self._rois
 
+    def roomy_starts(self, n: int, apart: float) -> List[Tuple[float, float]]:
+        """``n`` start points for robots: the roomiest cells (most wall clearance) of the
+        largest part of the floor a robot's footprint connects, each at least ``apart`` m
+        from those before (fewer when the floor has no room for them)."""
+        import numpy as np
+        from scipy.ndimage import label
+
+        grid = self.grid(robot_footprint().radius)
+        parts, count = label(np.isfinite(grid.cost))
+        if not count:
+            return []
+        main = int(np.argmax(np.bincount(parts.ravel())[1:])) + 1
+        rows, cols = np.nonzero(parts == main)
+        order = np.argsort(-grid.clearance[rows, cols], kind="stable")
+        out: List[Tuple[float, float]] = []
+        for k in order:
+            x, y = grid.to_world(int(cols[k]), int(rows[k]))
+            if all((x - a) ** 2 + (y - b) ** 2 >= apart ** 2 for a, b in out):
+                out.append((x, y))
+                if len(out) == n:
+                    break
+        return out
+
     def walkable(self, footprint: Footprint) -> Tuple[List[Roi], List[str]]:
         """The regions a walker of ``footprint`` walks (people/walker.walkable_regions), and
         one warning per region left out."""

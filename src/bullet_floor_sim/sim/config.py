@@ -5,7 +5,7 @@ names the file, the section and the key (as flatland's EnsureAccessedAllKeys doe
 
     map: map.yaml            # map_server map, relative to world.yaml
     wall_height: 2.0
-    rois: rois.yaml
+    rois: rois.yaml          # or auto: the map's rooms, found automatically (building/autorois.py)
     unknown: wall            # wall | free: what unknown map cells are (sim/solidmap.py)
     clean: {close_gaps: 0.15, speckle: 0.0, unknown_slivers: 0.3}   # sim/solidmap.py
     robots:
@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 import os
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Dict, List, Optional, Tuple
 
 from ..errors import ConfigError
@@ -208,7 +208,7 @@ def load_world_config(path: str) -> WorldConfig:
                           % (path, wall_height))
     rois = doc.get("rois")
     if rois is not None and not isinstance(rois, str):
-        raise ConfigError("%s: rois must be a file name, got %r" % (path, rois))
+        raise ConfigError("%s: rois must be a file name or auto, got %r" % (path, rois))
     robots_doc = doc.get("robots", [])
     if not isinstance(robots_doc, list):
         raise ConfigError("%s: robots must be a list, got %s" % (path, type(robots_doc).__name__))
@@ -217,10 +217,15 @@ def load_world_config(path: str) -> WorldConfig:
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise ConfigError("%s: duplicate robot name(s): %s" % (path, ", ".join(repr(d) for d in dup)))
-    return WorldConfig(path=os.path.abspath(path), map_yaml=map_yaml, wall_height=float(wall_height),
-                       rois=_rel(base, rois) if rois else None, robots=robots,
-                       map_handling=_parse_map_handling(doc, path),
-                       people=parse_people(doc.get("people"), path, base))
+    cfg = WorldConfig(path=os.path.abspath(path), map_yaml=map_yaml, wall_height=float(wall_height),
+                      rois=rois if rois in (None, "auto") else _rel(base, rois), robots=robots,
+                      map_handling=_parse_map_handling(doc, path),
+                      people=parse_people(doc.get("people"), path, base))
+    if cfg.rois == "auto":   # rooms found automatically (building/autorois.py)
+        from ..building.autorois import auto_rois_path
+
+        cfg = replace(cfg, rois=auto_rois_path(cfg))
+    return cfg
 
 
 def _parse_map_handling(doc: Dict[str, Any], path: str) -> MapHandling:
