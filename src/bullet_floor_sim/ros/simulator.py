@@ -17,6 +17,9 @@ amcl; a list of robot names does it for those robots only, e.g. a walker beside 
 that amcl localises),
 ``~single_robot`` (false: true keeps only the world's first robot and gives it an empty name,
 i.e. bare topics and frames ``/odom``, ``odom``, ``base_footprint``, as the MORSE tutorial's),
+``~only`` ("": a robot's name keeps that robot of the world alone, in its namespace: the one
+that maps in mapping.launch), ``~serve_cleaned`` (false: /map with the world's map handling
+applied), ``~check_world`` (true: log the map check, building/check.py, at start),
 ``~publish_initialpose`` (false: true publishes each spawn pose, latched, on ``N/initialpose``
 at start and after ``~reset``, so amcl starts localised whatever the world),
 ``~robot_state_publishers`` (true: one robot_state_publisher per robot, started by this node
@@ -435,6 +438,13 @@ def main(argv: Optional[List[str]] = None) -> int:
     try:
         config = load_world_config(resolve_world(str(rospy.get_param("~world", "office")),
                                                  worlds_dir()))
+        only = str(rospy.get_param("~only", ""))
+        if only:   # one robot of the world (mapping.launch: the one that maps)
+            if only not in [r.name for r in config.robots]:
+                raise ConfigError("%s: ~only: no robot %r (the world has %s)" % (
+                    config.path, only, ", ".join(r.name for r in config.robots)))
+            config = dataclasses.replace(config, robots=[r for r in config.robots
+                                                         if r.name == only])
         if rospy.get_param("~single_robot", False):
             if not config.robots:
                 raise ConfigError("%s: single_robot needs at least one robot" % config.path)
