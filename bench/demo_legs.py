@@ -35,7 +35,7 @@ from typing import Tuple
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
-from eval_worlds import shipped, study_check, world_label  # noqa: E402
+from eval_worlds import checked, shipped, world_label  # noqa: E402
 from ros_bench import _free_port  # noqa: E402
 
 _WAIT = re.compile(r"waited for (?:cmd_vel of|subscribers) ([^;]*)")
@@ -158,8 +158,8 @@ def main() -> int:
                    help="run a world whose map check finds a region the walker cannot reach "
                         "or an observer cut off (check_world); the output says so")
     args = p.parse_args()
-    worlds = args.worlds or shipped()
-    notes = study_check(worlds, args.allow_unreachable)   # exits on a refusal
+    worlds, notes = checked(args.worlds or shipped(), bool(args.worlds),
+                            args.allow_unreachable)   # before any runs
     rows = []
     master, port = _master()
     legs = _Legs()

@@ -47,25 +47,34 @@ def shipped() -> list:
     return out + corpus
 
 
-def study_check(worlds: list, allow: bool) -> list:
-    """The map check of every world before any runs (building/check.py): exits with one line
-    per world that would refuse, unless ``allow``; then returns those lines as notes."""
+def study_check(worlds: list, allow: bool) -> tuple:
+    """The map check of every world before any runs (building/check.py): (notes, refused),
+    refused mapping each world that would refuse (unless ``allow``) to its one line."""
     from bullet_floor_sim.errors import BulletFloorSimError
     from bullet_floor_sim.people.evaluation import EvalConfig
     from bullet_floor_sim.people.evaluation.scenario import refuse_unreachable
     from bullet_floor_sim.building import Building
 
-    notes, refused = [], []
+    notes, refused = [], {}
     for w in worlds:
         try:
             b = Building.load(w)
             notes += ["%s: %s" % (w, n) for n in refuse_unreachable(
                 b, EvalConfig(world=w, allow_unreachable=allow), b)]
         except BulletFloorSimError as e:
-            refused.append(str(e))
-    if refused:
-        sys.exit("\n".join(refused))
-    return notes
+            refused[w] = str(e)
+    return notes, refused
+
+
+def checked(worlds: list, named: bool, allow: bool) -> tuple:
+    """The worlds a study runs on and the notes: worlds the user named that would refuse
+    stop it (exit with their lines); of the default list they are left out, each with a note
+    that says why."""
+    notes, refused = study_check(worlds, allow)
+    if refused and named:
+        sys.exit("\n".join(refused.values()))
+    notes += ["left out %s: %s" % (w, why) for w, why in refused.items()]
+    return [w for w in worlds if w not in refused], notes
 
 
 def row(world: str, legs: int, seed: int, allow: bool = False) -> dict:
@@ -117,8 +126,10 @@ def main() -> int:
                    help="run a world whose map check finds a region the walker cannot reach "
                         "or an observer cut off (check_world); the output says so")
     args = p.parse_args()
-    worlds = args.worlds or shipped()
-    study_check(worlds, args.allow_unreachable)   # every world refused before any runs
+    worlds, notes = checked(args.worlds or shipped(), bool(args.worlds),
+                            args.allow_unreachable)   # before any runs
+    for n in notes:
+        print("note: %s" % n, file=sys.stderr, flush=True)
     rows = []
     for w in worlds:
         print("== %s: %d legs, seed %d" % (w, args.legs, args.seed), file=sys.stderr, flush=True)
@@ -136,6 +147,8 @@ def main() -> int:
         print("| " + " | ".join(cells) + " |")
     for r in rows:
         print(_eval_line(r, office))
+    for n in notes:
+        print("note: %s" % n)
     return 0
 
 

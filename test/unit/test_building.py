@@ -70,10 +70,11 @@ def test_a_door_narrower_than_the_footprint_cuts_the_second_room_off(tmp_path):
     # a person (0.5 m wide) passes the 0.6 m door
     assert person.starts[0].reachable == ["1", "2"] and not person.passages[0].no_route
     problems = study_problems(report, "robot1", "robot2")
-    assert len(problems) == 2
+    assert len(problems) == 3
     assert 'cannot reach region(s) "2" (lab 2)' in problems[0] and "blocked: narrows to 0.6" \
         in problems[0]
-    assert "robot2" in problems[1] and "never reach the walker" in problems[1]
+    assert problems[1] == "robot1 reaches 1 region(s) (1): a walk between regions needs 2"
+    assert "robot2" in problems[2] and "never reach the walker" in problems[2]
     text = "\n".join(report.lines())
     assert 'cut off: "2" (lab 2)' in text and "0.68" not in text
 
@@ -86,7 +87,7 @@ def test_the_study_refuses_to_start_unless_allowed(tmp_path):
     # allowed: it runs, and its result says what it went on without
     r = run(EvalConfig(world=path, legs=1, allow_unreachable=True, max_sim_time=1.0))
     notes = [w for w in r.warnings if w.startswith("going on as allowed (--allow-unreachable)")]
-    assert len(notes) == 2 and 'region(s) "2"' in notes[0] and "robot2" in notes[1]
+    assert len(notes) == 3 and 'region(s) "2"' in notes[0] and "robot2" in notes[2]
 
 
 def test_specks_in_a_door_block_it_until_cleaned(tmp_path):

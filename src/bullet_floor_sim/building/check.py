@@ -248,8 +248,8 @@ def _routes(grid, pairs: Sequence[Tuple[str, str]],
 
 def study_problems(report: WorldCheck, walker: str, observer: Optional[str]) -> List[str]:
     """Why a study of ``walker`` (observed by ``observer``) would degrade: regions the
-    walker cannot reach (with the narrowest passage on their way), an observer on another
-    part of the floor. Empty when there is nothing."""
+    walker cannot reach (with the narrowest passage on their way), fewer than two it can, an
+    observer on another part of the floor. Empty when there is nothing."""
     fc = report.footprint("robot")
     starts = {s.name: s for s in fc.starts}
     w = starts[walker]
@@ -268,6 +268,9 @@ def study_problems(report: WorldCheck, walker: str, observer: Optional[str]) -> 
         out.append("region(s) %s have no point %.2f m from every wall for %s"
                    % (", ".join('"%s" (%s)' % (i, report.regions[i]) for i in fc.no_goal),
                       fc.footprint.clearance, walker))
+    if len(w.reachable) < 2:
+        out.append("%s reaches %d region(s) (%s): a walk between regions needs 2"
+                   % (walker, len(w.reachable), ", ".join(w.reachable) or "none"))
     if observer is not None and observer in starts:
         o = starts[observer]
         if o.component != w.component:

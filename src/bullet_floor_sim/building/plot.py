@@ -9,7 +9,7 @@ from ..data.rois import roi_polygon
 from . import Building
 from .check import WorldCheck
 
-__all__ = ["plot_check"]
+__all__ = ["plot_check", "draw_panel", "floor_box"]
 
 
 def plot_check(b: Building, report: WorldCheck, path: str) -> None:
@@ -25,14 +25,14 @@ def plot_check(b: Building, report: WorldCheck, path: str) -> None:
 
     plt = pyplot("--plot")
     n = len(report.footprints)
-    x0, x1, y0, y1 = _floor_box(b)
+    x0, x1, y0, y1 = floor_box(b)
     wide = (x1 - x0) > 1.5 * (y1 - y0)   # wide maps: panels one above the other
     size = (12.0, 1.0 + n * 12.0 * (y1 - y0) / (x1 - x0)) if wide else \
         (7.0 * n, 1.2 + 7.0 * (y1 - y0) / (x1 - x0))
     fig, axes = plt.subplots(n if wide else 1, 1 if wide else n, figsize=size, squeeze=False)
     try:
         for ax, fc in zip(axes.ravel(), report.footprints):
-            _panel(ax, b, report, fc)
+            draw_panel(ax, b, report, fc)
             ax.set_xlim(x0, x1)
             ax.set_ylim(y0, y1)
     except BaseException:
@@ -41,7 +41,7 @@ def plot_check(b: Building, report: WorldCheck, path: str) -> None:
     save_figure(plt, fig, path, "check_world %s" % report.world, 10)
 
 
-def _floor_box(b: Building, margin: float = 1.5):
+def floor_box(b: Building, margin: float = 1.5):
     """The map-frame box (x0, x1, y0, y1) of the floor that is not solid, plus a margin."""
     rows, cols = np.nonzero(np.asarray(b.solid.fmap.grid) != 100)
     if not len(rows):
@@ -53,7 +53,8 @@ def _floor_box(b: Building, margin: float = 1.5):
             float(max(ys)) + margin)
 
 
-def _panel(ax: Any, b: Building, report: WorldCheck, fc: Any) -> None:
+def draw_panel(ax: Any, b: Building, report: WorldCheck, fc: Any) -> None:
+    """One footprint's check on matplotlib axes (see :func:`plot_check`)."""
     grid = b.grid(fc.footprint.radius)
     solid = np.asarray(b.solid.fmap.grid) == 100
     ox, oy, _ = b.fmap.origin
