@@ -16,6 +16,14 @@ def main() -> int:
     for name in BENCHES:
         print("== %s" % name, flush=True)
         status |= subprocess.call([sys.executable, os.path.join(HERE, name)])
+    print("== rooms_bench.py", flush=True)
+    maps = os.environ.get("ROOMS_BENCH_MAPS")
+    if maps:   # the ipa ground-truth maps are not shipped (docs/rooms.md says where they are)
+        status |= subprocess.call([sys.executable, os.path.join(HERE, "rooms_bench.py"),
+                                   "--maps", maps])
+    else:
+        print("rooms_bench: skipped: set ROOMS_BENCH_MAPS to a directory of the ipa "
+              "room-segmentation test maps (docs/rooms.md)", flush=True)
     return status
 
 
