@@ -91,7 +91,8 @@ class NavigatorConfig:
             the goal -> abort.
         progress_timeout: no 0.1 m of progress along the path to the goal for this long -> abort
             (a new plan, such as the long way round what blocks it, starts the count afresh
-            from its length; the time does not restart).
+            from its length; the time does not restart, except after giving way: the time
+            spent backing off and waiting is not a lack of progress).
         obstacle_range: scan points farther than this (m) are ignored when replanning.
         sidestep: how far (m) to step aside when no path passes an obstacle.
         stall_time: commanded to move but moved less than 2 cm and turned less than 0.05 rad
@@ -392,6 +393,7 @@ class Navigator:
                     self._wait_for = self._pass_wait(world, self._retreat)
                     self.retreats += 1
                     self._blocked_total = 0.0
+                    self._best_t = self._last_t or 0.0   # yielding is not a lack of progress
                     self.follower.set_path(path, None)
                     return
             path = None if self._retreat else self._sidestep(pose, world)
@@ -486,6 +488,7 @@ class Navigator:
                                    FollowerCommand(0.0, 0.0, "blocked", 0.0))
         self._resume_at = None
         self._rebase = True
+        self._best_t = now   # the time it gave way is not time without progress
         self.follower.set_path(path, self.goal[2])
         return NavStatus(0.0, 0.0, "active", "going on")
 
