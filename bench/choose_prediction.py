@@ -34,6 +34,7 @@ sys.path.insert(0, HERE)
 from bullet_floor_sim.people.evaluation import (FRACTIONS, PIPELINES, EvalConfig,  # noqa: E402
                                               EvalResult, LegScore, rescore, run, world_model)
 from bullet_floor_sim.people.prediction import PredictionConfig  # noqa: E402
+from bullet_floor_sim.sim.config import world_label  # noqa: E402
 from eval_worlds import shipped  # noqa: E402
 
 GRID = {"beta": (2.0, 3.0, 5.0, 8.0), "length_exponent": (0.0, 0.5, 1.0, 1.5),
@@ -45,9 +46,26 @@ COLUMNS = ("trk25", "trk50", "trk75", "trk_markov25", "trk_heading25", "gt25", "
 SCORED = tuple(FRACTIONS.index(f) for f in (0.25, 0.5, 0.75))
 
 
+def cache_path(cache: str, world: str, legs: int, seed: int) -> str:
+    """Where a run's moments are kept (bench/eval_worlds.py --save writes there too)."""
+    return os.path.join(cache, "%s_legs%d_seed%d.json" % (world_label(world), legs, seed))
+
+
+def save_moments(result: EvalResult, path: str) -> None:
+    """A run's legs and their moments, as :func:`recorded` reads them."""
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with open(path + ".tmp", "w") as f:
+        json.dump({"failed": result.failed_legs,
+                   "legs": [dict({"number": s.number, "start": s.start_region,
+                                  "target": s.target_region, "duration": s.duration},
+                                 **{p: s.moments[p] for p in PIPELINES})
+                            for s in result.legs]}, f)
+    os.replace(path + ".tmp", path)
+
+
 def recorded(world: str, legs: int, seed: int, cache: str) -> EvalResult:
     """The run's legs with their moments: from the cache file, else run and save."""
-    path = os.path.join(cache, "%s_legs%d_seed%d.json" % (world, legs, seed))
+    path = cache_path(cache, world, legs, seed)
     cfg = EvalConfig(legs=legs, seed=seed, world=world)
     if os.path.isfile(path):
         with open(path) as f:
@@ -68,13 +86,7 @@ def recorded(world: str, legs: int, seed: int, cache: str) -> EvalResult:
             print("  %s: %s" % (world, line), file=sys.stderr, flush=True)
 
     r = run(cfg, progress)
-    os.makedirs(cache, exist_ok=True)
-    with open(path + ".tmp", "w") as f:
-        json.dump({"failed": r.failed_legs,
-                   "legs": [dict({"number": s.number, "start": s.start_region,
-                                  "target": s.target_region, "duration": s.duration},
-                                 **{p: s.moments[p] for p in PIPELINES}) for s in r.legs]}, f)
-    os.replace(path + ".tmp", path)
+    save_moments(r, path)
     print("  %s: %d legs recorded in %.0f s" % (world, len(r.legs), time.time() - t0),
           file=sys.stderr, flush=True)
     return r

@@ -21,13 +21,15 @@ from typing import Optional
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
+sys.path.insert(0, HERE)
 
 from bullet_floor_sim.people.evaluation import FRACTIONS, EvalConfig, run  # noqa: E402
 from bullet_floor_sim.paths import corpus_dir, corpus_worlds, worlds_dir  # noqa: E402
 from bullet_floor_sim.sim.config import world_label  # noqa: E402
 
 COLUMNS = ("world", "legs", "given_up", "trk25", "trk50", "trk75", "gt25", "gt50", "gt75",
-           "markov50", "heading50", "margin", "tracked", "rtf")
+           "markov50", "heading50", "margin", "tracked", "ll50", "markov_ll50", "ll_margin",
+           "rtf")
 
 
 #: Worlds made for tests, not buildings: simple's one room, corridor's one corridor.
@@ -77,7 +79,7 @@ def checked(worlds: list, named: bool, allow: bool) -> tuple:
     return [w for w in worlds if w not in refused], notes
 
 
-def row(world: str, legs: int, seed: int, allow: bool = False) -> dict:
+def row(world: str, legs: int, seed: int, allow: bool = False, save: str = "") -> dict:
     t0 = time.time()
     last = [t0]
 
@@ -87,6 +89,10 @@ def row(world: str, legs: int, seed: int, allow: bool = False) -> dict:
             print("  %s: %s" % (world, line), file=sys.stderr, flush=True)
 
     r = run(EvalConfig(legs=legs, seed=seed, world=world, allow_unreachable=allow), progress)
+    if save:   # the moments, for bench/calibrate_prediction.py and choose_prediction.py
+        from choose_prediction import cache_path, save_moments
+
+        save_moments(r, cache_path(save, world, legs, seed))
     tab = r.table()
     k = {f: FRACTIONS.index(f) for f in (0.25, 0.5, 0.75)}
     out = {"world": world_label(world), "legs": len(r.legs),
@@ -96,6 +102,13 @@ def row(world: str, legs: int, seed: int, allow: bool = False) -> dict:
            "tracked": r.tracked_share, "rtf": r.sim_time / max(r.wall_time, 1e-9),
            "notes": r.warnings}
     # the predictor's least lead over the better baseline, from 25 % on, in both pipelines
+    # log-loss (nats) at 50 % from tracker tracks, the prior's, and the predictor's least lead
+    # in log-loss over the prior from 25 % on in both pipelines (> 0: below it everywhere)
+    out["ll50"] = tab["tracker"]["predictor"][k[0.5]][1]
+    out["markov_ll50"] = tab["tracker"]["markov"][k[0.5]][1]
+    out["ll_margin"] = min(tab[p]["markov"][j][1] - tab[p]["predictor"][j][1]
+                           for p in ("tracker", "ground_truth")
+                           for j in range(FRACTIONS.index(0.25), len(FRACTIONS)))
     out["margin"] = min(tab[p]["predictor"][k][0] - max(tab[p]["markov"][k][0],
                                                         tab[p]["heading"][k][0])
                         for p in ("tracker", "ground_truth")
@@ -109,10 +122,11 @@ def row(world: str, legs: int, seed: int, allow: bool = False) -> dict:
 def _eval_line(r: dict, office: Optional[float]) -> str:
     """The EVAL line of one world's row (with its ratio to office's rtf when known)."""
     return ("EVAL world=%s legs=%d given_up=%.3f trk25=%.3f trk50=%.3f trk75=%.3f gt25=%.3f "
-            "gt50=%.3f gt75=%.3f markov50=%.3f heading50=%.3f margin=%.3f tracked=%.3f rtf=%.1f%s"
+            "gt50=%.3f gt75=%.3f markov50=%.3f heading50=%.3f margin=%.3f tracked=%.3f "
+            "ll50=%.3f markov_ll50=%.3f ll_margin=%.3f rtf=%.1f%s"
             % (r["world"], r["legs"], r["given_up"], r["trk25"], r["trk50"], r["trk75"],
                r["gt25"], r["gt50"], r["gt75"], r["markov50"], r["heading50"], r["margin"],
-               r["tracked"], r["rtf"],
+               r["tracked"], r["ll50"], r["markov_ll50"], r["ll_margin"], r["rtf"],
                "" if office is None else " rtf_vs_office=%.2f" % (r["rtf"] / office)))
 
 
@@ -125,6 +139,8 @@ def main() -> int:
     p.add_argument("--allow-unreachable", action="store_true",
                    help="run a world whose map check finds a region the walker cannot reach "
                         "or an observer cut off (check_world); the output says so")
+    p.add_argument("--save", default="", metavar="DIR",
+                   help="keep each run's moments there (bench/calibrate_prediction.py --cache)")
     args = p.parse_args()
     worlds, notes = checked(args.worlds or shipped(), bool(args.worlds),
                             args.allow_unreachable)   # before any runs
@@ -133,7 +149,7 @@ def main() -> int:
     rows = []
     for w in worlds:
         print("== %s: %d legs, seed %d" % (w, args.legs, args.seed), file=sys.stderr, flush=True)
-        rows.append(row(w, args.legs, args.seed, args.allow_unreachable))
+        rows.append(row(w, args.legs, args.seed, args.allow_unreachable, args.save))
         for n in rows[-1]["notes"]:
             print("  note: %s" % n, file=sys.stderr)
         print("  done: %s" % _eval_line(rows[-1], None), file=sys.stderr, flush=True)
@@ -143,6 +159,7 @@ def main() -> int:
     for r in rows:
         cells = [r["world"], "%d" % r["legs"], "%.1f %%" % (100 * r["given_up"])]
         cells += ["%.1f %%" % (100 * r[c]) for c in COLUMNS[3:13]]
+        cells += ["%.2f" % r[c] for c in COLUMNS[13:16]]
         cells.append("%.1fx" % r["rtf"])
         print("| " + " | ".join(cells) + " |")
     for r in rows:
