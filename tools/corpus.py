@@ -137,16 +137,19 @@ def build(entry: dict, files: List[str], out: str) -> str:
 
 def _write_world(entry: dict, path: str) -> None:
     """world.yaml: the map, rois: auto, and two robots at the roomiest places of the floor
-    the robot's footprint connects, at least 5 m apart (2 m in a small home;
-    building.roomy_starts)."""
+    the robot's footprint connects, 4-10 m apart (2-10 m in a small home) and in sight of
+    each other (building.roomy_starts)."""
     from bullet_floor_sim.building import Building
     from bullet_floor_sim.sim.config import WorldConfig
 
     d = os.path.dirname(path)
     b = Building(WorldConfig(path=path, map_yaml=os.path.join(d, "map.yaml")))
-    starts = b.roomy_starts(2, 5.0)
+    starts = b.roomy_starts(2, 4.0, within=10.0)   # the observer sees the walker
     if len(starts) < 2:   # a small home: closer together
-        starts = b.roomy_starts(2, 2.0)
+        starts = b.roomy_starts(2, 2.0, within=10.0)
+    if len(starts) < 2:
+        raise CorpusError("%s: no room for two robots %s m apart in sight of each other on "
+                          "the floor a robot connects" % (entry["name"], 2.0))
     lines = ["# %s (%s), built by tools/corpus.py from worlds/corpus.yaml: see SOURCE.md"
              % (entry["name"], entry["kind"]), "map: map.yaml", "rois: auto", "robots:"]
     for i, (x, y) in enumerate(starts, 1):

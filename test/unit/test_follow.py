@@ -176,10 +176,22 @@ def test_search_plan_takes_the_likely_regions_most_likely_first():
     assert got == [("1", (0.0, 0.0))]
 
 
-def test_lost_without_prediction_is_idle():
+def test_lost_or_never_seen_without_prediction_patrols_the_building():
     fb = FollowBehaviour(hall())
     fb.update(0.0, (2.0, 2.0, 0.0), (4.0, 2.0, 0.0, 0.0))
-    assert fb.update(5.0, (2.0, 2.0, 0.0), None, None).mode == "idle"
+    d = fb.update(5.0, (2.0, 2.0, 0.0), None, None)
+    assert d.mode == "patrol" and d.goal is not None and "patrolling" in d.reason
+    first = d.goal
+    assert fb.update(6.0, (2.0, 2.0, 0.0), None, None).goal is None     # on its way
+    d = fb.update(20.0, first, None, None, goal_done=True)                # there: the next
+    assert d.mode == "patrol" and d.goal is not None
+    assert math.hypot(d.goal[0] - first[0], d.goal[1] - first[1]) > 1.0
+    # an observer that has not seen its target for patrol_after from the start patrols
+    fresh = FollowBehaviour(hall())
+    assert fresh.update(0.0, (2.0, 2.0, 0.0), None, None).goal is None
+    assert fresh.update(9.0, (2.0, 2.0, 0.0), None, None).goal is None
+    late = fresh.config.patrol_after + 0.1
+    assert fresh.update(late, (2.0, 2.0, 0.0), None, None).mode == "patrol"
 
 
 def test_pick_target_keeps_the_followed_id_else_the_nearest_to_last_seen():

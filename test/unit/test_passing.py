@@ -92,12 +92,33 @@ def test_the_robot_nearer_its_passing_place_yields_whatever_its_heading():
         far.start((20.0, 3.65, 0.0), (27.0, 3.65), 0.0)
         blocker = np.array([[21.7, 3.65], [21.75, 3.4], [21.75, 3.9]])
         # heading east, 15 m from the west hall, the other 3 m from the east one: it waits
-        assert not far._yields((20.0, 3.65, math.pi), blocker)
+        assert not far._yields((20.0, 3.65, 0.0), blocker)
+        # something behind it is not met head-on: no yielding to it
+        assert not near_west._yields((8.0, 3.65, math.pi), face)
         # mid-corridor, each about 10 m from its hall: the heading rule, the one heading west
         mid = Navigator(grid)
         mid.start((15.2, 3.65, math.pi), (2.0, 3.65), 0.0)
         tie = np.array([[14.55, 3.65], [14.6, 3.4], [14.6, 3.9]])
         assert mid._yields((15.2, 3.65, math.pi), tie)
-        assert not mid._yields((15.2, 3.65, 0.0), tie)
+        east = np.array([[15.05, 3.65], [15.0, 3.4], [15.0, 3.9]])
+        assert not mid._yields((14.4, 3.65, 0.0), east)
+        # keep_way (the walker): not by the rule
+        keeper = Navigator(grid, config=NavigatorConfig(keep_way=True))
+        keeper.start((8.0, 3.65, 0.0), (27.0, 3.65), 0.0)
+        assert not keeper._yields((8.0, 3.65, 0.0), face)
     finally:
         world.close()
+
+
+def test_the_heading_rule_picks_exactly_one_of_two_robots_facing_each_other():
+    from bullet_floor_sim.nav.passing import heads_west_or_south
+
+    for yaw in np.linspace(-math.pi, math.pi, 721) + 1e-3:   # all but 110 degrees exactly
+        other = yaw + math.pi
+        assert heads_west_or_south(yaw) != heads_west_or_south(other), yaw
+    assert heads_west_or_south(math.pi) and not heads_west_or_south(0.0)
+    assert heads_west_or_south(math.radians(-135)) and not heads_west_or_south(math.radians(45))
+    # a north-south passage: the one heading south, whatever a little noise in x
+    assert heads_west_or_south(-math.pi / 2 + 0.01) and heads_west_or_south(-math.pi / 2 - 0.01)
+    assert not heads_west_or_south(math.pi / 2 + 0.01)
+    assert not heads_west_or_south(math.pi / 2 - 0.01)

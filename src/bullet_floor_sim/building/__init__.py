@@ -112,10 +112,13 @@ class Building:
             self._rois = usable_rois(load_rois(self.config.rois)) if self.config.rois else ([], [])
         return self._rois
 
-    def roomy_starts(self, n: int, apart: float) -> List[Tuple[float, float]]:
+    def roomy_starts(self, n: int, apart: float, within: Optional[float] = None
+                     ) -> List[Tuple[float, float]]:
         """``n`` start points for robots: the roomiest cells (most wall clearance) of the
         largest part of the floor a robot's footprint connects, each at least ``apart`` m
-        from those before (fewer when the floor has no room for them)."""
+        from those before, and with ``within``, at most that far from the first and in a
+        straight line of sight of it on the planning grid (an observer that starts seeing
+        its walker); fewer when the floor has no room for them."""
         import numpy as np
         from scipy.ndimage import label
 
@@ -129,6 +132,10 @@ class Building:
         out: List[Tuple[float, float]] = []
         for k in order:
             x, y = grid.to_world(int(cols[k]), int(rows[k]))
+            if out and within is not None and not (
+                    (x - out[0][0]) ** 2 + (y - out[0][1]) ** 2 <= within ** 2
+                    and grid.line_of_sight(out[0], (x, y))):
+                continue
             if all((x - a) ** 2 + (y - b) ** 2 >= apart ** 2 for a, b in out):
                 out.append((x, y))
                 if len(out) == n:

@@ -20,6 +20,7 @@ __all__ = ["NavStatus", "Navigator", "NavigatorConfig", "give_way_point"]
 
 _BACKUP_SPEED, _BACKUP_TIME = 0.1, 1.5   # m/s, s: a stalled robot backs off 0.15 m
 _MAX_RETREATS = 3   # per goal: then it waits where it is, and the goal can time out
+_MAX_REBASES = 3    # new plans a goal whose length restarts the progress count
 
 
 
@@ -107,11 +108,15 @@ class NavigatorConfig:
             know, within ``give_way_reach`` m; wait there and go on to the goal, at most 3
             times a goal.
         heading_rule: without ``give_way``, a robot that meets another head-on in a passage
-            too narrow for two yields (as above) when it heads west (cos(yaw) < 0; due north
-            or south: when it heads south): of two robots facing each other exactly one does.
-        deadlock_time: blocked with no progress towards the goal this long, a robot that has
-            the right of way yields too (what blocks it does not: a robot parked, or one with
-            another rule).
+            too narrow for two yields (as above) by nav/passing.gives_way's rule (the one
+            nearer its passing place, else by heading): of two robots facing each other
+            exactly one does.
+        keep_way: never yield by that rule (the walker, a stand-in person: the observer
+            yields to it); only as the deadlock fallback.
+        deadlock_time: blocked with no progress towards the goal this long, a robot the rule
+            told to yield that has not (it could not) yields; one that has the right of way,
+            or keeps its way, after twice as long (what blocks it does not yield: a robot
+            parked, or one with another rule). Unequal, so the two do not back off at once.
         other_radius: the radius (m) of what it meets, for the passing places (default: its
             own).
         pass_wait_max: the longest wait (s) at a passing place; it waits as long as what it
@@ -129,6 +134,7 @@ class NavigatorConfig:
     give_way_reach: float = 5.0
     give_way_wait: float = 3.0
     heading_rule: bool = True
+    keep_way: bool = False
     deadlock_time: float = 10.0
     other_radius: Optional[float] = None
     passing_reach: float = 25.0
@@ -184,6 +190,7 @@ class Navigator:
         self._seen = np.zeros((0, 2))             # the last scan's points in the map frame
         self._known = np.zeros(0, dtype=bool)     # which of them are on the map's walls
         self._rebase = False       # a new path to the goal: progress counts along it
+        self._rebases = 0
         self._wait_for = self.config.give_way_wait  # at the place it retreats to
         self._axis: Optional[np.ndarray] = None   # nav/passing.narrow_axis, on first need
 
@@ -211,7 +218,7 @@ class Navigator:
         self._last_cmd = (0.0, 0.0)
         self._still_since = None
         self._retreat, self._resume_at, self._backup_until = None, None, None
-        self._rebase = False
+        self._rebase, self._rebases = False, 0
         self._last_stall = -math.inf
         self._stuck = None
         self.retreats = 0
@@ -278,8 +285,12 @@ class Navigator:
             return NavStatus(0.0, 0.0, "succeeded", "goal reached", cmd.distance_to_goal)
         left = self._path_left(pose, cmd.distance_to_goal)
         if self._rebase and self._retreat is None:
-            # a new path (the long way round, past a sidestep): progress is along it now
-            self._best, self._rebase = left, False
+            # a new path clearly longer than what was left (the long way round what blocks
+            # it): progress is along it now; at most _MAX_REBASES a goal (sidesteps back and
+            # forth must not reset the count for ever)
+            if left > self._best + 1.0 and self._rebases < _MAX_REBASES:
+                self._best, self._rebases = left, self._rebases + 1
+            self._rebase = False
         if self._retreat is None and left < self._best - 0.1:
             # (retreating, the distance is to the place it retreats to: no progress)
             self._best = left
@@ -385,9 +396,11 @@ class Navigator:
             path = self.grid.plan(pose, self._retreat or self.goal, obstacles=world)
         except PlanError:
             if self.retreats < _MAX_RETREATS and len(world) and self._yields(pose, world):
-                path = self._to_passing_place(pose, world)
-                if path is None and self.config.give_way:
-                    path = self._out_of_the_way(pose, world)
+                # the observer first steps out of the way nearby (it keeps its target in
+                # sight); a robot yielding in a narrow passage goes to a passing place
+                path = self._out_of_the_way(pose, world) if self.config.give_way else None
+                if path is None:
+                    path = self._to_passing_place(pose, world)
                 if path is not None:   # it gets out of the way
                     self._retreat = (float(path[-1, 0]), float(path[-1, 1]))
                     self._wait_for = self._pass_wait(world, self._retreat)
@@ -405,17 +418,24 @@ class Navigator:
 
     def _yields(self, pose: Sequence[float], world: np.ndarray) -> bool:
         """Whether this robot gives way to what blocks it (``world``, the points of it):
-        always with ``give_way``; after ``deadlock_time`` without progress; else as
-        nav/passing.gives_way decides."""
+        always with ``give_way``; else only to what stands ahead of it (not what it follows
+        out of sight behind, not a box beside), by nav/passing.gives_way's rule, or after
+        the deadlock times (see NavigatorConfig)."""
         from .passing import gives_way
 
         cfg = self.config
         if cfg.give_way:
             return True
-        if self._last_t is not None and self._last_t - self._best_t >= cfg.deadlock_time:
-            return True
-        return gives_way(self.grid, self._narrow_axis(), pose, world, self._other_radius(),
-                         cfg.passing_reach, cfg.heading_rule)
+        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+        cx, cy = (float(v) for v in world.mean(axis=0))
+        if (cx - x) * math.cos(yaw) + (cy - y) * math.sin(yaw) <= 0.0:
+            return False
+        rule = (not cfg.keep_way and cfg.heading_rule
+                and gives_way(self.grid, self._narrow_axis(), pose, world,
+                              self._other_radius(), cfg.passing_reach))
+        stuck = 0.0 if self._last_t is None else self._last_t - self._best_t
+        return rule or stuck >= cfg.deadlock_time * (2.0 if cfg.keep_way or not
+                                                     cfg.heading_rule else 1.0)
 
     def _other_radius(self) -> float:
         r = self.config.other_radius

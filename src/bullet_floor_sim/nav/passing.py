@@ -18,7 +18,8 @@ import numpy as np
 
 from .grid import PlanningGrid
 
-__all__ = ["narrow_axis", "passing_place", "gives_way", "PASSING_MARGIN"]
+__all__ = ["narrow_axis", "passing_place", "gives_way", "heads_west_or_south",
+           "PASSING_MARGIN"]
 
 #: The gap (m) left between two discs passing side by side.
 PASSING_MARGIN = 0.1
@@ -61,9 +62,9 @@ def gives_way(grid: PlanningGrid, axis: np.ndarray, pose: Sequence[float], block
     """Whether the robot at ``pose`` (x, y, yaw) yields to what it meets head-on (``blocker``,
     the scan points of it), by a rule that robot applies too: the one whose passing place is
     nearer, by more than a metre, yields; one with no passing place never does (the other
-    must); within a metre, the one heading west (cos(yaw) < 0; due north or south: the one
-    heading south) when ``heading_rule``. What it meets is taken to be a disc of
-    ``other_radius`` just beyond its points."""
+    must); within a metre, the one :func:`heads_west_or_south` when ``heading_rule``.
+    What it meets is taken to be a disc of
+    ``other_radius`` just beyond its points (the robot itself as a disc of its own)."""
     x, y = float(pose[0]), float(pose[1])
     mine = passing_place(grid, axis, (x, y), blocker, other_radius, reach)
     if mine is None:
@@ -73,7 +74,8 @@ def gives_way(grid: PlanningGrid, axis: np.ndarray, pose: Sequence[float], block
     away = centre - (x, y)
     centre = centre + 0.7 * other_radius * away / max(float(np.hypot(*away)), 1e-9)
     a = np.linspace(0.0, 2.0 * math.pi, 12, endpoint=False)
-    me = np.column_stack([x + 0.8 * other_radius * np.cos(a), y + 0.8 * other_radius * np.sin(a)])
+    r = grid.config.robot_radius
+    me = np.column_stack([x + 0.8 * r * np.cos(a), y + 0.8 * r * np.sin(a)])
     theirs = passing_place(grid, axis, centre, me, other_radius, reach)
     d_mine = math.hypot(mine[0] - x, mine[1] - y)
     if theirs is None:
@@ -81,5 +83,17 @@ def gives_way(grid: PlanningGrid, axis: np.ndarray, pose: Sequence[float], block
     d_theirs = math.hypot(theirs[0] - centre[0], theirs[1] - centre[1])
     if abs(d_mine - d_theirs) > 1.0:
         return d_mine < d_theirs
-    c, s = math.cos(float(pose[2])), math.sin(float(pose[2]))
-    return heading_rule and (c < -1e-6 or (abs(c) <= 1e-6 and s < 0.0))
+    return heading_rule and heads_west_or_south(float(pose[2]))
+
+
+def heads_west_or_south(yaw: float) -> bool:
+    """The heading rule's loser: a heading against ``RULE_DIRECTION`` (20 degrees north of
+    east; cos(yaw - 20 deg) < 0): west, south and what lies between. Of two robots facing
+    each other exactly one is, in a passage of any direction but the one at right angles to
+    it (110 degrees from east, which buildings seldom have), and a little heading noise
+    decides nothing in an east-west or north-south one."""
+    return math.cos(yaw - RULE_DIRECTION) < 0.0
+
+
+#: The heading rule's direction (rad from east): not a building's usual 0, 45 or 90 degrees.
+RULE_DIRECTION = math.radians(20.0)

@@ -31,7 +31,9 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   at least ``search_min_probability``: :func:`search_plan`) and round the list again; a track
   seen again ends the search. (Looking in one region only, the observer sat for good where
   the walker was not: a fifth of a 200-leg evaluation.)
-* **idle**: nothing tracked and nothing predicted: stay.
+* **patrol**: nothing tracked and nothing predicted (the target never seen, or lost with no
+  leg to predict): the building's roomy places in turn, nearest first (:func:`patrol_points`).
+* **idle**: as patrol, on a floor with nowhere to patrol: stay.
 
 Everything is plain numbers in, plain numbers out.
 """
@@ -76,6 +78,8 @@ class FollowConfig:
             of the map, nearest first, each once before any again (the target walked on to
             regions its last prediction did not name, and out of sight of them).
         patrol_spacing: the side (m) of the blocks that give the patrol its places.
+        patrol_after: a target not seen this long from the start, with nothing predicted, is
+            looked for on patrol (it may come by: a crowd's person, a walker dwelling).
         search_min_probability: ... each at least this likely (the most likely one always).
         roomy: the wall clearance (m) of a place the observer waits at: a stand-off point is
             chosen with at least this much when one exists, and an observer standing still
@@ -103,6 +107,7 @@ class FollowConfig:
     search_min_probability: float = 0.05
     search_rounds: int = 2
     patrol_spacing: float = 4.0
+    patrol_after: float = 10.0
     roomy: float = 0.6
     give_way: float = 0.9
     give_way_reach: float = 4.0
@@ -112,7 +117,8 @@ class FollowConfig:
     def check(self) -> None:
         """Raise FollowError naming the first bad parameter."""
         for name in ("distance", "slack", "replan_distance", "goal_period", "lost_after",
-                     "search_turn", "search_wait", "patrol_spacing", "roomy", "give_way",
+                     "search_turn", "search_wait", "patrol_spacing", "patrol_after", "roomy",
+                     "give_way",
                      "give_way_reach", "give_way_hold"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
@@ -134,7 +140,7 @@ class FollowDecision:
     """What the observer should do now.
 
     Attributes:
-        mode: ``follow``, ``give_way``, ``search`` or ``idle``.
+        mode: ``follow``, ``give_way``, ``search``, ``patrol`` or ``idle``.
         goal: a new navigation goal (x, y, yaw) to send now, or None (keep the current one).
         reason: one line for the log.
     """
@@ -194,6 +200,7 @@ class FollowBehaviour:
         self._rounds = 0                 # rounds of the search plan gone without a sight
         self._place = ""                 # what the current search goal is (for the log)
         self._patrol: Optional[np.ndarray] = None   # patrol places (made when first needed)
+        self._t0: Optional[float] = None   # when it first looked for a target not yet seen
         self._patrolled: List[int] = []  # patrol places visited this tour
         self._search_phase = ""          # back | go | look | wait
         self._search_since = -math.inf
@@ -233,12 +240,13 @@ class FollowBehaviour:
         if self.last_seen is not None and t - self.last_seen < cfg.lost_after:
             return FollowDecision(self.mode, None, "target unseen for %.1f s" % (
                 t - self.last_seen))
+        if self._t0 is None:
+            self._t0 = t
+        if self.last_seen is None and t - self._t0 < cfg.patrol_after:
+            return FollowDecision(self.mode)   # not seen yet: a while to see it from here
         plan = as_plan(destination)
         if not plan:
-            if self.mode != "idle":
-                self.mode = "idle"
-                return FollowDecision("idle", None, "target lost, no predicted destination")
-            return FollowDecision("idle")
+            return self._patrol_unseen(robot, goal_done)
         rx, ry, ryaw = (float(v) for v in robot[:3])
         if self.mode != "search" or [r for r, _ in plan] != [r for r, _ in self._search]:
             first_loss = self.mode != "search"
@@ -344,6 +352,27 @@ class FollowBehaviour:
         self._place = "region %s's search point" % region
         return self._go(rx, ry, x, y, "%s %s (%d of %d)" % (
             why, region, self._search_index + 1, len(self._search)))
+
+    def _patrol_unseen(self, robot: Sequence[float], goal_done: bool) -> FollowDecision:
+        """Nothing tracked and nothing predicted (a target never seen, or lost with no leg to
+        predict): patrol the building's roomy places, nearest first, one after the other; an
+        observer that started out of sight of its target stood still for ever before. Idle
+        only where there is nowhere to patrol."""
+        rx, ry = float(robot[0]), float(robot[1])
+        if self._patrol is None:
+            self._patrol = patrol_points(self.grid, self.config.patrol_spacing,
+                                         self.config.roomy)
+        if len(self._patrol) == 0:
+            if self.mode != "idle":
+                self.mode = "idle"
+                return FollowDecision("idle", None, "target lost, no predicted destination")
+            return FollowDecision("idle")
+        if self.mode != "patrol" or goal_done:
+            self.mode = "patrol"
+            d = self._patrol_go(rx, ry)
+            return FollowDecision("patrol", d.goal, "nothing tracked or predicted: patrolling "
+                                  "(%s)" % self._place)
+        return FollowDecision("patrol")
 
     def _patrol_go(self, rx: float, ry: float) -> FollowDecision:
         """On to the nearest patrol place not visited in this tour (a new tour when all are)."""

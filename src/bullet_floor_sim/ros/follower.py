@@ -11,7 +11,7 @@ people/agents.FollowerAgent (people/follow.py) makes the decisions, as in the ev
 
 Topics: ``tracks`` (in, bullet_floor_sim/TrackArray), ``destination`` (in,
 bullet_floor_sim/Destination), ``base_pose_ground_truth`` (in, with ``~pose_source``
-ground_truth), ``~mode`` (std_msgs/String, latched: follow | give_way | search | idle, on change),
+ground_truth), ``~mode`` (std_msgs/String, latched: follow | give_way | search | patrol | idle, on change),
 ``~target`` (geometry_msgs/PointStamped: the followed track's position).
 
 Parameters: ``~pose_source`` (amcl: tf ``<global_frame> -> <base_frame>``; ground_truth),
