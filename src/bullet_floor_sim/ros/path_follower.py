@@ -16,6 +16,8 @@ Parameters (defaults suit a Scitos A5): ``~robot_radius`` 0.34, ``~inflation_rad
 ``~xy_goal_tolerance`` 0.15, ``~yaw_goal_tolerance`` 0.15, ``~controller_frequency`` 10,
 ``~blocked_timeout`` 30, ``~progress_timeout`` 60, ``~give_way`` false (true: when blocked
 where no path passes, retreat to a wider place, wait and go on: nav/planner.Navigator),
+``~keep_way`` false (true: in a passage too narrow for two, never yield by the passing rule,
+only after 20 s blocked: the walker, nav/navigator.NavigatorConfig),
 ``~global_frame`` map, ``~map_topic`` /map, ``~localisation`` ground_truth | tf,
 ``~allow_unknown`` false (true: plan through unknown space, as navfn's ``allow_unknown``;
 exploration needs it).
@@ -70,6 +72,7 @@ class PathFollowerParams:
     blocked_timeout: float = 30.0
     progress_timeout: float = 60.0
     give_way: bool = False
+    keep_way: bool = False
     global_frame: str = "map"
     map_topic: str = "/map"
     localisation: str = "ground_truth"
@@ -101,7 +104,8 @@ class PathFollowerNode:
             robot_radius=p.robot_radius, max_linear=p.max_linear, max_angular=p.max_angular,
             xy_tolerance=p.xy_goal_tolerance, yaw_tolerance=p.yaw_goal_tolerance)
         self.nav_cfg = NavigatorConfig(blocked_timeout=p.blocked_timeout,
-                                       progress_timeout=p.progress_timeout, give_way=p.give_way)
+                                       progress_timeout=p.progress_timeout, give_way=p.give_way,
+                                       keep_way=p.keep_way)
         self.rate_hz = p.controller_frequency
         self.global_frame = p.global_frame
         self.grid: Optional[PlanningGrid] = None

@@ -117,7 +117,7 @@ class _Scenario:
         self.predictor = PredictorAgent(model)
         self.follower = FollowerAgent(FollowBehaviour(grid, FollowConfig()))
         # path_follower in each namespace; the observer's yields (demo.launch's ~give_way)
-        self.nav_walker = Navigator(grid, PathFollower())
+        self.nav_walker = Navigator(grid, PathFollower(), NavigatorConfig(keep_way=True))
         self.drive = ObserverDrive(world, cfg.observer, grid)
         self.pred_gt = OnlinePredictor(model)   # the same predictor on the walker's truth
         self.laser = [world.models[i].laser_pose for i in range(world.n)]  # x, y, z, yaw
