@@ -2,7 +2,7 @@
 """Two robots facing each other in the corridor world's 1.4 m corridor, each sent through
 move_base to the hall behind the other: both goals SUCCEED, each robot ends within 0.3 m of
 its goal and never touches a wall, and one of them went back into the hall it came from while
-the other was still in the corridor: it yielded."""
+the other was still in the corridor: exactly one of them yielded."""
 from __future__ import annotations
 
 import os
@@ -52,6 +52,7 @@ class TestCorridor(unittest.TestCase):
         while rospy.Time.now() < deadline and any(
                 c.get_state() in (GoalStatus.PENDING, GoalStatus.ACTIVE) for c in clients.values()):
             poses = {n: w.pose for n, w in watch.items()}
+            self.assertTrue(all(poses.values()), "no ground truth pose from %s" % poses)
             for n in names:
                 other = poses[names[1 - names.index(n)]]
                 x = poses[n][0]
@@ -67,7 +68,8 @@ class TestCorridor(unittest.TestCase):
             self.assertLessEqual(watch[n].error_to(*GOALS[n]), 0.3)
             self.assertGreater(watch[n].min_clearance, HULL_RADIUS,
                                "%s came within %.3f m of a wall" % (n, watch[n].min_clearance))
-        self.assertTrue(any(w.aside for w in watch.values()), "nobody stood aside")
+        aside = [n for n, w in watch.items() if w.aside]
+        self.assertEqual(len(aside), 1, "stood aside in their halls: %s" % aside)
 
 
 if __name__ == "__main__":

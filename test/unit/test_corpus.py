@@ -82,6 +82,10 @@ def test_a_malformed_or_empty_log_is_one_line(tmp_path):
     empty.write_text("ODOM 0 0 0\n")
     with pytest.raises(MapError, match="no FLASER line"):
         map_from_log(str(empty))
+    blind = tmp_path / "blind.log"
+    blind.write_text("FLASER 3 81.9 81.9 81.9 0 0 0 0 0 0 0 h 0\n")
+    with pytest.raises(MapError, match="blind.log: no beam returns within 40 m"):
+        map_from_log(str(blind))
 
 
 def _closed_port() -> int:

@@ -257,7 +257,9 @@ def study_problems(report: WorldCheck, walker: str, observer: Optional[str]) -> 
     if w.unreachable:
         cut = []
         for i in w.unreachable:
-            ways = [p for p in fc.passages if i in (p.a, p.b) and p.at is not None]
+            # the way in that is too narrow (a passage from a reached region), widest first
+            ways = [p for p in fc.passages if i in (p.a, p.b) and p.no_route
+                    and ({p.a, p.b} - {i}) <= set(w.reachable)]
             way = max(ways, key=lambda p: p.width) if ways else None
             cut.append('"%s" (%s)%s' % (i, report.regions[i], "" if way is None else
                                         " (its widest way in: %s)" % way.describe()))

@@ -6,7 +6,7 @@ thousands of grazing beams pass: a batch of a whole log wants counts.)
 
 A ``FLASER n r_1 .. r_n x y theta odom_x odom_y odom_theta ...`` line holds n ranges over
 180 degrees, right to left, at the laser pose (x, y, theta) the SLAM estimated. Ranges at or
-beyond ``range_max`` (a SICK reports 80 m or more for no return) mark free space only.
+beyond ``range_max`` (a SICK reports 80 m or more for no return) are left out.
 """
 from __future__ import annotations
 
@@ -85,6 +85,8 @@ def map_from_log(path: str, resolution: float = 0.05, range_max: float = 40.0,
                                      y + ranges[ok] * np.sin(a[ok])]))
         origins.append(np.repeat([[x, y]], int(ok.sum()), axis=0))
     end, start = np.vstack(ends), np.vstack(origins)
+    if not len(end):
+        raise MapError("%s: no beam returns within %g m" % (path, range_max))
     lo = np.minimum(end.min(axis=0), start.min(axis=0)) - 1.0
     w, h = (np.ceil((np.maximum(end.max(axis=0), start.max(axis=0)) + 1.0 - lo)
                     / resolution).astype(int))

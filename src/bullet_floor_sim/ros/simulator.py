@@ -498,6 +498,9 @@ def main(argv: Optional[List[str]] = None) -> int:
             rospy.loginfo("simulator: lidar beams at robots of %s", line)
         if rospy.get_param("~check_world", True):
             _log_check(world)
+        else:   # what the map's handling made solid or floor, at least
+            for line in world.solid.report:
+                rospy.loginfo("simulator: map %s: %s", world.fmap.yaml_path, line)
         node.spin(stop)
     except BulletFloorSimError as e:
         rospy.logfatal("simulator: %s", e)

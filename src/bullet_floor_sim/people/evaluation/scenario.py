@@ -63,13 +63,17 @@ def _regions(world, building=None):
 
 
 def refuse_unreachable(world, cfg: EvalConfig, building=None) -> List[str]:
-    """The map check of a study (building/check.py): raises EvaluationError naming what the
+    """The map check of a study (building/check.py) of ``world`` (a sim World, or anything
+    with its ``config``, such as a Building): raises EvaluationError naming what the
     walker cannot reach (and the passages, and the fixes) unless ``cfg.allow_unreachable``;
     then returns it as warnings that say the run went on."""
     from ...building.check import FIXES, check_building, study_problems
 
     b = building or Building(world.config, world.fmap)
     names = [r.name or "robot" for r in world.config.robots]
+    if max(cfg.walker, cfg.observer) >= len(names):
+        raise EvaluationError("evaluate: world %s has %d robot(s); robots %d and %d are needed"
+                              % (cfg.world, len(names), cfg.walker, cfg.observer))
     problems = study_problems(check_building(b), names[cfg.walker], names[cfg.observer])
     if problems and not cfg.allow_unreachable:
         raise EvaluationError("evaluate: world %s: %s. Fixes: %s; or allow it with "

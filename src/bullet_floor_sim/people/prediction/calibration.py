@@ -9,7 +9,8 @@ beyond the chain's prior's. Two standard remedies, applied in this order:
   computed from the posterior as prior(g)^(1 - 1/T) · P(g)^(1/T) (T = 1: unchanged);
 * ``prior_mix`` ε in [0, 1) mixes the prior back in: (1 - ε) P(g) + ε prior(g), over the
   regions the posterior left possible (so no region is ever certain, and the log-loss of a
-  wrong answer is bounded by -ln(ε prior(truth))).
+  wrong answer among them is bounded by -ln(ε prior(truth)); a region the posterior ruled
+  out, none of its goal points reachable, stays at 0).
 
 Both are chosen by cross-validation across worlds (bench/calibrate_prediction.py).
 """
