@@ -4,6 +4,7 @@ lidar tracked at its true place and speed; per-track predictions with their sear
 follower keeping its target and its plan (no ROS)."""
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from types import SimpleNamespace
@@ -44,8 +45,8 @@ def office():
 
 def test_walker_agent_legs_results_timeouts_and_pauses(office):
     rois, sampler = office
-    cfg = WalkerConfig(goal_timeout=100.0, retry_delay=2.0, max_retry_delay=30.0,
-                       dwell_min=5.0, dwell_max=20.0)
+    cfg = WalkerConfig(goal_timeout=100.0, timeout_per_m=1.0, retry_delay=2.0,
+                       max_retry_delay=30.0, dwell_min=5.0, dwell_max=20.0)
     agent = WalkerAgent(Walker(MarkovChain.from_rois(rois), rois, sampler, cfg, seed=3))
     by_id = {r.id: r for r in rois}
     pose = (3.0, 10.0, 0.0)   # robot1's start in the corridor
@@ -63,11 +64,17 @@ def test_walker_agent_legs_results_timeouts_and_pauses(office):
     assert agent.tick(14.4, pose).start is None
     leg = agent.tick(14.5, pose).start
     assert leg.number == 2
+    # the leg's limit: goal_timeout, or timeout_per_m a metre to its goal when longer
+    far = math.hypot(leg.goal[0] - pose[0], leg.goal[1] - pose[1])
+    assert leg.timeout == max(100.0, 1.0 * far)
+    assert Walker(MarkovChain.from_rois(rois), rois, sampler, dataclasses.replace(
+        cfg, timeout_per_m=50.0), seed=3).next_leg(pose, 0.0).timeout > 100.0
     # no result within goal_timeout: a timeout, the goal to cancel, the delay doubled
     assert agent.tick(114.5, pose).finished is None          # exactly 100 s: not yet
     s = agent.tick(114.6, pose)
     assert s.finished is leg and leg.outcome == "timeout" and s.cancel
-    assert leg.detail == "no result within 100 s (~goal_timeout)" and s.pause == 4.0
+    assert leg.detail == "no result within 100 s (~goal_timeout, ~timeout_per_m)"
+    assert s.pause == 4.0
     # a success at the timeout's tick is a success, then a dwell in [dwell_min, dwell_max]
     leg = agent.tick(118.6, pose).start
     s = agent.tick(218.7, pose, ("succeeded", "ignored"))

@@ -121,12 +121,13 @@ class WalkerAgent:
         if result is not None and result[0] not in GOAL_RESULTS:
             raise ValueError("walker: unknown goal result %r (one of %s)"
                              % (result[0], ", ".join(GOAL_RESULTS)))
-        timed_out = t - leg.started > self.walker.config.goal_timeout
+        limit = leg.timeout or self.walker.config.goal_timeout
+        timed_out = t - leg.started > limit
         if result is not None and result[0] == "succeeded":
             outcome, detail = "succeeded", ""
         elif timed_out:
-            outcome, detail = "timeout", ("no result within %g s (~goal_timeout)"
-                                          % self.walker.config.goal_timeout)
+            outcome, detail = "timeout", ("no result within %.0f s (~goal_timeout, "
+                                          "~timeout_per_m)" % limit)
             step.cancel = True
         elif result is not None:
             outcome, detail = result

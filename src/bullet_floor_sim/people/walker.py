@@ -62,6 +62,10 @@ class WalkerConfig:
             default, 120 s, leaves that room and suits larger regions elsewhere; a robot that
             is really stuck is given up by the navigation first (the embedded follower aborts
             after 30 s blocked or 60 s without progress).
+        timeout_per_m: a leg gets at least this many seconds per metre between its start and
+            its goal as the crow flies (a route up to three times as long at the robot's
+            0.6 m/s, with room to wait): 120 s is too short for a leg across a 140 m hall (a
+            third of edmonton_convention's legs timed out).
         dwell_min, dwell_max: the dwell after a reached goal is uniform in [min, max].
         margin: a goal keeps at least this distance from its region's boundary.
         clearance: a goal keeps at least this distance from every wall (the robot's radius,
@@ -73,6 +77,7 @@ class WalkerConfig:
     """
 
     goal_timeout: float = 120.0
+    timeout_per_m: float = 8.0
     dwell_min: float = 5.0
     dwell_max: float = 20.0
     margin: float = 0.5
@@ -84,7 +89,7 @@ class WalkerConfig:
 
     def check(self) -> None:
         """Raise WalkerError naming the first bad parameter."""
-        for name in ("goal_timeout", "retry_delay", "max_retry_delay"):
+        for name in ("goal_timeout", "timeout_per_m", "retry_delay", "max_retry_delay"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise WalkerError("walker: %s must be a number of seconds > 0, got %r"
@@ -298,6 +303,8 @@ class Leg:
         detail: why it failed (move_base's text, the timeout).
         end_region: where the robot was when the leg finished.
         regoals: new goals the leg was given in its region (people/agents.WalkerAgent).
+        timeout: seconds after which it is cancelled (goal_timeout, or timeout_per_m times
+            the distance to its goal when longer).
     """
 
     number: int
@@ -310,6 +317,7 @@ class Leg:
     detail: str = ""
     end_region: str = ""
     regoals: int = 0
+    timeout: float = 0.0
 
     @property
     def duration(self) -> float:
@@ -419,7 +427,10 @@ class Walker:
             self.legs += 1
             yaw = math.atan2(gy - y, gx - x) if math.hypot(gx - x, gy - y) > 1e-6 else (
                 float(pose[2]) if len(pose) > 2 else 0.0)
-            return Leg(self.legs, self.index.region_at(x, y), target, (gx, gy, yaw), now)
+            cfg = self.config
+            timeout = max(cfg.goal_timeout, cfg.timeout_per_m * math.hypot(gx - x, gy - y))
+            return Leg(self.legs, self.index.region_at(x, y), target, (gx, gy, yaw), now,
+                       timeout=timeout)
         raise WalkerError("walker: no acceptable goal in the regions drawn from %s after %d "
                           "draws: %s" % (self.label(here), self.config.max_picks,
                                          "; ".join(problems)))
