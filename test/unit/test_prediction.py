@@ -12,6 +12,8 @@ from shapely.geometry import Point
 from bullet_floor_sim.sim.floormap import load_map, map_from_grid
 from bullet_floor_sim.people.markov import MarkovChain
 from bullet_floor_sim.nav.planner import PlanError, PlanningGrid
+# the planning model's own posterior, uncalibrated (prior_mix 0), is what these tests work out
+# by hand; calibration has its own test below
 from bullet_floor_sim.people.prediction import (DestinationModel, OnlinePredictor, Prediction,
                                               PredictorPool,
                                               PredictionConfig, PredictionError, log_loss, top1)
@@ -95,7 +97,8 @@ def world():
 @pytest.fixture(scope="module")
 def model(world):
     # the progress term alone (the leg-length term has its own tests)
-    return DestinationModel(*world, PredictionConfig(length_exponent=0.0), goal_points=GOALS)
+    return DestinationModel(*world, PredictionConfig(prior_mix=0.0, length_exponent=0.0),
+                            goal_points=GOALS)
 
 
 def expected(progress, beta):
@@ -135,7 +138,8 @@ def test_posterior_along_the_corridor_by_hand(world, beta, q):
     for A's. Tolerance: the progress to 1 cm (beta * 0.01 on log ratios); the V fields are
     float32 and the grid is exact here, the centimetre allows for the cell refinement."""
     grid, rois, chain = world
-    m = DestinationModel(grid, rois, chain, PredictionConfig(beta=beta, length_exponent=0.0),
+    m = DestinationModel(grid, rois, chain,
+                         PredictionConfig(prior_mix=0.0, beta=beta, length_exponent=0.0),
                          goal_points=GOALS)
     s = (7.05, 5.75)
     d = q[0] - s[0]
@@ -169,8 +173,10 @@ def test_leg_length_term_by_hand(world):
     centre line; B's goal is 3.8 m up through B's door from x = 14.05 on it: 10.8 m and a
     little for the turn, plus the inflation cost of the door. Nothing observed: the prior x 1/L;
     walking, the same progress ratios as without the term, times the ratio of the lengths."""
-    m1 = DestinationModel(*world, PredictionConfig(length_exponent=1.0), goal_points=GOALS)
-    m0 = DestinationModel(*world, PredictionConfig(length_exponent=0.0), goal_points=GOALS)
+    m1 = DestinationModel(*world, PredictionConfig(prior_mix=0.0, length_exponent=1.0),
+                          goal_points=GOALS)
+    m0 = DestinationModel(*world, PredictionConfig(prior_mix=0.0, length_exponent=0.0),
+                          goal_points=GOALS)
     s = (7.05, 5.75)
     length = {g: float(m1.cost_to_go(g, *s)[0]) for g in PRIOR}
     assert length["corridor"] == pytest.approx(7.0, abs=1e-4)
@@ -185,7 +191,8 @@ def test_leg_length_term_by_hand(world):
         assert shift == pytest.approx(-math.log(length[g] / length["corridor"]), abs=1e-9), g
     # a goal point nearer than goal_spacing (1 m) counts as 1 m away
     near = dict(GOALS, corridor=[(7.55, 5.75)])
-    m = DestinationModel(*world, PredictionConfig(length_exponent=1.0), goal_points=near)
+    m = DestinationModel(*world, PredictionConfig(prior_mix=0.0, length_exponent=1.0),
+                         goal_points=near)
     post = m.posterior("corridor", s, s)
     w["corridor"] = PRIOR["corridor"] / 1.0
     assert post == pytest.approx({g: v / sum(w.values()) for g, v in w.items()}, rel=1e-9)
@@ -242,7 +249,7 @@ def test_mean_over_goal_points_and_unreachable_ones_dropped(world):
     lies in the sealed pocket and is left out of B's mean."""
     goals = dict(GOALS, corridor=[(14.05, 5.75), (1.05, 5.75)], B=[(14.05, 9.55), (3.5, 2.0)])
     beta = 1.0
-    m = DestinationModel(*world, PredictionConfig(beta=beta, length_exponent=0.0),
+    m = DestinationModel(*world, PredictionConfig(prior_mix=0.0, beta=beta, length_exponent=0.0),
                          goal_points=goals)
     post = m.posterior("corridor", (7.05, 5.75), (10.05, 5.75))
     w = {"corridor": PRIOR["corridor"] * (math.exp(3 * beta) + math.exp(-3 * beta)) / 2,
@@ -288,7 +295,7 @@ def test_cost_to_go_is_the_planners_path_cost(office):
 
 def test_lattice_goals_are_inside_clear_and_capped(world):
     grid, rois, chain = world
-    cfg = PredictionConfig(max_goals_per_region=7)
+    cfg = PredictionConfig(prior_mix=0.0, max_goals_per_region=7)
     m = DestinationModel(grid, rois, chain, cfg)
     assert m.goal_problems == {}
     for roi in rois:
@@ -490,7 +497,8 @@ def office():
     rois = load_rois(os.path.join(OFFICE, "rois.yaml"))
     grid = PlanningGrid(load_map(os.path.join(OFFICE, "map.yaml")))
     chain = MarkovChain.from_rois(rois)
-    return DestinationModel(grid, rois, chain)   # its build time: bench/prediction_bench.py
+    # its build time: bench/prediction_bench.py
+    return DestinationModel(grid, rois, chain, PredictionConfig(prior_mix=0.0))
 
 
 def test_office_world_precomputes_and_every_region_has_reachable_goals(office):

@@ -12,7 +12,8 @@ beyond the chain's prior's. Two standard remedies, applied in this order:
   wrong answer among them is bounded by -ln(ε prior(truth)); a region the posterior ruled
   out, none of its goal points reachable, stays at 0).
 
-Both are chosen by cross-validation across worlds (bench/calibrate_prediction.py).
+Both are chosen by cross-validation across worlds (bench/calibrate_prediction.py); the
+defaults, temperature 1 and prior_mix 0.1, are what 15 of 16 folds chose.
 """
 from __future__ import annotations
 
