@@ -27,7 +27,7 @@ from ..people.walker import region_label
 from . import Building, Footprint, person_footprint, robot_footprint
 
 __all__ = ["Passage", "StartReach", "FootprintCheck", "WorldCheck", "check_building",
-           "study_problems", "FIXES"]
+           "study_problems", "world_study_problems", "robot_label", "FIXES"]
 
 #: What a user can do about a region or a start cut off, in the order worth trying.
 FIXES = ("remove furniture specks from the map (world.yaml clean: {speckle: 0.05}, in m^2)",
@@ -126,7 +126,7 @@ def check_building(b: Building, robots: Optional[Sequence[str]] = None) -> World
     named) and a person."""
     rois, _ = b.regions()
     specs = [r for r in b.config.robots if robots is None or r.name in robots]
-    starts = [(r.name or "robot", (float(r.pose[0]), float(r.pose[1]))) for r in specs]
+    starts = [(robot_label(r), (float(r.pose[0]), float(r.pose[1]))) for r in specs]
     fps = [_footprint_check(b, robot_footprint(), rois, starts)]
     fps.append(_footprint_check(b, person_footprint(b.config), rois, []))
     solid = b.solid
@@ -280,3 +280,19 @@ def study_problems(report: WorldCheck, walker: str, observer: Optional[str]) -> 
                        "(%.0f m^2) is not connected to: it can never reach the walker"
                        % (observer, o.xy[0], o.xy[1], o.area, walker, w.area))
     return out
+
+
+def robot_label(spec) -> str:
+    """A robot's name in the report ("robot" for the empty name of a one-robot world)."""
+    return spec.name or "robot"
+
+
+def world_study_problems(report: WorldCheck, config, walker: int = 0,
+                         observer: int = 1) -> List[str]:
+    """:func:`study_problems` for a world's robots by index (the first walks, the second
+    observes, as the demo and the evaluation run them); a world without a robot is one."""
+    names = [robot_label(r) for r in config.robots]
+    if walker >= len(names):
+        return ["the world has no robot %d (it has %d)" % (walker, len(names))]
+    return study_problems(report, names[walker], names[observer] if observer < len(names)
+                          else None)

@@ -32,15 +32,13 @@ def main(argv: Optional[List[str]] = None) -> int:
     try:
         args = p.parse_args(sys.argv[1:] if argv is None else argv)
         from ..building import Building
-        from ..building.check import FIXES, check_building, study_problems
+        from ..building.check import FIXES, check_building, world_study_problems
 
         b = Building.load(args.world)
         report = check_building(b)
         for line in report.lines():
             print(line)
-        names = [r.name or "robot" for r in b.config.robots]
-        problems = study_problems(report, names[0], names[1] if len(names) > 1 else None) \
-            if names else ["the world has no robot"]
+        problems = world_study_problems(report, b.config)
         if args.plot:
             from ..building.plot import plot_check
 

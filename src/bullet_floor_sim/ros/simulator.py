@@ -419,14 +419,13 @@ def _log_check(world: World) -> None:
     map handling changed, what each footprint reaches; a warning for each region the first
     robot cannot reach and a second robot cut off from it."""
     from ..building import Building
-    from ..building.check import check_building, study_problems
+    from ..building.check import check_building, world_study_problems
 
     report = check_building(Building(world.config, world.fmap))
     for line in report.lines():
         rospy.loginfo("simulator: check_world: %s", line)
-    names = [s.name or "robot" for s in world.config.robots]
-    if names and world.config.rois:
-        for p in study_problems(report, names[0], names[1] if len(names) > 1 else None):
+    if world.config.robots and world.config.rois:
+        for p in world_study_problems(report, world.config):
             rospy.logwarn("simulator: check_world: %s", p)
 
 

@@ -67,14 +67,14 @@ def refuse_unreachable(world, cfg: EvalConfig, building=None) -> List[str]:
     with its ``config``, such as a Building): raises EvaluationError naming what the
     walker cannot reach (and the passages, and the fixes) unless ``cfg.allow_unreachable``;
     then returns it as warnings that say the run went on."""
-    from ...building.check import FIXES, check_building, study_problems
+    from ...building.check import FIXES, check_building, world_study_problems
 
     b = building or Building(world.config, world.fmap)
-    names = [r.name or "robot" for r in world.config.robots]
-    if max(cfg.walker, cfg.observer) >= len(names):
+    n = len(world.config.robots)
+    if max(cfg.walker, cfg.observer) >= n:
         raise EvaluationError("evaluate: world %s has %d robot(s); robots %d and %d are needed"
-                              % (cfg.world, len(names), cfg.walker, cfg.observer))
-    problems = study_problems(check_building(b), names[cfg.walker], names[cfg.observer])
+                              % (cfg.world, n, cfg.walker, cfg.observer))
+    problems = world_study_problems(check_building(b), world.config, cfg.walker, cfg.observer)
     if problems and not cfg.allow_unreachable:
         raise EvaluationError("evaluate: world %s: %s. Fixes: %s; or allow it with "
                               "--allow-unreachable" % (cfg.world, "; ".join(problems),
