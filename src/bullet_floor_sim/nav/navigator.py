@@ -20,7 +20,7 @@ __all__ = ["NavStatus", "Navigator", "NavigatorConfig", "give_way_point"]
 
 _BACKUP_SPEED, _BACKUP_TIME = 0.1, 1.5   # m/s, s: a stalled robot backs off 0.15 m
 _MAX_RETREATS = 3   # per goal: then it waits where it is, and the goal can time out
-_MAX_REBASES = 3    # new plans a goal whose length restarts the progress count
+_MAX_REBASES = 20   # new plans a goal whose length restarts the progress count
 
 
 
@@ -92,8 +92,8 @@ class NavigatorConfig:
             the goal -> abort.
         progress_timeout: no 0.1 m of progress along the path to the goal for this long -> abort
             (a new plan, such as the long way round what blocks it, starts the count afresh
-            from its length; the time does not restart, except after giving way: the time
-            spent backing off and waiting is not a lack of progress).
+            from its length, up to 20 times a goal; the time does not restart, except after
+            giving way: the time spent backing off and waiting is not a lack of progress).
         obstacle_range: scan points farther than this (m) are ignored when replanning.
         sidestep: how far (m) to step aside when no path passes an obstacle.
         stall_time: commanded to move but moved less than 2 cm and turned less than 0.05 rad
@@ -113,6 +113,9 @@ class NavigatorConfig:
             exactly one does.
         keep_way: never yield by that rule (the walker, a stand-in person: the observer
             yields to it); only as the deadlock fallback.
+        passing: False: no yielding to passing places at all, only ``give_way``'s, and
+            progress as the crow flies (a map being built: its passing places and plans are
+            as partial as it is, and a frontier that gets no nearer is given up).
         deadlock_time: blocked with no progress towards the goal this long, a robot the rule
             told to yield that has not (it could not) yields; one that has the right of way,
             or keeps its way, after twice as long (what blocks it does not yield: a robot
@@ -135,6 +138,7 @@ class NavigatorConfig:
     give_way_wait: float = 3.0
     heading_rule: bool = True
     keep_way: bool = False
+    passing: bool = True
     deadlock_time: float = 10.0
     other_radius: Optional[float] = None
     passing_reach: float = 25.0
@@ -283,12 +287,13 @@ class Navigator:
         if cmd.state == "done":
             self.goal = None
             return NavStatus(0.0, 0.0, "succeeded", "goal reached", cmd.distance_to_goal)
-        left = self._path_left(pose, cmd.distance_to_goal)
+        left = (self._path_left(pose, cmd.distance_to_goal) if self.config.passing
+                else cmd.distance_to_goal)
         if self._rebase and self._retreat is None:
-            # a new path clearly longer than what was left (the long way round what blocks
-            # it): progress is along it now; at most _MAX_REBASES a goal (sidesteps back and
+            # a new path (the long way round what blocks it, round a wall just seen):
+            # progress is along it now; at most _MAX_REBASES a goal (sidesteps back and
             # forth must not reset the count for ever)
-            if left > self._best + 1.0 and self._rebases < _MAX_REBASES:
+            if self._rebases < _MAX_REBASES:
                 self._best, self._rebases = left, self._rebases + 1
             self._rebase = False
         if self._retreat is None and left < self._best - 0.1:
@@ -424,8 +429,8 @@ class Navigator:
         from .passing import gives_way
 
         cfg = self.config
-        if cfg.give_way:
-            return True
+        if cfg.give_way or not cfg.passing:
+            return cfg.give_way
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
         cx, cy = (float(v) for v in world.mean(axis=0))
         if (cx - x) * math.cos(yaw) + (cy - y) * math.sin(yaw) <= 0.0:

@@ -105,7 +105,9 @@ class PathFollowerNode:
             xy_tolerance=p.xy_goal_tolerance, yaw_tolerance=p.yaw_goal_tolerance)
         self.nav_cfg = NavigatorConfig(blocked_timeout=p.blocked_timeout,
                                        progress_timeout=p.progress_timeout, give_way=p.give_way,
-                                       keep_way=p.keep_way)
+                                       keep_way=p.keep_way,
+                                       # mapping: the map is partial, so are its passing places
+                                       passing=not p.allow_unknown)
         self.rate_hz = p.controller_frequency
         self.global_frame = p.global_frame
         self.grid: Optional[PlanningGrid] = None
