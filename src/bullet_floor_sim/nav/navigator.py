@@ -114,8 +114,9 @@ class NavigatorConfig:
         keep_way: never yield by that rule (the walker, a stand-in person: the observer
             yields to it); only as the deadlock fallback.
         passing: False: no yielding to passing places at all, only ``give_way``'s, and
-            progress as the crow flies (a map being built: its passing places and plans are
-            as partial as it is, and a frontier that gets no nearer is given up).
+            progress as the crow flies, which a new plan does not restart (a map being
+            built: its passing places and plans are as partial as it is, and a frontier
+            that gets no nearer is given up).
         deadlock_time: blocked with no progress towards the goal this long, a robot the rule
             told to yield that has not (it could not) yields; one that has the right of way,
             or keeps its way, after twice as long (what blocks it does not yield: a robot
@@ -289,7 +290,7 @@ class Navigator:
             return NavStatus(0.0, 0.0, "succeeded", "goal reached", cmd.distance_to_goal)
         left = (self._path_left(pose, cmd.distance_to_goal) if self.config.passing
                 else cmd.distance_to_goal)
-        if self._rebase and self._retreat is None:
+        if self._rebase and self._retreat is None and self.config.passing:
             # a new path (the long way round what blocks it, round a wall just seen):
             # progress is along it now; at most _MAX_REBASES a goal (sidesteps back and
             # forth must not reset the count for ever)
@@ -404,7 +405,7 @@ class Navigator:
                 # the observer first steps out of the way nearby (it keeps its target in
                 # sight); a robot yielding in a narrow passage goes to a passing place
                 path = self._out_of_the_way(pose, world) if self.config.give_way else None
-                if path is None:
+                if path is None and self.config.passing:
                     path = self._to_passing_place(pose, world)
                 if path is not None:   # it gets out of the way
                     self._retreat = (float(path[-1, 0]), float(path[-1, 1]))
