@@ -9,7 +9,7 @@ from bullet_floor_sim.people.follow import (FollowBehaviour, FollowConfig, Follo
                                             standoff_point)
 from bullet_floor_sim.people.search import (in_view, patrol_points, pick_target, search_plan,
                                             search_point)
-from bullet_floor_sim.nav.planner import PlanningGrid, give_way_point
+from bullet_floor_sim.nav.planner import PlanError, PlanningGrid, give_way_point
 
 RES = 0.05
 
@@ -293,6 +293,33 @@ def test_give_way_point_is_the_nearest_free_place_clear_of_the_route():
     assert p[1] == pytest.approx(2.55, abs=1e-6) and abs(p[0] - 6.5) <= 0.05 + 1e-9
     # the alcove out of reach: nowhere to go
     assert give_way_point(grid, route, (2.5, 1.6), (1.0, 1.6), 0.9, 2.0) is None
+
+
+def _alcove_behind_a_corner(side_open):
+    """corridor_with_alcove with the alcove's way in shut but for two planning cells that
+    touch at a corner (and, with ``side_open``, the cell beside them that makes it a step)."""
+    grid = corridor_with_alcove()
+    c, r = grid.to_cell(7.0, 2.45)
+    grid.cost[r, :] = np.inf
+    grid.cost[r + 1, :] = np.inf
+    grid.cost[r, c] = grid.cost[r + 1, c + 1] = 1.0
+    if side_open:
+        grid.cost[r + 1, c] = 1.0
+    return grid
+
+
+def test_no_give_way_point_behind_a_corner_the_planner_does_not_cut():
+    # the 8-connected A* cuts no corner: the alcove cannot be planned to and is not offered
+    route = np.array([[x, 1.6] for x in np.arange(2.0, 11.0, 0.1)])
+    grid = _alcove_behind_a_corner(False)
+    assert give_way_point(grid, route, (6.5, 1.6), (3.0, 1.6), 0.9, 4.0) is None
+    with pytest.raises(PlanError):
+        grid.plan((6.5, 1.6, 0.0), (7.0, 3.5, 0.0))
+    # with the cell beside the corner open, the way in is a step the planner takes
+    grid = _alcove_behind_a_corner(True)
+    p = give_way_point(grid, route, (6.5, 1.6), (3.0, 1.6), 0.9, 4.0)
+    assert p is not None and p[1] >= 2.5
+    assert len(grid.plan((6.5, 1.6, 0.0), (p[0], p[1], 0.0))) >= 2
 
 
 def test_a_give_way_point_towards_the_target_comes_before_a_nearer_one_behind():

@@ -49,7 +49,10 @@ def give_way_point(grid: PlanningGrid, route: np.ndarray, robot: Sequence[float]
         cost = cost.copy()
         grid._stamp_obstacles(cost, np.asarray(obstacles, dtype=float).reshape(-1, 2), (rx, ry))
     free = np.isfinite(cost[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1])
-    parts, _ = label(free, structure=np.ones((3, 3)))
+    # 4-connected: the planner's 8-connected A* cuts no corner, so it joins no more than
+    # that (8-connected parts offered places it could not plan to, and the observer stood
+    # where it was, in the walker's way, for good)
+    parts, _ = label(free)
     r, c = r0 - rows[0], c0 - cols[0]
     near = parts[max(r - 2, 0):r + 3, max(c - 2, 0):c + 3]   # its cell, or one next to it
     near = near[near > 0]
