@@ -61,6 +61,22 @@ def test_two_robots_facing_each_other_in_a_narrow_corridor_both_arrive():
     assert navs[1].retreats >= 1 and navs[0].retreats == 0
 
 
+def test_the_observer_yields_to_the_walker_whichever_way_the_rule_points():
+    # the evaluation's and demo.launch's pair: the observer (give_way) heading east, the
+    # walker (keep_way, a stand-in person) heading west, the way the heading rule would
+    # have yield: the observer backs out of the corridor, the walker never yields
+    out, minclear, navs = _meet([NavigatorConfig(give_way=True),
+                                 NavigatorConfig(keep_way=True)])
+    for i in range(2):
+        state, t, err, pose = out[i]
+        assert state == "succeeded", out
+        assert err <= 0.15 and minclear[i] > 0.3
+    assert navs[0].retreats >= 1 and navs[1].retreats == 0
+    # 23 m at 0.5 m/s: the walker was held up little (213 s when the observer backed off
+    # along the corridor 0.5 m at a time, until the walker's deadlock fallback yielded)
+    assert out[1][1] < 100.0, out
+
+
 def test_a_robot_parked_in_a_loop_corridor_is_passed_the_long_way_round():
     # a ring corridor 1.4 m wide round a 21 x 7 m block; a robot parked on the short way
     g = np.full((int(10.0 / 0.05), int(24.0 / 0.05)), 100, dtype=np.int8)

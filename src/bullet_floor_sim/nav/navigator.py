@@ -406,10 +406,13 @@ class Navigator:
         except PlanError:
             if self.retreats < _MAX_RETREATS and len(world) and self._yields(pose, world):
                 # the observer first steps out of the way nearby (it keeps its target in
-                # sight); a robot yielding in a narrow passage goes to a passing place
+                # sight), unless that is still in the narrow passage (it backed 0.5 m along
+                # a corridor, three times) and a passing place is in reach; a robot yielding
+                # in a narrow passage goes to a passing place
                 path = self._out_of_the_way(pose, world) if self.config.give_way else None
-                if path is None and self.config.passing:
-                    path = self._to_passing_place(pose, world)
+                if self.config.passing and (path is None or self._in_narrow(path[-1])):
+                    aside = self._to_passing_place(pose, world)
+                    path = aside if aside is not None else path
                 if path is not None:   # it gets out of the way
                     self._retreat = (float(path[-1, 0]), float(path[-1, 1]))
                     self._wait_for = self._pass_wait(world, self._retreat)
@@ -456,6 +459,18 @@ class Navigator:
         if self._axis is None:
             self._axis = narrow_axis(self.grid, self._other_radius())
         return self._axis
+
+    def _in_narrow(self, point: Sequence[float]) -> bool:
+        """Whether ``point`` is where what it meets must pass (nearer the narrow axis than
+        a passing place is)."""
+        from .passing import PASSING_MARGIN
+
+        axis = self._narrow_axis()
+        if not len(axis):
+            return False
+        clear = self.grid.config.robot_radius + self._other_radius() + PASSING_MARGIN
+        d = np.hypot(axis[:, 0] - float(point[0]), axis[:, 1] - float(point[1]))
+        return bool(d.min() < clear)
 
     def _to_passing_place(self, pose: Sequence[float], world: np.ndarray
                           ) -> Optional[np.ndarray]:
