@@ -77,6 +77,56 @@ def test_the_observer_yields_to_the_walker_whichever_way_the_rule_points():
     assert out[1][1] < 100.0, out
 
 
+def test_a_robot_and_a_person_meeting_in_the_corridor_both_arrive():
+    # robot1 heads east, a person (the crowd's social forces, body radius 0.25) walks west
+    # from the east hall; 0.68 m of robot and 0.5 m of shoulders fit the 1.4 m side by side:
+    # the person squeezes past, and neither waits (measured: both arrive in 37.7 s, centres
+    # 0.50 m apart at the closest, shoulders 0.09 m into the robot's planning footprint)
+    import dataclasses
+
+    from bullet_floor_sim.nav.planner import obstacles_in_base
+    from bullet_floor_sim.people.crowd.build import routes_for
+    from bullet_floor_sim.people.crowd.config import BodyConfig
+    from bullet_floor_sim.people.crowd.crowd import Crowd, Person
+    from bullet_floor_sim.people.crowd.forces import ForceConfig
+
+    world = World.from_name("corridor", seed=2)
+    world.close()
+    world = World(dataclasses.replace(world.config, robots=world.config.robots[:1]), seed=2)
+    try:
+        body = BodyConfig()
+        crowd = Crowd([Person("p0", None, 1.2)], np.array([[26.0, 3.65]]),
+                      routes_for(world, body), body, ForceConfig(), 20.0, world.clock.now_ns)
+        world.add_people(crowd)
+        crowd.walk_to(0, (2.6, 3.65), None, world.clock.now)
+        grid = PlanningGrid(world.fmap)
+        nav = Navigator(grid)
+        goal = (27.0, 3.65, 0.0)
+        nav.start(world.view(0).pose, goal, 0.0)
+        lp = world.models[0].laser_pose
+        obs, now, closest, st = None, 0.0, math.inf, None
+        while now < 200.0:
+            pose = world.view(0).pose
+            closest = min(closest, float(np.hypot(*(crowd.pos[0] - pose[:2]))))
+            st = nav.update(pose, obs, now)
+            if st.state != "active" and crowd.people[0].state == "idle":
+                break
+            world.command(0, st.v if st.state == "active" else 0.0, 0.0,
+                          st.w if st.state == "active" else 0.0)
+            for _ in range(10):
+                for sc in world.step(1):
+                    obs = obstacles_in_base(sc.ranges, sc.angle_min, sc.angle_increment,
+                                            sc.range_max, (lp[0], lp[1], lp[3]))
+            now += 0.1
+        assert st.state == "succeeded", (st, now)
+        assert crowd.people[0].state == "idle"
+        np.testing.assert_allclose(crowd.pos[0], (2.6, 3.65), atol=0.3)
+        assert now < 60.0          # 21 m at the robot's 0.6 m/s is 35 s: hardly held up
+        assert closest >= 0.45     # not through each other (0.34 + 0.25 - 0.14)
+    finally:
+        world.close()
+
+
 def test_a_robot_parked_in_a_loop_corridor_is_passed_the_long_way_round():
     # a ring corridor 1.4 m wide round a 21 x 7 m block; a robot parked on the short way
     g = np.full((int(10.0 / 0.05), int(24.0 / 0.05)), 100, dtype=np.int8)
