@@ -163,12 +163,14 @@ def test_a_laser_above_the_legs_sees_none():
 
 
 # ------------------------------------------------------------------------------- walking
-def corridor_world(tmp_path):
-    """A straight corridor 1.5 m wide (y 0.2 to 1.7) and 13.6 m long (x 0.2 to 13.8)."""
+def corridor_world(tmp_path, width=1.5):
+    """A straight corridor ``width`` m wide (y 0.2 to 0.2 + width) and 13.6 m long (x 0.2 to
+    13.8)."""
     from PIL import Image
 
-    img = np.zeros((38, 280), dtype=np.uint8)
-    img[4:34, 4:276] = 254
+    n = int(round(width / 0.05))
+    img = np.zeros((n + 8, 280), dtype=np.uint8)
+    img[4:4 + n, 4:276] = 254
     Image.fromarray(img).save(str(tmp_path / "corridor.pgm"))
     (tmp_path / "map.yaml").write_text("image: corridor.pgm\nresolution: 0.05\n"
                                        "origin: [0.0, 0.0, 0.0]\nnegate: 0\n"
@@ -177,25 +179,30 @@ def corridor_world(tmp_path):
     return World.from_name(str(tmp_path / "world.yaml"), seed=3)
 
 
-@pytest.mark.parametrize("speeds", [(1.2, 1.2), (1.5, 0.8)])
-def test_two_people_pass_in_a_corridor_without_touching(tmp_path, speeds):
-    """They meet head on in the middle of a 1.5 m corridor."""
-    w = corridor_world(tmp_path)
+@pytest.mark.parametrize("speeds,width", [((1.2, 1.2), 1.5), ((1.5, 0.8), 1.5),
+                                          ((1.2, 1.2), 1.2), ((1.5, 0.8), 1.2)])
+def test_two_people_pass_in_a_corridor_without_touching(tmp_path, speeds, width):
+    """They meet head on in the middle of a corridor 1.5 or 1.2 m wide."""
+    w = corridor_world(tmp_path, width)
+    mid = 0.2 + width / 2.0
     try:
-        c = crowd(w, [(1.0, 0.95), (13.0, 0.95)])
+        c = crowd(w, [(1.0, mid), (13.0, mid)])
         c.v0[:] = speeds
-        c.walk_to(0, (13.0, 0.95), None, w.clock.now)
-        c.walk_to(1, (1.0, 0.95), None, w.clock.now)
+        c.walk_to(0, (13.0, mid), None, w.clock.now)
+        c.walk_to(1, (1.0, mid), None, w.clock.now)
         closest, sides = math.inf, []
         for _ in range(400):                 # 20 s
             w.step(5)
             gap = float(np.hypot(*(c.pos[0] - c.pos[1])))
             if gap < closest:
                 closest, sides = gap, (c.pos[0, 1], c.pos[1, 1])
-        assert closest >= 2 * 0.25           # shoulders never touch
-        assert sides[0] < 0.95 < sides[1]    # each kept to its right
+        # shoulders never touch at 1.5 m; at 1.2 m they brush (0.483 m apart at the
+        # closest, the walls' push against the other's), and neither waits for the other
+        assert closest >= (2 * 0.25 if width >= 1.5 else 0.45)
+        if width >= 1.5:   # at 1.2 m the faster one may pass on its left: no room to choose
+            assert sides[0] < mid < sides[1]     # each kept to its right
         assert [p.state for p in c.people] == ["idle", "idle"]   # both arrived
-        np.testing.assert_allclose(c.pos, [[13.0, 0.95], [1.0, 0.95]], atol=0.25)
+        np.testing.assert_allclose(c.pos, [[13.0, mid], [1.0, mid]], atol=0.25)
     finally:
         w.close()
 
