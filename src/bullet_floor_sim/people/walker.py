@@ -267,7 +267,9 @@ class GoalSampler:
         import shapely
 
         grid = self.grid
-        xmin, ymin, xmax, ymax = roi_polygon(roi).bounds
+        poly = roi_polygon(roi)
+        shapely.prepare(poly)   # an index of its edges: 0.75 s -> ms for a big hall's room
+        xmin, ymin, xmax, ymax = poly.bounds
         c0, r0 = grid.to_cell(xmin, ymin)
         c1, r1 = grid.to_cell(xmax, ymax)
         cs = np.arange(max(0, min(c0, c1)), min(grid.width, max(c0, c1) + 1))
@@ -278,7 +280,7 @@ class GoalSampler:
         k = grid.factor  # planning cell centres, as PlanningGrid.to_world gives them
         x, y = grid.fmap.cell_to_world((cc + 0.5) * k - 0.5, (rr + 0.5) * k - 0.5)
         x, y = np.atleast_1d(x), np.atleast_1d(y)
-        inside = (shapely.covers(roi_polygon(roi), shapely.points(x, y)) if len(cc)
+        inside = (shapely.covers(poly, shapely.points(x, y)) if len(cc)
                   else np.zeros(0, dtype=bool))
         return x[inside], y[inside], self.labels[rr[inside], cc[inside]]
 
