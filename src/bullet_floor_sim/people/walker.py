@@ -141,7 +141,11 @@ class RegionIndex:
         from shapely.strtree import STRtree
 
         self.rois = list(rois)
+        import shapely
+
         self._polys = [roi_polygon(r) for r in self.rois]
+        for poly in self._polys:   # the point tests of every tick, on an index of the edges
+            shapely.prepare(poly)
         self._areas = [p.area for p in self._polys]
         self._tree = STRtree(self._polys) if self._polys else None
         self.by_id = {r.id: r for r in self.rois}
