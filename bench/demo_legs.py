@@ -140,7 +140,7 @@ def _summary(world: str, rtf: float, got: list, log_path: str) -> dict:
             for m in _WAIT.finditer(line.strip()):
                 for name, pct in _SHARE.findall(m.group(1)):
                     waited[name] = waited.get(name, 0) + int(pct)
-    return {"world": world, "rtf_asked": rtf, "legs": len(got),
+    return {"world": world_label(world), "rtf_asked": rtf, "legs": len(got),
             "given_up": len(failed) / max(1, len(got)), "rtf": sim / wall if wall > 0 else 0.0,
             "waited": {k: v / 100.0 / max(1, reports) for k, v in waited.items()},
             "failed": failed}
