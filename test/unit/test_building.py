@@ -19,7 +19,8 @@ RES = 0.05
 def two_rooms(tmp_path, door: float, speck: bool = False, clean: str = "",
               robot2=(6.0, 2.0)) -> str:
     """Two 3.95 x 4 m rooms (x 0.1-4.05 and 4.15-8.1, y 0.1-4.1) split by a 0.1 m wall with
-    a door ``door`` wide from y = 1.8; ``speck``: one occupied cell in the door's middle."""
+    a door ``door`` wide from y = 1.8; ``speck``: a 2 x 2 cell blob (0.01 m^2, twice the
+    default clean.speckle) in the door's middle."""
     h, w = 84, 164
     occ = np.zeros((h, w), dtype=bool)   # row 0 = y 0 (flipped when written)
     occ[:2, :] = occ[-2:, :] = occ[:, :2] = occ[:, -2:] = True
@@ -27,7 +28,7 @@ def two_rooms(tmp_path, door: float, speck: bool = False, clean: str = "",
     r0, r1 = int(round(1.8 / RES)), int(round((1.8 + door) / RES))
     occ[r0:r1, 81:83] = False
     if speck:
-        occ[(r0 + r1) // 2, 81] = True
+        occ[(r0 + r1) // 2:(r0 + r1) // 2 + 2, 81:83] = True
     img = np.where(occ, 0, 254).astype(np.uint8)
     (tmp_path / "map.pgm").write_bytes(b"P5\n%d %d\n255\n" % (w, h) + np.flipud(img).tobytes())
     (tmp_path / "map.yaml").write_text("image: map.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n"
@@ -97,11 +98,11 @@ def test_specks_in_a_door_block_it_until_cleaned(tmp_path):
     b = Building(load_world_config(clean))
     report = check_building(b)
     assert report.footprint("robot").starts[0].reachable == ["1", "2"]
-    assert any("1 occupied blobs (1 cells)" in line for line in report.handling)
+    assert any("1 occupied blobs (4 cells)" in line for line in report.handling)
     # the cleaned map has the speck as floor, and handling it again changes nothing more
     served = cleaned_map(b.fmap, b.config.map_handling)
     assert int((np.asarray(b.fmap.grid) == 100).sum()) - int(
-        (np.asarray(served.grid) == 100).sum()) == 1
+        (np.asarray(served.grid) == 100).sum()) == 4
     again = solid_map(served, MapHandling(speckle=0.01))
     assert np.array_equal(again.fmap.grid, b.solid.fmap.grid)
 

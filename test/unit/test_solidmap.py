@@ -62,9 +62,10 @@ def test_a_one_cell_gap_is_closed_and_a_door_is_not():
 
 def test_no_beam_path_out_of_a_wall_gap_into_unknown():
     g = room(gap=1)
-    s = solid(g)
+    s = solid(g, close_gaps=0.15)
     sol = s.fmap.grid == 100
     assert sol[18, 34] and sol[18, 35]   # the gap and the unknown behind it
+    assert not solid(g).fmap.grid[18, 34]   # by default the gap stays (a beam passed it)
 
 
 def test_slivers_of_unknown_in_an_open_hall_are_floor_and_wide_unknown_is_not():
@@ -89,7 +90,7 @@ def test_a_ray_fan_in_unknown_space_stays_solid():
     # the unknown strips are 1 cell wide, but around an unknown column 6 of the 13 columns of
     # the 0.6 m window are free (46 % < 50 %): no sliver, the fan stays solid
     assert sol[:, 1::2].all() and s.sliver_cells == 0
-    closed = solid(g).fmap.grid == 100
+    closed = solid(g, close_gaps=0.15).fmap.grid == 100
     assert closed[10:50, 10:50].all()   # with the gaps closed, no free ray is left
 
 
@@ -98,8 +99,11 @@ def test_speckle_is_dropped_only_when_asked_and_only_small_isolated_blobs():
     g[10, 10] = 100                       # one cell: 0.0025 m2
     g[20:22, 20:22] = 100                 # four cells: 0.01 m2
     g[30:36, 30:36] = 100                 # 36 cells: a pillar
-    kept = solid(g, close_gaps=0.0)
+    kept = solid(g, close_gaps=0.0, speckle=0.0)
     assert kept.speckle_cells == 0 and (kept.fmap.grid == 100).sum() == 41
+    # the default, 0.005 m2: one- and two-cell blobs go, the four-cell one stays
+    d = solid(g, close_gaps=0.0).fmap.grid == 100
+    assert not d[10, 10] and d[20:22, 20:22].all() and d[30:36, 30:36].all()
     s = solid(g, close_gaps=0.0, speckle=0.01)
     sol = s.fmap.grid == 100
     assert not sol[10, 10] and not sol[20:22, 20:22].any() and sol[30:36, 30:36].all()
@@ -132,14 +136,15 @@ def test_the_derived_map_is_kept_on_disk_and_read_back_the_same(tmp_path, monkey
     from scipy.ndimage import distance_transform_edt
 
     monkeypatch.setenv("BULLET_FLOOR_SIM_CACHE", str(tmp_path))
+    KW = dict(close_gaps=0.15, speckle=0.0)   # a handling that changes the grid
     g = room(gap=1)
-    first = solid(g)
+    first = solid(g, **KW)
     entries = os.listdir(tmp_path / "maps")
     assert len(entries) == 1 and entries[0].endswith(".npz")
     # the distance field is the Euclidean distance (in cells) to the nearest solid cell
     occ = first.fmap.occupied
     assert np.allclose(first.distance, distance_transform_edt(~occ))
-    again = solid(g)                       # a new FloorMap of the same grid: from the disk
+    again = solid(g, **KW)                       # a new FloorMap of the same grid: from the disk
     assert again is not first
     assert np.array_equal(again.fmap.grid, first.fmap.grid)
     assert np.array_equal(again.distance, first.distance)
@@ -150,12 +155,12 @@ def test_the_derived_map_is_kept_on_disk_and_read_back_the_same(tmp_path, monkey
     solid(g, close_gaps=0.0)
     g2 = g.copy()
     g2[20, 20] = 100
-    assert solid(g2).fmap.grid[20, 20] == 100
+    assert solid(g2, **KW).fmap.grid[20, 20] == 100
     assert len(os.listdir(tmp_path / "maps")) == 3
     # a corrupt entry is derived again (and rewritten)
     for name in os.listdir(tmp_path / "maps"):
         (tmp_path / "maps" / name).write_bytes(b"not an npz")
-    assert np.array_equal(solid(g).fmap.grid, first.fmap.grid)
+    assert np.array_equal(solid(g, **KW).fmap.grid, first.fmap.grid)
     # an empty BULLET_FLOOR_SIM_CACHE turns the cache off
     monkeypatch.setenv("BULLET_FLOOR_SIM_CACHE", "")
-    assert solid(g).report == first.report
+    assert solid(g, **KW).report == first.report
