@@ -7,7 +7,7 @@ names the file, the section and the key (as flatland's EnsureAccessedAllKeys doe
     wall_height: 2.0
     rois: rois.yaml          # or auto: the map's rooms, found automatically (building/autorois.py)
     unknown: wall            # wall | free: what unknown map cells are (sim/solidmap.py)
-    clean: {close_gaps: 0.0, speckle: 0.005, unknown_slivers: 0.3}   # sim/solidmap.py
+    clean: {close_gaps: 0.15, speckle: 0.005, unknown_slivers: 0.3}   # sim/solidmap.py
     robots:
       - name: robot1
         model: scitos_a5     # urdf/<model>.urdf.xacro
