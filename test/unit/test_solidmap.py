@@ -164,3 +164,19 @@ def test_the_derived_map_is_kept_on_disk_and_read_back_the_same(tmp_path, monkey
     # an empty BULLET_FLOOR_SIM_CACHE turns the cache off
     monkeypatch.setenv("BULLET_FLOOR_SIM_CACHE", "")
     assert solid(g, **KW).report == first.report
+
+
+def test_a_map_being_built_keeps_its_specks():
+    # one occupied cell in free space: a wall seen once; planning on a map being built
+    # (unknown passable) keeps it, the world's default drops it (0.0025 m2 < 0.005)
+    from bullet_floor_sim.nav.grid import PlannerConfig, PlanningGrid
+    from bullet_floor_sim.sim.floormap import map_from_grid
+    from bullet_floor_sim.sim.solidmap import while_mapping
+
+    g = np.zeros((40, 40), dtype=np.int8)
+    g[20, 20] = 100
+    fmap = map_from_grid(g, 0.05)
+    building = PlanningGrid(fmap, PlannerConfig(resolution=0.05, unknown_is_obstacle=False))
+    world = PlanningGrid(fmap, PlannerConfig(resolution=0.05))
+    assert not np.isfinite(building.cost[20, 20]) and np.isfinite(world.cost[20, 20])
+    assert while_mapping().speckle == 0.0 and while_mapping().unknown == "free"

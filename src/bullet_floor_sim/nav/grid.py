@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import BulletFloorSimError
 from ..sim.floormap import FloorMap
-from ..sim.solidmap import MapHandling, solid_map
+from ..sim.solidmap import MapHandling, solid_map, while_mapping
 
 __all__ = ["PlanError", "PlannerConfig", "PlanningGrid", "path_length"]
 
@@ -78,7 +78,7 @@ class PlanningGrid:
         # what is solid is decided as the simulator decides it (sim/solidmap.py): occupied
         # cells, unknown areas but not the unseen slivers of an open hall, slits closed
         if handling is None:
-            handling = MapHandling(unknown="wall" if cfg.unknown_is_obstacle else "free")
+            handling = MapHandling() if cfg.unknown_is_obstacle else while_mapping()
         self.handling = handling
         # Distance from each fine cell centre to the nearest solid cell centre, minus half a
         # fine cell (the wall cell's extent): exact for a wall along the grid. A coarse cell's

@@ -24,7 +24,6 @@ exploration needs it).
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 import sys
 import threading
@@ -48,7 +47,7 @@ from ..nav.planner import (FollowerConfig, Navigator, NavigatorConfig, PlanError
 from ..errors import BulletFloorSimError
 from ..geometry import compose
 from ..sim.floormap import crop_known
-from ..sim.solidmap import MapHandling
+from ..sim.solidmap import while_mapping
 from .convert import grid_from_msg, planar, yaw as yaw_of
 from .params import check_at_least, config_from_params, map_handling
 from .node import run_node
@@ -143,7 +142,7 @@ class PathFollowerNode:
         try:
             handling = map_handling()
             if self.allow_unknown:
-                handling = dataclasses.replace(handling or MapHandling(), unknown="free")
+                handling = while_mapping(handling)
             fmap = grid_from_msg(msg)
             if self.allow_unknown:   # a map being built: plan on its known part and a margin
                 fmap = crop_known(fmap, 3.0)

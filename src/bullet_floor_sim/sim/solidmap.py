@@ -39,6 +39,7 @@ costs its second of derivation once.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import List, Optional
@@ -49,7 +50,8 @@ from ..errors import ConfigError
 from .floormap import FloorMap
 from .mapcache import load_entry, map_cache_dir, map_key, store_entry
 
-__all__ = ["MapHandling", "SolidMap", "solid_map", "cleaned_map", "UNKNOWN_MODES"]
+__all__ = ["MapHandling", "SolidMap", "solid_map", "cleaned_map", "UNKNOWN_MODES",
+           "while_mapping"]
 
 UNKNOWN_MODES = ("wall", "free")
 _SLIVER_WINDOW = 0.6  # metres: the neighbourhood whose free share tells floor from a ray fan
@@ -119,6 +121,13 @@ def solid_map(fmap: FloorMap, handling: MapHandling = MapHandling()) -> SolidMap
             _store(disk, cached)
         fmap._derived[key] = cached
     return cached
+
+
+def while_mapping(handling: Optional[MapHandling] = None) -> MapHandling:
+    """The handling of a map being built: its unknown space is free (to explore) and no
+    speck is dropped (a wall seen once or twice is a speck: dropped, the planner drove the
+    robot into it; explore.test mapped 47 % of office with speckle 0.005)."""
+    return dataclasses.replace(handling or MapHandling(), unknown="free", speckle=0.0)
 
 
 def cleaned_map(fmap: FloorMap, handling: MapHandling = MapHandling()) -> FloorMap:
