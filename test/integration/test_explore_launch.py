@@ -4,7 +4,8 @@ explore_simple.test in simple, where exploring ends: ``~finished`` must turn tru
 
 Parameters: ``~world`` (office), ``~finished_topic`` (/explorer/finished), ``~must_finish``
 (false), ``~min_covered`` (0.85),
-``~min_iou_free`` (0.85), ``~min_f1_occupied`` (0.45), ``~wall_limit`` (800 s)."""
+``~min_iou_free`` (0.85), ``~min_f1_occupied`` (0.45), ``~wall_limit`` (800 s), ``~sim_limit``
+(1200 s: the issue's horizon for the README's mapping command)."""
 from __future__ import annotations
 
 import dataclasses
@@ -50,10 +51,11 @@ class ExploreTest(unittest.TestCase):
         t0, wall = rospy.Time.now(), time.monotonic()
         limit = rospy.get_param("~wall_limit", 800.0)   # below the .test's time-limit
         last = 0.0
-        # until no reachable frontier is left, or 15 minutes of sim time
+        # until no reachable frontier is left, or ~sim_limit of sim time
+        sim_limit = float(rospy.get_param("~sim_limit", 1200.0))
         while not (self.finished and self.finished[-1]) and not rospy.is_shutdown():
             t = (rospy.Time.now() - t0).to_sec()
-            if t >= 900.0:
+            if t >= sim_limit:
                 break
             self.assertLess(time.monotonic() - wall, limit, "%g s of wall time" % limit)
             if t - last >= 60.0:
@@ -69,7 +71,11 @@ class ExploreTest(unittest.TestCase):
         rospy.loginfo("explore test: %s after %.0f s of sim time: %s", "finished" if
                       finished else "stopped", took, a.line())
         if rospy.get_param("~must_finish", False):
-            self.assertTrue(finished, "no ~finished after 900 s of sim time")
+            self.assertTrue(finished, "no ~finished after %g s of sim time" % sim_limit)
+        # 900 s of sim time until session 21, which measured 78.5-95.3 % in five fresh-clone CI
+        # runs at 900 s (one beside two evaluations; 47.1 % in one more, fixed since), the
+        # explorer stepping 0.5 m a goal at 7-10 s a goal; 1200 s is the horizon the issue
+        # measured the README's command by.
         # office, seed 3 at rtf 4, four runs: 92.9-96.7 % covered, free IoU 0.901-0.951,
         # occupied F1 0.561-0.769 (ROS timing varies a run). Can fall below the
         # in-process explore (97 %, test_mapping): here the sim runs on while the explorer
