@@ -461,16 +461,10 @@ class Navigator:
         return self._axis
 
     def _in_narrow(self, point: Sequence[float]) -> bool:
-        """Whether ``point`` is where what it meets must pass (nearer the narrow axis than
-        a passing place is)."""
-        from .passing import PASSING_MARGIN
+        """Whether ``point`` is where what it meets must pass (nav/passing.on_the_way)."""
+        from .passing import on_the_way
 
-        axis = self._narrow_axis()
-        if not len(axis):
-            return False
-        clear = self.grid.config.robot_radius + self._other_radius() + PASSING_MARGIN
-        d = np.hypot(axis[:, 0] - float(point[0]), axis[:, 1] - float(point[1]))
-        return bool(d.min() < clear)
+        return on_the_way(self.grid, self._narrow_axis(), point, self._other_radius())
 
     def _to_passing_place(self, pose: Sequence[float], world: np.ndarray
                           ) -> Optional[np.ndarray]:

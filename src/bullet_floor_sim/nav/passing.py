@@ -18,7 +18,7 @@ import numpy as np
 
 from .grid import PlanningGrid
 
-__all__ = ["narrow_axis", "passing_place", "gives_way", "heads_west_or_south",
+__all__ = ["narrow_axis", "passing_place", "on_the_way", "gives_way", "heads_west_or_south",
            "PASSING_MARGIN"]
 
 #: The gap (m) left between two discs passing side by side.
@@ -47,7 +47,7 @@ def passing_place(grid: PlanningGrid, axis: np.ndarray, robot: Sequence[float],
     it also keeps that far from); None when there is none."""
     from .navigator import give_way_point
 
-    clear = grid.config.robot_radius + other_radius + margin
+    clear = _passing_clearance(grid, other_radius, margin)
     rx, ry = float(robot[0]), float(robot[1])
     near = axis[np.hypot(axis[:, 0] - rx, axis[:, 1] - ry) <= reach + clear] \
         if len(axis) else axis
@@ -55,6 +55,21 @@ def passing_place(grid: PlanningGrid, axis: np.ndarray, robot: Sequence[float],
     route = np.vstack([near, pts]) if len(near) else pts
     cx, cy = (float(v) for v in pts.mean(axis=0)) if len(pts) else (rx, ry)
     return give_way_point(grid, route, (rx, ry), (cx, cy), clear, reach, obstacles=pts)
+
+
+def on_the_way(grid: PlanningGrid, axis: np.ndarray, point: Sequence[float],
+               other_radius: float, margin: float = PASSING_MARGIN) -> bool:
+    """Whether ``point`` is where what the robot meets must pass: nearer the narrow axis
+    than a passing place is."""
+    if not len(axis):
+        return False
+    d = np.hypot(axis[:, 0] - float(point[0]), axis[:, 1] - float(point[1]))
+    return bool(d.min() < _passing_clearance(grid, other_radius, margin))
+
+
+def _passing_clearance(grid: PlanningGrid, other_radius: float, margin: float) -> float:
+    """How far (m) a passing place lies from the narrow axis: both radii and the margin."""
+    return grid.config.robot_radius + other_radius + margin
 
 
 def gives_way(grid: PlanningGrid, axis: np.ndarray, pose: Sequence[float], blocker: np.ndarray,
