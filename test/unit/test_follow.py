@@ -216,7 +216,8 @@ def test_search_point_and_in_view():
 @pytest.mark.parametrize("field,value", [("distance", 0.0), ("lost_after", float("nan")),
                                          ("goal_period", -1.0), ("search_wait", 0.0),
                                          ("search_regions", 0),
-                                         ("search_min_probability", 1.5)])
+                                         ("search_min_probability", 1.5),
+                                         ("pass_detour", -1.0)])
 def test_bad_config_names_the_field(field, value):
     with pytest.raises(FollowError, match=field):
         FollowBehaviour(hall(), FollowConfig(**{field: value}))
@@ -380,6 +381,9 @@ def test_an_observer_the_target_can_go_round_stays_where_it_sees_it():
     a = np.linspace(0.0, 2.0 * math.pi, 12, endpoint=False)
     body = np.column_stack([6.3 + 0.34 * np.cos(a), 2.5 + 0.34 * np.sin(a)])
     assert path_length(grid.plan((4.8, 2.5), (10.0, 2.5), obstacles=body)) < free + 2.0
+    always = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9,
+                                                pass_detour=0.0))
+    assert always.update(0.0, (6.3, 2.5, math.pi), (4.8, 2.5, 0.0, 0.0), dest).mode == "give_way"
     corridor = FollowBehaviour(corridor_with_alcove(), FollowConfig(distance=1.5, slack=0.7,
                                                                    give_way=0.9))
     assert corridor.update(0.0, (6.3, 1.6, math.pi), (4.8, 1.6, 0.0, 0.0),
