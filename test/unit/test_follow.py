@@ -9,7 +9,7 @@ from bullet_floor_sim.people.follow import (FollowBehaviour, FollowConfig, Follo
                                             standoff_point)
 from bullet_floor_sim.people.search import (in_view, patrol_points, pick_target, search_plan,
                                             search_point)
-from bullet_floor_sim.nav.planner import PlanError, PlanningGrid, give_way_point
+from bullet_floor_sim.nav.planner import PlanError, PlanningGrid, give_way_point, path_length
 
 RES = 0.05
 
@@ -216,7 +216,8 @@ def test_search_point_and_in_view():
 @pytest.mark.parametrize("field,value", [("distance", 0.0), ("lost_after", float("nan")),
                                          ("goal_period", -1.0), ("search_wait", 0.0),
                                          ("search_regions", 0),
-                                         ("search_min_probability", 1.5)])
+                                         ("search_min_probability", 1.5),
+                                         ("pass_detour", -1.0)])
 def test_bad_config_names_the_field(field, value):
     with pytest.raises(FollowError, match=field):
         FollowBehaviour(hall(), FollowConfig(**{field: value}))
@@ -364,6 +365,29 @@ def test_an_observer_on_the_targets_way_steps_aside_and_waits_until_it_passed():
     # once the target has gone its distance (1.5 m from where it stood), it follows again
     d = fb.update(5.0, (6.5, 2.6, -1.0), (7.9, 1.6, 0.7, 0.0), dest)
     assert d.mode == "follow"
+
+
+def test_an_observer_the_target_can_go_round_stays_where_it_sees_it():
+    # a room 8 x 5 m: the observer stands on the target's straight way east, but the target
+    # goes round it (0.3 m further): no stepping aside; in the corridor it cannot, and does
+    g = np.full((int(5.0 / RES), int(12.0 / RES)), 100, dtype=np.int8)
+    g[int(0.5 / RES):int(4.5 / RES), int(1.0 / RES):int(11.0 / RES)] = 0
+    grid = PlanningGrid(map_from_grid(g, RES))
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9))
+    dest = [("east", (10.0, 2.5))]
+    d = fb.update(0.0, (6.3, 2.5, math.pi), (4.8, 2.5, 0.0, 0.0), dest)
+    assert d.mode != "give_way"
+    free = path_length(grid.plan((4.8, 2.5), (10.0, 2.5)))
+    a = np.linspace(0.0, 2.0 * math.pi, 12, endpoint=False)
+    body = np.column_stack([6.3 + 0.34 * np.cos(a), 2.5 + 0.34 * np.sin(a)])
+    assert path_length(grid.plan((4.8, 2.5), (10.0, 2.5), obstacles=body)) < free + 2.0
+    always = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9,
+                                                pass_detour=0.0))
+    assert always.update(0.0, (6.3, 2.5, math.pi), (4.8, 2.5, 0.0, 0.0), dest).mode == "give_way"
+    corridor = FollowBehaviour(corridor_with_alcove(), FollowConfig(distance=1.5, slack=0.7,
+                                                                   give_way=0.9))
+    assert corridor.update(0.0, (6.3, 1.6, math.pi), (4.8, 1.6, 0.0, 0.0),
+                           [("east", (10.5, 1.6))]).mode == "give_way"
 
 
 def test_giving_way_again_after_a_search_sends_the_give_way_goal_again():

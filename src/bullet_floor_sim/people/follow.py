@@ -16,7 +16,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
 * **give way**: near the target (within ``distance + slack``), the observer plans the target's
   routes to its likely destinations (the search plan's regions: up to ``search_regions`` of
   at least ``search_min_probability``; a leg's first prediction is often wrong) and, when it
-  stands within ``give_way`` - 0.2 metres of one, goes to the nearest free point at least that far from it
+  stands within ``give_way`` - 0.2 metres of one and the target cannot go round it (by a way
+  at most ``pass_detour`` longer), goes to the nearest free point at least that far from it
   (a roomy one first, up to ``give_way_reach`` away: a wider spot of the corridor, a doorway's
   side, or back along the way; of those, one towards the target first, so that it stays in
   view), and waits there, facing the target, until the target has moved
@@ -46,7 +47,7 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..errors import BulletFloorSimError
-from ..nav.planner import PlanError, PlanningGrid, give_way_point
+from ..nav.planner import PlanError, PlanningGrid, give_way_point, path_length
 from ..geometry import wrap_angle
 from .search import as_plan, patrol_points
 
@@ -94,6 +95,10 @@ class FollowConfig:
             Scitos) keeps the target in view; 75 degrees leaves 15 for the path's bends.
             Stepping aside the other way, it turned its back on the target (a fifth of a
             200-leg run on malaga_corridor went untracked so). 0: any place.
+        pass_detour: an observer on the target's way stays where it is (the target in view)
+            when the target can go round it by a way at most this much longer (m); 0: it
+            always steps aside. Stepping aside for a target that could pass, it lost sight
+            of it (office: walker tracked 66.6 % of a 40-leg run with 0, 81.1 % with 2).
     """
 
     distance: float = 1.5
@@ -113,6 +118,7 @@ class FollowConfig:
     give_way_reach: float = 4.0
     give_way_hold: float = 20.0
     give_way_view: float = math.radians(75.0)
+    pass_detour: float = 2.0
 
     def check(self) -> None:
         """Raise FollowError naming the first bad parameter."""
@@ -127,6 +133,10 @@ class FollowConfig:
             v = getattr(self, name)
             if not (isinstance(v, int) and v >= 1):
                 raise FollowError("follower: %s must be an integer >= 1, got %r" % (name, v))
+        if not (isinstance(self.pass_detour, (int, float)) and math.isfinite(self.pass_detour)
+                and self.pass_detour >= 0):
+            raise FollowError("follower: pass_detour must be a finite number >= 0, got %r"
+                              % (self.pass_detour,))
         if not (math.isfinite(self.give_way_view) and 0.0 <= self.give_way_view <= math.pi):
             raise FollowError("follower: give_way_view must be in [0, pi] radians, got %r"
                               % (self.give_way_view,))
@@ -206,6 +216,8 @@ class FollowBehaviour:
         self._search_since = -math.inf
         # (target x, y, time, destinations) of self._route
         self._route_key: Optional[Tuple[float, float, float, List[Tuple[float, float]]]] = None
+        self._pass_key: Optional[tuple] = None   # _passes_by's last answer, and for what
+        self._pass_ok = False
         self._route: Optional[np.ndarray] = None
         self._yield: Optional[Tuple[float, float, float]] = None  # target x, y, t when it began
         self._standing = True            # no goal under way (the last one finished)
@@ -308,6 +320,8 @@ class FollowBehaviour:
         # to keeps clear of the whole of each way, from the target on
         if _distance_to(ahead, rx, ry).min() >= cfg.give_way - _GIVE_WAY_HYSTERESIS:
             return None
+        if cfg.pass_detour > 0 and self._passes_by((tx, ty), (rx, ry), dests):
+            return None   # on its way, but it goes round: the observer keeps it in view
         point = give_way_point(self.grid, route, (rx, ry), (tx, ty), cfg.give_way,
                                cfg.give_way_reach, cfg.roomy, obstacles=np.array([[tx, ty]]),
                                in_view=cfg.give_way_view)
@@ -346,6 +360,33 @@ class FollowBehaviour:
             parts.append(path[np.concatenate([[0.0], np.cumsum(steps)]) <= keep])
         self._route = np.vstack(parts)
         return self._route
+
+    def _passes_by(self, target: Tuple[float, float], robot: Tuple[float, float],
+                   dests: List[Tuple[float, float]]) -> bool:
+        """Whether the target, planned round the observer (a disc of the grid's radius), still
+        reaches each of ``dests`` it can reach at all, at most ``pass_detour`` m further. Kept
+        while the target's routes are and the observer stays in its planning cell."""
+        key = (self._route_key[2] if self._route_key else None, self.grid.to_cell(*robot))
+        if self._pass_key == key:
+            return self._pass_ok
+        a = np.linspace(0.0, 2.0 * math.pi, 12, endpoint=False)
+        r = self.grid.config.robot_radius
+        body = np.column_stack([robot[0] + r * np.cos(a), robot[1] + r * np.sin(a)])
+        ok = True
+        for dest in dests:
+            try:
+                free = path_length(self.grid.plan(target, dest))
+            except PlanError:
+                continue
+            try:
+                round_it = path_length(self.grid.plan(target, dest, obstacles=body))
+                ok = round_it <= free + self.config.pass_detour
+            except PlanError:
+                ok = False
+            if not ok:
+                break
+        self._pass_key, self._pass_ok = key, ok
+        return ok
 
     def _search_go(self, rx: float, ry: float, why: str) -> FollowDecision:
         region, (x, y) = self._search[self._search_index]
