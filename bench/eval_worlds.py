@@ -100,7 +100,9 @@ def row(world: str, legs: int, seed: int, allow: bool = False, save: str = "") -
            "markov50": tab["tracker"]["markov"][k[0.5]][0],
            "heading50": tab["tracker"]["heading"][k[0.5]][0],
            "tracked": r.tracked_share, "rtf": r.sim_time / max(r.wall_time, 1e-9),
-           "notes": r.warnings}
+           "notes": r.warnings,   # the observer's share of the run in each follower mode
+           "modes": "/".join("%s:%.0f" % (m, 100.0 * n / max(1, r.ticks))
+                             for m, n in sorted(r.follow_modes.items()))}
     # the predictor's least lead over the better baseline, from 25 % on, in both pipelines
     # log-loss (nats) at 50 % from tracker tracks, the prior's, and the predictor's least lead
     # in log-loss over the prior from 25 % on in both pipelines (> 0: below it everywhere)
@@ -123,10 +125,10 @@ def _eval_line(r: dict, office: Optional[float]) -> str:
     """The EVAL line of one world's row (with its ratio to office's rtf when known)."""
     return ("EVAL world=%s legs=%d given_up=%.3f trk25=%.3f trk50=%.3f trk75=%.3f gt25=%.3f "
             "gt50=%.3f gt75=%.3f markov50=%.3f heading50=%.3f margin=%.3f tracked=%.3f "
-            "ll50=%.3f markov_ll50=%.3f ll_margin=%.3f rtf=%.1f%s"
+            "ll50=%.3f markov_ll50=%.3f ll_margin=%.3f modes=%s rtf=%.1f%s"
             % (r["world"], r["legs"], r["given_up"], r["trk25"], r["trk50"], r["trk75"],
                r["gt25"], r["gt50"], r["gt75"], r["markov50"], r["heading50"], r["margin"],
-               r["tracked"], r["ll50"], r["markov_ll50"], r["ll_margin"], r["rtf"],
+               r["tracked"], r["ll50"], r["markov_ll50"], r["ll_margin"], r["modes"], r["rtf"],
                "" if office is None else " rtf_vs_office=%.2f" % (r["rtf"] / office)))
 
 
