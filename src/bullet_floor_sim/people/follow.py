@@ -16,16 +16,15 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   Within ``distance + slack`` of a target that stands still, the observer only turns to face
   it (a lidar sees 180 degrees ahead).
 * **give way**: near the target (within ``distance + slack``), the observer plans the target's
-  routes to its likely destinations (the search plan's regions: up to ``search_regions`` of at
-  least ``search_min_probability``; a leg's first prediction is often wrong) and, when it
+  routes to its likely destinations (the search plan's regions: up to ``search_regions`` of
+  at least ``search_min_probability``; a leg's first prediction is often wrong) and, when it
   stands within ``give_way`` - 0.2 metres of one and the target cannot go round it (by a way
   at most ``pass_detour`` longer; a target that has stood still for 2 s is not going round),
-  goes to the nearest free point at least that far from it (a roomy one first, up to
-  ``give_way_reach`` away: a wider spot of the corridor, a doorway's side, or back along the
-  way; of those, one towards the target first, so that it stays in view), and waits there,
-  facing the target, until the target has moved ``distance`` metres or ``give_way_hold``
-  seconds have passed. Standing on the route of a target that turned back, the observer
-  blocked it for good in narrow corridors.
+  goes to the nearest free point at least that far from it (a roomy one first, up to ``give_way_reach`` away: a wider spot of the corridor, a doorway's
+  side, or back along the way; of those, one towards the target first, so that it stays in
+  view), and waits there, facing the target, until the target has moved
+  ``distance`` metres or ``give_way_hold`` seconds have passed. Standing on the route of a
+  target that turned back, the observer blocked it for good in narrow corridors.
 * **search**: when no track has been seen for ``lost_after`` seconds, the observer first turns
   to where it was last seen if that was within ``distance + slack`` (turning towards its own
   goal, it had turned its back on the target), then goes to the predicted destination region
