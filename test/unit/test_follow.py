@@ -423,10 +423,6 @@ def test_an_observer_the_target_can_go_round_stays_where_it_sees_it():
     a = np.linspace(0.0, 2.0 * math.pi, 12, endpoint=False)
     body = np.column_stack([6.3 + 0.34 * np.cos(a), 2.5 + 0.34 * np.sin(a)])
     assert path_length(grid.plan((4.8, 2.5), (10.0, 2.5), obstacles=body)) < free + 2.0
-    # moving, it is going round; standing still 2 s, it is not: the observer steps aside
-    assert fb.update(2.5, (6.3, 2.5, math.pi), (4.9, 2.5, 0.4, 0.0), dest).mode != "give_way"
-    assert fb.update(3.0, (6.3, 2.5, math.pi), (5.0, 2.5, 0.0, 0.0), dest).mode != "give_way"
-    assert fb.update(5.1, (6.3, 2.5, math.pi), (5.0, 2.5, 0.0, 0.0), dest).mode == "give_way"
     always = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9,
                                                 pass_detour=0.0))
     assert always.update(0.0, (6.3, 2.5, math.pi), (4.8, 2.5, 0.0, 0.0), dest).mode == "give_way"

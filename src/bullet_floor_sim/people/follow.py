@@ -19,8 +19,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   routes to its likely destinations (the search plan's regions: up to ``search_regions`` of
   at least ``search_min_probability``; a leg's first prediction is often wrong) and, when it
   stands within ``give_way`` - 0.2 metres of one and the target cannot go round it (by a way
-  at most ``pass_detour`` longer; a target that has stood still for 2 s is not going round),
-  goes to the nearest free point at least that far from it (a roomy one first, up to ``give_way_reach`` away: a wider spot of the corridor, a doorway's
+  at most ``pass_detour`` longer), goes to the nearest free point at least that far from it
+  (a roomy one first, up to ``give_way_reach`` away: a wider spot of the corridor, a doorway's
   side, or back along the way; of those, one towards the target first, so that it stays in
   view), and waits there, facing the target, until the target has moved
   ``distance`` metres or ``give_way_hold`` seconds have passed. Standing on the route of a
@@ -54,10 +54,6 @@ from ..geometry import wrap_angle
 from .search import as_plan, patrol_points
 
 _GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps to give_way
-# a target standing this still (m/s) this long (s) is not going round the observer, whatever
-# the plan round it says (the walker's navigation keeps more room from a robot it sees than
-# the planner's disc: on aces_austin it stood blocked 1 m from its goal for 30 s, leg after leg)
-_STILL_SPEED, _STILL_TIME = 0.15, 2.0
 
 __all__ = ["FollowError", "FollowConfig", "FollowDecision", "FollowBehaviour", "standoff_point"]
 
@@ -222,7 +218,6 @@ class FollowBehaviour:
         self._search_since = -math.inf
         # (target x, y, time, destinations) of self._route
         self._route_key: Optional[Tuple[float, float, float, List[Tuple[float, float]]]] = None
-        self._still_since: Optional[float] = None   # the target stands still since
         self._pass_key: Optional[tuple] = None   # _passes_by's last answer, and for what
         self._pass_ok = False
         self._route: Optional[np.ndarray] = None
@@ -305,10 +300,6 @@ class FollowBehaviour:
         cfg = self.config
         tx, ty = float(target[0]), float(target[1])
         rx, ry, ryaw = (float(v) for v in robot[:3])
-        if math.hypot(float(target[2]), float(target[3])) > _STILL_SPEED:
-            self._still_since = None
-        elif self._still_since is None:
-            self._still_since = t
         if self._yield is not None and self.mode != "give_way":
             self._yield = None   # a search or follow goal replaced the give-way goal since
         if self._yield is not None:
@@ -331,8 +322,7 @@ class FollowBehaviour:
         # to keeps clear of the whole of each way, from the target on
         if _distance_to(ahead, rx, ry).min() >= cfg.give_way - _GIVE_WAY_HYSTERESIS:
             return None
-        still = self._still_since is not None and t - self._still_since >= _STILL_TIME
-        if cfg.pass_detour > 0 and not still and self._passes_by((tx, ty), (rx, ry), dests):
+        if cfg.pass_detour > 0 and self._passes_by((tx, ty), (rx, ry), dests):
             return None   # on its way, but it goes round: the observer keeps it in view
         point = give_way_point(self.grid, route, (rx, ry), (tx, ty), cfg.give_way,
                                cfg.give_way_reach, cfg.roomy, obstacles=np.array([[tx, ty]]),
