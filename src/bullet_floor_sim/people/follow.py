@@ -28,8 +28,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
 * **search**: when no track has been seen for ``lost_after`` seconds, the observer first turns
   to where it was last seen if that was within ``distance + slack`` (turning towards its own
   goal, it had turned its back on the target), then goes to the predicted destination region
-  (the predictor's arg-max; up to ``distance`` short of the goal point of the region the
-  target's leg was most likely going to, on the way there and in sight of it), turns on the spot to look around, waits
+  (the predictor's arg-max; ``distance`` short of the goal point of the region the target's
+  leg was most likely going to, facing it), turns on the spot to look around, waits
   ``search_wait`` seconds, then goes on to the next most likely region (up to
   ``search_regions`` of them, each at least ``search_min_probability``: :func:`search_plan`)
   and round the list again; a track seen again ends the search. (Looking in one region only,
@@ -394,37 +394,15 @@ class FollowBehaviour:
         region, (x, y) = self._search[self._search_index]
         self._place = "region %s's search point" % region
         # not on the point (the goal the target may be walking to: standing there, the
-        # observer shut it out of its goal) but short of it on the way there, in sight of it
-        near = self._short_of(rx, ry, x, y)
+        # observer shut it out of its goal) but ``distance`` short of it, facing it
+        near = standoff_point(self.grid, (x, y), (rx, ry), self.config.distance, None,
+                              self.config.roomy)
         self._search_phase = "go"
         why = "%s %s (%d of %d)" % (why, region, self._search_index + 1, len(self._search))
         if near is None:
             return self._go(rx, ry, x, y, why)
         return FollowDecision("search", (near[0], near[1], math.atan2(y - near[1], x - near[0])),
                               why)
-
-    def _short_of(self, rx: float, ry: float, x: float, y: float
-                  ) -> Optional[Tuple[float, float]]:
-        """Where to look at (x, y) from: of the points of the observer's way there at most
-        ``distance`` (along it) before it that see it in a straight line, the farthest back
-        with ``roomy`` clearance (not in its doorway), else the farthest back. None when the
-        way cannot be planned. (A point ``distance`` off it on the observer's side, the first
-        try, was behind the wall of the room the point is in.)"""
-        try:
-            path = np.asarray(self.grid.plan((rx, ry), (x, y)))[:, :2]
-        except PlanError:
-            return None
-        back, seen, roomy = 0.0, None, None
-        for i in range(len(path) - 1, 0, -1):
-            back += float(np.hypot(*(path[i] - path[i - 1])))
-            if back > self.config.distance:
-                break
-            p = (float(path[i - 1][0]), float(path[i - 1][1]))
-            if self.grid.line_of_sight(p, (x, y)):
-                seen = p
-                if self.grid.clearance_at(*p) >= self.config.roomy:
-                    roomy = p
-        return roomy or seen
 
     def _patrol_unseen(self, robot: Sequence[float], goal_done: bool) -> FollowDecision:
         """Nothing tracked and nothing predicted (a target never seen, or lost with no leg to
