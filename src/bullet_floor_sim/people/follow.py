@@ -27,13 +27,13 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   target that turned back, the observer blocked it for good in narrow corridors.
 * **search**: when no track has been seen for ``lost_after`` seconds, the observer first turns
   to where it was last seen if that was within ``distance + slack`` (turning towards its own
-  goal, it had turned its back on the target), then goes to the predicted destination region
-  (the predictor's arg-max; ``distance`` short of the goal point of the region the target's
-  leg was most likely going to, facing it), turns on the spot to look around, waits
-  ``search_wait`` seconds, then goes on to the next most likely region (up to
-  ``search_regions`` of them, each at least ``search_min_probability``: :func:`search_plan`)
-  and round the list again; a track seen again ends the search. (Looking in one region only,
-  the observer sat for good where the walker was not: a fifth of a 200-leg evaluation.)
+  goal, it had turned its back on the target), then goes to the
+  predicted destination region (the predictor's arg-max; ``distance`` short of the goal point
+  of the region the target's leg was most likely going to, facing it), turns on the spot to
+  look around, waits ``search_wait`` seconds, then goes on to the next most likely region (up to ``search_regions`` of them, each
+  at least ``search_min_probability``: :func:`search_plan`) and round the list again; a track
+  seen again ends the search. (Looking in one region only, the observer sat for good where
+  the walker was not: a fifth of a 200-leg evaluation.)
 * **patrol**: nothing tracked and nothing predicted (the target never seen, or lost with no
   leg to predict): the building's roomy places in turn, nearest first (:func:`patrol_points`).
 * **idle**: as patrol, on a floor with nowhere to patrol: stay.
