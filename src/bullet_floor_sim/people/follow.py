@@ -29,8 +29,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   to where it was last seen if that was within ``distance + slack`` (turning towards its own
   goal, it had turned its back on the target), then goes to the
   predicted destination region (the predictor's arg-max; ``distance`` short of the goal point
-  of the region the target's leg was most likely going to, facing it), turns on the spot to
-  look around, waits ``search_wait`` seconds, then goes on to the next most likely region (up to ``search_regions`` of them, each
+  of the region the target's leg was most likely going to, facing it), turns on the spot to look around, waits ``search_wait``
+  seconds, then goes on to the next most likely region (up to ``search_regions`` of them, each
   at least ``search_min_probability``: :func:`search_plan`) and round the list again; a track
   seen again ends the search. (Looking in one region only, the observer sat for good where
   the walker was not: a fifth of a 200-leg evaluation.)
