@@ -28,8 +28,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
 * **search**: when no track has been seen for ``lost_after`` seconds, the observer first turns
   to where it was last seen if that was within ``distance + slack`` (turning towards its own
   goal, it had turned its back on the target), then goes to the
-  predicted destination region (the predictor's arg-max; ``distance`` short of the goal point
-  of the region the target's leg was most likely going to, facing it), turns on the spot to look around, waits ``search_wait``
+  predicted destination region (the predictor's arg-max; at the goal point of the region the
+  target's leg was most likely going to), turns on the spot to look around, waits ``search_wait``
   seconds, then goes on to the next most likely region (up to ``search_regions`` of them, each
   at least ``search_min_probability``: :func:`search_plan`) and round the list again; a track
   seen again ends the search. (Looking in one region only, the observer sat for good where
@@ -393,16 +393,8 @@ class FollowBehaviour:
     def _search_go(self, rx: float, ry: float, why: str) -> FollowDecision:
         region, (x, y) = self._search[self._search_index]
         self._place = "region %s's search point" % region
-        # not on the point (the goal the target may be walking to: standing there, the
-        # observer shut it out of its goal) but ``distance`` short of it, facing it
-        near = standoff_point(self.grid, (x, y), (rx, ry), self.config.distance, None,
-                              self.config.roomy)
-        self._search_phase = "go"
-        why = "%s %s (%d of %d)" % (why, region, self._search_index + 1, len(self._search))
-        if near is None:
-            return self._go(rx, ry, x, y, why)
-        return FollowDecision("search", (near[0], near[1], math.atan2(y - near[1], x - near[0])),
-                              why)
+        return self._go(rx, ry, x, y, "%s %s (%d of %d)" % (
+            why, region, self._search_index + 1, len(self._search)))
 
     def _patrol_unseen(self, robot: Sequence[float], goal_done: bool) -> FollowDecision:
         """Nothing tracked and nothing predicted (a target never seen, or lost with no leg to
