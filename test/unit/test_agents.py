@@ -17,7 +17,6 @@ from bullet_floor_sim.nav.planner import PlanningGrid
 from bullet_floor_sim.people.agents import (FollowerAgent, PredictorAgent, TrackerAgent,
                                             WalkerAgent)
 from bullet_floor_sim.people.follow import FollowBehaviour, FollowConfig
-from bullet_floor_sim.people.search import search_point
 from bullet_floor_sim.people.markov import MarkovChain
 from bullet_floor_sim.people.prediction import DestinationModel, PredictionConfig, PredictorPool
 from bullet_floor_sim.people.tracking import TrackerConfig
@@ -176,22 +175,6 @@ def test_predictor_agent_predicts_per_track_with_search_plans(corridor_model):
     assert step.destinations[1][0].under_way and step.destinations[1][0].best == "B"
     back = agent.tick(2.0, [(1, 9.0, 5.75, 0.5, 0.0)])
     assert back.went_back == pytest.approx(3.9) and back.destinations[1][0].leg == 1
-
-
-def test_the_search_point_is_where_the_leg_is_going_not_where_it_was_seen():
-    # the corridor has a goal at each end; a track walking east along it is looked for at
-    # the east end (at the one nearer to where it was last seen, it would be looked for
-    # behind it), and one walking west at the west end
-    model = DestinationModel(PlanningGrid(corridor_map()), corridor_rois(), corridor_chain(),
-                             PredictionConfig(length_exponent=0.0),
-                             goal_points=dict(GOALS, corridor=[(1.05, 5.75), (26.05, 5.75)]))
-    for v, end in ((0.5, (26.05, 5.75)), (-0.5, (1.05, 5.75))):
-        agent = PredictorAgent(model, FollowConfig(search_regions=4, search_min_probability=0.0))
-        for k in range(40):
-            step = agent.tick(0.1 * k, [(1, 7.05 + 0.1 * v * k, 5.75, v, 0.0)])
-        assert dict(step.destinations[1][1])["corridor"] == end
-    # walking east, last seen at x 9.0: the goal nearest to it is the west end, 8 m behind
-    assert search_point(model.goals("corridor"), (9.0, 5.75)) == (1.05, 5.75)
 
 
 # --------------------------------------------------------------------------------------------

@@ -259,23 +259,6 @@ def test_mean_over_goal_points_and_unreachable_ones_dropped(world):
     assert post == pytest.approx({g: v / total for g, v in w.items()}, rel=1e-5)
 
 
-def test_likely_goal_is_the_one_most_progress_was_made_towards(world):
-    """Two corridor goals, 7 m east and 6 m west of S = (7.05, 5.75): 3 m walked east is 3 m
-    of progress towards the east one and -3 m towards the west one, so the east one; 3 m
-    west, the west one; not moved yet, the leg-length term alone (1 / L), so the nearer (west,
-    6 m). B's pocket goal cannot be reached: B's other goal."""
-    goals = dict(GOALS, corridor=[(14.05, 5.75), (1.05, 5.75)], B=[(3.5, 2.0), (14.05, 9.55)])
-    m = DestinationModel(*world, PredictionConfig(prior_mix=0.0, length_exponent=1.0),
-                         goal_points=goals)
-    s = (7.05, 5.75)
-    assert m.likely_goals(["corridor", "B"], s, (10.05, 5.75)) == {
-        "corridor": (14.05, 5.75), "B": (14.05, 9.55)}
-    assert m.likely_goals(["corridor"], s, (4.05, 5.75)) == {"corridor": (1.05, 5.75)}
-    assert m.likely_goals(["corridor"], s, s) == {"corridor": (1.05, 5.75)}
-    with pytest.raises(PredictionError, match="nowhere"):
-        m.likely_goals(["nowhere"], s, s)
-
-
 def test_no_corner_cutting_like_the_planner():
     """A staircase of lethal cells across the corridor: diagonal steps between two lethal
     cells are not taken (as the planner's A*), so it is a wall."""

@@ -18,14 +18,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
 from ..data.rois import RoiError
 from ..errors import BulletFloorSimError
 from .follow import FollowBehaviour, FollowConfig, FollowDecision
-from .search import Points, TrackLike, pick_target, search_plan
+from .search import TrackLike, pick_target, search_plan
 from .prediction import DestinationModel, Prediction, PredictorPool
 from .tracking import StaticMap, Track, Tracker, TrackerConfig, detect, scan_points
 from .walker import Leg, Walker
@@ -270,23 +270,9 @@ class PredictorAgent:
         for tid, x, y, _vx, _vy in tracks:
             p = preds.get(tid)
             if p is not None:
-                out[tid] = (p, search_plan(p.probabilities, self._search_points(p, x, y),
-                                           (x, y), fc.search_regions,
-                                           fc.search_min_probability, p.best))
+                out[tid] = (p, search_plan(p.probabilities, self.model.goals, (x, y),
+                                           fc.search_regions, fc.search_min_probability, p.best))
         return PredictorStep(out, list(self.pool.errors.values()), went_back)
-
-    def _search_points(self, p: Prediction, x: float, y: float) -> Callable[[str], Points]:
-        """Where to look in each region for a track at (x, y): the goal point its leg is
-        most likely going to (DestinationModel.likely_goals), else the region's goal points
-        (the one nearest (x, y) is searched). The point of the region nearest to where the
-        target was lost was where the observer already stood when the target walked on
-        along a long corridor region."""
-        likely = self.model.likely_goals(p.probabilities, p.start_xy, (x, y))
-
-        def points(region: str) -> Points:
-            xy = likely.get(region)
-            return np.array([xy]) if xy is not None else self.model.goals(region)
-        return points
 
     @property
     def handovers(self) -> int:

@@ -8,9 +8,7 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   from the target back towards the observer (so the observer trails it through doors rather
   than overtaking it), snapped to the nearest free planning cell on that circle, facing the
   target. A target coming towards the observer gets room: the stand-off point goes to the side
-  of its path (the side nearer the observer), not backwards in front of it into a dead end;
-  one whose way passes at least ``give_way`` from the observer is watched going by (the
-  observer turns on the spot to where it will be in a second). A
+  of its path (the side nearer the observer), not backwards in front of it into a dead end. A
   new goal is sent when the target has moved ``replan_distance`` from where it was when the
   last goal was sent, or at least every ``goal_period`` seconds while it moves.
   Within ``distance + slack`` of a target that stands still, the observer only turns to face
@@ -28,8 +26,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
 * **search**: when no track has been seen for ``lost_after`` seconds, the observer first turns
   to where it was last seen if that was within ``distance + slack`` (turning towards its own
   goal, it had turned its back on the target), then goes to the
-  predicted destination region (the predictor's arg-max; at the goal point of the region the
-  target's leg was most likely going to), turns on the spot to look around, waits ``search_wait``
+  predicted destination region (the predictor's arg-max; the point of the region nearest to
+  where the target was last seen), turns on the spot to look around, waits ``search_wait``
   seconds, then goes on to the next most likely region (up to ``search_regions`` of them, each
   at least ``search_min_probability``: :func:`search_plan`) and round the list again; a track
   seen again ends the search. (Looking in one region only, the observer sat for good where
@@ -474,8 +472,7 @@ class FollowBehaviour:
                 return FollowDecision("follow", (rx, ry, facing), "turning to face the target")
             return FollowDecision("follow")
         # coming towards the observer: step aside (to the side of its heading nearer the
-        # observer) instead of backing away in front of it into a dead end, unless it passes
-        # by at least give_way from the observer
+        # observer) instead of backing away in front of it into a dead end
         approaching = moving and (vx * (rx - tx) + vy * (ry - ty)) > 0.1 * dist
         due = (first or goal_done or moved > cfg.replan_distance
                or (moving and t - self._goal_time >= cfg.goal_period))
@@ -484,13 +481,6 @@ class FollowBehaviour:
         direction = None
         if approaching and dist < cfg.distance + cfg.slack:
             heading = math.atan2(vy, vx)
-            if abs(math.sin(facing + math.pi - heading)) * dist >= cfg.give_way:
-                # its way passes the observer with room to spare: the observer turns to where
-                # it will be in a second and lets it go by (driving to a stand-off point
-                # beside it, it turned its back on the target)
-                self._goal_target, self._goal_time = (tx, ty), t
-                return FollowDecision("follow", (rx, ry, math.atan2(ty + vy - ry, tx + vx - rx)),
-                                      "watching the target go by")
             side = 1.0 if wrap_angle(facing + math.pi - heading) >= 0 else -1.0
             direction = heading + side * math.pi / 2
         point = standoff_point(self.grid, (tx, ty), (rx, ry), cfg.distance, direction,

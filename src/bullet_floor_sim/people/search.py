@@ -61,9 +61,8 @@ def search_plan(probabilities: Mapping[str, float], goals: Callable[[str], Point
     """Where to search for a lost target: the ``count`` most likely destination regions with
     probability at least ``min_probability`` (the most likely one always), most likely first
     (of equal ones ``best`` first, e.g. the predictor's arg-max, then by region id), each with
-    its :func:`search_point` (of ``goals(region)``, the points to search the region at: the
-    one nearest to ``xy``, where the target was last seen; the predictor's agent gives the
-    goal point the target's leg was most likely going to)."""
+    its :func:`search_point` (``goals(region)``: the region's goal points) nearest to ``xy``,
+    where the target was last seen."""
     ranked = sorted(probabilities.items(),
                     key=lambda kv: (-float(kv[1]), kv[0] != best, kv[0]))
     out = []

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
+from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -334,7 +334,10 @@ class DestinationModel:
         prior = self.prior(r0)
         sx, sy = _check_xy(start_xy, "start_xy")
         qx, qy = _check_xy(current_xy, "current_xy")
-        vs, vq = self._values_sq(sx, sy, qx, qy)
+        vs = self._values(sx, sy)
+        vq = vs if (qx, qy) == (sx, sy) else self._values(qx, qy)
+        beta, alpha = self.config.beta, self.config.length_exponent
+        floor = self.config.goal_spacing
         logw = {}  # type: Dict[str, float]
         reasons = {}  # type: Dict[str, str]
         for g, p in prior.items():
@@ -349,8 +352,9 @@ class DestinationModel:
                 reasons[g] = ("no goal point of region %s is reachable from (%.2f, %.2f)"
                               % (_quote(g), sx, sy))
                 continue
-            logw[g] = (math.log(p) + float(logsumexp(self._terms(a[ok], b[ok])))
-                       - math.log(int(ok.sum())))
+            a, b = a[ok], b[ok]
+            terms = -beta * (b - a) - alpha * np.log(np.maximum(a, floor))
+            logw[g] = math.log(p) + float(logsumexp(terms)) - math.log(int(ok.sum()))
         if not logw:
             where = ["%s (%.2f, %.2f)" % (what, x, y) for what, x, y
                      in (("start", sx, sy), ("current", qx, qy)) if not len(self._access(x, y)[0])]
@@ -362,43 +366,6 @@ class DestinationModel:
         total = float(logsumexp(list(logw.values())))
         probs = {g: (math.exp(logw[g] - total) if g in logw else 0.0) for g in prior}
         return calibrate(probs, prior, self.config.temperature, self.config.prior_mix), reasons
-
-    def _values_sq(self, sx: float, sy: float, qx: float, qy: float
-                   ) -> Tuple[np.ndarray, np.ndarray]:
-        """V of every goal point at S and at Q."""
-        vs = self._values(sx, sy)
-        return vs, (vs if (qx, qy) == (sx, sy) else self._values(qx, qy))
-
-    def _terms(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """Each goal point's log-likelihood term: beta x the progress made towards it (V at
-        S less V at Q), less length_exponent x the log of its leg length (V at S)."""
-        cfg = self.config
-        return (-cfg.beta * (b - a)
-                - cfg.length_exponent * np.log(np.maximum(a, cfg.goal_spacing)))
-
-    def likely_goals(self, regions: Iterable[str], start_xy: Sequence[float],
-                     current_xy: Sequence[float]) -> Dict[str, Tuple[float, float]]:
-        """Where in each region an entity that walked from S to Q is most likely going: the
-        goal point with the largest term of the posterior (the most progress made towards
-        it, for its leg's length; at S itself, the nearest). A region with no goal point
-        reachable from both is left out.
-
-        Raises:
-            PredictionError: an unknown region, or a non-finite position.
-        """
-        sx, sy = _check_xy(start_xy, "start_xy")
-        qx, qy = _check_xy(current_xy, "current_xy")
-        vs, vq = self._values_sq(sx, sy, qx, qy)
-        out = {}   # type: Dict[str, Tuple[float, float]]
-        for g in regions:
-            self._check_region(g)
-            sl = self._slices[g]
-            a, b = vs[sl], vq[sl]
-            ok = np.flatnonzero(np.isfinite(a) & np.isfinite(b))
-            if len(ok):
-                k = ok[int(np.argmax(self._terms(a[ok], b[ok])))]
-                out[g] = (float(self._goals[g][k, 0]), float(self._goals[g][k, 1]))
-        return out
 
     # ---- baselines -------------------------------------------------------------------------
 
