@@ -251,43 +251,6 @@ def test_legs_follow_the_chain(office):
     assert p > 0.001
 
 
-def alcove_and_hall():
-    """A 6 x 4 m hall whose south-west corner is an alcove region 1.5 m square: its goals
-    (0.45 m from the walls, 0.5 m inside it) lie within x, y 0.55..1.1, all within 0.4 m of
-    its middle. The chain: alcove and hall each stay or go to the other, 1/2 each."""
-    g = np.zeros((80, 120), dtype=np.int8)
-    g[:2, :] = g[-2:, :] = g[:, :2] = g[:, -2:] = 100
-    grid = PlanningGrid(map_from_grid(g, 0.05, (0.0, 0.0, 0.0)))
-    alcove = Roi("a", "1", "office", "m", [(0.1, 0.1), (1.6, 0.1), (1.6, 1.6), (0.1, 1.6)])
-    hall = Roi("h", "1", "corridor", "m", [(1.6, 0.1), (5.9, 0.1), (5.9, 3.9), (0.1, 3.9),
-                                          (0.1, 1.6), (1.6, 1.6)])
-    chain = MarkovChain.from_neighbours(["a", "h"], {"a": ["h"]}, "m")
-    assert chain.row("a") == pytest.approx({"a": 0.5, "h": 0.5})
-    return chain, [alcove, hall], GoalSampler(grid, clearance=0.45, margin=0.5)
-
-
-def test_a_leg_goes_at_least_min_leg_and_an_alcove_is_left_not_stayed_in():
-    chain, rois, sampler = alcove_and_hall()
-    w = Walker(chain, rois, sampler, WalkerConfig(), seed=5)
-    for k in range(60):
-        leg = w.next_leg((0.85, 0.85), float(k))
-        assert leg.target_region == "h"          # staying, it would go nowhere: it leaves
-        assert math.hypot(leg.goal[0] - 0.85, leg.goal[1] - 0.85) >= 1.0
-    legs = [w.next_leg((4.0, 2.0), float(k)) for k in range(200)]   # in the hall: both
-    assert {leg.target_region for leg in legs} == {"a", "h"}
-    assert min(math.hypot(leg.goal[0] - 4.0, leg.goal[1] - 2.0) for leg in legs) >= 1.0
-    # min_leg 0 (the walk before): about half the legs from the alcove stay in it, < 0.5 m
-    w = Walker(chain, rois, sampler, WalkerConfig(min_leg=0.0), seed=5)
-    stays = [leg for leg in (w.next_leg((0.85, 0.85), float(k)) for k in range(60))
-             if leg.target_region == "a"]
-    assert 15 <= len(stays) <= 45
-    assert max(math.hypot(leg.goal[0] - 0.85, leg.goal[1] - 0.85) for leg in stays) < 0.5
-    # a region with no other to go to and no place min_leg away: a clear error
-    alone = MarkovChain.from_neighbours(["a"], {}, "m")
-    with pytest.raises(WalkerError, match=r"no place at least 1.0 m .* \(min_leg\)"):
-        Walker(alone, rois[:1], sampler, WalkerConfig(), seed=1).next_leg((0.85, 0.85), 0.0)
-
-
 def test_leg_from_outside_every_region_starts_from_the_nearest(office):
     w = walker(office, seed=4)
     leg = w.next_leg((0.5, 5.0, 0.0), 0.0)   # in office_1's west wall: in no region

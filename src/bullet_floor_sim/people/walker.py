@@ -36,7 +36,6 @@ __all__ = [
     "WalkerConfig",
     "RegionIndex",
     "GoalSampler",
-    "TooNear",
     "Leg",
     "Walker",
     "region_label",
@@ -49,10 +48,6 @@ OUTCOMES = ("succeeded", "aborted", "timeout", "rejected", "preempted", "lost")
 
 class WalkerError(BulletFloorSimError):
     """The walker cannot go on: no region, no reachable goal, or bad parameters."""
-
-
-class TooNear(RoiError):
-    """A region's acceptable goals all lie too near where a leg would start."""
 
 
 @dataclass
@@ -77,12 +72,6 @@ class WalkerConfig:
             0.34 m for the Scitos A5, plus a little).
         goal_tries: random draws per region before it counts as having no acceptable point.
         max_picks: regions drawn per leg before the walker gives up on this leg.
-        min_leg: a goal lies at least this far (m, as the crow flies) from where the leg
-            starts. Staying in a region with no such place (a small room, an alcove), the
-            walker leaves it instead: the next region is drawn from the others of its row,
-            in their proportions. Without it, 18 of 40 legs on seattle (an alcove of 2 m²)
-            went nowhere in 0-1.6 s, legs no motion can predict. 1 m: the predictor starts
-            a leg after 0.3 m and counts leg lengths from 1 m (PredictionConfig.goal_spacing).
         retry_delay: wait after the first failed leg in a row; doubled for each further
             failure, up to ``max_retry_delay``.
     """
@@ -95,7 +84,6 @@ class WalkerConfig:
     clearance: float = 0.45
     goal_tries: int = 300
     max_picks: int = 10
-    min_leg: float = 1.0
     retry_delay: float = 1.0
     max_retry_delay: float = 30.0
 
@@ -106,7 +94,7 @@ class WalkerConfig:
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise WalkerError("walker: %s must be a number of seconds > 0, got %r"
                                   % (name, v))
-        for name in ("dwell_min", "dwell_max", "margin", "clearance", "min_leg"):
+        for name in ("dwell_min", "dwell_max", "margin", "clearance"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise WalkerError("walker: %s must be a finite number >= 0, got %r" % (name, v))
@@ -246,29 +234,21 @@ class GoalSampler:
         return component <= 0 or int(self.labels[r, c]) == component
 
     def sample(self, roi: Roi, rng: np.random.Generator,
-               start: Optional[Sequence[float]] = None, away: float = 0.0
-               ) -> Tuple[float, float]:
-        """A goal in ``roi``, reachable from ``start`` (x, y) when given, and at least
-        ``away`` metres from it.
+               start: Optional[Sequence[float]] = None) -> Tuple[float, float]:
+        """A goal in ``roi``, reachable from ``start`` (x, y) when given.
 
         A region narrower than twice the margin gets goals with half the margin, then none.
 
         Raises:
-            TooNear: the region's acceptable points all lie within ``away`` of ``start``.
             RoiError: no acceptable point was drawn (the message names the region and why).
         """
         component = self.component_at(start[0], start[1]) if start is not None else 0
-        sx, sy = (float(start[0]), float(start[1])) if start is not None else (0.0, 0.0)
-        far = away if start is not None else 0.0
-
-        def ok(x: float, y: float) -> bool:
-            return self.acceptable(x, y, component) and math.hypot(x - sx, y - sy) >= far
-
         error = None
         for margin in (self.margin, self.margin / 2.0, 0.0):
             try:
-                return random_point_inside(roi, rng, margin=margin, max_tries=self.goal_tries,
-                                           is_free=ok)
+                return random_point_inside(
+                    roi, rng, margin=margin, max_tries=self.goal_tries,
+                    is_free=lambda x, y: self.acceptable(x, y, component))
             except RoiError as e:
                 error = e
                 if "no point lies" not in str(e):
@@ -277,12 +257,6 @@ class GoalSampler:
         # one of its acceptable cell centres (exact, but only to the planning grid's cells)
         x, y, comp = self.cells_in(roi)
         pick = np.flatnonzero(comp == component) if component > 0 else np.arange(len(x))
-        if len(pick) and far > 0:
-            near = np.hypot(x[pick] - sx, y[pick] - sy) < far
-            if near.all():
-                raise TooNear("%s: all its goals lie within %.2f m of (%.2f, %.2f)"
-                              % (roi.id, far, sx, sy))
-            pick = pick[~near]
         if len(pick):
             k = int(pick[rng.integers(len(pick))])
             return float(x[k]), float(y[k])
@@ -447,19 +421,10 @@ class Walker:
         x, y = float(pose[0]), float(pose[1])
         here = self.origin_region(x, y)
         problems = []
-        leaving = False   # staying was drawn where the region has no other place
         for _ in range(self.config.max_picks):
-            target = self._draw(here, leaving)
+            target = self.chain.sample_next(here, self.rng_region)
             try:
-                gx, gy = self.sampler.sample(self.index.by_id[target], self.rng_goal, (x, y),
-                                             self.config.min_leg)
-            except TooNear:
-                if target == here and len(self.chain.row(here)) > 1:
-                    leaving = True
-                    continue
-                raise WalkerError("walker: %s has no place at least %.1f m from (%.2f, %.2f) "
-                                  "and no other region to go to (min_leg)"
-                                  % (self.label(here), self.config.min_leg, x, y))
+                gx, gy = self.sampler.sample(self.index.by_id[target], self.rng_goal, (x, y))
             except RoiError as e:
                 if str(e) not in problems:
                     problems.append(str(e))
@@ -475,17 +440,6 @@ class Walker:
         raise WalkerError("walker: no acceptable goal in the regions drawn from %s after %d "
                           "draws: %s" % (self.label(here), self.config.max_picks,
                                          "; ".join(problems)))
-
-    def _draw(self, here: str, leaving: bool) -> str:
-        """The next region by the chain; ``leaving``: one of the others of ``here``'s row,
-        in their proportions."""
-        if not leaving:
-            return self.chain.sample_next(here, self.rng_region)
-        row = {r: p for r, p in self.chain.row(here).items() if r != here}
-        ids = list(row)
-        cum = np.cumsum([row[r] for r in ids])
-        k = int(np.searchsorted(cum / cum[-1], self.rng_region.random(), side="right"))
-        return ids[min(k, len(ids) - 1)]
 
     def finish(self, leg: Leg, outcome: str, now: float, end_region: str,
                detail: str = "") -> str:

@@ -25,9 +25,7 @@ Topics (in the node's namespace, ``~`` = ``markov_walker/``):
 Parameters: ``~seed`` (-1: random, logged so a run can be repeated), ``~goal_timeout`` (120 s
 sim time, or ``~timeout_per_m`` 8 s a metre to the goal when longer; see
 people.walker.WalkerConfig), ``~dwell_min``/``~dwell_max`` (5/20 s), ``~margin``
-(0.5 m inside the polygon), ``~clearance`` (0.45 m from walls), ``~min_leg`` (1 m: a goal
-at least this far from where the leg starts; staying in a region with no such place, it
-leaves for another of its row) and the other
+(0.5 m inside the polygon), ``~clearance`` (0.45 m from walls) and the other
 people.walker.WalkerConfig fields as ``~<field>`` (``~retry_delay``, ``~max_picks``, ...),
 ``~robot_radius`` (0.34), ``~action`` (``move_base``, relative to the namespace), ``~config``
 ("1"), ``~map_name`` ("" = ask ``/soma/map_info``), ``~tol`` (0.2), ``~mode`` (vertex|edge),
