@@ -22,7 +22,7 @@ from ..errors import BulletFloorSimError
 from ..sim.floormap import FloorMap
 from ..sim.solidmap import MapHandling, solid_map, while_mapping
 
-__all__ = ["PlanError", "PlannerConfig", "PlanningGrid", "path_length"]
+__all__ = ["PlanError", "PlannerConfig", "PlanningGrid", "disc_points", "path_length"]
 
 _SQRT2 = math.sqrt(2.0)
 _NEIGHBOURS = ((1, 0, 1.0), (-1, 0, 1.0), (0, 1, 1.0), (0, -1, 1.0),
@@ -397,6 +397,13 @@ def _resample(pts: np.ndarray, spacing: float) -> np.ndarray:
         for k in range(1, n + 1):
             out.append(a + (b - a) * (k / n))
     return np.array(out)
+
+
+def disc_points(x: float, y: float, radius: float) -> np.ndarray:
+    """A robot or person as :meth:`PlanningGrid.plan`'s ``obstacles``: 12 points on the
+    circle of ``radius`` round (x, y), (12, 2)."""
+    a = np.linspace(0.0, 2.0 * math.pi, 12, endpoint=False)
+    return np.column_stack([x + radius * np.cos(a), y + radius * np.sin(a)])
 
 
 def path_length(path: np.ndarray) -> float:

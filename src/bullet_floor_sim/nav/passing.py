@@ -16,7 +16,7 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
-from .grid import PlanningGrid
+from .grid import PlanningGrid, disc_points
 
 __all__ = ["narrow_axis", "passing_place", "on_the_way", "gives_way", "heads_west_or_south",
            "PASSING_MARGIN"]
@@ -88,9 +88,7 @@ def gives_way(grid: PlanningGrid, axis: np.ndarray, pose: Sequence[float], block
     centre = pts.mean(axis=0)
     away = centre - (x, y)
     centre = centre + 0.7 * other_radius * away / max(float(np.hypot(*away)), 1e-9)
-    a = np.linspace(0.0, 2.0 * math.pi, 12, endpoint=False)
-    r = grid.config.robot_radius
-    me = np.column_stack([x + 0.8 * r * np.cos(a), y + 0.8 * r * np.sin(a)])
+    me = disc_points(x, y, 0.8 * grid.config.robot_radius)
     theirs = passing_place(grid, axis, centre, me, other_radius, reach)
     d_mine = math.hypot(mine[0] - x, mine[1] - y)
     if theirs is None:

@@ -23,10 +23,10 @@ import for the nodes and the evaluation.
 """
 from __future__ import annotations
 
-from .grid import PlanError, PlannerConfig, PlanningGrid, path_length
+from .grid import PlanError, PlannerConfig, PlanningGrid, disc_points, path_length
 from .navigator import NavigatorConfig, NavStatus, Navigator, give_way_point
 from .pursuit import FollowerCommand, FollowerConfig, PathFollower, obstacles_in_base
 
 __all__ = ["PlanError", "PlannerConfig", "PlanningGrid", "FollowerConfig", "FollowerCommand",
-           "PathFollower", "path_length", "obstacles_in_base", "give_way_point",
+           "PathFollower", "disc_points", "path_length", "obstacles_in_base", "give_way_point",
            "NavigatorConfig", "NavStatus", "Navigator"]

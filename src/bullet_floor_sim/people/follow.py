@@ -47,7 +47,8 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..errors import BulletFloorSimError
-from ..nav.planner import PlanError, PlanningGrid, give_way_point, path_length
+from ..nav.planner import (PlanError, PlanningGrid, disc_points, give_way_point,
+                           path_length)
 from ..geometry import wrap_angle
 from .search import as_plan, patrol_points
 
@@ -369,9 +370,7 @@ class FollowBehaviour:
         key = (self._route_key[2] if self._route_key else None, self.grid.to_cell(*robot))
         if self._pass_key == key:
             return self._pass_ok
-        a = np.linspace(0.0, 2.0 * math.pi, 12, endpoint=False)
-        r = self.grid.config.robot_radius
-        body = np.column_stack([robot[0] + r * np.cos(a), robot[1] + r * np.sin(a)])
+        body = disc_points(robot[0], robot[1], self.grid.config.robot_radius)
         ok = True
         for dest in dests:
             try:
