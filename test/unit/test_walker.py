@@ -13,7 +13,7 @@ from shapely.geometry import Point
 
 from bullet_floor_sim.sim.floormap import load_map, map_from_grid
 from bullet_floor_sim.people.markov import MarkovChain
-from bullet_floor_sim.nav.planner import PlanningGrid
+from bullet_floor_sim.nav.planner import PlanningGrid, path_length
 from bullet_floor_sim.data.rois import Roi, RoiError, load_rois, roi_at, roi_polygon
 from bullet_floor_sim.people.walker import (GoalSampler, Leg, RegionIndex, Walker, WalkerConfig,
                                           WalkerError, anchor, region_label, walkable_regions)
@@ -249,6 +249,19 @@ def test_legs_follow_the_chain(office):
     ids = sorted(row)
     _, p = chisquare([counts[i] for i in ids], [6000 * row[i] for i in ids])
     assert p > 0.001
+
+
+def test_a_legs_time_limit_grows_with_its_planned_path_not_the_crows_distance(office):
+    _, _, grid, _, _ = office
+    w = walker(office, seed=2, timeout_per_m=30.0)
+    longer = 0
+    for k in range(20):
+        leg = w.next_leg((2.0, 5.0, 0.0), float(k))      # from office 5, out through its door
+        way = path_length(grid.plan((2.0, 5.0), leg.goal[:2]))
+        crow = math.hypot(leg.goal[0] - 2.0, leg.goal[1] - 5.0)
+        assert leg.timeout == pytest.approx(max(120.0, 30.0 * way), rel=1e-9)
+        longer += 30.0 * way > max(120.0, 30.0 * crow) + 30.0
+    assert longer >= 1        # some legs out of the room go round its walls: 30 s more, or more
 
 
 def test_leg_from_outside_every_region_starts_from_the_nearest(office):

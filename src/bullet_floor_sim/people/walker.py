@@ -28,7 +28,7 @@ import numpy as np
 
 from ..errors import BulletFloorSimError
 from .markov import MarkovChain
-from ..nav.planner import PlanningGrid
+from ..nav.planner import PlanError, PlanningGrid, path_length
 from ..data.rois import Roi, RoiError, random_point_inside, roi_polygon
 
 __all__ = [
@@ -62,10 +62,10 @@ class WalkerConfig:
             default, 120 s, leaves that room and suits larger regions elsewhere; a robot that
             is really stuck is given up by the navigation first (the embedded follower aborts
             after 30 s blocked or 60 s without progress).
-        timeout_per_m: a leg gets at least this many seconds per metre between its start and
-            its goal as the crow flies (a route up to three times as long at the robot's
-            0.6 m/s, with room to wait): 120 s is too short for a leg across a 140 m hall (a
-            third of edmonton_convention's legs timed out).
+        timeout_per_m: a leg gets at least this many seconds per metre of its planned path
+            (the robot's 0.6 m/s, with room to wait): 120 s is too short for a leg across a
+            140 m hall (a third of edmonton_convention's legs timed out). As the crow flies,
+            legs round a hall's stands still timed out (acapulco_convention: 3 of 43).
         dwell_min, dwell_max: the dwell after a reached goal is uniform in [min, max].
         margin: a goal keeps at least this distance from its region's boundary.
         clearance: a goal keeps at least this distance from every wall (the robot's radius,
@@ -434,12 +434,20 @@ class Walker:
             yaw = math.atan2(gy - y, gx - x) if math.hypot(gx - x, gy - y) > 1e-6 else (
                 float(pose[2]) if len(pose) > 2 else 0.0)
             cfg = self.config
-            timeout = max(cfg.goal_timeout, cfg.timeout_per_m * math.hypot(gx - x, gy - y))
+            timeout = max(cfg.goal_timeout, cfg.timeout_per_m * self._way((x, y), (gx, gy)))
             return Leg(self.legs, self.index.region_at(x, y), target, (gx, gy, yaw), now,
                        timeout=timeout)
         raise WalkerError("walker: no acceptable goal in the regions drawn from %s after %d "
                           "draws: %s" % (self.label(here), self.config.max_picks,
                                          "; ".join(problems)))
+
+    def _way(self, start: Tuple[float, float], goal: Tuple[float, float]) -> float:
+        """The planned path's length from ``start`` to ``goal`` on the sampler's grid (the
+        walker's own navigation plans the same), or the crow's distance when it has none."""
+        try:
+            return path_length(self.sampler.grid.plan(start, goal))
+        except PlanError:
+            return math.hypot(goal[0] - start[0], goal[1] - start[1])
 
     def finish(self, leg: Leg, outcome: str, now: float, end_region: str,
                detail: str = "") -> str:
