@@ -64,8 +64,8 @@ class WalkerConfig:
             after 30 s blocked or 60 s without progress).
         timeout_per_m: a leg gets at least this many seconds per metre of its planned path
             (the robot's 0.6 m/s, with room to wait): 120 s is too short for a leg across a
-            140 m hall (a third of edmonton_convention's legs timed out). As the crow flies,
-            legs round a hall's stands still timed out (acapulco_convention: 3 of 43).
+            140 m hall (a third of edmonton_convention's legs timed out). The crow's
+            distance would cut short a leg whose route goes round walls.
         dwell_min, dwell_max: the dwell after a reached goal is uniform in [min, max].
         margin: a goal keeps at least this distance from its region's boundary.
         clearance: a goal keeps at least this distance from every wall (the robot's radius,
