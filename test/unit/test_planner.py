@@ -349,3 +349,45 @@ def test_the_look_ahead_chord_keeps_off_a_door_corner_that_the_path_clears():
             world.close()
     assert outcomes[0][0] == "succeeded" and outcomes[0][1] < 15.0
     assert outcomes[1] is None or outcomes[1][0] != "succeeded"   # stuck at the corner
+
+
+def test_compiled_astar_takes_the_same_cells_as_plain_python():
+    """nav/grid._search compiled by numba and run as plain Python (lists, as without numba)
+    expand alike: the same cells from the start to the goal on the real office, walls and a
+    blocked disc included, and the same answer for an unreachable goal."""
+    from bullet_floor_sim.nav import grid as G
+
+    if not G._JIT:
+        pytest.skip("numba is not installed: only the plain Python search runs")
+    world = World.from_name("office", seed=0)
+    try:
+        grid = PlanningGrid(world.fmap)
+    finally:
+        world.close()
+    W = grid.width + 2
+    flat = grid._padded()
+    py = G._search.py_func
+    free = np.argwhere(np.isfinite(grid.cost))
+    rng = np.random.default_rng(3)
+    walled = flat.copy()
+    walled[(np.arange(grid.height) + 1) * W + grid.width // 2 + 1] = np.inf  # a wall across
+    for cells in (flat, walled):
+        for _ in range(6):
+            (r0, c0), (r1, c1) = free[rng.integers(len(free), size=2)]
+            s, g = (r0 + 1) * W + c0 + 1, (r1 + 1) * W + c1 + 1
+            out = []
+            for search, arr in ((G._search, True), (py, False)):
+                best = np.full(len(cells), np.inf) if arr else [math.inf] * len(cells)
+                parent = np.full(len(cells), -1, dtype=np.int64) if arr else [-1] * len(cells)
+                moves = G._moves(W) if arr else tuple(m.tolist() for m in G._moves(W))
+                found = search(cells if arr else cells.tolist(), W, s, g, 1.5, *moves, best,
+                               parent)
+                chain, u = [], g
+                while found and u != -1:
+                    chain.append(int(u))
+                    u = parent[u]
+                out.append((found, chain, float(best[g])))
+            assert out[0] == out[1]
+            if cells is walled and out[0][0]:   # never across the wall
+                assert (c0 < grid.width // 2) == (c1 < grid.width // 2)
+            assert out[0][0] == (out[0][2] < math.inf)

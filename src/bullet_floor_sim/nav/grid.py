@@ -29,6 +29,61 @@ _NEIGHBOURS = ((1, 0, 1.0), (-1, 0, 1.0), (0, 1, 1.0), (0, -1, 1.0),
                (1, 1, _SQRT2), (1, -1, _SQRT2), (-1, 1, _SQRT2), (-1, -1, _SQRT2))
 
 
+def _moves(W: int) -> Tuple[Any, Any, Any]:
+    """The 8 neighbours of a cell in a flat grid ``W`` cells wide: their offsets, their step
+    lengths (cells), and for a diagonal the offsets of the two cells beside the step (0, 0
+    for a straight one), as arrays for the compiled search, else as lists."""
+    deltas = [dr * W + dc for dc, dr, _ in _NEIGHBOURS]
+    steps = [step for _, _, step in _NEIGHBOURS]
+    corners = [[dc, dr * W] if dc and dr else [0, 0] for dc, dr, _ in _NEIGHBOURS]
+    if not _JIT:
+        return deltas, steps, corners
+    return (np.array(deltas, dtype=np.int64), np.array(steps),
+            np.array(corners, dtype=np.int64))
+
+
+def _search(flat, W, s, g, half_weight, deltas, steps, corners, best, parent):  # type: ignore
+    """8-connected A* from flat cell ``s`` to ``g`` of a grid ``W`` cells wide with a lethal
+    border (``flat``: cell costs, inf lethal). A step costs its length in cells times 1 +
+    cost_weight x the mean of the two cells' costs; the heuristic is the octile distance. A
+    heap entry is (f, g, cell): equal f go to the larger g, then to the lower cell. Fills
+    ``best`` (cost so far) and ``parent`` (the previous cell, -1 none); True when ``g`` was
+    reached. Compiled by numba when it is installed (the same steps, the same path)."""
+    inf = math.inf
+    gr, gc = g // W, g % W
+    diag = _SQRT2 - 2.0
+    best[s] = 0.0
+    heap = [(0.0, 0.0, s)]
+    while heap:
+        _, d, u = heapq.heappop(heap)
+        if u == g:
+            return True
+        if d > best[u]:
+            continue
+        cu = flat[u]
+        for k in range(8):
+            v = u + deltas[k]
+            cv = flat[v]
+            if cv == inf:
+                continue
+            if k >= 4 and (flat[u + corners[k][0]] == inf or flat[u + corners[k][1]] == inf):
+                continue  # no corner cutting past a lethal cell
+            nd = d + steps[k] * (1.0 + half_weight * (cu + cv))
+            if nd < best[v]:
+                best[v] = nd
+                parent[v] = u
+                hx, hy = abs(v % W - gc), abs(v // W - gr)
+                heapq.heappush(heap, (nd + ((hx + hy) + diag * min(hx, hy)), nd, v))
+    return False
+
+
+try:   # numba compiles the search: 22x faster on office, 9x on a 1448 x 770 hall
+    import numba
+    _search = numba.njit(cache=True)(_search)
+    _JIT = True
+except ImportError:   # pure Python: the same search
+    _JIT = False
+
 
 class PlanError(BulletFloorSimError):
     """No plan: the goal is outside the map, in or too near a wall, or unreachable."""
@@ -105,7 +160,7 @@ class PlanningGrid:
         cost[self.clearance > cfg.robot_radius + cfg.inflation_radius] = 0.0
         cost[self.clearance < cfg.robot_radius] = np.inf
         self.cost = cost
-        self._flat = None  # type: Optional[List[float]]
+        self._flat: Any = None   # the padded costs (_padded)
         self._graph: Optional[Tuple[Any, np.ndarray]] = None
         self._roomiest: Optional[np.ndarray] = None
 
@@ -228,7 +283,10 @@ class PlanningGrid:
         if cells is None:
             raise PlanError("goal (%.2f, %.2f) is unreachable from (%.2f, %.2f)"
                             % (gx, gy, sx, sy))
-        pts = np.array([self.to_world(c, r) for c, r in cells], dtype=float)
+        cr = np.array(cells, dtype=float)
+        u = (cr[:, 0] + 0.5) * self.factor - 0.5   # the cells' centres, as to_world
+        v = (cr[:, 1] + 0.5) * self.factor - 0.5
+        pts = np.stack(self.fmap.cell_to_world(u, v), axis=1)
         pts = self._shortcut(cost, pts)
         pts[0] = (sx, sy)
         pts[-1] = (gx, gy)
@@ -273,59 +331,38 @@ class PlanningGrid:
                 return best[1]
         return None
 
+    def _padded(self) -> Any:
+        """The cost grid, flat, with a lethal border one cell wide so that A* needs no bounds
+        checks: a float64 array for the compiled search, else a list (a list index is the
+        fastest in Python); built once."""
+        if self._flat is None:
+            flat = np.pad(self.cost, 1, constant_values=np.inf).ravel()
+            self._flat = flat if _JIT else flat.tolist()
+        return self._flat
+
     def _astar(self, blocked: set, start: Tuple[int, int],
                goal: Tuple[int, int]) -> Optional[List[Tuple[int, int]]]:
-        """A* over the grid's costs, the ``blocked`` cells (flat indices) lethal too."""
-        W = self.width
-        if self._flat is None:  # the cost grid as a list, once: a list index is fastest
-            self._flat = self.cost.ravel().tolist()
-        flat = self._flat
+        """A* (:func:`_search`) over the grid's costs, the ``blocked`` cells (flat indices)
+        lethal too; the cells from start to goal, or None when the goal cannot be reached."""
+        W = self.width + 2
+        flat = self._padded()
         if blocked:
-            flat = list(flat)
+            flat = flat.copy() if _JIT else list(flat)
             for k in blocked:
-                flat[k] = math.inf
-        weight = self.config.cost_weight
-        s = start[1] * W + start[0]
-        g = goal[1] * W + goal[0]
-        gc, gr = goal
-        n = self.width * self.height
-        best = [math.inf] * n
-        parent = [-1] * n
-        best[s] = 0.0
-        heap = [(0.0, 0.0, s)]
-        inf = math.inf
-        while heap:
-            _, d, u = heapq.heappop(heap)
-            if u == g:
-                break
-            if d > best[u]:
-                continue
-            ur, uc = divmod(u, W)
-            cu = flat[u]
-            for dc, dr, step in _NEIGHBOURS:
-                vc, vr = uc + dc, ur + dr
-                if vc < 0 or vr < 0 or vc >= W or vr >= self.height:
-                    continue
-                v = vr * W + vc
-                cv = flat[v]
-                if cv == inf:
-                    continue
-                if dc and dr and (flat[ur * W + vc] == inf or flat[vr * W + uc] == inf):
-                    continue  # no corner cutting past a lethal cell
-                nd = d + step * (1.0 + weight * 0.5 * (cu + cv))
-                if nd < best[v]:
-                    best[v] = nd
-                    parent[v] = u
-                    hx, hy = abs(vc - gc), abs(vr - gr)
-                    h = (hx + hy) + (_SQRT2 - 2.0) * min(hx, hy)
-                    heapq.heappush(heap, (nd + h, nd, v))
-        if best[g] == inf:
+                r, c = divmod(k, self.width)
+                flat[(r + 1) * W + c + 1] = math.inf
+        s = (start[1] + 1) * W + start[0] + 1
+        g = (goal[1] + 1) * W + goal[0] + 1
+        best: Any = np.full(len(flat), np.inf) if _JIT else [math.inf] * len(flat)
+        parent: Any = np.full(len(flat), -1, dtype=np.int64) if _JIT else [-1] * len(flat)
+        if not _search(flat, W, s, g, 0.5 * self.config.cost_weight, *_moves(W), best,
+                       parent):
             return None
         out = []
         u = g
         while u != -1:
-            r, c = divmod(u, W)
-            out.append((c, r))
+            r, c = divmod(int(u), W)
+            out.append((c - 1, r - 1))
             u = parent[u]
         out.reverse()
         return out
@@ -370,7 +407,8 @@ class PlanningGrid:
         """Greedy line-of-sight shortcuts that never bring the path closer to a wall."""
         if len(pts) <= 2:
             return pts
-        cell_cost = np.array([cost[self.to_cell(x, y)[::-1]] for x, y in pts])
+        col, row = self.fmap.world_to_cell(pts[:, 0], pts[:, 1])
+        cell_cost = cost[row // self.factor, col // self.factor]
         out = [pts[0]]
         i = 0
         while i < len(pts) - 1:
