@@ -391,3 +391,40 @@ def test_compiled_astar_takes_the_same_cells_as_plain_python():
             if cells is walled and out[0][0]:   # never across the wall
                 assert (c0 < grid.width // 2) == (c1 < grid.width // 2)
             assert out[0][0] == (out[0][2] < math.inf)
+
+
+def test_compiled_segment_check_and_shortcut_match_plain_python():
+    """nav/grid._segment_worst and _shortcut_keep compiled by numba give what they give as
+    plain Python: the same worst cost (inf through walls) on random segments of the real
+    office, and the same points kept of a path through a door."""
+    from bullet_floor_sim.nav import grid as G
+
+    if not G._JIT:
+        pytest.skip("numba is not installed: only the plain Python functions run")
+    world = World.from_name("office", seed=0)
+    try:
+        grid = PlanningGrid(world.fmap)
+    finally:
+        world.close()
+    b = world.fmap.bounds()
+    rng = np.random.default_rng(5)
+    args = (grid._fine, grid.cost, grid.factor, grid._frame(), grid.config.robot_radius)
+    finite = 0
+    for _ in range(400):
+        a = rng.uniform(b[:2], b[2:])
+        c = a + rng.normal(0.0, 3.0, 2)
+        got = G._segment_worst(a[0], a[1], c[0], c[1], *args)
+        assert got == G._segment_worst.py_func(a[0], a[1], c[0], c[1], *args)
+        finite += math.isfinite(got)
+    assert 20 < finite < 400   # both kinds of segment were tried
+    fmap = two_rooms()
+    g2 = PlanningGrid(fmap)
+    path = g2.plan((1.0, 0.6), (7.0, 3.4))
+    dense = np.array([g2.to_world(c, r) for c, r in
+                      g2._astar(set(), g2.to_cell(1.0, 0.6), g2.to_cell(7.0, 3.4))])
+    col, row = fmap.world_to_cell(dense[:, 0], dense[:, 1])
+    cc = g2.cost[row // g2.factor, col // g2.factor]
+    a2 = (g2._fine, g2.cost, g2.factor, g2._frame(), g2.config.robot_radius)
+    keep = G._shortcut_keep(dense[:, 0].copy(), dense[:, 1].copy(), cc, *a2)
+    assert list(keep) == G._shortcut_keep.py_func(dense[:, 0], dense[:, 1], cc, *a2)
+    assert 2 < len(keep) < len(dense) / 4 and len(path) > len(keep)   # a door: a bend kept

@@ -77,9 +77,56 @@ def _search(flat, W, s, g, half_weight, deltas, steps, corners, best, parent):  
     return False
 
 
+def _segment_worst(ax, ay, bx, by, fine, cost, factor, frame, radius):  # type: ignore
+    """Highest planning-cell cost along the segment (ax, ay)-(bx, by), sampled every half
+    planning cell; inf when it leaves the grid or passes a map cell closer than ``radius`` to
+    a wall (``fine``: the map cells' clearance). ``frame``: the map's origin x, y, the
+    cosine and sine of its yaw, its resolution and the planning cell size (as
+    FloorMap.world_to_cell)."""
+    ox, oy, c, s, res, cell = frame
+    n = max(2, int(math.ceil(np.hypot(bx - ax, by - ay) / (0.5 * cell))) + 1)
+    t = np.linspace(0.0, 1.0, n)
+    dx = ax * (1 - t) + bx * t - ox
+    dy = ay * (1 - t) + by * t - oy
+    col = np.floor((c * dx + s * dy) / res).astype(np.int64)
+    row = np.floor((-s * dx + c * dy) / res).astype(np.int64)
+    h, w = fine.shape
+    near = fine.ravel()[np.minimum(np.maximum(row, 0), h - 1) * w
+                        + np.minimum(np.maximum(col, 0), w - 1)]
+    col, row = col // factor, row // factor
+    if (col.min() < 0 or row.min() < 0 or col.max() >= cost.shape[1]
+            or row.max() >= cost.shape[0] or near.min() < radius):
+        return math.inf
+    return cost.ravel()[row * cost.shape[1] + col].max()
+
+
+def _shortcut_keep(px, py, cell_cost, fine, cost, factor, frame, radius):  # type: ignore
+    """The points a greedy line-of-sight pass keeps of a path (px, py), as indices: from
+    each kept point, on to the farthest next point reachable by a straight segment no
+    costlier (:func:`_segment_worst`) than the worst cell it replaces."""
+    out = [0]
+    i = 0
+    while i < len(px) - 1:
+        j = i + 1
+        worst = max(cell_cost[i], cell_cost[j])
+        while j + 1 < len(px):
+            worst_next = max(worst, cell_cost[j + 1])
+            if _segment_worst(px[i], py[i], px[j + 1], py[j + 1], fine, cost, factor, frame,
+                              radius) <= worst_next + 1e-9:
+                j += 1
+                worst = worst_next
+            else:
+                break
+        out.append(j)
+        i = j
+    return out
+
+
 try:   # numba compiles the search: 22x faster on office, 9x on a 1448 x 770 hall
     import numba
     _search = numba.njit(cache=True)(_search)
+    _segment_worst = numba.njit(cache=True)(_segment_worst)
+    _shortcut_keep = numba.njit(cache=True)(_shortcut_keep)
     _JIT = True
 except ImportError:   # pure Python: the same search
     _JIT = False
@@ -389,41 +436,28 @@ class PlanningGrid:
         return self._fine[np.clip(row, 0, self._fine.shape[0] - 1),
                           np.clip(col, 0, self._fine.shape[1] - 1)]
 
+    def _frame(self) -> Tuple[float, float, float, float, float, float]:
+        """The map frame as :func:`_segment_worst` reads it."""
+        ox, oy, yaw = self.fmap.origin
+        return (float(ox), float(oy), math.cos(yaw), math.sin(yaw), float(self.fmap.resolution),
+                float(self.resolution))
+
     def _segment_cost(self, cost: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
         """Highest cell cost along the straight segment a-b (inf if it crosses a lethal cell)."""
-        length = float(np.hypot(*(b - a)))
-        n = max(2, int(math.ceil(length / (0.5 * self.resolution))) + 1)
-        t = np.linspace(0.0, 1.0, n)[:, None]
-        pts = a[None, :] * (1 - t) + b[None, :] * t
-        col, row = self.fmap.world_to_cell(pts[:, 0], pts[:, 1])
-        fine = self._fine_at(col, row)
-        col, row = col // self.factor, row // self.factor
-        ok = (col >= 0) & (row >= 0) & (col < self.width) & (row < self.height)
-        if not ok.all() or fine.min() < self.config.robot_radius:
-            return math.inf   # off the map, or cutting a corner closer than the cells allow
-        return float(cost[row, col].max())
+        return float(_segment_worst(float(a[0]), float(a[1]), float(b[0]), float(b[1]),
+                                    self._fine, cost, self.factor, self._frame(),
+                                    self.config.robot_radius))
 
     def _shortcut(self, cost: np.ndarray, pts: np.ndarray) -> np.ndarray:
-        """Greedy line-of-sight shortcuts that never bring the path closer to a wall."""
+        """Greedy line-of-sight shortcuts that never bring the path closer to a wall
+        (:func:`_shortcut_keep`)."""
         if len(pts) <= 2:
             return pts
         col, row = self.fmap.world_to_cell(pts[:, 0], pts[:, 1])
         cell_cost = cost[row // self.factor, col // self.factor]
-        out = [pts[0]]
-        i = 0
-        while i < len(pts) - 1:
-            j = i + 1
-            worst = max(cell_cost[i], cell_cost[j])
-            while j + 1 < len(pts):
-                worst_next = max(worst, cell_cost[j + 1])
-                if self._segment_cost(cost, pts[i], pts[j + 1]) <= worst_next + 1e-9:
-                    j += 1
-                    worst = worst_next
-                else:
-                    break
-            out.append(pts[j])
-            i = j
-        return np.array(out)
+        keep = _shortcut_keep(pts[:, 0].copy(), pts[:, 1].copy(), cell_cost, self._fine, cost,
+                              self.factor, self._frame(), float(self.config.robot_radius))
+        return pts[np.asarray(keep)]
 
 
 def _resample(pts: np.ndarray, spacing: float) -> np.ndarray:
