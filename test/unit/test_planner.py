@@ -11,6 +11,7 @@ from scipy.ndimage import distance_transform_edt
 from bullet_floor_sim.sim.config import load_world_config, resolve_world
 from bullet_floor_sim.sim.floormap import map_from_grid
 from bullet_floor_sim.paths import worlds_dir
+from bullet_floor_sim.nav import grid as G
 from bullet_floor_sim.nav.planner import (FollowerConfig, Navigator, NavigatorConfig,
                                            PathFollower, PlanError,
                                            PlannerConfig, PlanningGrid, obstacles_in_base,
@@ -351,19 +352,22 @@ def test_the_look_ahead_chord_keeps_off_a_door_corner_that_the_path_clears():
     assert outcomes[1] is None or outcomes[1][0] != "succeeded"   # stuck at the corner
 
 
+def _compiled_office_grid() -> PlanningGrid:
+    """office's planning grid, for the tests that hold nav/grid's numba-compiled functions to
+    their plain Python (skipped where numba is not installed)."""
+    if not G._JIT:
+        pytest.skip("numba is not installed: only the plain Python functions run")
+    world = World.from_name("office", seed=0)
+    try:
+        return PlanningGrid(world.fmap)
+    finally:
+        world.close()
+
 def test_compiled_astar_takes_the_same_cells_as_plain_python():
     """nav/grid._search compiled by numba and run as plain Python (lists, as without numba)
     expand alike: the same cells from the start to the goal on the real office, walls and a
     blocked disc included, and the same answer for an unreachable goal."""
-    from bullet_floor_sim.nav import grid as G
-
-    if not G._JIT:
-        pytest.skip("numba is not installed: only the plain Python search runs")
-    world = World.from_name("office", seed=0)
-    try:
-        grid = PlanningGrid(world.fmap)
-    finally:
-        world.close()
+    grid = _compiled_office_grid()
     W = grid.width + 2
     flat = grid._padded()
     py = G._search.py_func
@@ -397,16 +401,8 @@ def test_compiled_segment_check_and_shortcut_match_plain_python():
     """nav/grid._segment_worst and _shortcut_keep compiled by numba give what they give as
     plain Python: the same worst cost (inf through walls) on random segments of the real
     office, and the same points kept of a path through a door."""
-    from bullet_floor_sim.nav import grid as G
-
-    if not G._JIT:
-        pytest.skip("numba is not installed: only the plain Python functions run")
-    world = World.from_name("office", seed=0)
-    try:
-        grid = PlanningGrid(world.fmap)
-    finally:
-        world.close()
-    b = world.fmap.bounds()
+    grid = _compiled_office_grid()
+    b = grid.fmap.bounds()
     rng = np.random.default_rng(5)
     args = (grid._fine, grid.cost, grid.factor, grid._frame(), grid.config.robot_radius)
     finite = 0
