@@ -4,7 +4,7 @@ import math
 import pytest
 
 from bullet_floor_sim.errors import ConfigError
-from bullet_floor_sim.sim.pacing import BacklogGate, CommandGate, tcp_unread
+from bullet_floor_sim.sim.pacing import BacklogGate, CommandGate, clock_wall_bound, tcp_unread
 
 
 def test_a_moving_robot_holds_the_clock_once_its_command_is_older_than_the_lag():
@@ -135,3 +135,11 @@ def test_a_reader_waiting_on_sim_time_is_not_dead_locked():
     assert g.hold({"tracker": 900}, 5.0, 100.0) == ["tracker"]
     assert g.hold({"tracker": 900}, 5.0, 100.01) == []        # 0.01 s of sim may pass
     assert g.hold({"tracker": 900}, 5.02, 100.01) == ["tracker"]
+
+
+def test_the_clock_is_thinned_only_when_the_asked_pace_would_outrun_the_wall_bound():
+    # 100 Hz at rtf 2 is one /clock per 5 ms of wall: every tick goes out, also in a catch-up
+    assert clock_wall_bound(100.0, 2.0, 0.001) == 0.0
+    assert clock_wall_bound(100.0, 10.0, 0.001) == 0.0       # exactly 1000 Hz: not above
+    assert clock_wall_bound(100.0, 10.5, 0.001) == 0.001
+    assert clock_wall_bound(100.0, 0.0, 0.001) == 0.001      # as fast as possible

@@ -57,7 +57,7 @@ from tf2_msgs.msg import TFMessage
 from ..sim import bullet_capi
 from ..sim.config import load_world_config, resolve_world
 from ..errors import BulletFloorSimError, CommandError, ConfigError
-from ..sim.pacing import BacklogGate, CommandGate, tcp_unread, waits_line
+from ..sim.pacing import BacklogGate, CommandGate, clock_wall_bound, tcp_unread, waits_line
 from ..paths import worlds_dir
 from ..sim.solidmap import cleaned_map
 from ..sim.world import World
@@ -92,9 +92,11 @@ class SimulatorNode:
         ground_truth_tf: publish map -> N/odom from ground truth: True for every robot, or
             the names of the robots to do it for.
         initialpose: publish spawn poses, latched, on N/initialpose.
-        clock_wall_period: when running faster than real time, /clock is published at most
-            once per this many wall seconds (nobody consumes it faster; every message still
-            carries its exact sim-time stamp).
+        clock_wall_period: when the asked pace would publish /clock more often than once per
+            this many wall seconds (rtf 0, or clock rate x rtf above its inverse), /clock is
+            published at most that often (nobody consumes it faster; every message still
+            carries its exact sim-time stamp). At a pace below that bound every tick is
+            published, also while catching up after a stall.
         flush_period: least wall seconds between sends of the queued messages when not
             pacing.
         send_share: when not pacing, sends take at most this share of the wall time: the
@@ -126,7 +128,8 @@ class SimulatorNode:
         self.rtf = rtf
         self.lock = threading.Lock()
         self.paused = False
-        self.clock_wall_period = clock_wall_period
+        self.clock_wall_period = clock_wall_bound(rates.get("clock", 100.0), rtf,
+                                                  clock_wall_period)
         self.flush_period = flush_period
         for name, v in (("send_share", send_share), ("report_period", report_period)):
             if not (math.isfinite(v) and v > 0.0) or (name == "send_share" and v > 1.0):

@@ -244,3 +244,10 @@ def waits_line(commands: Dict[str, float], subscribers: Optional[Dict[Tuple[str,
             line += "; waited for subscribers %s" % ", ".join(
                 "%s (%s) %.0f%%" % (s, t, 100.0 * w / wall) for (s, t), w in subs)
     return line
+
+
+def clock_wall_bound(clock_rate: float, rtf: float, period: float) -> float:
+    """The least wall seconds between two /clock messages: ``period`` when the asked pace
+    (``clock_rate`` Hz of sim time at real-time factor ``rtf``, 0 = as fast as possible) would
+    publish faster than once per ``period``, else 0 (every tick, also when catching up)."""
+    return period if rtf <= 0 or clock_rate * rtf * period > 1.0 else 0.0
