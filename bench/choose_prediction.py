@@ -35,7 +35,7 @@ from bullet_floor_sim.people.evaluation import (FRACTIONS, PIPELINES, EvalConfig
                                               EvalResult, LegScore, rescore, run, world_model)
 from bullet_floor_sim.people.prediction import PredictionConfig  # noqa: E402
 from bullet_floor_sim.sim.config import world_label  # noqa: E402
-from eval_worlds import shipped  # noqa: E402
+from eval_worlds import checked, shipped  # noqa: E402
 
 GRID = {"beta": (2.0, 3.0, 5.0, 8.0), "length_exponent": (0.0, 0.5, 1.0, 1.5),
         "max_goals_per_region": (12, 24)}
@@ -121,7 +121,10 @@ def main() -> int:
     p.add_argument("--cache", default=os.path.join(os.environ.get("ROS_HOME", os.path.expanduser(
         "~/.ros")), "bullet_floor_sim", "choose_prediction"))
     args = p.parse_args()
-    worlds = args.worlds or shipped()
+    # of the default list, a world the map check refuses is left out with a line saying so
+    worlds, notes = checked(args.worlds or shipped(), bool(args.worlds), False)
+    for line in notes:
+        print("note: %s" % line, file=sys.stderr)
     runs = {w: recorded(w, args.legs, args.seed, args.cache) for w in worlds}
     scores = {}  # (params name, world) -> score dict
     models = {}  # (world, goals per region) -> model: the other parameters leave V as it is
