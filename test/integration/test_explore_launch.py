@@ -81,7 +81,7 @@ class ExploreTest(unittest.TestCase):
         # in-process explore (97 %, test_mapping): here the sim runs on while the explorer
         # picks a goal (0.3 s of wall time, 1.2 s of sim time at rtf 4, 121 goals). Two CI
         # runs of session 25 beside other jobs, rtf 4: 87.2 % and 63.0 % (107 goals, up to
-        # 2.6 s of wall time between two); explore.test runs at rtf 2 since.
+        # 2.6 s of wall time between two); explore.test runs at rtf 2 for 1400 s since.
         self.assertGreaterEqual(a.free_covered, rospy.get_param("~min_covered", 0.85))
         self.assertGreater(a.iou_free, rospy.get_param("~min_iou_free", 0.85))
         self.assertGreater(a.occupied_f1_1cell, rospy.get_param("~min_f1_occupied", 0.45))

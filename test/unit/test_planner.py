@@ -363,6 +363,7 @@ def _compiled_office_grid() -> PlanningGrid:
     finally:
         world.close()
 
+
 def test_compiled_astar_takes_the_same_cells_as_plain_python():
     """nav/grid._search compiled by numba and run as plain Python (lists, as without numba)
     expand alike: the same cells from the start to the goal on the real office, walls and a

@@ -128,8 +128,6 @@ class SimulatorNode:
         self.rtf = rtf
         self.lock = threading.Lock()
         self.paused = False
-        self.clock_wall_period = clock_wall_bound(rates.get("clock", 100.0), rtf,
-                                                  clock_wall_period)
         self.flush_period = flush_period
         for name, v in (("send_share", send_share), ("report_period", report_period)):
             if not (math.isfinite(v) and v > 0.0) or (name == "send_share" and v > 1.0):
@@ -138,6 +136,7 @@ class SimulatorNode:
         for name, v in rates.items():
             if not (math.isfinite(v) and v > 0.0):
                 raise ConfigError("~%s_rate: %r is not a positive rate (Hz)" % (name, v))
+        self.clock_wall_period = clock_wall_bound(rates["clock"], rtf, clock_wall_period)
         self.send_share = send_share
         self.report_period = report_period
         step = world.clock.step_ns
