@@ -5,19 +5,24 @@ mapper serves it, else the ``map`` topic: the embedded mapper's or a SLAM packag
 the nearest reachable frontier (mapping/frontiers.py) from the robot's pose (tf
 ``~global_frame`` -> ``~base_frame``) and sends it to ``move_base``
 (move_base_msgs/MoveBaseAction: the embedded path follower or stock move_base, either with
-unknown space passable). When the goal ends, reached or not, its place is ruled out and the
-next goal is picked. When no reachable frontier is left on a map built after the last goal
-ended (or ``~finish_wait`` seconds after it: gmapping builds no new map while the robot stands
-still), it logs so, publishes ``~finished`` (std_msgs/Bool, latched) true and sends no more
-goals.
+unknown space passable). A goal's place is ruled out once it is sent (reached or not, it is
+done with). Once the robot is within ``~lookahead`` of its goal, the next goal is picked on the
+latest map as if from the goal, so that it goes out the moment the goal is reached: the robot
+does not stand while the map is fetched and searched (about 2 s of wall time on office's map
+under load). A goal not reached is followed by a pick from where the robot stands. When no
+reachable frontier is left on a map built after the last goal ended (or ``~finish_wait``
+seconds after it: gmapping builds no new map while the robot stands still), it logs so,
+publishes ``~finished`` (std_msgs/Bool, latched) true and sends no more goals.
 
 Parameters: ``~global_frame`` (map), ``~base_frame`` (base_footprint), ``~robot_radius``
 (0.34), ``~min_frontier`` (0.3 m), ``~reach`` (1.0 m), ``~blacklist_radius`` (0.5 m),
-``~min_distance`` (0.5 m) (ExplorerConfig's), ``~goal_timeout`` (120 s of sim time: a goal
-not ended by then is cancelled and ruled out), ``~finish_wait`` (10 s).
+``~min_distance`` (0.5 m) (ExplorerConfig's), ``~lookahead`` (1.5 m; 0: pick the next goal
+only after the last ended), ``~goal_timeout`` (120 s of sim time: a goal not ended by then is
+cancelled), ``~finish_wait`` (10 s).
 """
 from __future__ import annotations
 
+import math
 import sys
 import threading
 from dataclasses import dataclass
@@ -56,13 +61,15 @@ class ExplorerParams:
     reach: float = ExplorerConfig.reach
     blacklist_radius: float = ExplorerConfig.blacklist_radius
     min_distance: float = ExplorerConfig.min_distance
+    lookahead: float = 1.5
     goal_timeout: float = 120.0
     finish_wait: float = 10.0
 
     def check(self) -> None:
         check_at_least(self, "explorer", ("robot_radius", "min_frontier", "reach",
                                           "goal_timeout", "finish_wait"))
-        check_at_least(self, "explorer", ("blacklist_radius", "min_distance"), strict=False)
+        check_at_least(self, "explorer", ("blacklist_radius", "min_distance", "lookahead"),
+                       strict=False)
 
 
 class ExplorerNode:
@@ -118,7 +125,12 @@ class ExplorerNode:
             rospy.logwarn_throttle(30.0, "explorer: no move_base action server yet at %s",
                                    rospy.resolve_name("move_base"))
         ended = rospy.Time(0)                 # when the last goal ended
+        ahead: Optional[Tuple[float, float, float]] = None
         while not rospy.is_shutdown():
+            if ahead is not None:             # picked while the last goal was being reached
+                ahead = self._go(ahead)
+                ended = rospy.Time.now()
+                continue
             msg, pose = self._latest_map(), self._pose()
             if msg is None or pose is None:
                 rospy.sleep(0.5)
@@ -136,7 +148,7 @@ class ExplorerNode:
                               self.failed, free)
                 self.finished_pub.publish(Bool(True))
                 return
-            self._go(goal)
+            ahead = self._go(goal)
             ended = rospy.Time.now()
 
     def _latest_map(self) -> Optional[OccupancyGrid]:
@@ -157,16 +169,23 @@ class ExplorerNode:
         with self.lock:
             return self.map
 
-    def _go(self, goal: Sequence[float]) -> None:
-        """Send ``goal`` and wait for it to end (or time out); rule its place out after."""
+    def _go(self, goal: Sequence[float]) -> Optional[Tuple[float, float, float]]:
+        """Send ``goal`` (ruling its place out) and wait for it to end (or time out). The
+        next goal picked from ``goal`` on the way when it was reached, else None."""
         g = move_base_goal(goal[0], goal[1], goal[2], self.params.global_frame)
         self.goals += 1
+        self.explorer.goal_failed(goal)
         rospy.loginfo("explorer: goal %d: (%.2f, %.2f)", self.goals, goal[0], goal[1])
         # actionlib's ActionClient, not the SimpleActionClient: its send_goal races the
         # server's first status (actionlib issue #206: a spurious error line per goal)
         gh = self.client.send_goal(g)
         deadline = rospy.Time.now() + rospy.Duration(self.params.goal_timeout)
+        ahead: Optional[Tuple[float, float, float]] = None
+        picked = False
         while gh.get_comm_state() != CommState.DONE and not rospy.is_shutdown():
+            if not picked and self._near(goal):
+                ahead, picked = self._pick_from(goal), True
+                continue
             if rospy.Time.now() > deadline:
                 gh.cancel()
                 rospy.logwarn("explorer: goal %d not reached in %.0f s: cancelled",
@@ -176,11 +195,32 @@ class ExplorerNode:
             rospy.sleep(0.2)
         else:
             state = gh.get_goal_status()
-            if state != GoalStatus.SUCCEEDED and not rospy.is_shutdown():
+            if state == GoalStatus.SUCCEEDED:
+                return ahead
+            if not rospy.is_shutdown():
                 self.failed += 1
                 rospy.logwarn("explorer: goal %d %s: %s", self.goals,
                               _DONE.get(state, str(state)), gh.get_goal_status_text())
-        self.explorer.goal_failed(goal)
+        return None
+
+    def _near(self, goal: Sequence[float]) -> bool:
+        """Whether the robot is within ``~lookahead`` of ``goal`` (False with no pose)."""
+        if self.params.lookahead <= 0.0:
+            return False
+        try:
+            t = self.tf.lookup_transform(self.params.global_frame, self.params.base_frame,
+                                         rospy.Time(0))
+        except tf2_ros.TransformException:
+            return False
+        x, y, _ = planar(t.transform)
+        return math.hypot(goal[0] - x, goal[1] - y) <= self.params.lookahead
+
+    def _pick_from(self, goal: Sequence[float]) -> Optional[Tuple[float, float, float]]:
+        """The next goal on the latest map as seen from ``goal`` (None: none, or no map)."""
+        msg = self._latest_map()
+        if msg is None:
+            return None
+        return self.explorer.next_goal(grid_from_msg(msg), goal)
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
