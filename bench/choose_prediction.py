@@ -14,6 +14,11 @@ baselines at 25 % (the earliest fraction the issue's targets name).
 
     .venv/bin/python bench/choose_prediction.py --legs 100 --seed 2
     .venv/bin/python bench/choose_prediction.py --cache /tmp/moments   # reuse the runs
+    .venv/bin/python bench/choose_prediction.py --resume OUT.txt ...     # go on after a cut
+
+``--resume`` reads the candidate lines an earlier run printed (same worlds, legs and seed) and
+scores only the candidates they lack; the scores of the earlier lines are taken as printed
+(only the sets the tables below need are scored again in full).
 
 Use another seed than ``make eval``'s (1), so the table it reports is not the data the
 parameters were chosen on.
@@ -103,6 +108,23 @@ def score(result: EvalResult) -> dict:
     return out
 
 
+def resumed(path: str, worlds) -> dict:
+    """(name, world) -> {"score": s} from the candidate lines of an earlier run's output."""
+    out = {}
+    with open(path) as f:
+        for line in f:
+            if not line.startswith("beta="):
+                continue
+            tokens = line.split()
+            got = dict(zip(tokens[3::2], (float(v) for v in tokens[4::2])))
+            if set(got) != set(worlds):
+                raise SystemExit("choose_prediction: %s: a candidate line scores other worlds "
+                                 "than this run's: %s" % (path, line.strip()[:80]))
+            for w, v in got.items():
+                out[" ".join(tokens[:3]), w] = {"score": v}
+    return out
+
+
 def candidates():
     keys = sorted(GRID)
     for values in itertools.product(*(GRID[k] for k in keys)):
@@ -120,37 +142,46 @@ def main() -> int:
     p.add_argument("--worlds", nargs="*", default=None, help="default: every shipped world")
     p.add_argument("--cache", default=os.path.join(os.environ.get("ROS_HOME", os.path.expanduser(
         "~/.ros")), "bullet_floor_sim", "choose_prediction"))
+    p.add_argument("--resume", default=None, metavar="OUT",
+                   help="an earlier run's output: its candidates are not scored again")
     args = p.parse_args()
     # of the default list, a world the map check refuses is left out with a line saying so
     worlds, notes = checked(args.worlds or shipped(), bool(args.worlds), False)
     for line in notes:
         print("note: %s" % line, file=sys.stderr)
     runs = {w: recorded(w, args.legs, args.seed, args.cache) for w in worlds}
-    scores = {}  # (params name, world) -> score dict
+    scores = resumed(args.resume, worlds) if args.resume else {}   # (name, world) -> dict
     models = {}  # (world, goals per region) -> model: the other parameters leave V as it is
-    for params in candidates():
-        for w in worlds:
+
+    def full(params: dict, w: str) -> dict:
+        """The score dict of ``params`` on ``w``: scored now unless already in full."""
+        if "trk50" not in scores.get((name(params), w), {}):
             goals = params["max_goals_per_region"]
-            key = (w, goals)
-            if key not in models:
-                models[key] = world_model(w, PredictionConfig(max_goals_per_region=goals))
-            model = models[key]
+            if (w, goals) not in models:
+                models[w, goals] = world_model(w, PredictionConfig(max_goals_per_region=goals))
+            model = models[w, goals]
             model.config.beta = params["beta"]
             model.config.length_exponent = params["length_exponent"]
             scores[name(params), w] = score(rescore(runs[w], model))
+        return scores[name(params), w]
+
+    for params in candidates():
+        if all((name(params), w) in scores for w in worlds):
+            continue
+        for w in worlds:
+            full(params, w)
         print("%-36s %s" % (name(params), "  ".join(
             "%s %.3f" % (w, scores[name(params), w]["score"]) for w in worlds)), flush=True)
     names = [name(c) for c in candidates()]
     print()
     print("| left out | chosen on the others | score | trk50 | gt50 | before: trk50 | gt50 |")
     print("|---|---|---|---|---|---|---|")
-    before = name(BEFORE)
     picks = []
     for w in worlds:
         others = [o for o in worlds if o != w]
         best = max(names, key=lambda n: sum(scores[n, o]["score"] for o in others))
         picks.append(next(c for c in candidates() if name(c) == best))
-        s, b = scores[best, w], scores[before, w]
+        s, b = full(picks[-1], w), full(BEFORE, w)
         print("| %s | %s | %.3f | %.3f | %.3f | %.3f | %.3f |" % (
             w, best, s["score"], s["trk50"], s["gt50"], b["trk50"], b["gt50"]))
     # each parameter: the value most folds chose (the first in GRID order on a tie)
