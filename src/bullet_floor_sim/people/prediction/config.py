@@ -34,9 +34,10 @@ class PredictionConfig:
             lattice), one Dijkstra each.
 
         beta, length_exponent and max_goals_per_region were chosen by
-        bench/choose_prediction.py on 100 legs (seed 2) of each shipped world, leaving the
-        scored world out: every fold chose length_exponent 1 (over 0, 0.5, 1.5), three of
-        four beta 5 (over 2, 3, 8) and 24 goal points (over 12); the README gives the folds.
+        bench/choose_prediction.py on 40 legs (seed 1) of 16 worlds (the four shipped and 12
+        corpus buildings), leaving the scored world out: all 16 folds chose beta 3 (over 2, 5,
+        8), length_exponent 1 (over 0, 0.5, 1.5) and 24 goal points (over 12);
+        docs/evaluation.md gives the folds.
         clearance: a goal point keeps at least this distance from every wall (the walker's
             0.45 m).
         margin: a goal point keeps at least this distance from its region's boundary (the
@@ -59,13 +60,13 @@ class PredictionConfig:
         handover_speed: ... near enough: within 0.5 m + this speed (m/s) x the gap.
         temperature, prior_mix: calibration (prediction/calibration.py): the evidence
             tempered by 1/temperature, then the prior mixed back in with weight prior_mix.
-            Chosen by bench/calibrate_prediction.py leaving each of 16 worlds out (the four
-            shipped and 12 corpus buildings, 40 legs each, by log-loss from 25 % observed):
-            15 folds chose temperature 1 and prior_mix 0.1 (over 1-6 and 0-0.3), one 1.5 and
-            0.05; docs/evaluation.md gives the held-out figures.
+            Chosen by bench/calibrate_prediction.py with beta 3, on the same moments, leaving
+            each of the 16 worlds out (by log-loss from 25 % observed): all 16 folds chose
+            temperature 1 and prior_mix 0.05 (over 1-6 and 0-0.3); docs/evaluation.md gives
+            the held-out figures.
     """
 
-    beta: float = 5.0
+    beta: float = 3.0
     length_exponent: float = 1.0
     goal_spacing: float = 1.0
     max_goals_per_region: int = 24
@@ -79,7 +80,7 @@ class PredictionConfig:
     handover_time: float = 4.0
     handover_speed: float = 1.5
     temperature: float = 1.0
-    prior_mix: float = 0.1
+    prior_mix: float = 0.05
 
     def check(self) -> None:
         """Raise PredictionError naming the first bad parameter."""
