@@ -72,12 +72,18 @@ def _master() -> Tuple[subprocess.Popen, int]:
 
 
 def _stop(proc: subprocess.Popen, wait: float) -> None:
-    """SIGINT to a process group, SIGKILL after ``wait`` seconds."""
-    os.killpg(proc.pid, signal.SIGINT)
+    """SIGINT to a process group, SIGKILL after ``wait`` seconds (a group already gone is
+    left alone)."""
     try:
+        os.killpg(proc.pid, signal.SIGINT)
         proc.wait(wait)
+    except ProcessLookupError:
+        return
     except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
 
 
 def _listen(port: int, walker: str, legs: _Legs) -> None:
@@ -113,18 +119,34 @@ def run_world(world: str, n: int, rtf: float, seed: int, timeout: float, port: i
                 last = time.time()
                 print("  %s: %d/%d legs" % (world, done, n), file=sys.stderr, flush=True)
             time.sleep(1.0)
+        ended = proc.poll()        # demo.launch stopped by itself (a required node died)
     finally:
         _stop(proc, 30.0)
         log.close()
     with legs.lock:
         got = list(legs.legs[:n])
     out = _summary(world, rtf, got, os.path.join(home, "launch.log"))
+    if ended is not None and len(got) < n:
+        out["ended"] = "demo.launch ended (exit code %d) after %d of %d legs: %s" % (
+            ended, len(got), n, _why_ended(os.path.join(home, "launch.log")))
     kept = os.path.join(tempfile.gettempdir(),  # one name per run, so runs can go side by side
                         "bfs_demo_legs_%s_rtf%g_seed%d.log" % (world_label(world), rtf, seed))
     shutil.move(os.path.join(home, "launch.log"), kept)  # the nodes' output, for a look
     shutil.rmtree(home, ignore_errors=True)
     print("  %s: the nodes' output is in %s" % (world, kept), file=sys.stderr)
     return out
+
+
+def _why_ended(log_path: str) -> str:
+    """The first FATAL line of a launch's output, else its first dead required process."""
+    died = None
+    with open(log_path, errors="replace") as f:
+        for line in f:
+            if "[FATAL]" in line:
+                return line.split("]: ", 1)[-1].strip()
+            if died is None and "REQUIRED process" in line:
+                died = line[line.index("REQUIRED process"):].strip()
+    return died or "no FATAL line in its output"
 
 
 def _summary(world: str, rtf: float, got: list, log_path: str) -> dict:
@@ -174,6 +196,9 @@ def main() -> int:
         _stop(master, 10.0)
     for n in notes:
         print("  note: %s" % n, file=sys.stderr)
+    ended = [r for r in rows if "ended" in r]
+    for r in ended:
+        print("  %s: %s" % (r["world"], r["ended"]), file=sys.stderr)
     for r in rows:
         for leg in r["failed"]:
             print("  %s given up: %s -> %s, %s: %s" % (r["world"], leg.get("from"),
@@ -190,6 +215,10 @@ def main() -> int:
         print("DEMO world=%s rtf_asked=%g legs=%d given_up=%.3f rtf=%.1f waited_max=%.3f" % (
             r["world"], r["rtf_asked"], r["legs"], r["given_up"], r["rtf"],
             max(r["waited"].values(), default=0.0)))
+    if ended:
+        print("demo_legs: %d world(s) ended before their legs: %s" % (
+            len(ended), ", ".join(r["world"] for r in ended)), file=sys.stderr)
+        return 1
     return 0
 
 

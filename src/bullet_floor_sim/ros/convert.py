@@ -40,10 +40,15 @@ def move_base_goal(x: float, y: float, heading: float, frame_id: str) -> MoveBas
 
 
 def grid_from_msg(msg: OccupancyGrid) -> FloorMap:
-    """FloorMap of a nav_msgs/OccupancyGrid (row 0 = bottom, as map_server publishes)."""
+    """FloorMap of a nav_msgs/OccupancyGrid (row 0 = bottom, as map_server publishes).
+
+    The resolution travels as a float32: 0.05 arrives as 0.0500000007. It is read back as the
+    shortest decimal that float32 holds (0.05), the value the map's YAML gave: otherwise a
+    length in cells (a 0.15 m gap to close: 2.99999996 cells) rounds down, and a map from the
+    topic is handled differently from the same map from its file."""
     info = msg.info
     grid = np.asarray(msg.data, dtype=np.int8).reshape(info.height, info.width)
-    return map_from_grid(grid, info.resolution,
+    return map_from_grid(grid, float(str(np.float32(info.resolution))),
                          (info.origin.position.x, info.origin.position.y,
                           yaw(info.origin.orientation)))
 
