@@ -29,6 +29,7 @@ import argparse
 import itertools
 import json
 import os
+import re
 import sys
 import time
 
@@ -109,19 +110,20 @@ def score(result: EvalResult) -> dict:
 
 
 def resumed(path: str, worlds) -> dict:
-    """(name, world) -> {"score": s} from the candidate lines of an earlier run's output."""
+    """(name, world) -> {"score": s} from the candidate lines of an earlier run's output
+    (a world's name may hold spaces: each world of this run is looked for in the line)."""
     out = {}
     with open(path) as f:
         for line in f:
             if not line.startswith("beta="):
                 continue
-            tokens = line.split()
-            got = dict(zip(tokens[3::2], (float(v) for v in tokens[4::2])))
-            if set(got) != set(worlds):
-                raise SystemExit("choose_prediction: %s: a candidate line scores other worlds "
-                                 "than this run's: %s" % (path, line.strip()[:80]))
-            for w, v in got.items():
-                out[" ".join(tokens[:3]), w] = {"score": v}
+            params = " ".join(line.split()[:len(GRID)])
+            for w in worlds:
+                m = re.search(r"(?:^|\s)%s (\S+)" % re.escape(w), line[len(params):])
+                if m is None:
+                    raise SystemExit("choose_prediction: %s: a candidate line does not score "
+                                     "%s: %s" % (path, w, line.strip()[:80]))
+                out[params, w] = {"score": float(m.group(1))}
     return out
 
 
@@ -179,7 +181,8 @@ def main() -> int:
     picks = []
     for w in worlds:
         others = [o for o in worlds if o != w]
-        best = max(names, key=lambda n: sum(scores[n, o]["score"] for o in others))
+        # to the 3 decimals a resumed line holds, so a resumed run picks as a whole one would
+        best = max(names, key=lambda n: sum(round(scores[n, o]["score"], 3) for o in others))
         picks.append(next(c for c in candidates() if name(c) == best))
         s, b = full(picks[-1], w), full(BEFORE, w)
         print("| %s | %s | %.3f | %.3f | %.3f | %.3f | %.3f |" % (

@@ -6,7 +6,7 @@ import io
 import numpy as np
 import pytest
 
-pytest.importorskip("nav_msgs")
+pytest.importorskip("bullet_floor_sim.ros.convert")
 
 
 def _through_the_wire(msg):

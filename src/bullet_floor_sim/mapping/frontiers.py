@@ -66,7 +66,8 @@ class ExplorerConfig:
         min_frontier: smallest frontier worth a trip, metres of boundary.
         reach: a goal is a passable cell at most this far from its frontier (m): the robot
             sees the unknown beyond from there.
-        blacklist_radius: a failed or reached goal rules out goals this close to it (m).
+        blacklist_radius: a goal done with (:meth:`Explorer.goal_failed`: failed, reached,
+            or, in the explorer node, sent) rules out goals this close to it (m).
         min_distance: goals nearer the robot than this (along the grid) are not sent.
     """
 
@@ -126,8 +127,8 @@ class Explorer:
         return x, y, math.atan2(float(cy[k]) - y, float(cx[k]) - x)
 
     def goal_failed(self, goal: Sequence[float]) -> None:
-        """The navigation gave up on ``goal``, or reached it: do not send one near it
-        again."""
+        """Do not send a goal near ``goal`` again: the navigation gave up on it or reached
+        it (the explorer node calls this when it sends a goal)."""
         self.failed.append((float(goal[0]), float(goal[1])))
 
 

@@ -37,7 +37,8 @@ class PredictionConfig:
         bench/choose_prediction.py on 40 legs (seed 1) of 16 worlds (the four shipped and 12
         corpus buildings), leaving the scored world out: all 16 folds chose beta 3 (over 2, 5,
         8), length_exponent 1 (over 0, 0.5, 1.5) and 24 goal points (over 12);
-        docs/evaluation.md gives the folds.
+        docs/evaluation.md gives the folds. Seed 1 is also ``make eval``'s: each fold scores
+        a world it did not see, not a seed; seed 2's closed-loop run is in the same doc.
         clearance: a goal point keeps at least this distance from every wall (the walker's
             0.45 m).
         margin: a goal point keeps at least this distance from its region's boundary (the
