@@ -108,8 +108,8 @@ class ExploreTest(unittest.TestCase):
         rospy.loginfo("explore test: the scan in the saved map differs by %.3f m (median)",
                       float(np.median(diff)))
         # (0.010-0.063 m in six runs: the map drifts a little by the end of a long run; 0.103
-        # and 0.255 m in two CI runs of session 25, the robot standing between goals; 0.010
-        # and 0.012 m in session 26's two runs with the goals picked on the way)
+        # and 0.255 m in two CI runs of session 25, the robot standing between goals; 0.010,
+        # 0.012, 0.009 and 0.110 m in session 26's four runs with the goals picked on the way)
         self.assertLess(float(np.median(diff)), 0.15)
 
 
