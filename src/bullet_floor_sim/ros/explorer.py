@@ -207,13 +207,9 @@ class ExplorerNode:
         """Whether the robot is within ``~lookahead`` of ``goal`` (False with no pose)."""
         if self.params.lookahead <= 0.0:
             return False
-        try:
-            t = self.tf.lookup_transform(self.params.global_frame, self.params.base_frame,
-                                         rospy.Time(0))
-        except tf2_ros.TransformException:
-            return False
-        x, y, _ = planar(t.transform)
-        return math.hypot(goal[0] - x, goal[1] - y) <= self.params.lookahead
+        pose = self._pose()
+        return pose is not None and math.hypot(goal[0] - pose[0],
+                                               goal[1] - pose[1]) <= self.params.lookahead
 
     def _pick_from(self, goal: Sequence[float]) -> Optional[Tuple[float, float, float]]:
         """The next goal on the latest map as seen from ``goal`` (None: none, or no map)."""
