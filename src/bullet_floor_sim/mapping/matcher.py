@@ -10,9 +10,12 @@ candidate's score:
 * an end point counting only where the map is free 1.5 cells before it along its beam: a
   wall's far face does not pull a beam that meets its near face,
 * less a prior on the correction, ``prior`` x points x (squared share of the search window):
-  a weak but consistent pull (a corridor's few features, the edge of what has been traced
-  free) does not slide the scan, while a real odometry error, a few centimetres per scan,
-  costs almost nothing.
+  a correction to the window's edge costs 0.3 of a point per point, so a scan moves that
+  far only when it fits much better there. Odometry errs by millimetres between two scans
+  (0.25 m or 0.25 rad apart), and a guess a few centimetres off is still corrected in full;
+  a second copy of a wall a few cells away (the grid redraws a wall where a scan placed
+  slightly wrong puts it) or a corridor's few features do not pull the scan to them.
+  (0.1 until session 27: on office the estimate hopped between two copies of a wall.)
 
 Only end points within ``trace_range - 1`` m count: the free space traced by the scans before
 ends at ``trace_range``, and a shift that brought more end points inside it would win.
@@ -46,7 +49,7 @@ class MatcherConfig:
     window: Tuple[float, float] = (0.15, 0.08)
     steps: Tuple[float, float] = (0.025, 0.01)
     sigma: float = 0.05
-    prior: float = 0.1
+    prior: float = 0.3
     min_points: int = 10
 
 
