@@ -72,7 +72,7 @@ class ExplorerConfig:
     """
 
     robot_radius: float = 0.34
-    min_frontier: float = 0.3
+    min_frontier: float = 0.75
     reach: float = 1.0
     blacklist_radius: float = 0.5
     min_distance: float = 0.5

@@ -15,7 +15,7 @@ seconds after it: gmapping builds no new map while the robot stands still), it l
 publishes ``~finished`` (std_msgs/Bool, latched) true and sends no more goals.
 
 Parameters: ``~global_frame`` (map), ``~base_frame`` (base_footprint), ``~robot_radius``
-(0.34), ``~min_frontier`` (0.3 m), ``~reach`` (1.0 m), ``~blacklist_radius`` (0.5 m),
+(0.34), ``~min_frontier`` (0.75 m), ``~reach`` (1.0 m), ``~blacklist_radius`` (0.5 m),
 ``~min_distance`` (0.5 m) (ExplorerConfig's), ``~lookahead`` (1.5 m; 0: pick the next goal
 only after the last ended), ``~goal_timeout`` (120 s of sim time: a goal not ended by then is
 cancelled), ``~finish_wait`` (10 s).
