@@ -71,7 +71,7 @@ class ExploreTest(unittest.TestCase):
         # until no reachable frontier is left, ~sim_limit of sim time, or (unless
         # ~must_finish) a check every 60 s of sim time finds a map within the bounds
         sim_limit = float(rospy.get_param("~sim_limit", 1200.0))
-        a = None
+        met = None                  # the check that met the bounds, if one did
         while not (self.finished and self.finished[-1]) and not rospy.is_shutdown():
             t = (rospy.Time.now() - t0).to_sec()
             if t >= sim_limit:
@@ -83,11 +83,11 @@ class ExploreTest(unittest.TestCase):
                     a = check()
                     rospy.loginfo("explore test: %.0f s of sim time: %s", t, a.line())
                     if meets(a):
+                        met = a
                         break
-                    a = None
             time.sleep(0.5)
         took = (rospy.Time.now() - t0).to_sec()
-        a = a or check()
+        a = met if met is not None else check()
         finished = bool(self.finished and self.finished[-1])
         rospy.loginfo("explore test: %s after %.0f s of sim time: %s", "finished" if
                       finished else "stopped", took, a.line())
