@@ -75,9 +75,13 @@ def test_lost_target_waits_lost_after_then_searches_the_predicted_region_and_loo
     d = fb.update(1.5, (2.5, 2.0, 0.0), None, dest)
     assert d.mode == "follow" and d.goal is None  # unseen 1.5 s < lost_after
     d = fb.update(2.5, (2.5, 2.0, 0.0), None, dest)
-    assert d.mode == "search"
-    assert d.goal == pytest.approx((8.0, 3.0, math.atan2(1.0, 5.5)))
+    # it was going east at 0.5 m/s: first where it went, trail (4 s) on, facing that way
+    assert d.mode == "search" and "trailing" in d.reason
+    assert d.goal == pytest.approx((4.8 + 4.0 * 0.5, 2.0, 0.0), abs=RES)
     assert fb.update(3.0, (3.0, 2.0, 0.0), None, dest).goal is None  # on its way
+    d = fb.update(6.0, (6.8, 2.0, 0.0), None, dest, goal_done=True)   # not there: the region
+    assert d.mode == "search"
+    assert d.goal == pytest.approx((8.0, 3.0, math.atan2(1.0, 1.2)))
     d = fb.update(9.0, (8.0, 3.0, 0.2), None, dest, goal_done=True)
     assert d.goal == pytest.approx((8.0, 3.0, 0.2 - math.pi))  # look round, once
     assert fb.update(12.0, (8.0, 3.0, 0.2 - math.pi), None, dest, goal_done=True).goal is None
@@ -138,9 +142,28 @@ def test_a_target_lost_close_by_is_looked_for_behind_first():
     assert d.goal[:2] == pytest.approx((8.0, 3.0)) and "region 7" in d.reason
 
 
+def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
+    grid = hall()                                   # 10 x 4 m
+    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=4.0))
+    fb.update(0.0, (6.0, 2.0, 0.0), (8.0, 2.5, 0.6, 0.0))   # 2.4 m on would be past the wall
+    d = fb.update(1.5, (6.5, 2.0, 0.0), None, [("7", (1.0, 1.0))])
+    gx, gy, gyaw = d.goal
+    assert "trailing" in d.reason and gy == pytest.approx(2.5) and gyaw == pytest.approx(0.0)
+    assert grid.is_free(gx, gy) and not grid.is_free(gx + 2 * RES, gy)  # the last free cell
+    assert 10.0 - grid.config.robot_radius - 0.2 < gx < 10.0 - grid.config.robot_radius
+    # a target that stood still is not trailed: turned to, as before (close by)
+    still = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=4.0))
+    still.update(0.0, (6.0, 2.0, 0.0), (7.0, 2.5, 0.05, 0.0))
+    d = still.update(1.5, (6.0, 2.0, math.pi), None, [("7", (1.0, 1.0))])
+    assert "looking back" in d.reason and d.goal[:2] == pytest.approx((6.0, 2.0))
+    with pytest.raises(FollowError, match="trail"):
+        FollowConfig(trail=-1.0).check()
+
+
 def test_a_search_goes_on_to_the_next_likely_region_and_round_again():
     grid = hall()
-    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, search_turn=math.pi, search_wait=3.0))
+    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, search_turn=math.pi, search_wait=3.0,
+                                            trail=0.0))   # straight to the regions
     fb.update(0.0, (2.0, 2.0, 0.0), (4.8, 2.0, 0.5, 0.0))
     plan = [("7", (8.0, 3.0)), ("4", (1.0, 1.0))]
     assert fb.update(2.0, (2.5, 2.0, 0.0), None, plan).goal[:2] == pytest.approx((8.0, 3.0))
@@ -188,8 +211,10 @@ def test_lost_or_never_seen_without_prediction_patrols_the_building():
     assert math.hypot(d.goal[0] - first[0], d.goal[1] - first[1]) > 1.0
     # an observer that has not seen its target for patrol_after from the start patrols
     fresh = FollowBehaviour(hall())
-    assert fresh.update(0.0, (2.0, 2.0, 0.0), None, None).goal is None
-    assert fresh.update(9.0, (2.0, 2.0, 0.0), None, None).goal is None
+    d = fresh.update(0.0, (2.0, 2.0, 0.3), None, None)     # first it looks round, once
+    assert d.goal == pytest.approx((2.0, 2.0, 0.3 - math.pi)) and "looking round" in d.reason
+    assert fresh.update(1.0, (2.0, 2.0, 1.0), None, None).goal is None
+    assert fresh.update(9.0, (2.0, 2.0, 0.3 - math.pi), None, None, goal_done=True).goal is None
     late = fresh.config.patrol_after + 0.1
     assert fresh.update(late, (2.0, 2.0, 0.0), None, None).mode == "patrol"
 
