@@ -79,7 +79,9 @@ def test_lost_target_waits_lost_after_then_searches_the_predicted_region_and_loo
     assert d.mode == "search" and "trailing" in d.reason
     assert d.goal == pytest.approx((4.8 + 4.0 * 0.5, 2.0, 0.0), abs=RES)
     assert fb.update(3.0, (3.0, 2.0, 0.0), None, dest).goal is None  # on its way
-    d = fb.update(6.0, (6.8, 2.0, 0.0), None, dest, goal_done=True)   # not there: the region
+    d = fb.update(6.0, (6.8, 2.0, 0.1), None, dest, goal_done=True)   # not in view: round
+    assert d.goal == pytest.approx((6.8, 2.0, 0.1 - math.pi)) and "looking round" in d.reason
+    d = fb.update(7.0, (6.8, 2.0, 0.1 - math.pi), None, dest, goal_done=True)  # the region
     assert d.mode == "search"
     assert d.goal == pytest.approx((8.0, 3.0, math.atan2(1.0, 1.2)))
     d = fb.update(9.0, (8.0, 3.0, 0.2), None, dest, goal_done=True)
@@ -137,8 +139,12 @@ def test_a_target_lost_close_by_is_looked_for_behind_first():
     assert d.mode == "search" and "looking back" in d.reason
     assert d.goal == pytest.approx((2.0, 2.0, math.atan2(0.5, 1.5)), abs=1e-9)
     assert fb.update(2.0, (2.0, 2.0, 1.0), None, plan).goal is None    # still turning
-    # not there either: on to the predicted region
+    # not in view: the other half of the view, on the spot
     d = fb.update(3.0, (2.0, 2.0, 0.32), None, plan, goal_done=True)
+    assert d.goal == pytest.approx((2.0, 2.0, 0.32 - math.pi)) and "looking round" in d.reason
+    assert fb.update(4.0, (2.0, 2.0, -1.0), None, plan).goal is None   # still turning
+    # not there either: on to the predicted region
+    d = fb.update(5.0, (2.0, 2.0, 0.32 - math.pi), None, plan, goal_done=True)
     assert d.goal[:2] == pytest.approx((8.0, 3.0)) and "region 7" in d.reason
 
 

@@ -299,6 +299,27 @@ def test_a_robot_that_cannot_move_backs_off_unless_something_is_behind_it():
         assert all(v < 0 for v in backed)
 
 
+def test_a_stalled_robot_backs_off_a_cell_nearer_a_wall_but_not_into_it():
+    """aces_austin: an observer wedged on a wall's corner (0.339 m of clearance, a bump in the
+    wall behind it) could only back off to 0.325 m; refused that, it stood for good."""
+    for end, backs in ((13, True), (15, False)):
+        g = np.zeros((60, 100), dtype=np.int8)
+        g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+        g[35, 8:end] = 100           # a wall stub behind and below the robot, y = 1.2 m
+        grid = PlanningGrid(map_from_grid(g, 0.05))
+        now, back = (float(grid._fine[tuple(np.array(grid.fmap.world_to_cell(
+            np.array([x]), np.array([1.5])))[::-1, 0])]) for x in (1.0, 0.85))
+        r = PathFollower().config.robot_radius
+        # the back-off ends nearer the wall than the robot's radius: by less than a cell
+        # (13), by more (15)
+        assert back < min(r, now) and (back >= min(r, now) - 0.05) == backs
+        nav = Navigator(grid, PathFollower())
+        nav.start((1.0, 1.5, 0.0), (4.0, 1.5), 0.0)
+        said = {nav.update((1.0, 1.5, 0.0), None, 0.1 * k).message for k in range(80)}
+        assert ("backing up" in said) == backs
+        assert ("nudging forward" in said) != backs   # then only forward is clear
+
+
 def test_a_wedged_robot_nudges_forward_when_behind_is_not_clear_then_gives_up():
     g = np.zeros((60, 100), dtype=np.int8)
     g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100

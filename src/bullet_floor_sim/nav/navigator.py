@@ -19,6 +19,10 @@ from .pursuit import FollowerCommand, PathFollower, to_map
 __all__ = ["NavStatus", "Navigator", "NavigatorConfig", "give_way_point"]
 
 _BACKUP_SPEED, _BACKUP_TIME = 0.1, 1.5   # m/s, s: a stalled robot backs off 0.15 m
+#: m: a back-off may end this much nearer a wall than where it starts (one map cell: a
+#: robot wedged on a wall's corner at 0.339 m of clearance could only back off to 0.325 m,
+#: and was refused it for good)
+_BACKUP_SLACK = 0.05
 _MAX_RETREATS = 3   # per goal: then it waits where it is, and the goal can time out
 _MAX_REBASES = 20   # new plans a goal whose length restarts the progress count
 
@@ -361,7 +365,8 @@ class Navigator:
     def _clear_behind(self, pose: Sequence[float], obstacles: Optional[np.ndarray],
                       sign: float = -1.0) -> bool:
         """Backing up (``sign`` -1; +1: moving forward) ``_BACKUP_TIME`` s brings the robot no
-        nearer a wall of the map (than now or than its radius), and no scan point lies in the
+        nearer a wall of the map (than now or than its radius, less ``_BACKUP_SLACK``), and no
+        scan point lies in the
         strip it sweeps (a lidar that sees only ahead shows nothing behind: the map is the
         check then)."""
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
@@ -373,7 +378,7 @@ class Navigator:
         if not ((col >= 0) & (row >= 0) & (col < fine.shape[1]) & (row < fine.shape[0])).all():
             return False
         r = self.follower.config.robot_radius
-        if fine[row[1], col[1]] < min(r, fine[row[0], col[0]]):
+        if fine[row[1], col[1]] < min(r, fine[row[0], col[0]]) - _BACKUP_SLACK:
             return False
         if obstacles is None or not len(obstacles):
             return True

@@ -23,9 +23,13 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   view), and waits there, facing the target, until the target has moved
   ``distance`` metres or ``give_way_hold`` seconds have passed. Standing on the route of a
   target that turned back, the observer blocked it for good in narrow corridors.
-* **search**: when no track has been seen for ``lost_after`` seconds, the observer first turns
-  to where it was last seen if that was within ``distance + slack`` (turning towards its own
-  goal, it had turned its back on the target), then goes to the
+* **search**: when no track has been seen for ``lost_after`` seconds, the observer first
+  trails a target that was moving: it drives to the point ``trail`` seconds on from where the
+  target was last seen, at its last velocity, short of a wall, facing that way (it had
+  stood in a room while the walker it lost in the doorway went off down the corridor). A
+  target that stood still is turned to where it was last seen, if that was within
+  ``distance + slack`` (turning towards its own goal, it had turned its back on it). Then it
+  goes to the
   predicted destination region (the predictor's arg-max; the point of the region nearest to
   where the target was last seen), turns on the spot to look around, waits ``search_wait``
   seconds, then goes on to the next most likely region (up to ``search_regions`` of them, each
@@ -34,6 +38,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   the walker was not: a fifth of a 200-leg evaluation.)
 * **patrol**: nothing tracked and nothing predicted (the target never seen, or lost with no
   leg to predict): the building's roomy places in turn, nearest first (:func:`patrol_points`).
+  A target not seen yet is first looked round for on the spot (``search_turn``), once, and
+  patrolled for after ``patrol_after`` seconds.
 * **idle**: as patrol, on a floor with nowhere to patrol: stay.
 
 Everything is plain numbers in, plain numbers out.
@@ -223,7 +229,7 @@ class FollowBehaviour:
         self._patrol: Optional[np.ndarray] = None   # patrol places (made when first needed)
         self._t0: Optional[float] = None   # when it first looked for a target not yet seen
         self._patrolled: List[int] = []  # patrol places visited this tour
-        self._search_phase = ""          # back | go | look | wait
+        self._search_phase = ""          # back | round | go | look | wait
         self._search_since = -math.inf
         # (target x, y, time, destinations) of self._route
         self._route_key: Optional[Tuple[float, float, float, List[Tuple[float, float]]]] = None
@@ -295,6 +301,12 @@ class FollowBehaviour:
                                       % (lx, ly))
             return self._search_go(rx, ry, "target lost: searching predicted region")
         if self._search_phase == "back":
+            if goal_done:   # not in view from there: the other half of the view
+                self._search_phase = "round"
+                return FollowDecision("search", (rx, ry, wrap_angle(ryaw + cfg.search_turn)),
+                                      "not in view: looking round where it was lost")
+            return FollowDecision("search")
+        if self._search_phase == "round":
             if goal_done:
                 return self._search_go(rx, ry, "not there: searching predicted region")
             return FollowDecision("search")
