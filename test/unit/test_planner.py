@@ -320,6 +320,29 @@ def test_a_stalled_robot_backs_off_a_cell_nearer_a_wall_but_not_into_it():
         assert ("nudging forward" in said) != backs   # then only forward is clear
 
 
+def test_a_robot_boxed_in_by_cautious_checks_eases_out_the_roomier_way():
+    """aces_austin: wedged on a wall corner, the observer could not turn; backing off ended
+    nearer a wall, and a wall alongside ahead (0.33-0.37 m to the side) filled the strip
+    that a nudge forward sweeps. It stood for good; now, stalled twice more with neither way
+    clear, it moves off the way with more room on the map."""
+    g = np.zeros((60, 100), dtype=np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+    g[35, 8:15] = 100                # backing off would end 0.27 m from this stub
+    grid = PlanningGrid(map_from_grid(g, 0.05))
+    alongside = np.array([[0.3 + 0.02 * k, 0.35] for k in range(15)])   # base frame
+    nav = Navigator(grid, PathFollower())
+    nav.start((1.0, 1.5, 0.0), (4.0, 1.5), 0.0)
+    said = []
+    for k in range(120):             # it never moves nor turns, whatever it is told
+        st = nav.update((1.0, 1.5, 0.0), alongside, 0.1 * k)
+        said.append((0.1 * k, st.message, st.v))
+    eased = [(t, v) for t, m, v in said if m == "nudging forward"]
+    assert eased and all(v > 0 for _, v in eased)
+    assert not any(m == "backing up" for _, m, _ in said)   # nearer the stub: not that way
+    stalls = [t for t, m, _ in said if m == "stalled"]
+    assert len([t for t in stalls if t < eased[0][0]]) == 2   # a plan again, twice, first
+
+
 def test_a_wedged_robot_nudges_forward_when_behind_is_not_clear_then_gives_up():
     g = np.zeros((60, 100), dtype=np.int8)
     g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100

@@ -19,6 +19,9 @@ from .pursuit import FollowerCommand, PathFollower, to_map
 __all__ = ["NavStatus", "Navigator", "NavigatorConfig", "give_way_point"]
 
 _BACKUP_SPEED, _BACKUP_TIME = 0.1, 1.5   # m/s, s: a stalled robot backs off 0.15 m
+#: stalls in a row, neither way clear and unable to turn, before it backs off or nudges
+#: forward anyway (the way with more room)
+_BOXED_STALLS = 2
 #: m: a back-off may end this much nearer a wall than where it starts (one map cell: a
 #: robot wedged on a wall's corner at 0.339 m of clearance could only back off to 0.325 m,
 #: and was refused it for good)
@@ -197,6 +200,7 @@ class Navigator:
         self._last_stall = -math.inf
         self._stuck: Optional[Tuple[float, float, float, float]] = None  # first stall: t, pose
         self._nudge = -1.0                        # -1 backing up, +1 nudging forward
+        self._boxed = 0     # stalls in a row with neither way clear
         self._resume_at: Optional[float] = None   # out of the way: when to go on to the goal
         self.retreats = 0
         self._seen = np.zeros((0, 2))             # the last scan's points in the map frame
@@ -232,6 +236,7 @@ class Navigator:
         self._retreat, self._resume_at, self._backup_until = None, None, None
         self._rebase, self._rebases = False, 0
         self._last_stall = -math.inf
+        self._boxed = 0
         self._stuck = None
         self.retreats = 0
         return path
@@ -355,12 +360,37 @@ class Navigator:
         self._last_stall = now
         for sign in (-1.0, 1.0):
             if again and self._clear_behind(pose, obstacles, sign):
-                self._backup_until, self._nudge = now + _BACKUP_TIME, sign
-                return NavStatus(sign * _BACKUP_SPEED, 0.0, "active",
-                                 "backing up" if sign < 0 else "nudging forward",
-                                 cmd.distance_to_goal)
+                self._boxed = 0
+                return self._back_off(sign, now, cmd)
+        if again:
+            self._boxed += 1
+            if self._boxed >= _BOXED_STALLS:
+                # neither way passed the checks, which are cautious (a wall alongside, a
+                # cell nearer a wall), and it cannot turn: off the way with more room on
+                # the map; a move that would press into something is refused as ever
+                self._boxed = 0
+                return self._back_off(self._roomier_way(pose), now, cmd)
         self._replan_around(pose, obstacles)
         return NavStatus(0.0, 0.0, "active", "stalled", cmd.distance_to_goal)
+
+    def _back_off(self, sign: float, now: float, cmd: FollowerCommand) -> NavStatus:
+        """Back up (``sign`` -1) or nudge forward (+1) for ``_BACKUP_TIME``."""
+        self._backup_until, self._nudge = now + _BACKUP_TIME, sign
+        return NavStatus(sign * _BACKUP_SPEED, 0.0, "active",
+                         "backing up" if sign < 0 else "nudging forward", cmd.distance_to_goal)
+
+    def _roomier_way(self, pose: Sequence[float]) -> float:
+        """-1 (back) or +1 (forward): the way whose back-off ends further from the map's
+        walls."""
+        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+        d = _BACKUP_SPEED * _BACKUP_TIME
+        col, row = (np.asarray(v, dtype=np.int64) for v in self.grid.fmap.world_to_cell(
+            np.array([x - d * math.cos(yaw), x + d * math.cos(yaw)]),
+            np.array([y - d * math.sin(yaw), y + d * math.sin(yaw)])))
+        fine = self.grid._fine
+        room = [float(fine[r, c]) if 0 <= r < fine.shape[0] and 0 <= c < fine.shape[1]
+                else 0.0 for c, r in zip(col.tolist(), row.tolist())]
+        return -1.0 if room[0] >= room[1] else 1.0
 
     def _clear_behind(self, pose: Sequence[float], obstacles: Optional[np.ndarray],
                       sign: float = -1.0) -> bool:
