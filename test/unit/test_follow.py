@@ -155,8 +155,23 @@ def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
     d = fb.update(1.5, (6.5, 2.0, 0.0), None, [("7", (1.0, 1.0))])
     gx, gy, gyaw = d.goal
     assert "trailing" in d.reason and gy == pytest.approx(2.5) and gyaw == pytest.approx(0.0)
-    assert grid.is_free(gx, gy) and not grid.is_free(gx + 2 * RES, gy)  # the last free cell
-    assert 10.0 - grid.config.robot_radius - 0.2 < gx < 10.0 - grid.config.robot_radius
+    # short of the wall, at the last point with roomy (0.6 m) clearance: room to look round
+    roomy = fb.config.roomy
+    assert grid.clearance_at(gx, gy) >= roomy > grid.clearance_at(gx + 2 * RES, gy)
+    assert 10.0 - roomy - 0.2 < gx <= 10.0 - roomy
+    # down a corridor too narrow to turn in (1 m: 0.5 m of clearance at most), no trail:
+    # it would stop and look round where its base wedges on the walls
+    narrow = hall(10.0, 1.0)
+    fn = FollowBehaviour(narrow, FollowConfig(lost_after=1.0, trail=4.0))
+    fn.update(0.0, (5.0, 0.5, 0.0), (8.3, 0.5, 0.6, 0.0))   # 2.8 m off: not close by
+    d = fn.update(1.5, (5.5, 0.5, 0.0), None, [("7", (1.0, 0.5))])
+    assert "trailing" not in d.reason and d.goal[:2] == pytest.approx((1.0, 0.5))
+    # nor does it look round there after turning to a still target lost close by
+    fs = FollowBehaviour(narrow, FollowConfig(lost_after=1.0))
+    fs.update(0.0, (5.0, 0.5, 0.0), (6.0, 0.5, 0.0, 0.0))
+    assert "looking back" in fs.update(1.5, (5.0, 0.5, math.pi), None, [("7", (1.0, 0.5))]).reason
+    d = fs.update(3.0, (5.0, 0.5, 0.0), None, [("7", (1.0, 0.5))], goal_done=True)
+    assert d.goal[:2] == pytest.approx((1.0, 0.5)) and "region 7" in d.reason
     # a target that stood still is not trailed: turned to, as before (close by)
     still = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=4.0))
     still.update(0.0, (6.0, 2.0, 0.0), (7.0, 2.5, 0.05, 0.0))

@@ -301,10 +301,14 @@ class FollowBehaviour:
                                       % (lx, ly))
             return self._search_go(rx, ry, "target lost: searching predicted region")
         if self._search_phase == "back":
-            if goal_done:   # not in view from there: the other half of the view
+            # not in view from there: the other half of the view, where there is room to
+            # turn (an octagonal base turning in a doorway wedged itself on its frame)
+            if goal_done and self.grid.clearance_at(rx, ry) >= cfg.roomy:
                 self._search_phase = "round"
                 return FollowDecision("search", (rx, ry, wrap_angle(ryaw + cfg.search_turn)),
                                       "not in view: looking round where it was lost")
+            if goal_done:
+                return self._search_go(rx, ry, "not there: searching predicted region")
             return FollowDecision("search")
         if self._search_phase == "round":
             if goal_done:
@@ -424,8 +428,10 @@ class FollowBehaviour:
 
     def _trail_point(self) -> Optional[Tuple[float, float, float]]:
         """Where a target lost while moving went: ``trail`` seconds on from where it was last
-        seen at its last velocity, stopped at the first cell the observer cannot stand on, and
-        facing the way it went (None: it stood still, or ``trail`` is 0)."""
+        seen at its last velocity, stopped at the first cell the observer cannot stand on, or
+        short of it at the last point with ``roomy`` clearance, facing the way it went (None:
+        it stood still, ``trail`` is 0, or no point on the way is that roomy: it would wait in
+        a doorway)."""
         if self.config.trail <= 0 or self.last_target is None:
             return None
         vx, vy = self._last_velocity
@@ -439,9 +445,14 @@ class FollowBehaviour:
         free = [self.grid.is_free(lx + vx * k, ly + vy * k) for k in s]
         if not any(free):
             return None
-        i = free.index(True)
+        i0 = i = free.index(True)
         while i + 1 <= n and free[i + 1]:
             i += 1
+        roomy = self.config.roomy
+        while i >= i0 and self.grid.clearance_at(lx + vx * s[i], ly + vy * s[i]) < roomy:
+            i -= 1
+        if i < i0:
+            return None
         return lx + vx * s[i], ly + vy * s[i], math.atan2(vy, vx)
 
     def _search_go(self, rx: float, ry: float, why: str) -> FollowDecision:
