@@ -204,7 +204,7 @@ def test_follower_agent_keeps_its_target_and_its_plan_and_searches_there_when_lo
 
 
 def test_follower_agent_searches_where_its_targets_plan_says_when_lost():
-    agent = FollowerAgent(FollowBehaviour(hall(), FollowConfig(lost_after=2.0)))
+    agent = FollowerAgent(FollowBehaviour(hall(), FollowConfig(lost_after=2.0, trail=0.0)))
     agent.tick(0.0, (2.0, 2.0, 0.0), [tr(1, 4.8, 2.0, 0.5)], {2: [("5", (1.0, 1.0))]})
     assert agent.destination is None          # another track's plan is not taken
     agent.tick(0.1, (2.0, 2.0, 0.0), [tr(1, 4.85, 2.0, 0.5)], {1: [("7", (8.0, 3.0))]})
