@@ -383,14 +383,10 @@ class Navigator:
         """-1 (back) or +1 (forward): the way whose back-off ends further from the map's
         walls."""
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
-        d = _BACKUP_SPEED * _BACKUP_TIME
-        col, row = (np.asarray(v, dtype=np.int64) for v in self.grid.fmap.world_to_cell(
-            np.array([x - d * math.cos(yaw), x + d * math.cos(yaw)]),
-            np.array([y - d * math.sin(yaw), y + d * math.sin(yaw)])))
-        fine = self.grid._fine
-        room = [float(fine[r, c]) if 0 <= r < fine.shape[0] and 0 <= c < fine.shape[1]
-                else 0.0 for c, r in zip(col.tolist(), row.tolist())]
-        return -1.0 if room[0] >= room[1] else 1.0
+        dx, dy = _BACKUP_SPEED * _BACKUP_TIME * math.cos(yaw), \
+            _BACKUP_SPEED * _BACKUP_TIME * math.sin(yaw)
+        back, ahead = self.grid.clearance_along(np.array([[x - dx, y - dy], [x + dx, y + dy]]))
+        return -1.0 if back >= ahead else 1.0
 
     def _clear_behind(self, pose: Sequence[float], obstacles: Optional[np.ndarray],
                       sign: float = -1.0) -> bool:

@@ -300,17 +300,14 @@ class FollowBehaviour:
                                       "target lost close by at (%.2f, %.2f): looking back"
                                       % (lx, ly))
             return self._search_go(rx, ry, "target lost: searching predicted region")
-        if self._search_phase == "back":
+        if self._search_phase == "back" and goal_done \
+                and self.grid.clearance_at(rx, ry) >= cfg.roomy:
             # not in view from there: the other half of the view, where there is room to
             # turn (an octagonal base turning in a doorway wedged itself on its frame)
-            if goal_done and self.grid.clearance_at(rx, ry) >= cfg.roomy:
-                self._search_phase = "round"
-                return FollowDecision("search", (rx, ry, wrap_angle(ryaw + cfg.search_turn)),
-                                      "not in view: looking round where it was lost")
-            if goal_done:
-                return self._search_go(rx, ry, "not there: searching predicted region")
-            return FollowDecision("search")
-        if self._search_phase == "round":
+            self._search_phase = "round"
+            return FollowDecision("search", (rx, ry, wrap_angle(ryaw + cfg.search_turn)),
+                                  "not in view: looking round where it was lost")
+        if self._search_phase in ("back", "round"):
             if goal_done:
                 return self._search_go(rx, ry, "not there: searching predicted region")
             return FollowDecision("search")
