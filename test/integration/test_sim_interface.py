@@ -19,6 +19,7 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
+from std_msgs.msg import Float64
 from std_srvs.srv import Empty
 from tf2_msgs.msg import TFMessage
 
@@ -48,12 +49,22 @@ class SimInterface(unittest.TestCase):
             rospy.sleep(0.1)
 
     def test_0_real_time_factor_is_held(self):
-        """sim.launch runs this world at rtf 2: sim time advances twice as fast as wall time."""
+        """sim.launch runs this world at rtf 2: sim time never advances faster than twice wall
+        time, and reaches twice unless the simulator itself reports that it fell behind (a
+        busy 2-core CI machine ran this world flat out at 1.2x: how fast is `make bench`'s
+        figure, not a bound here)."""
+        reports = []
+        sub = rospy.Subscriber("/simulator/real_time_factor_achieved", Float64,
+                               lambda m: reports.append(m.data))
         rospy.sleep(1.0)
         w0, s0 = time.monotonic(), rospy.get_time()
         time.sleep(5.0)
         ratio = (rospy.get_time() - s0) / (time.monotonic() - w0)
-        self.assertAlmostEqual(ratio, 2.0, delta=0.2)
+        sub.unregister()
+        self.assertLess(ratio, 2.2, "ran ahead of the asked real-time factor")
+        if ratio < 1.8:
+            self.assertTrue(reports and min(reports) < 1.8,
+                            "held %.2f of 2 and the simulator reported %s" % (ratio, reports))
 
     def test_1_scan_matches_walls(self):
         gt = msg("/robot1/base_pose_ground_truth", Odometry)
