@@ -26,6 +26,7 @@ sys.path.insert(0, HERE)
 from bullet_floor_sim.people.evaluation import FRACTIONS, EvalConfig, run  # noqa: E402
 from bullet_floor_sim.paths import corpus_dir, corpus_worlds, worlds_dir  # noqa: E402
 from bullet_floor_sim.sim.config import world_label  # noqa: E402
+from bullet_floor_sim.people.walker import OUTCOMES  # noqa: E402
 
 COLUMNS = ("world", "legs", "given_up", "trk25", "trk50", "trk75", "gt25", "gt50", "gt75",
            "markov50", "heading50", "margin", "tracked", "ll50", "markov_ll50", "ll_margin",
@@ -84,7 +85,8 @@ def row(world: str, legs: int, seed: int, allow: bool = False, save: str = "") -
     last = [t0]
 
     def progress(line: str) -> None:
-        if time.time() - last[0] > 30.0:  # a progress line every 30 s of wall time
+        # a progress line every 30 s of wall time, and every leg given up (with its reason)
+        if time.time() - last[0] > 30.0 or any(" %s after " % o in line for o in OUTCOMES[1:]):
             last[0] = time.time()
             print("  %s: %s" % (world, line), file=sys.stderr, flush=True)
 

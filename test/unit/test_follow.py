@@ -492,3 +492,28 @@ def test_no_route_to_any_destination_is_no_reason_to_give_way():
     # the only likely destination lies outside the map: no route, the usual follow decision
     d = fb.update(0.0, (6.3, 1.6, math.pi), (4.8, 1.6, 0.0, 0.0), [("x", (40.0, 1.6))])
     assert d.mode == "follow"
+
+
+def test_a_target_that_stays_close_by_is_stepped_away_from():
+    """The target stands 0.9 m from the observer, in a hall, with no prediction: after
+    ``unblock`` seconds (not before) the observer steps to a place at least ``give_way`` from
+    the target and from where it stood, and waits there for it to go on."""
+    grid = hall()
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9, unblock=4.0))
+    robot, target = (5.0, 2.0, 0.0), (5.9, 2.0, 0.0, 0.0)
+    for t in (0.0, 1.0, 2.0, 3.9):
+        assert fb.update(t, robot, target, goal_done=True).mode == "follow"
+    d = fb.update(4.0, robot, target, goal_done=True)
+    assert d.mode == "give_way" and d.goal is not None
+    gx, gy, gyaw = d.goal
+    assert math.hypot(gx - 5.9, gy - 2.0) >= 0.9 - 1e-9
+    assert math.hypot(gx - 5.0, gy - 2.0) >= 0.9 - 1e-9
+    assert math.hypot(gx - 5.0, gy - 2.0) <= 1.6          # the nearest such place
+    assert gyaw == pytest.approx(math.atan2(2.0 - gy, 5.9 - gx), abs=1e-9)
+    assert fb.update(5.0, (gx, gy, gyaw), target).goal is None     # waits there
+    # a target that comes close and goes on within the time is not stepped away from
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9, unblock=4.0))
+    for t, x in ((0.0, 5.9), (2.0, 5.9), (3.0, 7.5), (5.0, 5.9), (8.5, 5.9)):
+        assert fb.update(t, robot, (x, 2.0, 0.0, 0.0), goal_done=True).mode == "follow"
+    never = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9, unblock=0))
+    assert all(never.update(t, robot, target).mode == "follow" for t in range(12))

@@ -22,7 +22,9 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   side, or back along the way; of those, one towards the target first, so that it stays in
   view), and waits there, facing the target, until the target has moved
   ``distance`` metres or ``give_way_hold`` seconds have passed. Standing on the route of a
-  target that turned back, the observer blocked it for good in narrow corridors.
+  target that turned back, the observer blocked it for good in narrow corridors. A target
+  that stays within ``give_way`` + 0.2 m for ``unblock`` seconds is stepped away from, on no
+  prediction (it may be going where the observer stands), and waited for the same way.
 * **search**: when no track has been seen for ``lost_after`` seconds, the observer first
   trails a target that was moving: it drives to the point ``trail`` seconds on from where the
   target was last seen, at its last velocity, short of a wall, facing that way (it had
@@ -111,6 +113,13 @@ class FollowConfig:
             drives to the point ``trail`` seconds on from where it was last seen at its last
             velocity (stopped short of a wall), facing the way it went; then the likely
             regions. 0: it only turns to where a target lost close by was last seen.
+        unblock: a target that has stayed within ``give_way`` + 0.2 m of the observer this
+            long (s) is taken to be blocked by it, wherever it is going: the observer steps
+            to the nearest place at least ``give_way`` from the target, from where it stands
+            and from the target's predicted routes (a roomy one in view first), and waits
+            there as when it gives way. 0: never. (intel_lab: the walker gave up a leg 0.8 m
+            from its goal, with the observer, following it, standing on that goal; no
+            prediction named a route through it.)
     """
 
     distance: float = 1.5
@@ -132,6 +141,7 @@ class FollowConfig:
     give_way_view: float = math.radians(75.0)
     pass_detour: float = 2.0
     trail: float = 4.0
+    unblock: float = 4.0
 
     def check(self) -> None:
         """Raise FollowError naming the first bad parameter."""
@@ -150,10 +160,11 @@ class FollowConfig:
                 and self.pass_detour >= 0):
             raise FollowError("follower: pass_detour must be a finite number >= 0, got %r"
                               % (self.pass_detour,))
-        if not (isinstance(self.trail, (int, float)) and math.isfinite(self.trail)
-                and self.trail >= 0):
-            raise FollowError("follower: trail must be a finite number >= 0, got %r"
-                              % (self.trail,))
+        for name in ("trail", "unblock"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise FollowError("follower: %s must be a finite number >= 0, got %r"
+                                  % (name, v))
         if not (math.isfinite(self.give_way_view) and 0.0 <= self.give_way_view <= math.pi):
             raise FollowError("follower: give_way_view must be in [0, pi] radians, got %r"
                               % (self.give_way_view,))
@@ -240,6 +251,7 @@ class FollowBehaviour:
         self._standing = True            # no goal under way (the last one finished)
         self._last_velocity = (0.0, 0.0)  # the target's, when last seen
         self._looked = False             # looked round for a target not seen yet
+        self._close_since: Optional[float] = None   # the target within give_way since then
 
     def update(self, t: float, robot: Sequence[float], target: Optional[Sequence[float]],
                destination=None, goal_done: bool = False) -> FollowDecision:
@@ -267,6 +279,8 @@ class FollowBehaviour:
         if target is not None:
             dests = [p for _, p in as_plan(destination)]
             way = self._give_way(t, robot, target, dests, goal_done)
+            if way is None:
+                way = self._unblock(t, robot, target, dests)
             return way if way is not None else self._follow(t, robot, target, goal_done)
         if self.last_seen is not None and t - self.last_seen < cfg.lost_after:
             return FollowDecision(self.mode, None, "target unseen for %.1f s" % (
@@ -371,6 +385,37 @@ class FollowBehaviour:
         return FollowDecision("give_way", (gx, gy, math.atan2(ty - gy, tx - gx)),
                               "on the target's way to %d likely destination(s): stepping to "
                               "(%.2f, %.2f)" % (len(dests), gx, gy))
+
+    def _unblock(self, t: float, robot: Sequence[float], target: Sequence[float],
+                 dests: List[Tuple[float, float]]) -> Optional[FollowDecision]:
+        """Stepping out of the way of a target that has stayed close by for ``unblock``
+        seconds (see FollowConfig.unblock), or None."""
+        cfg = self.config
+        tx, ty = float(target[0]), float(target[1])
+        rx, ry = float(robot[0]), float(robot[1])
+        if cfg.unblock <= 0 or math.hypot(tx - rx, ty - ry) >= cfg.give_way + _GIVE_WAY_HYSTERESIS:
+            self._close_since = None
+            return None
+        if self._close_since is None:
+            self._close_since = t
+        if t - self._close_since < cfg.unblock:
+            return None
+        self._close_since = None
+        keep = [self._target_routes(t, (tx, ty), dests)] if dests else []
+        keep = np.vstack(keep + [np.array([[tx, ty], [rx, ry]])])
+        point = give_way_point(self.grid, keep, (rx, ry), (tx, ty), cfg.give_way,
+                               cfg.give_way_reach, cfg.roomy, obstacles=np.array([[tx, ty]]),
+                               in_view=cfg.give_way_view)
+        if point is None:
+            return None
+        self._yield = (tx, ty, t)
+        self.last_seen, self.last_target, self.mode = t, (tx, ty), "give_way"
+        self._goal_target, self._goal_time = (tx, ty), t
+        gx, gy = point
+        return FollowDecision("give_way", (gx, gy, math.atan2(ty - gy, tx - gx)),
+                              "the target has stood within %.1f m for %.0f s: stepping out of "
+                              "its way to (%.2f, %.2f)" % (cfg.give_way + _GIVE_WAY_HYSTERESIS,
+                                                           cfg.unblock, gx, gy))
 
     def _target_routes(self, t: float, target: Tuple[float, float],
                        dests: List[Tuple[float, float]]) -> np.ndarray:

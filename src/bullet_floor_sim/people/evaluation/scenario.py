@@ -200,11 +200,22 @@ class _Scenario:
         if leg.outcome == "succeeded":
             self.completed.append(score_leg(leg, self.gt_records, self.trk_records, self.model,
                                          self.uniform))
+            where = ""
         else:
             self.failed += 1
-        self.say("%s  [%d/%d scored, %.0f s sim, %.0f s wall]" % (
-            step.line, len(self.completed), self.cfg.legs, t - self.t0,
+            where = self._observer_line()
+        self.say("%s%s  [%d/%d scored, %.0f s sim, %.0f s wall]" % (
+            step.line, where, len(self.completed), self.cfg.legs, t - self.t0,
             time.time() - self.t_wall))
+
+    def _observer_line(self) -> str:
+        """Where the observer stood when a leg was given up (it is what most often blocks
+        the walker): its distance from the walker, its mode and its wall clearance."""
+        ow = self.world.view(self.cfg.observer, refresh=False).pose
+        ww = self.world.view(self.cfg.walker, refresh=False).pose
+        return "; the observer %.2f m away at (%.2f, %.2f), %s, %.2f m from walls" % (
+            math.hypot(ow[0] - ww[0], ow[1] - ww[1]), ow[0], ow[1], self.follower.behaviour.mode,
+            self.drive.nav.grid.clearance_at(ow[0], ow[1]))
 
     def _observe(self, t: float, truth: Tuple[float, float], pose_o: Sequence[float]) -> None:
         """The observer: detect and track (people_tracker), predict (destination_predictor),
