@@ -212,3 +212,30 @@ def test_scan_matching_finds_the_true_pose_near_a_wrong_guess():
         assert match(m, far, *args) == far
     finally:
         w.close()
+
+
+def test_a_frontier_looked_at_from_a_goal_reached_no_longer_draws_the_explorer():
+    """A room 10 x 4 m, its east half unknown: a frontier 3.8 m long at x = 5. Looked at from
+    (4.5, 2) facing east, every cell of it lies within view_range (2 m) and view_angle: were it
+    still a frontier after that (the unknown behind it does not show), no goal is left. Looked
+    at facing west (its back to it), or from 4 m off, it still draws a goal."""
+    from bullet_floor_sim.mapping.frontiers import Explorer, ExplorerConfig
+
+    g = np.full((42, 102), 100, dtype=np.int8)
+    g[1:41, 1:51] = 0
+    g[1:41, 51:101] = -1
+    fmap = map_from_grid(g, 0.1)
+    cfg = ExplorerConfig(robot_radius=0.3, view_range=2.0, view_angle=math.radians(80.0))
+    pose = (2.0, 2.0, 0.0)
+    assert Explorer(cfg).next_goal(fmap, pose) is not None
+    looked = Explorer(cfg)
+    looked.looked_from((4.5, 2.0, 0.0))
+    assert looked.next_goal(fmap, pose) is None
+    for view in ((4.5, 2.0, math.pi), (1.0, 2.0, 0.0)):
+        other = Explorer(cfg)
+        other.looked_from(view)
+        goal = other.next_goal(fmap, pose)
+        assert goal is not None and 4.0 <= goal[0] <= 5.1, (view, goal)
+    off = Explorer(ExplorerConfig(robot_radius=0.3, view_range=0.0))
+    off.looked_from((4.5, 2.0, 0.0))
+    assert off.next_goal(fmap, pose) is not None

@@ -147,6 +147,8 @@ def explore(world: Any, robot: int = 0, seconds: float = 900.0, map_every: float
         world.command(robot, 0.0, 0.0, 0.0)
         if goal is not None:
             explorer.goal_failed(goal)     # reached or not, its place is done with
+            if st.state == "succeeded":
+                explorer.looked_from(goal)
             out.failed += 0 if st.state == "succeeded" else 1
         nav = None
     out.sim_time = world.clock.now - t0

@@ -69,6 +69,14 @@ class ExplorerConfig:
         blacklist_radius: a goal done with (:meth:`Explorer.goal_failed`: failed, reached,
             or, in the explorer node, sent) rules out goals this close to it (m).
         min_distance: goals nearer the robot than this (along the grid) are not sent.
+        view_range: a frontier cell within this distance (m) of a goal reached, and within
+            ``view_angle`` of the way the robot faced there, was looked at: if it is a
+            frontier still (the unknown beyond it does not show: a wall's far side, glass,
+            a shadow), it is no reason to go anywhere again (:meth:`Explorer.looked_from`).
+            0: every frontier cell counts until it closes. (office: the robot went along such
+            a strip in 0.6 m goals, 45 goals for 2 % of the floor.)
+        view_angle: half the angle (radians) of that view (the Scitos lidar sees 90 degrees
+            either side; the goal's heading faces its nearest frontier cell).
     """
 
     robot_radius: float = 0.34
@@ -76,6 +84,8 @@ class ExplorerConfig:
     reach: float = 1.0
     blacklist_radius: float = 0.5
     min_distance: float = 0.5
+    view_range: float = 2.0
+    view_angle: float = math.radians(80.0)
 
 
 @dataclass
@@ -84,6 +94,7 @@ class Explorer:
 
     config: ExplorerConfig = field(default_factory=ExplorerConfig)
     failed: List[Tuple[float, float]] = field(default_factory=list)
+    looked: List[Tuple[float, float, float]] = field(default_factory=list)
 
     def next_goal(self, fmap: FloorMap, pose: Sequence[float]
                   ) -> Optional[Tuple[float, float, float]]:
@@ -96,7 +107,8 @@ class Explorer:
         grid = PlanningGrid(fmap, PlannerConfig(robot_radius=c.robot_radius,
                                                 resolution=fmap.resolution,
                                                 unknown_is_obstacle=False))
-        found = frontiers(fmap, max(1, int(math.ceil(c.min_frontier / fmap.resolution))))
+        min_cells = max(1, int(math.ceil(c.min_frontier / fmap.resolution)))
+        found = self._not_looked_at(fmap, frontiers(fmap, min_cells), min_cells)
         if not found:
             return None
         dist = _distances(grid, pose)
@@ -125,6 +137,33 @@ class Explorer:
         cx, cy = (np.asarray(v, dtype=float) for v in fmap.cell_to_world(fr[:, 1], fr[:, 0]))
         k = int(np.argmin(np.hypot(cx - x, cy - y)))
         return x, y, math.atan2(float(cy[k]) - y, float(cx[k]) - x)
+
+    def looked_from(self, pose: Sequence[float]) -> None:
+        """The robot stood at ``pose`` (x, y, yaw: a goal reached): frontier cells in its view
+        from there no longer count (ExplorerConfig.view_range)."""
+        self.looked.append((float(pose[0]), float(pose[1]), float(pose[2])))
+
+    def _not_looked_at(self, fmap: FloorMap, found: List[Frontier], min_cells: int
+                       ) -> List[Frontier]:
+        """``found`` without the cells looked at from a goal reached (see ``looked_from``);
+        clusters left with fewer than ``min_cells`` dropped."""
+        c = self.config
+        if c.view_range <= 0 or not self.looked or not found:
+            return found
+        out = []
+        for f in found:
+            x, y = (np.asarray(v, dtype=float) for v in fmap.cell_to_world(f.cells[:, 1],
+                                                                          f.cells[:, 0]))
+            seen = np.zeros(len(f.cells), dtype=bool)
+            for lx, ly, lyaw in self.looked:
+                dx, dy = x - lx, y - ly
+                bearing = np.abs(np.angle(np.exp(1j * (np.arctan2(dy, dx) - lyaw))))
+                seen |= (np.hypot(dx, dy) <= c.view_range) & (bearing <= c.view_angle)
+            if np.count_nonzero(~seen) >= min_cells:
+                rc = f.cells[~seen]
+                cx, cy = fmap.cell_to_world(rc[:, 1].mean(), rc[:, 0].mean())
+                out.append(Frontier(rc, (float(cx), float(cy))))
+        return out
 
     def goal_failed(self, goal: Sequence[float]) -> None:
         """Do not send a goal near ``goal`` again: the navigation gave up on it or reached

@@ -16,7 +16,8 @@ publishes ``~finished`` (std_msgs/Bool, latched) true and sends no more goals.
 
 Parameters: ``~global_frame`` (map), ``~base_frame`` (base_footprint), ``~robot_radius``
 (0.34), ``~min_frontier`` (0.75 m), ``~reach`` (1.0 m), ``~blacklist_radius`` (0.5 m),
-``~min_distance`` (0.5 m) (ExplorerConfig's), ``~lookahead`` (1.5 m; 0: pick the next goal
+``~min_distance`` (0.5 m), ``~view_range`` (2.0 m; 0: off), ``~view_angle`` (1.40 rad)
+(ExplorerConfig's), ``~lookahead`` (1.5 m; 0: pick the next goal
 only after the last ended), ``~goal_timeout`` (120 s of sim time: a goal not ended by then is
 cancelled), ``~finish_wait`` (10 s).
 """
@@ -61,6 +62,8 @@ class ExplorerParams:
     reach: float = ExplorerConfig.reach
     blacklist_radius: float = ExplorerConfig.blacklist_radius
     min_distance: float = ExplorerConfig.min_distance
+    view_range: float = ExplorerConfig.view_range
+    view_angle: float = ExplorerConfig.view_angle
     lookahead: float = 1.5
     goal_timeout: float = 120.0
     finish_wait: float = 10.0
@@ -68,7 +71,8 @@ class ExplorerParams:
     def check(self) -> None:
         check_at_least(self, "explorer", ("robot_radius", "min_frontier", "reach",
                                           "goal_timeout", "finish_wait"))
-        check_at_least(self, "explorer", ("blacklist_radius", "min_distance", "lookahead"),
+        check_at_least(self, "explorer", ("blacklist_radius", "min_distance", "lookahead",
+                                          "view_range", "view_angle"),
                        strict=False)
 
 
@@ -79,7 +83,8 @@ class ExplorerNode:
         p = self.params = config_from_params(ExplorerParams())
         self.explorer = Explorer(ExplorerConfig(
             robot_radius=p.robot_radius, min_frontier=p.min_frontier, reach=p.reach,
-            blacklist_radius=p.blacklist_radius, min_distance=p.min_distance))
+            blacklist_radius=p.blacklist_radius, min_distance=p.min_distance,
+            view_range=p.view_range, view_angle=p.view_angle))
         self.map: Optional[OccupancyGrid] = None
         self.lock = threading.Lock()
         self.tf = tf2_ros.Buffer()
@@ -196,6 +201,7 @@ class ExplorerNode:
         else:
             state = gh.get_goal_status()
             if state == GoalStatus.SUCCEEDED:
+                self.explorer.looked_from(goal)
                 return ahead
             if not rospy.is_shutdown():
                 self.failed += 1
