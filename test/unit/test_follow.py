@@ -517,3 +517,39 @@ def test_a_target_that_stays_close_by_is_stepped_away_from():
         assert fb.update(t, robot, (x, 2.0, 0.0, 0.0), goal_done=True).mode == "follow"
     never = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9, unblock=0))
     assert all(never.update(t, robot, target).mode == "follow" for t in range(12))
+
+
+def hall_with_pocket(gap=0.75):
+    """A hall 10 x 4 m and, north of it, a room 2.5 x 2.5 m whose only way in is a gap
+    ``gap`` wide in the 0.2 m wall between them (x 4.625-5.375 for 0.75 m)."""
+    g = np.full((int(7.0 / RES), int(10.0 / RES)), 100, dtype=np.int8)
+    g[1:int(4.0 / RES), 1:-1] = 0                                  # the hall, y 0.05-4.0
+    g[int(4.2 / RES):int(6.7 / RES), int(3.75 / RES):int(6.25 / RES)] = 0   # the room
+    half = int(round(gap / 2 / RES))
+    mid = int(5.0 / RES)
+    g[int(4.0 / RES):int(4.2 / RES), mid - half:mid + half] = 0
+    return PlanningGrid(map_from_grid(g, RES))
+
+
+def test_a_goal_behind_a_passage_too_snug_to_turn_in_is_waited_for_outside():
+    """The target walks into a room whose way in is 0.75 m wide (clearance below the
+    observer's 0.34 m radius + snug 0.04): the follow goal 1.5 m behind it, in the gap or in
+    the room, becomes the nearest place in the hall, facing it. From inside the room, a goal
+    in the hall is kept (the bigger part), and with snug 0 the goal is in the room."""
+    grid = hall_with_pocket()
+    c = grid.clearance_at(5.0, 4.1)
+    assert grid.config.robot_radius <= c < grid.config.robot_radius + 0.04, c
+    assert grid.plan((5.0, 2.0), (5.0, 5.5)) is not None        # it can plan in
+    target = (5.0, 5.6, 0.0, 0.5)                                 # walking north in the room
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5))
+    d = fb.update(0.0, (5.0, 2.5, math.pi / 2), target)
+    gx, gy, gyaw = d.goal
+    assert d.mode == "follow" and gy < 4.0, d                    # in the hall ...
+    assert math.hypot(gx - 5.0, gy - 4.1) < 1.0                 # ... by the gap
+    assert gyaw == pytest.approx(math.pi / 2, abs=0.6)          # facing in
+    free = FollowBehaviour(grid, FollowConfig(distance=1.5, snug=0.0))
+    assert free.update(0.0, (5.0, 2.5, math.pi / 2), target).goal[1] > 4.0
+    inside = FollowBehaviour(grid, FollowConfig(distance=1.5))
+    d = inside.update(0.0, (5.0, 5.5, -math.pi / 2), (5.0, 2.0, 0.0, -0.5))
+    gx, gy, _ = d.goal                                            # out in the hall, 1.5 m
+    assert gy < 4.0 and math.hypot(gx - 5.0, gy - 2.0) == pytest.approx(1.5, abs=0.01)

@@ -120,6 +120,13 @@ class FollowConfig:
             there as when it gives way. 0: never. (intel_lab: the walker gave up a leg 0.8 m
             from its goal, with the observer, following it, standing on that goal; no
             prediction named a route through it.)
+        snug: a passage whose clearance is below the observer's radius plus this (m) is too
+            snug for it to turn in: a follow, search or patrol goal behind one, in a part of
+            the floor smaller than the one the observer stands in, becomes the nearest place
+            on its own side within ``give_way_reach``, facing the goal (aces_austin: it
+            followed the walker into a room through a passage 2-3 cm wider than its
+            footprint, wedged itself there on the way out and shut the walker in for 10
+            minutes). 0: it goes wherever it can plan to.
     """
 
     distance: float = 1.5
@@ -142,6 +149,7 @@ class FollowConfig:
     pass_detour: float = 2.0
     trail: float = 4.0
     unblock: float = 4.0
+    snug: float = 0.04
 
     def check(self) -> None:
         """Raise FollowError naming the first bad parameter."""
@@ -160,7 +168,7 @@ class FollowConfig:
                 and self.pass_detour >= 0):
             raise FollowError("follower: pass_detour must be a finite number >= 0, got %r"
                               % (self.pass_detour,))
-        for name in ("trail", "unblock"):
+        for name in ("trail", "unblock", "snug"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise FollowError("follower: %s must be a finite number >= 0, got %r"
@@ -252,6 +260,8 @@ class FollowBehaviour:
         self._last_velocity = (0.0, 0.0)  # the target's, when last seen
         self._looked = False             # looked round for a target not seen yet
         self._close_since: Optional[float] = None   # the target within give_way since then
+        self._parts: Optional[np.ndarray] = None    # _outside_pockets' labels of the floor
+        self._part_sizes = np.zeros(1, dtype=int)
 
     def update(self, t: float, robot: Sequence[float], target: Optional[Sequence[float]],
                destination=None, goal_done: bool = False) -> FollowDecision:
@@ -269,9 +279,54 @@ class FollowBehaviour:
         if goal_done:
             self._standing = True
         decision = self._decide(t, robot, target, destination, goal_done)
+        if decision.goal is not None and decision.mode != "give_way":
+            decision = self._outside_pockets(robot, decision)
         if decision.goal is not None:
             self._standing = False
         return decision
+
+    def _outside_pockets(self, robot: Sequence[float], decision: FollowDecision
+                         ) -> FollowDecision:
+        """A goal behind a passage too snug for the observer (see FollowConfig.snug), in a
+        part of the floor smaller than the one it stands in, moved to the nearest place of
+        its own part within ``give_way_reach`` of it, facing the goal."""
+        cfg = self.config
+        if cfg.snug <= 0:
+            return decision
+        if self._parts is None:
+            from scipy.ndimage import label
+
+            roomy = np.isfinite(self.grid.cost) & (
+                self.grid.clearance >= self.grid.config.robot_radius + cfg.snug)
+            self._parts = label(roomy, structure=np.ones((3, 3), dtype=bool))[0]
+            self._part_sizes = np.bincount(self._parts.ravel())
+        parts, sizes = self._parts, self._part_sizes
+        assert decision.goal is not None
+        gx, gy, gyaw = decision.goal
+        own, there = self._part_at(robot[0], robot[1]), self._part_at(gx, gy)
+        if own == 0 or there == own or (there > 0 and sizes[there] >= sizes[own]):
+            return decision
+        k = int(math.ceil(cfg.give_way_reach / self.grid.resolution))
+        c, r = self.grid.to_cell(gx, gy)
+        r0, c0 = max(r - k, 0), max(c - k, 0)
+        rows, cols = np.nonzero(parts[r0:r + k + 1, c0:c + k + 1] == own)
+        if not len(rows):
+            return decision
+        x, y = self.grid.centres(cols + c0, rows + r0)
+        d = np.hypot(np.asarray(x) - gx, np.asarray(y) - gy)
+        i = int(np.argmin(d))
+        if d[i] > cfg.give_way_reach:
+            return decision
+        px, py = float(np.asarray(x)[i]), float(np.asarray(y)[i])
+        facing = math.atan2(gy - py, gx - px) if d[i] > 1e-6 else gyaw
+        return FollowDecision(decision.mode, (px, py, facing), "%s; (%.2f, %.2f) is behind a "
+                              "passage too snug to pass: waiting at (%.2f, %.2f)"
+                              % (decision.reason, gx, gy, px, py))
+
+    def _part_at(self, x: float, y: float) -> int:
+        """The label of the roomy part of the floor at (x, y) (0: none)."""
+        c, r = self.grid.to_cell(x, y)
+        return int(self._parts[r, c]) if self.grid.inside(c, r) else 0
 
     def _decide(self, t: float, robot: Sequence[float], target: Optional[Sequence[float]],
                 destination, goal_done: bool) -> FollowDecision:
