@@ -301,7 +301,7 @@ class FollowBehaviour:
             self._parts = label(roomy, structure=np.ones((3, 3), dtype=bool))[0]
             self._part_sizes = np.bincount(self._parts.ravel())
         parts, sizes = self._parts, self._part_sizes
-        assert decision.goal is not None
+        assert decision.goal is not None and parts is not None
         gx, gy, gyaw = decision.goal
         own, there = self._part_at(robot[0], robot[1]), self._part_at(gx, gy)
         if own == 0 or there == own or (there > 0 and sizes[there] >= sizes[own]):
@@ -326,7 +326,8 @@ class FollowBehaviour:
     def _part_at(self, x: float, y: float) -> int:
         """The label of the roomy part of the floor at (x, y) (0: none)."""
         c, r = self.grid.to_cell(x, y)
-        return int(self._parts[r, c]) if self.grid.inside(c, r) else 0
+        parts = self._parts
+        return int(parts[r, c]) if parts is not None and self.grid.inside(c, r) else 0
 
     def _decide(self, t: float, robot: Sequence[float], target: Optional[Sequence[float]],
                 destination, goal_done: bool) -> FollowDecision:
@@ -456,8 +457,8 @@ class FollowBehaviour:
         if t - self._close_since < cfg.unblock:
             return None
         self._close_since = None
-        keep = [self._target_routes(t, (tx, ty), dests)] if dests else []
-        keep = np.vstack(keep + [np.array([[tx, ty], [rx, ry]])])
+        routes = [self._target_routes(t, (tx, ty), dests)] if dests else []
+        keep = np.vstack(routes + [np.array([[tx, ty], [rx, ry]])])
         point = give_way_point(self.grid, keep, (rx, ry), (tx, ty), cfg.give_way,
                                cfg.give_way_reach, cfg.roomy, obstacles=np.array([[tx, ty]]),
                                in_view=cfg.give_way_view)
