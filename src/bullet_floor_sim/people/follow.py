@@ -121,12 +121,16 @@ class FollowConfig:
             from its goal, with the observer, following it, standing on that goal; no
             prediction named a route through it.)
         snug: a passage whose clearance is below the observer's radius plus this (m) is too
-            snug for it to turn in: a follow, search or patrol goal behind one, in a part of
-            the floor smaller than the one the observer stands in, becomes the nearest place
-            on its own side within ``give_way_reach``, facing the goal (aces_austin: it
-            followed the walker into a room through a passage 2-3 cm wider than its
-            footprint, wedged itself there on the way out and shut the walker in for 10
-            minutes). 0: it goes wherever it can plan to.
+            snug for it to turn in. A part of the floor behind such passages that is smaller
+            than a disc of radius ``distance`` (where it could not keep its distance from
+            the target) is a pocket: a follow, search or patrol goal in a pocket the observer
+            is not in becomes the nearest place within ``give_way_reach`` outside pockets,
+            facing the goal (aces_austin: it followed the walker into a room 1.5 m deep
+            through a passage 2-3 cm wider than its footprint, wedged itself on the way out
+            and shut the walker in for 10 minutes). Rooms behind narrow doors that are bigger
+            than that are followed into, as before (freiburg_079, whose 16 m^2 rooms have
+            0.75 m doors, lost a sixth of its tracking when no such room was). 0: it goes
+            wherever it can plan to.
     """
 
     distance: float = 1.5
@@ -260,8 +264,8 @@ class FollowBehaviour:
         self._last_velocity = (0.0, 0.0)  # the target's, when last seen
         self._looked = False             # looked round for a target not seen yet
         self._close_since: Optional[float] = None   # the target within give_way since then
-        self._parts: Optional[np.ndarray] = None    # _outside_pockets' labels of the floor
-        self._part_sizes = np.zeros(1, dtype=int)
+        self._parts: Optional[np.ndarray] = None    # _pockets(): the floor's parts
+        self._pocket: Optional[np.ndarray] = None   # ... and which of them are pockets
 
     def update(self, t: float, robot: Sequence[float], target: Optional[Sequence[float]],
                destination=None, goal_done: bool = False) -> FollowDecision:
@@ -287,47 +291,76 @@ class FollowBehaviour:
 
     def _outside_pockets(self, robot: Sequence[float], decision: FollowDecision
                          ) -> FollowDecision:
-        """A goal behind a passage too snug for the observer (see FollowConfig.snug), in a
-        part of the floor smaller than the one it stands in, moved to the nearest place of
-        its own part within ``give_way_reach`` of it, facing the goal."""
+        """A goal in a pocket (see FollowConfig.snug) the observer is not in, moved to the
+        nearest place within ``give_way_reach`` of it that is in no pocket (or in the
+        observer's own part of the floor), facing the goal."""
         cfg = self.config
         if cfg.snug <= 0:
             return decision
-        if self._parts is None:
-            from scipy.ndimage import label
-
-            roomy = np.isfinite(self.grid.cost) & (
-                self.grid.clearance >= self.grid.config.robot_radius + cfg.snug)
-            self._parts = label(roomy, structure=np.ones((3, 3), dtype=bool))[0]
-            self._part_sizes = np.bincount(self._parts.ravel())
-        parts, sizes = self._parts, self._part_sizes
-        assert decision.goal is not None and parts is not None
+        parts, pocket = self._pockets()
+        assert decision.goal is not None
         gx, gy, gyaw = decision.goal
-        own, there = self._part_at(robot[0], robot[1]), self._part_at(gx, gy)
-        if own == 0 or there == own or (there > 0 and sizes[there] >= sizes[own]):
+        own, there = self._part_at(parts, robot[0], robot[1]), self._part_at(parts, gx, gy)
+        if there == own or not pocket[there]:
             return decision
         k = int(math.ceil(cfg.give_way_reach / self.grid.resolution))
         c, r = self.grid.to_cell(gx, gy)
         r0, c0 = max(r - k, 0), max(c - k, 0)
-        rows, cols = np.nonzero(parts[r0:r + k + 1, c0:c + k + 1] == own)
+        window = parts[r0:r + k + 1, c0:c + k + 1]
+        ok = np.isfinite(self.grid.cost[r0:r + k + 1, c0:c + k + 1]) & (
+            (window == own) | ~pocket[window])
+        rows, cols = np.nonzero(ok)
         if not len(rows):
             return decision
-        x, y = self.grid.centres(cols + c0, rows + r0)
-        d = np.hypot(np.asarray(x) - gx, np.asarray(y) - gy)
+        x, y = (np.asarray(v, dtype=float) for v in self.grid.centres(cols + c0, rows + r0))
+        d = np.hypot(x - gx, y - gy)
         i = int(np.argmin(d))
         if d[i] > cfg.give_way_reach:
             return decision
-        px, py = float(np.asarray(x)[i]), float(np.asarray(y)[i])
+        px, py = float(x[i]), float(y[i])
         facing = math.atan2(gy - py, gx - px) if d[i] > 1e-6 else gyaw
-        return FollowDecision(decision.mode, (px, py, facing), "%s; (%.2f, %.2f) is behind a "
-                              "passage too snug to pass: waiting at (%.2f, %.2f)"
+        return FollowDecision(decision.mode, (px, py, facing), "%s; (%.2f, %.2f) is in a "
+                              "pocket behind a snug passage: waiting at (%.2f, %.2f)"
                               % (decision.reason, gx, gy, px, py))
 
-    def _part_at(self, x: float, y: float) -> int:
-        """The label of the roomy part of the floor at (x, y) (0: none)."""
+    def _pockets(self) -> Tuple[np.ndarray, np.ndarray]:
+        """The floor's parts and which labels are pockets, made once. A part is a connected
+        area where the clearance is at least the radius + ``snug``; a pocket is one smaller
+        than a disc of radius ``distance``. Every other free cell takes the label of the
+        nearest part, or, in a snug passage between a pocket and one other part (a doorway, not
+        a narrow corridor past several), that pocket's."""
+        if self._parts is None:
+            from scipy.ndimage import binary_dilation, distance_transform_edt, label
+
+            cfg, grid = self.config, self.grid
+            eight = np.ones((3, 3), dtype=bool)
+            free = np.isfinite(grid.cost)
+            roomy = free & (grid.clearance >= grid.config.robot_radius + cfg.snug)
+            raw = label(roomy, structure=eight)[0]
+            area = np.bincount(raw.ravel()) * grid.resolution ** 2
+            pocket = area < math.pi * cfg.distance ** 2
+            pocket[0] = False
+            lab = raw
+            if roomy.any():
+                lab = raw[tuple(distance_transform_edt(raw == 0, return_distances=False,
+                                                       return_indices=True))]
+            in_pocket = pocket[raw]
+            if in_pocket.any():
+                passages = label(free & ~roomy, structure=eight)[0]
+                entries = np.unique(passages[binary_dilation(in_pocket, structure=eight)])
+                entries = [e for e in entries[entries > 0] if len(_touching(passages, raw, e)) == 2]
+                entry = np.isin(passages, entries)
+                nearest = raw[tuple(distance_transform_edt(~in_pocket, return_distances=False,
+                                                           return_indices=True))]
+                lab = np.where(entry, nearest, lab)
+            self._parts, self._pocket = lab, pocket
+        assert self._pocket is not None
+        return self._parts, self._pocket
+
+    def _part_at(self, parts: np.ndarray, x: float, y: float) -> int:
+        """The label of the part of the floor at (x, y) (0: off the grid)."""
         c, r = self.grid.to_cell(x, y)
-        parts = self._parts
-        return int(parts[r, c]) if parts is not None and self.grid.inside(c, r) else 0
+        return int(parts[r, c]) if self.grid.inside(c, r) else 0
 
     def _decide(self, t: float, robot: Sequence[float], target: Optional[Sequence[float]],
                 destination, goal_done: bool) -> FollowDecision:
@@ -656,6 +689,15 @@ class FollowBehaviour:
         gx, gy = point
         return FollowDecision("follow", (gx, gy, math.atan2(ty - gy, tx - gx)),
                               "target at (%.2f, %.2f)" % (tx, ty))
+
+
+def _touching(passages: np.ndarray, parts: np.ndarray, which: int) -> set:
+    """The labels of ``parts`` next to (8-connected) the cells of passage ``which``."""
+    from scipy.ndimage import binary_dilation
+
+    ring = binary_dilation(passages == which, structure=np.ones((3, 3), dtype=bool))
+    found = np.unique(parts[ring])
+    return set(int(v) for v in found[found > 0])
 
 
 def _distance_to(points: np.ndarray, x: float, y: float) -> np.ndarray:
