@@ -123,12 +123,13 @@ class FollowConfig:
         snug: a passage whose clearance is below the observer's radius plus this (m) is too
             snug for it to turn in. A part of the floor behind such passages that is smaller
             than a disc of radius ``distance`` (where it could not keep its distance from
-            the target) is a pocket: a follow, search or patrol goal in a pocket the observer
-            is not in becomes the nearest place within ``give_way_reach`` outside pockets,
-            facing the goal (aces_austin: it followed the walker into a room 1.5 m deep
-            through a passage 2-3 cm wider than its footprint, wedged itself on the way out
-            and shut the walker in for 10 minutes). Rooms behind narrow doors that are bigger
-            than that are followed into, as before (freiburg_079, whose 16 m^2 rooms have
+            the target) with one such passage into it is a pocket (a dead end): a follow,
+            search or patrol goal in a pocket the observer is not in becomes the nearest
+            place within ``give_way_reach`` outside pockets, facing the goal (aces_austin:
+            it followed the walker into a room 1.5 m deep through a passage 2-3 cm wider
+            than its footprint, wedged itself on the way out and shut the walker in for 10
+            minutes). Rooms behind narrow doors that are bigger than that, or have another
+            way in, are followed into as before (freiburg_079, whose 16 m^2 rooms have
             0.75 m doors, lost a sixth of its tracking when no such room was). 0: it goes
             wherever it can plan to.
     """
@@ -326,9 +327,10 @@ class FollowBehaviour:
     def _pockets(self) -> Tuple[np.ndarray, np.ndarray]:
         """The floor's parts and which labels are pockets, made once. A part is a connected
         area where the clearance is at least the radius + ``snug``; a pocket is one smaller
-        than a disc of radius ``distance``. Every other free cell takes the label of the
-        nearest part, or, in a snug passage between a pocket and one other part (a doorway, not
-        a narrow corridor past several), that pocket's."""
+        than a disc of radius ``distance`` with one snug passage into it from another part
+        (a dead end). Every other free cell takes the label of the nearest part, or, in a
+        snug passage between a pocket and one other part (a doorway, not a narrow corridor
+        past several), that pocket's."""
         if self._parts is None:
             from scipy.ndimage import binary_dilation, distance_transform_edt, label
 
@@ -340,13 +342,17 @@ class FollowBehaviour:
             area = np.bincount(raw.ravel()) * grid.resolution ** 2
             pocket = area < math.pi * cfg.distance ** 2
             pocket[0] = False
+            passages = label(free & ~roomy, structure=eight)[0]
+            for p in np.nonzero(pocket)[0]:     # a dead end: one way in from another part
+                ways = [q for q in _touching(raw, passages, int(p))
+                        if len(_touching(passages, raw, q)) > 1]
+                pocket[p] = len(ways) == 1
             lab = raw
             if roomy.any():
                 lab = raw[tuple(distance_transform_edt(raw == 0, return_distances=False,
                                                        return_indices=True))]
             in_pocket = pocket[raw]
             if in_pocket.any():
-                passages = label(free & ~roomy, structure=eight)[0]
                 entries = np.unique(passages[binary_dilation(in_pocket, structure=eight)])
                 entries = [e for e in entries[entries > 0] if len(_touching(passages, raw, e)) == 2]
                 entry = np.isin(passages, entries)
@@ -691,12 +697,12 @@ class FollowBehaviour:
                               "target at (%.2f, %.2f)" % (tx, ty))
 
 
-def _touching(passages: np.ndarray, parts: np.ndarray, which: int) -> set:
-    """The labels of ``parts`` next to (8-connected) the cells of passage ``which``."""
+def _touching(labels: np.ndarray, others: np.ndarray, which: int) -> set:
+    """The labels of ``others`` next to (8-connected) the cells labelled ``which``."""
     from scipy.ndimage import binary_dilation
 
-    ring = binary_dilation(passages == which, structure=np.ones((3, 3), dtype=bool))
-    found = np.unique(parts[ring])
+    ring = binary_dilation(labels == which, structure=np.ones((3, 3), dtype=bool))
+    found = np.unique(others[ring])
     return set(int(v) for v in found[found > 0])
 
 
