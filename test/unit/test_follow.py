@@ -535,13 +535,14 @@ def test_a_goal_behind_a_passage_too_snug_to_turn_in_is_waited_for_outside():
     """The target walks into a room whose way in is 0.75 m wide (clearance below the
     observer's 0.34 m radius + snug 0.04): the follow goal 1.5 m behind it, in the gap or in
     the room, becomes the nearest place in the hall, facing it. From inside the room, a goal
-    in the hall is kept (the bigger part), and with snug 0 the goal is in the room."""
+    in the hall is kept (the bigger part), and with snug 0 (the default) the goal is in the
+    room."""
     grid = hall_with_pocket()
     c = grid.clearance_at(5.0, 4.1)
     assert grid.config.robot_radius <= c < grid.config.robot_radius + 0.04, c
     assert grid.plan((5.0, 2.0), (5.0, 5.5)) is not None        # it can plan in
     target = (5.0, 5.6, 0.0, 0.5)                                 # walking north in the room
-    fb = FollowBehaviour(grid, FollowConfig(distance=1.5))
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, snug=0.04))
     d = fb.update(0.0, (5.0, 2.5, math.pi / 2), target)
     gx, gy, gyaw = d.goal
     assert d.mode == "follow" and gy < 4.0, d                    # in the hall ...
@@ -549,7 +550,7 @@ def test_a_goal_behind_a_passage_too_snug_to_turn_in_is_waited_for_outside():
     assert gyaw == pytest.approx(math.pi / 2, abs=0.6)          # facing in
     free = FollowBehaviour(grid, FollowConfig(distance=1.5, snug=0.0))
     assert free.update(0.0, (5.0, 2.5, math.pi / 2), target).goal[1] > 4.0
-    inside = FollowBehaviour(grid, FollowConfig(distance=1.5))
+    inside = FollowBehaviour(grid, FollowConfig(distance=1.5, snug=0.04))
     d = inside.update(0.0, (5.0, 5.5, -math.pi / 2), (5.0, 2.0, 0.0, -0.5))
     gx, gy, _ = d.goal                                            # out in the hall, 1.5 m
     assert gy < 4.0 and math.hypot(gx - 5.0, gy - 2.0) == pytest.approx(1.5, abs=0.01)

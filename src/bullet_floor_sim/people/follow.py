@@ -130,8 +130,11 @@ class FollowConfig:
             than its footprint, wedged itself on the way out and shut the walker in for 10
             minutes). Rooms behind narrow doors that are bigger than that, or have another
             way in, are followed into as before (freiburg_079, whose 16 m^2 rooms have
-            0.75 m doors, lost a sixth of its tracking when no such room was). 0: it goes
-            wherever it can plan to.
+            0.75 m doors, lost a sixth of its tracking when no such room was). 0 (the
+            default): it goes wherever it can plan to. Off by default: with 0.04, aces_austin
+            gave up 0-5 % of its legs instead of 7-17 %, but on freiburg_079 (seed 1) the
+            walker spent minutes in a 1 x 3.6 m dead-end room the observer then waited
+            outside of, unable to see in: tracked 74 -> 42 % (docs/evaluation.md, session 29).
     """
 
     distance: float = 1.5
@@ -154,7 +157,7 @@ class FollowConfig:
     pass_detour: float = 2.0
     trail: float = 4.0
     unblock: float = 4.0
-    snug: float = 0.04
+    snug: float = 0.0
 
     def check(self) -> None:
         """Raise FollowError naming the first bad parameter."""
