@@ -58,6 +58,7 @@ from ..errors import BulletFloorSimError
 from ..nav.planner import (PlanError, PlanningGrid, disc_points, give_way_point,
                            path_length)
 from ..geometry import wrap_angle
+from ..nav.pockets import floor_pockets
 from .search import as_plan, patrol_points
 
 _GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps to give_way
@@ -328,41 +329,10 @@ class FollowBehaviour:
                               % (decision.reason, gx, gy, px, py))
 
     def _pockets(self) -> Tuple[np.ndarray, np.ndarray]:
-        """The floor's parts and which labels are pockets, made once. A part is a connected
-        area where the clearance is at least the radius + ``snug``; a pocket is one smaller
-        than a disc of radius ``distance`` with one snug passage into it from another part
-        (a dead end). Every other free cell takes the label of the nearest part, or, in a
-        snug passage between a pocket and one other part (a doorway, not a narrow corridor
-        past several), that pocket's."""
+        """The floor's part labels and which are pockets (nav/pockets.py), made once."""
         if self._parts is None:
-            from scipy.ndimage import binary_dilation, distance_transform_edt, label
-
-            cfg, grid = self.config, self.grid
-            eight = np.ones((3, 3), dtype=bool)
-            free = np.isfinite(grid.cost)
-            roomy = free & (grid.clearance >= grid.config.robot_radius + cfg.snug)
-            raw = label(roomy, structure=eight)[0]
-            area = np.bincount(raw.ravel()) * grid.resolution ** 2
-            pocket = area < math.pi * cfg.distance ** 2
-            pocket[0] = False
-            passages = label(free & ~roomy, structure=eight)[0]
-            for p in np.nonzero(pocket)[0]:     # a dead end: one way in from another part
-                ways = [q for q in _touching(raw, passages, int(p))
-                        if len(_touching(passages, raw, q)) > 1]
-                pocket[p] = len(ways) == 1
-            lab = raw
-            if roomy.any():
-                lab = raw[tuple(distance_transform_edt(raw == 0, return_distances=False,
-                                                       return_indices=True))]
-            in_pocket = pocket[raw]
-            if in_pocket.any():
-                entries = np.unique(passages[binary_dilation(in_pocket, structure=eight)])
-                entries = [e for e in entries[entries > 0] if len(_touching(passages, raw, e)) == 2]
-                entry = np.isin(passages, entries)
-                nearest = raw[tuple(distance_transform_edt(~in_pocket, return_distances=False,
-                                                           return_indices=True))]
-                lab = np.where(entry, nearest, lab)
-            self._parts, self._pocket = lab, pocket
+            self._parts, self._pocket = floor_pockets(self.grid, self.config.snug,
+                                                      self.config.distance)
         assert self._pocket is not None
         return self._parts, self._pocket
 
@@ -698,15 +668,6 @@ class FollowBehaviour:
         gx, gy = point
         return FollowDecision("follow", (gx, gy, math.atan2(ty - gy, tx - gx)),
                               "target at (%.2f, %.2f)" % (tx, ty))
-
-
-def _touching(labels: np.ndarray, others: np.ndarray, which: int) -> set:
-    """The labels of ``others`` next to (8-connected) the cells labelled ``which``."""
-    from scipy.ndimage import binary_dilation
-
-    ring = binary_dilation(labels == which, structure=np.ones((3, 3), dtype=bool))
-    found = np.unique(others[ring])
-    return set(int(v) for v in found[found > 0])
 
 
 def _distance_to(points: np.ndarray, x: float, y: float) -> np.ndarray:
