@@ -18,6 +18,7 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ..geometry import wrap_angles
 from ..nav.grid import PlannerConfig, PlanningGrid
 from ..sim.floormap import FloorMap, crop_known
 
@@ -157,7 +158,7 @@ class Explorer:
             seen = np.zeros(len(f.cells), dtype=bool)
             for lx, ly, lyaw in self.looked:
                 dx, dy = x - lx, y - ly
-                bearing = np.abs(np.angle(np.exp(1j * (np.arctan2(dy, dx) - lyaw))))
+                bearing = np.abs(wrap_angles(np.arctan2(dy, dx) - lyaw))
                 seen |= (np.hypot(dx, dy) <= c.view_range) & (bearing <= c.view_angle)
             if np.count_nonzero(~seen) >= min_cells:
                 rc = f.cells[~seen]

@@ -441,18 +441,8 @@ class FollowBehaviour:
             return None
         if cfg.pass_detour > 0 and self._passes_by((tx, ty), (rx, ry), dests):
             return None   # on its way, but it goes round: the observer keeps it in view
-        point = give_way_point(self.grid, route, (rx, ry), (tx, ty), cfg.give_way,
-                               cfg.give_way_reach, cfg.roomy, obstacles=np.array([[tx, ty]]),
-                               in_view=cfg.give_way_view)
-        if point is None:
-            return None
-        self._yield = (tx, ty, t)
-        self.last_seen, self.last_target, self.mode = t, (tx, ty), "give_way"
-        self._goal_target, self._goal_time = (tx, ty), t
-        gx, gy = point
-        return FollowDecision("give_way", (gx, gy, math.atan2(ty - gy, tx - gx)),
-                              "on the target's way to %d likely destination(s): stepping to "
-                              "(%.2f, %.2f)" % (len(dests), gx, gy))
+        return self._step_aside(t, (rx, ry), (tx, ty), route,
+                                "on the target's way to %d likely destination(s)" % len(dests))
 
     def _unblock(self, t: float, robot: Sequence[float], target: Sequence[float],
                  dests: List[Tuple[float, float]]) -> Optional[FollowDecision]:
@@ -471,7 +461,18 @@ class FollowBehaviour:
         self._close_since = None
         routes = [self._target_routes(t, (tx, ty), dests)] if dests else []
         keep = np.vstack(routes + [np.array([[tx, ty], [rx, ry]])])
-        point = give_way_point(self.grid, keep, (rx, ry), (tx, ty), cfg.give_way,
+        return self._step_aside(t, (rx, ry), (tx, ty), keep,
+                                "the target has stood within %.1f m for %.0f s" % (
+                                    cfg.give_way + _GIVE_WAY_HYSTERESIS, cfg.unblock))
+
+    def _step_aside(self, t: float, robot: Tuple[float, float], target: Tuple[float, float],
+                    keep: np.ndarray, why: str) -> Optional[FollowDecision]:
+        """Go to the nearest place ``give_way`` from the target and from the points ``keep``
+        (navigator.give_way_point: a roomy one in view first), facing the target, and hold
+        there as giving way; None when there is no such place."""
+        cfg = self.config
+        tx, ty = target
+        point = give_way_point(self.grid, keep, robot, target, cfg.give_way,
                                cfg.give_way_reach, cfg.roomy, obstacles=np.array([[tx, ty]]),
                                in_view=cfg.give_way_view)
         if point is None:
@@ -481,9 +482,7 @@ class FollowBehaviour:
         self._goal_target, self._goal_time = (tx, ty), t
         gx, gy = point
         return FollowDecision("give_way", (gx, gy, math.atan2(ty - gy, tx - gx)),
-                              "the target has stood within %.1f m for %.0f s: stepping out of "
-                              "its way to (%.2f, %.2f)" % (cfg.give_way + _GIVE_WAY_HYSTERESIS,
-                                                           cfg.unblock, gx, gy))
+                              "%s: stepping to (%.2f, %.2f)" % (why, gx, gy))
 
     def _target_routes(self, t: float, target: Tuple[float, float],
                        dests: List[Tuple[float, float]]) -> np.ndarray:
