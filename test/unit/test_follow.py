@@ -8,7 +8,7 @@ from bullet_floor_sim.sim.floormap import map_from_grid
 from bullet_floor_sim.people.follow import (FollowBehaviour, FollowConfig, FollowError,
                                             standoff_point)
 from bullet_floor_sim.people.search import (in_view, patrol_points, pick_target, search_plan,
-                                            search_point)
+                                            search_point, watch_places)
 from bullet_floor_sim.nav.planner import PlanError, PlanningGrid, give_way_point, path_length
 
 RES = 0.05
@@ -240,6 +240,62 @@ def test_lost_or_never_seen_without_prediction_patrols_the_building():
     assert fresh.update(late, (2.0, 2.0, 0.0), None, None).mode == "patrol"
 
 
+def cross():
+    """Two corridors 2 m wide and 20 m long crossing at (10, 10)."""
+    g = np.full((int(20.0 / RES), int(20.0 / RES)), 100, dtype=np.int8)
+    g[int(9.0 / RES):int(11.0 / RES), 1:-1] = 0
+    g[1:-1, int(9.0 / RES):int(11.0 / RES)] = 0
+    return PlanningGrid(map_from_grid(g, RES))
+
+
+def test_the_busiest_place_is_where_the_ways_between_places_cross():
+    grid = cross()
+    places = patrol_points(grid, 4.0, 0.6)
+    assert len(places) >= 8
+    busiest = watch_places(grid, places, 3, 8.0)
+    assert len(busiest) >= 1
+    assert math.hypot(busiest[0][0] - 10.0, busiest[0][1] - 10.0) <= 2.0   # the crossing
+    for i in range(len(busiest)):                       # spread out: 8 m apart
+        for j in range(i):
+            assert math.hypot(*(busiest[i] - busiest[j])) >= 8.0 - 1e-9
+    assert len(watch_places(grid, places, 0, 8.0)) == 0
+
+
+def test_a_target_never_seen_is_waited_for_at_the_crossroads_then_patrolled_for():
+    grid = cross()
+    cfg = FollowConfig(patrol_after=10.0, watch=2, watch_wait=60.0)
+    fb = FollowBehaviour(grid, cfg)
+    robot = (2.0, 10.0, 0.0)
+    fb.update(0.0, robot, None, None)                      # looks round where it is
+    d = fb.update(10.5, robot, None, None, goal_done=True)
+    first = watch_places(grid, patrol_points(grid, 4.0, 0.6), 2, 8.0)
+    assert d.mode == "patrol" and d.goal[:2] == pytest.approx(tuple(first[0]))
+    assert "crossroads 1 of 2" in d.reason
+    at = (*d.goal[:2], 0.0)
+    d = fb.update(30.0, at, None, None, goal_done=True)    # there: looks round
+    assert d.goal == pytest.approx((at[0], at[1], -math.pi))
+    assert fb.update(31.0, at, None, None, goal_done=True).goal is None   # waits 30 s
+    assert fb.update(60.0, at, None, None).goal is None
+    d = fb.update(61.5, at, None, None)                    # looks round again
+    assert d.goal == pytest.approx((at[0], at[1], -math.pi))
+    fb.update(62.0, at, None, None, goal_done=True)
+    assert fb.update(91.0, at, None, None).goal is None
+    d = fb.update(92.5, at, None, None)                    # on to the second crossroads
+    assert d.goal[:2] == pytest.approx(tuple(first[1])) and "crossroads 2 of 2" in d.reason
+    at = (*d.goal[:2], 0.0)
+    t = 100.0
+    for _ in range(4):                                     # look, wait, look, wait
+        fb.update(t, at, None, None, goal_done=True)
+        t += 31.0
+        fb.update(t, at, None, None)
+    d = fb.update(t + 31.0, at, None, None, goal_done=True)
+    assert d.mode == "patrol" and "patrolling" in d.reason       # then the patrol
+    # seen once and lost: no crossroads, the patrol at once
+    seen = FollowBehaviour(grid, cfg)
+    seen.update(0.0, robot, (4.0, 10.0, 0.0, 0.0))
+    assert "patrolling" in seen.update(5.0, robot, None, None).reason
+
+
 def test_pick_target_keeps_the_followed_id_else_the_nearest_to_last_seen():
     tracks = [Tr(3, 0.0, 0.0), Tr(5, 4.0, 0.0), Tr(9, 8.0, 0.0)]
     assert pick_target(tracks, 5, (0.0, 0.0)).id == 5
@@ -443,13 +499,15 @@ def test_giving_way_again_after_a_search_sends_the_give_way_goal_again():
     dest = [("east", (10.5, 1.6))]
     first = fb.update(0.0, (6.3, 1.6, math.pi), (4.8, 1.6, 0.0, 0.0), dest).goal
     assert first is not None
-    # unseen (hidden by the alcove's corner) until the search sends its own goal ...
+    # unseen (hidden by the alcove's corner): it goes on to the alcove while the navigation
+    # is under way, and searches once that goal is done (here given up where it stood) ...
     assert fb.update(1.0, (6.3, 1.6, math.pi), None, dest).goal is None
-    d = fb.update(2.5, (6.3, 1.6, math.pi), None, dest)
+    assert fb.update(2.5, (6.3, 1.6, math.pi), None, dest).mode == "give_way"
+    d = fb.update(3.0, (6.3, 1.6, math.pi), None, dest, goal_done=True)
     assert d.mode == "search" and d.goal is not None and d.goal[:2] != first[:2]
     # ... then seen again where it stood: the give-way goal goes out again (the navigation
     # is on the search goal now; holding the old yield left the observer in its way)
-    d = fb.update(3.0, (6.3, 1.6, math.pi), (4.8, 1.6, 0.0, 0.0), dest)
+    d = fb.update(3.5, (6.3, 1.6, math.pi), (4.8, 1.6, 0.0, 0.0), dest)
     assert d.mode == "give_way" and d.goal is not None
     assert d.goal[:2] == pytest.approx(first[:2])
 
@@ -517,6 +575,42 @@ def test_a_target_that_stays_close_by_is_stepped_away_from():
         assert fb.update(t, robot, (x, 2.0, 0.0, 0.0), goal_done=True).mode == "follow"
     never = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9, unblock=0))
     assert all(never.update(t, robot, target).mode == "follow" for t in range(12))
+
+
+def test_a_target_lost_while_stepping_aside_is_looked_for_once_there():
+    """Driving to the place it steps aside to, the observer turns its back on the target:
+    it keeps going (no search goal) until that goal is done or ``give_way_hold`` is up, then
+    looks back to where the target was."""
+    grid = hall()
+    cfg = FollowConfig(distance=1.5, slack=0.7, give_way=0.9, unblock=4.0, lost_after=2.0,
+                       give_way_hold=20.0)
+    fb = FollowBehaviour(grid, cfg)
+    robot, target = (5.0, 2.0, 0.0), (5.9, 2.0, 0.0, 0.0)
+    dest = [("east", (9.0, 2.0))]
+    for t in (0.0, 1.0, 2.0, 3.0):
+        fb.update(t, robot, target, dest, goal_done=True)
+    step = fb.update(4.0, robot, target, dest, goal_done=True)
+    assert step.mode == "give_way" and step.goal is not None
+    for t in (5.0, 7.0, 10.0, 15.0):          # unseen, on the way: no new goal
+        d = fb.update(t, (4.8, 2.3, 2.5), None, dest)
+        assert d.mode == "give_way" and d.goal is None
+    d = fb.update(16.0, step.goal, None, dest, goal_done=True)    # there: look back at it
+    assert d.mode == "search" and d.goal is not None
+    gx, gy = step.goal[:2]
+    assert d.goal[:2] == pytest.approx((gx, gy))
+    assert d.goal[2] == pytest.approx(math.atan2(2.0 - gy, 5.9 - gx), abs=1e-9)
+    # nor one it drives away from (the navigation took the long way round)
+    fb = FollowBehaviour(grid, cfg)
+    for t in (0.0, 1.0, 2.0, 3.0, 4.0):
+        step = fb.update(t, robot, target, dest, goal_done=True)
+    gx, gy = step.goal[:2]
+    away = (5.0 - 0.8 * (gx - 5.0), 2.0 - 0.8 * (gy - 2.0), 0.0)   # 1.8 x as far from it
+    assert fb.update(6.5, away, None, dest).mode == "search"
+    # a step-aside goal still under way after give_way_hold no longer holds the search off
+    fb = FollowBehaviour(grid, cfg)
+    for t in (0.0, 1.0, 2.0, 3.0, 4.0):
+        fb.update(t, robot, target, dest, goal_done=True)
+    assert fb.update(24.5, (4.8, 2.3, 2.5), None, dest).mode == "search"
 
 
 def hall_with_pocket(gap=0.75):
