@@ -8,7 +8,7 @@ from bullet_floor_sim.sim.floormap import map_from_grid
 from bullet_floor_sim.people.follow import (FollowBehaviour, FollowConfig, FollowError,
                                             standoff_point)
 from bullet_floor_sim.people.search import (in_view, patrol_points, pick_target, search_plan,
-                                            search_point, watch_places)
+                                            search_point)
 from bullet_floor_sim.nav.planner import PlanError, PlanningGrid, give_way_point, path_length
 
 RES = 0.05
@@ -238,62 +238,6 @@ def test_lost_or_never_seen_without_prediction_patrols_the_building():
     assert fresh.update(9.0, (2.0, 2.0, 0.3 - math.pi), None, None, goal_done=True).goal is None
     late = fresh.config.patrol_after + 0.1
     assert fresh.update(late, (2.0, 2.0, 0.0), None, None).mode == "patrol"
-
-
-def cross():
-    """Two corridors 2 m wide and 20 m long crossing at (10, 10)."""
-    g = np.full((int(20.0 / RES), int(20.0 / RES)), 100, dtype=np.int8)
-    g[int(9.0 / RES):int(11.0 / RES), 1:-1] = 0
-    g[1:-1, int(9.0 / RES):int(11.0 / RES)] = 0
-    return PlanningGrid(map_from_grid(g, RES))
-
-
-def test_the_busiest_place_is_where_the_ways_between_places_cross():
-    grid = cross()
-    places = patrol_points(grid, 4.0, 0.6)
-    assert len(places) >= 8
-    busiest = watch_places(grid, places, 3, 8.0)
-    assert len(busiest) >= 1
-    assert math.hypot(busiest[0][0] - 10.0, busiest[0][1] - 10.0) <= 2.0   # the crossing
-    for i in range(len(busiest)):                       # spread out: 8 m apart
-        for j in range(i):
-            assert math.hypot(*(busiest[i] - busiest[j])) >= 8.0 - 1e-9
-    assert len(watch_places(grid, places, 0, 8.0)) == 0
-
-
-def test_a_target_never_seen_is_waited_for_at_the_crossroads_then_patrolled_for():
-    grid = cross()
-    cfg = FollowConfig(patrol_after=10.0, watch=2, watch_wait=60.0)
-    fb = FollowBehaviour(grid, cfg)
-    robot = (2.0, 10.0, 0.0)
-    fb.update(0.0, robot, None, None)                      # looks round where it is
-    d = fb.update(10.5, robot, None, None, goal_done=True)
-    first = watch_places(grid, patrol_points(grid, 4.0, 0.6), 2, 8.0)
-    assert d.mode == "patrol" and d.goal[:2] == pytest.approx(tuple(first[0]))
-    assert "crossroads 1 of 2" in d.reason
-    at = (*d.goal[:2], 0.0)
-    d = fb.update(30.0, at, None, None, goal_done=True)    # there: looks round
-    assert d.goal == pytest.approx((at[0], at[1], -math.pi))
-    assert fb.update(31.0, at, None, None, goal_done=True).goal is None   # waits 30 s
-    assert fb.update(60.0, at, None, None).goal is None
-    d = fb.update(61.5, at, None, None)                    # looks round again
-    assert d.goal == pytest.approx((at[0], at[1], -math.pi))
-    fb.update(62.0, at, None, None, goal_done=True)
-    assert fb.update(91.0, at, None, None).goal is None
-    d = fb.update(92.5, at, None, None)                    # on to the second crossroads
-    assert d.goal[:2] == pytest.approx(tuple(first[1])) and "crossroads 2 of 2" in d.reason
-    at = (*d.goal[:2], 0.0)
-    t = 100.0
-    for _ in range(4):                                     # look, wait, look, wait
-        fb.update(t, at, None, None, goal_done=True)
-        t += 31.0
-        fb.update(t, at, None, None)
-    d = fb.update(t + 31.0, at, None, None, goal_done=True)
-    assert d.mode == "patrol" and "patrolling" in d.reason       # then the patrol
-    # seen once and lost: no crossroads, the patrol at once
-    seen = FollowBehaviour(grid, cfg)
-    seen.update(0.0, robot, (4.0, 10.0, 0.0, 0.0))
-    assert "patrolling" in seen.update(5.0, robot, None, None).reason
 
 
 def test_pick_target_keeps_the_followed_id_else_the_nearest_to_last_seen():

@@ -59,7 +59,7 @@ from ..nav.planner import (PlanError, PlanningGrid, disc_points, give_way_point,
                            path_length)
 from ..geometry import wrap_angle
 from ..nav.pockets import floor_pockets
-from .search import Watch, as_plan, patrol_points, watch_places
+from .search import as_plan, patrol_points
 
 _GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps to give_way
 _MOVING = 0.15              # m/s: a target slower than this stands still
@@ -137,13 +137,6 @@ class FollowConfig:
             gave up 0-5 % of its legs instead of 7-17 %, but on freiburg_079 (seed 1) the
             walker spent minutes in a 1 x 3.6 m dead-end room the observer then waited
             outside of, unable to see in: tracked 74 -> 42 % (docs/evaluation.md, session 29).
-        watch: a target not seen yet (after ``patrol_after``, with nothing predicted) is first
-            waited for at the floor's ``watch`` busiest crossroads (search.watch_places: the
-            patrol places most shortest paths between patrol places pass near, two
-            ``patrol_spacing`` apart), in turn, before the patrol: someone walking between
-            rooms passes them most often (acapulco_convention, 3600 m^2: patrolling nearest
-            first, the observer found the walker after 690 s). 0: patrol at once.
-        watch_wait: how long (s) it waits at each crossroads, looking round twice.
     """
 
     distance: float = 1.5
@@ -167,15 +160,13 @@ class FollowConfig:
     trail: float = 4.0
     unblock: float = 4.0
     snug: float = 0.0
-    watch: int = 3
-    watch_wait: float = 60.0
 
     def check(self) -> None:
         """Raise FollowError naming the first bad parameter."""
         for name in ("distance", "slack", "replan_distance", "goal_period", "lost_after",
                      "search_turn", "search_wait", "patrol_spacing", "patrol_after", "roomy",
                      "give_way",
-                     "give_way_reach", "give_way_hold", "watch_wait"):
+                     "give_way_reach", "give_way_hold"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise FollowError("follower: %s must be a finite number > 0, got %r" % (name, v))
@@ -183,8 +174,6 @@ class FollowConfig:
             v = getattr(self, name)
             if not (isinstance(v, int) and v >= 1):
                 raise FollowError("follower: %s must be an integer >= 1, got %r" % (name, v))
-        if not (isinstance(self.watch, int) and self.watch >= 0):
-            raise FollowError("follower: watch must be an integer >= 0, got %r" % (self.watch,))
         if not (isinstance(self.pass_detour, (int, float)) and math.isfinite(self.pass_detour)
                 and self.pass_detour >= 0):
             raise FollowError("follower: pass_detour must be a finite number >= 0, got %r"
@@ -267,7 +256,6 @@ class FollowBehaviour:
         self._rounds = 0                 # rounds of the search plan gone without a sight
         self._place = ""                 # what the current search goal is (for the log)
         self._patrol: Optional[np.ndarray] = None   # patrol places (made when first needed)
-        self._watch: Optional[Watch] = None         # crossroads to wait at (likewise)
         self._t0: Optional[float] = None   # when it first looked for a target not yet seen
         self._patrolled: List[int] = []  # patrol places visited this tour
         self._search_phase = ""          # back | round | go | look | wait
@@ -381,7 +369,7 @@ class FollowBehaviour:
             return FollowDecision(self.mode)
         plan = as_plan(destination)
         if not plan:
-            return self._patrol_unseen(t, robot, goal_done)
+            return self._patrol_unseen(robot, goal_done)
         rx, ry, ryaw = (float(v) for v in robot[:3])
         if self.mode != "search" or [r for r, _ in plan] != [r for r, _ in self._search]:
             first_loss = self.mode != "search"
@@ -603,22 +591,14 @@ class FollowBehaviour:
         return self._go(rx, ry, x, y, "%s %s (%d of %d)" % (
             why, region, self._search_index + 1, len(self._search)))
 
-    def _patrol_unseen(self, t: float, robot: Sequence[float], goal_done: bool
-                       ) -> FollowDecision:
+    def _patrol_unseen(self, robot: Sequence[float], goal_done: bool) -> FollowDecision:
         """Nothing tracked and nothing predicted (a target never seen, or lost with no leg to
-        predict): a target never seen is first waited for at the floor's crossroads (see
-        FollowConfig.watch); then patrol the building's roomy places, nearest first, one after
-        the other; an observer that started out of sight of its target stood still for ever
-        before. Idle only where there is nowhere to patrol."""
+        predict): patrol the building's roomy places, nearest first, one after the other; an
+        observer that started out of sight of its target stood still for ever before. Idle
+        only where there is nowhere to patrol."""
         rx, ry = float(robot[0]), float(robot[1])
-        self.prepare()
-        assert self._patrol is not None and self._watch is not None
-        if self.last_seen is None and not self._watch.done:
-            step = self._watch.step(t, robot, goal_done)
-            if step is not None:
-                self.mode = "patrol"
-                return FollowDecision("patrol", step[0], step[1])
-            goal_done = True              # watched from every crossroads: on to the patrol
+        self._prepare()
+        assert self._patrol is not None
         if len(self._patrol) == 0:
             if self.mode != "idle":
                 self.mode = "idle"
@@ -631,20 +611,15 @@ class FollowBehaviour:
                                   "(%s)" % self._place)
         return FollowDecision("patrol")
 
-    def prepare(self) -> None:
-        """Work out the patrol places and the crossroads to watch from (seconds on a big
-        floor), once; a node calls it when the map comes, the decisions when first needed."""
-        cfg = self.config
+    def _prepare(self) -> None:
+        """Work out the patrol places, when first needed."""
         if self._patrol is None:
-            self._patrol = patrol_points(self.grid, cfg.patrol_spacing, cfg.roomy)
-        if self._watch is None:
-            places = (watch_places(self.grid, self._patrol, cfg.watch, 2.0 * cfg.patrol_spacing)
-                      if cfg.watch > 0 else np.zeros((0, 2)))
-            self._watch = Watch(places, cfg.watch_wait, cfg.search_turn)
+            self._patrol = patrol_points(self.grid, self.config.patrol_spacing,
+                                         self.config.roomy)
 
     def _patrol_go(self, rx: float, ry: float) -> FollowDecision:
         """On to the nearest patrol place not visited in this tour (a new tour when all are)."""
-        self.prepare()
+        self._prepare()
         assert self._patrol is not None
         if len(self._patrol) == 0:
             return self._search_go(rx, ry, "not found, nowhere to patrol: searching region")

@@ -95,10 +95,8 @@ class FollowerNode:
         except BulletFloorSimError as e:
             rospy.logerr("follower: cannot use the map: %s", e)
             return
-        behaviour = FollowBehaviour(grid, self.config)
-        behaviour.prepare()     # the patrol places and crossroads: seconds on a big floor
         with self.lock:
-            agent = FollowerAgent(behaviour)
+            agent = FollowerAgent(FollowBehaviour(grid, self.config))
             if self.agent is not None:   # a new map: the same target and its search plan
                 agent.target_id, agent.destination = self.agent.target_id, self.agent.destination
             self.agent = agent
