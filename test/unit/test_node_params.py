@@ -43,6 +43,8 @@ def test_a_value_of_the_wrong_kind_is_one_error_naming_the_parameter(value, curr
     (PathFollowerParams(max_linear=-0.5), r"path_follower: ~max_linear -0\.5: must be a number > 0"),
     (PathFollowerParams(controller_frequency=float("nan")), r"~controller_frequency nan"),
     (PathFollowerParams(inflation_radius=-0.1), r"~inflation_radius -0\.1: must be a number >= 0"),
+    (PathFollowerParams(detour=-1.0), r"~detour -1(\.0)?: must be a number >= 0"),
+    (PathFollowerParams(detour_wait=0.0), r"~detour_wait 0(\.0)?: must be a number > 0"),
     (RecorderParams(db_timeout=0.0), r"trajectory_recorder: ~db_timeout 0\.0: must be seconds > 0"),
     (RecorderParams(flush_every=-1.0), r"trajectory_recorder: ~flush_every -1\.0: must be >= 0"),
     (RecorderParams(path_rate=-1.0), r"trajectory_recorder: ~path_rate -1\.0: must be >= 0"),

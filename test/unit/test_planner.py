@@ -283,6 +283,35 @@ def test_a_yielding_robot_backs_out_of_a_narrow_corridor_then_goes_on():
     assert st.state == "succeeded" and math.hypot(pose[0] - 10.0, pose[1] - 1.6) < 0.2
 
 
+def test_a_robot_blocked_on_a_loop_waits_before_taking_the_long_way_round():
+    """A ring corridor 1.2 m wide round a 9.5 x 3.5 m block; a robot parked across the south
+    corridor between the robot and its goal 4 m east. The way round is ~27 m: it waits for
+    ``detour_wait`` (10 s) blocked first, in case what blocks it gives way, then takes it;
+    with ``detour`` 0 it takes it after ``replan_after`` (2 s)."""
+    g = np.zeros((int(6.0 / 0.05), int(12.0 / 0.05)), dtype=np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+    g[int(1.25 / 0.05):int(4.75 / 0.05), int(1.25 / 0.05):int(10.75 / 0.05)] = 100
+    grid = PlanningGrid(map_from_grid(g, 0.05))
+    other = np.array([[5.0 + 0.35 * math.cos(a), 0.65 + 0.35 * math.sin(a)]
+                      for a in np.linspace(0, 2 * math.pi, 40, endpoint=False)])
+    start, goal = (3.0, 0.65, 0.0), (7.0, 0.65)
+
+    def round_it(config, seconds):
+        """Whether it is on the way round (back west of where it started) after ``seconds``."""
+        nav = Navigator(grid, PathFollower(), config)
+        nav.start(start, goal, 0.0)
+        pose, _, st = _drive_unicycle(nav, start, other, 0.0, seconds)
+        assert st.state == "active"
+        return pose[0] < start[0] - 0.5
+
+    assert not round_it(NavigatorConfig(), 11.0)          # up to the parked one, and waits
+    assert round_it(NavigatorConfig(), 20.0)              # then the long way round
+    assert round_it(NavigatorConfig(detour=0.0), 9.0)     # at once without the rule
+    # the way round is that long
+    way = path_length(grid.plan(start, goal, obstacles=other))
+    assert way > 4.0 + 10.0 + 10.0
+
+
 def test_a_robot_that_cannot_move_backs_off_unless_something_is_behind_it():
     g = np.zeros((60, 100), dtype=np.int8)
     g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100

@@ -135,6 +135,11 @@ class NavigatorConfig:
             own).
         pass_wait_max: the longest wait (s) at a passing place; it waits as long as what it
             yielded to takes to come that far at 0.4 m/s, at least ``give_way_wait``.
+        detour, detour_wait: a way round what blocks it that is more than ``detour`` m longer
+            than the way it was on is taken only once it has been blocked ``detour_wait`` s
+            (with ``passing``): what blocks it may give way first. The walker, blocked by the
+            observer for 2 s, walked 80 m round aces_austin's loop instead of waiting for it
+            to step aside, and its leg timed out. 0: any way round at once.
     """
 
     replan_after: float = 2.0
@@ -154,6 +159,8 @@ class NavigatorConfig:
     other_radius: Optional[float] = None
     passing_reach: float = 25.0
     pass_wait_max: float = 30.0
+    detour: float = 10.0
+    detour_wait: float = 10.0
 
 
 @dataclass
@@ -190,6 +197,7 @@ class Navigator:
         self._blocked_since: Optional[float] = None
         self._blocked_total = 0.0
         self._best = math.inf
+        self._left = math.inf         # the way left along the path (m), last update
         self._best_t = 0.0
         self._last_t: Optional[float] = None
         self._last_cmd = (0.0, 0.0)
@@ -228,7 +236,7 @@ class Navigator:
         self.replans = 0
         self._blocked_since = None
         self._blocked_total = 0.0
-        self._best = math.inf
+        self._best = self._left = math.inf
         self._best_t = now
         self._last_t = now
         self._last_cmd = (0.0, 0.0)
@@ -309,6 +317,7 @@ class Navigator:
             if self._rebases < _MAX_REBASES:
                 self._best, self._rebases = left, self._rebases + 1
             self._rebase = False
+        self._left = left
         if self._retreat is None and left < self._best - 0.1:
             # (retreating, the distance is to the place it retreats to: no progress)
             self._best = left
@@ -434,6 +443,8 @@ class Navigator:
         path: Optional[np.ndarray]
         try:
             path = self.grid.plan(pose, self._retreat or self.goal, obstacles=world)
+            if self._waits_for_detour(path):
+                return   # blocked: what blocks it may give way before the long way round
         except PlanError:
             if self.retreats < _MAX_RETREATS and len(world) and self._yields(pose, world):
                 # the observer first steps out of the way nearby (it keeps its target in
@@ -458,6 +469,14 @@ class Navigator:
         self.replans += 1
         self._rebase = self._retreat is None
         self.follower.set_path(path, None if self._retreat else self.goal[2])
+
+    def _waits_for_detour(self, path: np.ndarray) -> bool:
+        """Whether to keep waiting instead of taking ``path``, a way round what blocks it more
+        than ``detour`` m longer than the way left, before ``detour_wait`` s blocked."""
+        cfg = self.config
+        return (cfg.passing and cfg.detour > 0 and self._retreat is None
+                and self._blocked_total < cfg.detour_wait
+                and path_length(path) > self._left + cfg.detour)
 
     def _yields(self, pose: Sequence[float], world: np.ndarray) -> bool:
         """Whether this robot gives way to what blocks it (``world``, the points of it):

@@ -17,7 +17,9 @@ Parameters (defaults suit a Scitos A5): ``~robot_radius`` 0.34, ``~inflation_rad
 ``~blocked_timeout`` 30, ``~progress_timeout`` 60, ``~give_way`` false (true: when blocked
 where no path passes, retreat to a wider place, wait and go on: nav/planner.Navigator),
 ``~keep_way`` false (true: in a passage too narrow for two, never yield by the passing rule,
-only after 20 s blocked: the walker, nav/navigator.NavigatorConfig),
+only after 20 s blocked: the walker, nav/navigator.NavigatorConfig), ``~detour`` 10 and
+``~detour_wait`` 10 (a way round what blocks it more than 10 m longer is taken only after
+10 s blocked; 0: at once),
 ``~global_frame`` map, ``~map_topic`` /map, ``~localisation`` ground_truth | tf,
 ``~allow_unknown`` false (true: plan through unknown space, as navfn's ``allow_unknown``;
 exploration needs it).
@@ -72,6 +74,8 @@ class PathFollowerParams:
     progress_timeout: float = 60.0
     give_way: bool = False
     keep_way: bool = False
+    detour: float = NavigatorConfig.detour
+    detour_wait: float = NavigatorConfig.detour_wait
     global_frame: str = "map"
     map_topic: str = "/map"
     localisation: str = "ground_truth"
@@ -81,9 +85,10 @@ class PathFollowerParams:
         """Raises BulletFloorSimError naming the first parameter that is not a number > 0
         (>= 0 for ``inflation_radius``: none)."""
         numbers = [f.name for f in fields(self) if isinstance(getattr(self, f.name), float)]
-        check_at_least(self, "path_follower", [n for n in numbers if n != "inflation_radius"],
+        zero_ok = ("inflation_radius", "detour")
+        check_at_least(self, "path_follower", [n for n in numbers if n not in zero_ok],
                        what="a number")
-        check_at_least(self, "path_follower", ["inflation_radius"], strict=False, what="a number")
+        check_at_least(self, "path_follower", list(zero_ok), strict=False, what="a number")
         if self.localisation not in ("ground_truth", "tf"):
             raise BulletFloorSimError("path_follower: ~localisation must be ground_truth or tf, "
                                       "got %r" % self.localisation)
@@ -104,7 +109,8 @@ class PathFollowerNode:
             xy_tolerance=p.xy_goal_tolerance, yaw_tolerance=p.yaw_goal_tolerance)
         self.nav_cfg = NavigatorConfig(blocked_timeout=p.blocked_timeout,
                                        progress_timeout=p.progress_timeout, give_way=p.give_way,
-                                       keep_way=p.keep_way,
+                                       keep_way=p.keep_way, detour=p.detour,
+                                       detour_wait=p.detour_wait,
                                        # mapping: the map is partial, so are its passing places
                                        passing=not p.allow_unknown)
         self.rate_hz = p.controller_frequency
