@@ -557,6 +557,28 @@ def test_a_target_lost_while_stepping_aside_is_looked_for_once_there():
     assert fb.update(24.5, (4.8, 2.3, 2.5), None, dest).mode == "search"
 
 
+def test_a_target_lost_after_a_give_way_is_trailed_the_way_it_went_meanwhile():
+    """The observer steps aside (unblock) and waits; the target walks off east, seen, then
+    is lost: the trail goes by the velocity it was seen with while the observer gave way (it
+    went by the one from before: looking back where the target had stood)."""
+    grid = hall()
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9, unblock=4.0,
+                                            lost_after=2.0, trail=4.0))
+    robot, dest = (5.0, 2.0, 0.0), [("east", (9.0, 2.0))]
+    for t in (0.0, 1.0, 2.0, 3.0):
+        fb.update(t, robot, (5.9, 2.0, 0.0, 0.0), dest, goal_done=True)
+    step = fb.update(4.0, robot, (5.9, 2.0, 0.0, 0.0), dest, goal_done=True)
+    assert step.mode == "give_way"
+    at = step.goal
+    assert fb.update(5.0, at, (6.5, 2.0, 0.6, 0.0), dest, goal_done=True).mode == "give_way"
+    assert fb.update(6.0, at, (7.1, 2.0, 0.6, 0.0), dest).mode == "give_way"
+    fb.update(7.0, at, None, dest)
+    d = fb.update(8.5, at, None, dest)
+    assert d.mode == "search" and d.goal is not None and "trailing" in d.reason
+    gx, gy, gyaw = d.goal
+    assert gx > 8.0 and gy == pytest.approx(2.0, abs=0.1) and gyaw == pytest.approx(0.0)
+
+
 def hall_with_pocket(gap=0.75):
     """A hall 10 x 4 m and, north of it, a room 2.5 x 2.5 m whose only way in is a gap
     ``gap`` wide in the 0.2 m wall between them (x 4.625-5.375 for 0.75 m)."""

@@ -348,6 +348,11 @@ class FollowBehaviour:
                 destination, goal_done: bool) -> FollowDecision:
         cfg = self.config
         if target is not None:
+            # where it was seen and how fast it went, whatever the observer does about it
+            # (the trail of a target lost after a give-way spell went by the velocity from
+            # before it: mit_csail, searched for 200 s 8 m the wrong way)
+            self.last_seen, self.last_target = t, (float(target[0]), float(target[1]))
+            self._last_velocity = (float(target[2]), float(target[3]))
             dests = [p for _, p in as_plan(destination)]
             way = self._give_way(t, robot, target, dests, goal_done)
             if way is None:
@@ -427,7 +432,7 @@ class FollowBehaviour:
         if self._yield is not None:
             yx, yy, yt = self._yield
             if math.hypot(tx - yx, ty - yy) < cfg.distance and t - yt < cfg.give_way_hold:
-                self.last_seen, self.last_target, self.mode = t, (tx, ty), "give_way"
+                self.mode = "give_way"
                 facing = math.atan2(ty - ry, tx - rx)
                 if goal_done and abs(wrap_angle(facing - ryaw)) > 0.5:
                     return FollowDecision("give_way", (rx, ry, facing), "facing the target")
@@ -498,7 +503,7 @@ class FollowBehaviour:
         if point is None:
             return None
         self._yield = (tx, ty, t)
-        self.last_seen, self.last_target, self.mode = t, (tx, ty), "give_way"
+        self.mode = "give_way"
         self._goal_target, self._goal_time = (tx, ty), t
         gx, gy = point
         self._aside = (gx, gy, math.hypot(gx - robot[0], gy - robot[1]))
@@ -643,7 +648,6 @@ class FollowBehaviour:
                 goal_done: bool) -> FollowDecision:
         cfg = self.config
         tx, ty, vx, vy = (float(v) for v in target[:4])
-        self.last_seen, self.last_target, self._last_velocity = t, (tx, ty), (vx, vy)
         first = self.mode != "follow"
         self.mode = "follow"
         rx, ry, ryaw = (float(v) for v in robot[:3])
