@@ -602,9 +602,7 @@ class FollowBehaviour:
         observer that started out of sight of its target stood still for ever before. Idle
         only where there is nowhere to patrol."""
         rx, ry = float(robot[0]), float(robot[1])
-        self._prepare()
-        assert self._patrol is not None
-        if len(self._patrol) == 0:
+        if len(self._patrol_places()) == 0:
             if self.mode != "idle":
                 self.mode = "idle"
                 return FollowDecision("idle", None, "target lost, no predicted destination")
@@ -616,28 +614,28 @@ class FollowBehaviour:
                                   "(%s)" % self._place)
         return FollowDecision("patrol")
 
-    def _prepare(self) -> None:
-        """Work out the patrol places, when first needed."""
+    def _patrol_places(self) -> np.ndarray:
+        """The patrol places (search.patrol_points), made when first needed."""
         if self._patrol is None:
             self._patrol = patrol_points(self.grid, self.config.patrol_spacing,
                                          self.config.roomy)
+        return self._patrol
 
     def _patrol_go(self, rx: float, ry: float) -> FollowDecision:
         """On to the nearest patrol place not visited in this tour (a new tour when all are)."""
-        self._prepare()
-        assert self._patrol is not None
-        if len(self._patrol) == 0:
+        places = self._patrol_places()
+        if len(places) == 0:
             return self._search_go(rx, ry, "not found, nowhere to patrol: searching region")
-        if len(self._patrolled) >= len(self._patrol):
+        if len(self._patrolled) >= len(places):
             self._patrolled = []
-        d = np.hypot(self._patrol[:, 0] - rx, self._patrol[:, 1] - ry)
+        d = np.hypot(places[:, 0] - rx, places[:, 1] - ry)
         d[self._patrolled] = np.inf
         k = int(np.argmin(d))
         self._patrolled.append(k)
-        x, y = (float(v) for v in self._patrol[k])
+        x, y = (float(v) for v in places[k])
         self._place = "patrol place %d" % (k + 1)
         return self._go(rx, ry, x, y, "not found in %d rounds of its likely regions: patrolling "
-                        "(%s of %d)" % (self._rounds, self._place, len(self._patrol)))
+                        "(%s of %d)" % (self._rounds, self._place, len(places)))
 
     def _go(self, rx: float, ry: float, x: float, y: float, why: str) -> FollowDecision:
         self._search_phase = "go"
