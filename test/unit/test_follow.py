@@ -614,3 +614,28 @@ def test_a_goal_behind_a_passage_too_snug_to_turn_in_is_waited_for_outside():
     d = inside.update(0.0, (5.0, 5.5, -math.pi / 2), (5.0, 2.0, 0.0, -0.5))
     gx, gy, _ = d.goal                                            # out in the hall, 1.5 m
     assert gy < 4.0 and math.hypot(gx - 5.0, gy - 2.0) == pytest.approx(1.5, abs=0.01)
+
+
+def test_a_give_way_point_in_sight_of_the_target_comes_before_a_nearer_one_behind_a_wall():
+    # a 10 x 4 m hall, a wall stub hanging from the north wall at x 2.8..3.3 down to y 2.65;
+    # the target at (1.5, 2.3) west of it walks east along y = 2.3, the observer at (5, 2.6)
+    g = np.zeros((int(4.0 / RES), int(10.0 / RES)), dtype=np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+    g[int(2.65 / RES):, int(2.8 / RES):int(3.3 / RES)] = 100
+    grid = PlanningGrid(map_from_grid(g, RES))
+    route = np.array([[x, 2.3] for x in np.arange(1.5, 9.5, 0.1)])
+    robot, target = (5.0, 2.6), (1.5, 2.3)
+    # hand-checked: from (5, 3.2) the line to the target is at y 2.71 at x 3.3, in the stub;
+    # from (5, 1.4) nothing is in the way
+    assert grid.in_sight(np.array([[5.0, 3.2], [5.0, 1.4], [2.0, 3.4]]),
+                         target).tolist() == [False, True, True]
+    # without a view preference: the nearest place, north (0.6 m off, south is 1.2 m)
+    north = give_way_point(grid, route, robot, target, 0.9, 4.0)
+    assert north is not None and north[1] >= 3.2 - 1e-9 and north[0] > 3.3
+    assert not grid.in_sight(np.array([north]), target)[0]
+    # with it (any bearing): the nearest place that sees the target, south of the route
+    south = give_way_point(grid, route, robot, target, 0.9, 4.0, in_view=math.pi)
+    assert south is not None and south[1] <= 2.3 - 0.9 + 1e-9
+    assert grid.in_sight(np.array([south]), target)[0]
+    assert math.hypot(south[0] - 5.0, south[1] - 2.6) < 1.4
+

@@ -271,6 +271,24 @@ class PlanningGrid:
         return math.isfinite(self._segment_cost(self.cost, np.asarray(a[:2], dtype=float),
                                                 np.asarray(b[:2], dtype=float)))
 
+    def in_sight(self, xy: np.ndarray, target: Sequence[float]) -> np.ndarray:
+        """Which map-frame points (N, 2) see ``target``: the straight line between them
+        crosses no solid cell of the map (sampled every half map cell), as a lidar beam
+        from one to the other would."""
+        pts = np.asarray(xy, dtype=float).reshape(-1, 2)
+        tx, ty = float(target[0]), float(target[1])
+        span = np.hypot(pts[:, 0] - tx, pts[:, 1] - ty)
+        n = max(2, int(math.ceil(float(span.max(initial=0.0)) / (0.5 * self.fmap.resolution))) + 1)
+        s = np.linspace(0.0, 1.0, n)[None, :]
+        x = pts[:, :1] + s * (tx - pts[:, :1])
+        y = pts[:, 1:] + s * (ty - pts[:, 1:])
+        col, row = self.fmap.world_to_cell(x.ravel(), y.ravel())
+        h, w = self._fine.shape
+        inside = (col >= 0) & (row >= 0) & (col < w) & (row < h)
+        solid = np.ones(col.shape, dtype=bool)
+        solid[inside] = self._fine[row[inside], col[inside]] < 0.0
+        return ~solid.reshape(x.shape).any(axis=1)
+
     def graph(self) -> Tuple[Any, np.ndarray]:
         """The passable cells as an undirected scipy sparse graph, with A*'s step costs (8
         neighbours, a diagonal only where both cells beside it are passable, each step its

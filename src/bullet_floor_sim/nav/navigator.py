@@ -39,9 +39,11 @@ def give_way_point(grid: PlanningGrid, route: np.ndarray, robot: Sequence[float]
     every point of ``route`` (an (N, 2) polyline sampled finely, e.g. a plan) and from the
     ``target``, within ``reach`` metres of the robot and reachable from it without passing
     ``obstacles`` (map-frame points, inflated as the planner does); one with ``roomy`` metres
-    of wall clearance first, and of those (then of the rest) one whose bearing from the robot
+    of wall clearance first, and of those (then of the rest) one that sees the target (no wall
+    between: the lidar finds it from there, where it waits) and whose bearing from the robot
     is within ``in_view`` radians of the target's (driving there, a forward-looking lidar keeps
-    the target in view; 0: no such preference). None when there is none."""
+    the target in view), then one that sees it, then one within that bearing (0: neither
+    preference). None when there is none."""
     from scipy.ndimage import label
 
     rx, ry = float(robot[0]), float(robot[1])
@@ -85,7 +87,10 @@ def give_way_point(grid: PlanningGrid, route: np.ndarray, robot: Sequence[float]
     if in_view > 0.0:
         bearing = math.atan2(float(target[1]) - ry, float(target[0]) - rx)
         seen = np.abs(wrap_angles(np.arctan2(y - ry, x - rx) - bearing)) <= in_view
-        tiers = [roomy_ok & seen, roomy_ok, ok & seen, ok]
+        sight = np.zeros_like(ok)
+        sight[ok] = grid.in_sight(np.stack([x[ok], y[ok]], axis=1), target)
+        tiers = [roomy_ok & sight & seen, roomy_ok & sight, roomy_ok & seen, roomy_ok,
+                 ok & sight & seen, ok & sight, ok & seen, ok]
     pick = next(t for t in tiers if t.any())
     i = int(np.argmin(np.where(pick, d_robot, np.inf)))
     return float(x[i]), float(y[i])
