@@ -40,7 +40,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   seen again ends the search. (Looking in one region only, the observer sat for good where
   the walker was not: a fifth of a 200-leg evaluation.)
 * **patrol**: nothing tracked and nothing predicted (the target never seen, or lost with no
-  leg to predict): the building's roomy places in turn, nearest first (:func:`patrol_points`).
+  leg to predict): the building's roomy places in turn, nearest first; a place seen on the
+  way (``patrol_sight``) counts as visited (:class:`PatrolTour`).
   A target not seen yet is first looked round for on the spot (``search_turn``), once, and
   patrolled for after ``patrol_after`` seconds.
 * **idle**: as patrol, on a floor with nowhere to patrol: stay.
@@ -60,7 +61,7 @@ from ..nav.planner import (PlanError, PlanningGrid, disc_points, give_way_point,
                            path_length)
 from ..geometry import wrap_angle
 from ..nav.pockets import floor_pockets
-from .search import as_plan, patrol_points
+from .search import PatrolTour, as_plan
 
 _GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps to give_way
 _MOVING = 0.15              # m/s: a target slower than this stands still
@@ -92,6 +93,13 @@ class FollowConfig:
             of the map, nearest first, each once before any again (the target walked on to
             regions its last prediction did not name, and out of sight of them).
         patrol_spacing: the side (m) of the blocks that give the patrol its places.
+        patrol_sight: a patrol place the observer sees on the way, within this many metres,
+            within 90 degrees of its heading (the Scitos's 180-degree lidar) and with no
+            wall between, counts as visited in this tour; one it was driving to is passed
+            over for the next. 8 m is within the range at which the tracker finds a person
+            (3 beams, ``min_points``, on a 0.5 m body at the lidar's 1 degree: 9.5 m).
+            Going to each place in turn, it patrolled a 3600 m^2 hall for 690 s before it
+            first saw the walker. 0: only the places it goes to count.
         patrol_after: a target not seen this long from the start, with nothing predicted, is
             looked for on patrol (it may come by: a crowd's person, a walker dwelling).
         search_min_probability: ... each at least this likely (the most likely one always).
@@ -155,6 +163,7 @@ class FollowConfig:
     search_rounds: int = 2
     patrol_spacing: float = 4.0
     patrol_after: float = 10.0
+    patrol_sight: float = 8.0
     roomy: float = 0.6
     give_way: float = 0.9
     give_way_reach: float = 4.0
@@ -182,7 +191,7 @@ class FollowConfig:
                 and self.pass_detour >= 0):
             raise FollowError("follower: pass_detour must be a finite number >= 0, got %r"
                               % (self.pass_detour,))
-        for name in ("trail", "unblock", "snug"):
+        for name in ("trail", "unblock", "snug", "patrol_sight"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise FollowError("follower: %s must be a finite number >= 0, got %r"
@@ -259,9 +268,10 @@ class FollowBehaviour:
         self._search_index = 0
         self._rounds = 0                 # rounds of the search plan gone without a sight
         self._place = ""                 # what the current search goal is (for the log)
-        self._patrol: Optional[np.ndarray] = None   # patrol places (made when first needed)
         self._t0: Optional[float] = None   # when it first looked for a target not yet seen
-        self._patrolled: List[int] = []  # patrol places visited this tour
+        cfg = self.config
+        self._tour = PatrolTour(grid, cfg.patrol_spacing, cfg.roomy, cfg.patrol_sight)
+        self._passed = False             # the patrol place it drove to was seen from afar
         self._search_phase = ""          # back | round | go | look | wait
         self._search_since = -math.inf
         # (target x, y, time, destinations) of self._route
@@ -294,6 +304,11 @@ class FollowBehaviour:
         """
         if goal_done:
             self._standing = True
+        if target is not None:
+            self._tour.goal = None
+        # the patrol place it drove to is in view from afar: on to the next
+        self._passed = target is None and self._tour.goal is not None \
+            and self._tour.look_over(t, robot)
         decision = self._decide(t, robot, target, destination, goal_done)
         if decision.goal is not None and decision.mode != "give_way":
             decision = self._outside_pockets(robot, decision)
@@ -383,6 +398,7 @@ class FollowBehaviour:
         if self.mode != "search" or [r for r, _ in plan] != [r for r, _ in self._search]:
             first_loss = self.mode != "search"
             self.mode, self._search, self._search_index, self._rounds = "search", plan, 0, 0
+            self._tour.goal = None
             lx, ly = self.last_target if self.last_target is not None else (rx, ry)
             trail = self._trail_point() if first_loss else None
             if trail is not None:
@@ -407,6 +423,8 @@ class FollowBehaviour:
             if goal_done:
                 return self._search_go(rx, ry, "not there: searching predicted region")
             return FollowDecision("search")
+        if self._search_phase == "go" and self._passed:
+            return self._patrol_go(rx, ry)
         if self._search_phase == "go" and goal_done:
             self._search_phase = "look"
             return FollowDecision("search", (rx, ry, wrap_angle(ryaw + cfg.search_turn)),
@@ -596,7 +614,7 @@ class FollowBehaviour:
 
     def _search_go(self, rx: float, ry: float, why: str) -> FollowDecision:
         region, (x, y) = self._search[self._search_index]
-        self._place = "region %s's search point" % region
+        self._place, self._tour.goal = "region %s's search point" % region, None
         return self._go(rx, ry, x, y, "%s %s (%d of %d)" % (
             why, region, self._search_index + 1, len(self._search)))
 
@@ -606,40 +624,27 @@ class FollowBehaviour:
         observer that started out of sight of its target stood still for ever before. Idle
         only where there is nowhere to patrol."""
         rx, ry = float(robot[0]), float(robot[1])
-        if len(self._patrol_places()) == 0:
+        if len(self._tour.places) == 0:
             if self.mode != "idle":
                 self.mode = "idle"
                 return FollowDecision("idle", None, "target lost, no predicted destination")
             return FollowDecision("idle")
-        if self.mode != "patrol" or goal_done:
+        if self.mode != "patrol" or goal_done or self._passed:
             self.mode = "patrol"
             d = self._patrol_go(rx, ry)
             return FollowDecision("patrol", d.goal, "nothing tracked or predicted: patrolling "
                                   "(%s)" % self._place)
         return FollowDecision("patrol")
 
-    def _patrol_places(self) -> np.ndarray:
-        """The patrol places (search.patrol_points), made when first needed."""
-        if self._patrol is None:
-            self._patrol = patrol_points(self.grid, self.config.patrol_spacing,
-                                         self.config.roomy)
-        return self._patrol
-
     def _patrol_go(self, rx: float, ry: float) -> FollowDecision:
         """On to the nearest patrol place not visited in this tour (a new tour when all are)."""
-        places = self._patrol_places()
-        if len(places) == 0:
+        n = len(self._tour.places)
+        if n == 0:
             return self._search_go(rx, ry, "not found, nowhere to patrol: searching region")
-        if len(self._patrolled) >= len(places):
-            self._patrolled = []
-        d = np.hypot(places[:, 0] - rx, places[:, 1] - ry)
-        d[self._patrolled] = np.inf
-        k = int(np.argmin(d))
-        self._patrolled.append(k)
-        x, y = (float(v) for v in places[k])
+        k, x, y = self._tour.next(rx, ry)
         self._place = "patrol place %d" % (k + 1)
         return self._go(rx, ry, x, y, "not found in %d rounds of its likely regions: patrolling "
-                        "(%s of %d)" % (self._rounds, self._place, len(places)))
+                        "(%s of %d)" % (self._rounds, self._place, n))
 
     def _go(self, rx: float, ry: float, x: float, y: float, why: str) -> FollowDecision:
         self._search_phase = "go"

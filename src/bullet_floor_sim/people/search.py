@@ -1,7 +1,8 @@
 """Where the observer looks: which track to follow (:func:`pick_target`), where to search for
 a lost target (:func:`search_plan`, :func:`search_point`: the likely destinations' points),
-where to patrol when those gave nothing (:func:`patrol_points`), and whether a point is in the
-lidar's view (:func:`in_view`). people/follow.FollowBehaviour and people/agents use them."""
+where to patrol when those gave nothing (:func:`patrol_points`, :class:`PatrolTour`), and
+whether a point is in the lidar's view (:func:`in_view`). people/follow.FollowBehaviour and
+people/agents use them."""
 from __future__ import annotations
 
 import math
@@ -9,10 +10,11 @@ from typing import Callable, List, Mapping, Optional, Protocol, Sequence, Tuple,
 
 import numpy as np
 
-from ..geometry import wrap_angle
+from ..geometry import wrap_angle, wrap_angles
 from ..nav.planner import PlanningGrid
 
-__all__ = ["pick_target", "search_point", "search_plan", "patrol_points", "in_view", "as_plan"]
+__all__ = ["pick_target", "search_point", "search_plan", "patrol_points", "PatrolTour", "in_view",
+           "as_plan"]
 
 #: points (N, 2): a list of (x, y) or an array (DestinationModel.goals)
 Points = Union[Sequence[Sequence[float]], np.ndarray]
@@ -98,6 +100,75 @@ def patrol_points(grid: PlanningGrid, spacing: float, clearance: float) -> np.nd
                 r, c = divmod(i, block.shape[1])
                 out.append(grid.to_world(c0 + c, r0 + r))
     return np.array(out, dtype=float).reshape(-1, 2)
+
+
+class PatrolTour:
+    """A tour of the building's patrol places (:func:`patrol_points`, made when first
+    needed): the nearest not visited first, each once a tour. A place seen on the way
+    (within ``sight`` metres, within 90 degrees of the heading, no wall between:
+    PlanningGrid.in_sight) counts as visited; 0: only the places gone to count.
+
+    Attributes:
+        visited: the indices of the places visited (or seen) in this tour.
+        goal: the index of the place it drives to, or None.
+    """
+
+    def __init__(self, grid: PlanningGrid, spacing: float, clearance: float,
+                 sight: float) -> None:
+        self.grid, self.spacing, self.clearance, self.sight = grid, spacing, clearance, sight
+        self._places: Optional[np.ndarray] = None
+        self.visited: List[int] = []
+        self.goal: Optional[int] = None
+        self._looked = -math.inf   # when it last looked over the places in view
+
+    @property
+    def places(self) -> np.ndarray:
+        """The patrol places, (N, 2)."""
+        if self._places is None:
+            self._places = patrol_points(self.grid, self.spacing, self.clearance)
+        return self._places
+
+    def next(self, x: float, y: float) -> Tuple[int, float, float]:
+        """The nearest place to (x, y) not visited in this tour (a new tour when all are,
+        but not the place it stands at), marked visited and made the goal: (index, x, y).
+        There must be places."""
+        places = self.places
+        d = np.hypot(places[:, 0] - x, places[:, 1] - y)
+        if len(self.visited) >= len(places):
+            self.visited = [int(k) for k in np.flatnonzero(d < 1.0)]
+            if len(self.visited) >= len(places):
+                self.visited = []
+        d[self.visited] = np.inf
+        k = int(np.argmin(d))
+        self.visited.append(k)
+        self.goal = k
+        return k, float(places[k, 0]), float(places[k, 1])
+
+    def look_over(self, t: float, pose: Sequence[float]) -> bool:
+        """Mark the places in view from ``pose`` (x, y, yaw) as visited, at most once a
+        second; whether the goal is among them, seen from afar rather than reached (the
+        goal is then dropped: on to the next)."""
+        if self.sight <= 0 or t - self._looked < 1.0:
+            return False
+        self._looked = t
+        places = self.places
+        rx, ry, ryaw = (float(v) for v in pose[:3])
+        d = np.hypot(places[:, 0] - rx, places[:, 1] - ry)
+        ahead = np.abs(wrap_angles(np.arctan2(places[:, 1] - ry, places[:, 0] - rx) - ryaw))
+        near = (d <= self.sight) & (ahead <= 0.5 * math.pi)
+        near[self.visited] = False
+        goal = self.goal
+        if goal is not None:
+            near[goal] = bool(d[goal] <= self.sight and ahead[goal] <= 0.5 * math.pi)
+        idx = np.flatnonzero(near)
+        if not len(idx):
+            return False
+        seen = idx[self.grid.in_sight(places[idx], (rx, ry))]
+        self.visited.extend(int(k) for k in seen if k != goal)
+        if goal is not None and goal in seen and d[goal] > self.grid.resolution * 2:
+            self.goal = None
+            return True
+        return False
 
 
 def in_view(observer: Sequence[float], laser_offset: Sequence[float], point: Sequence[float],
