@@ -1,0 +1,161 @@
+"""The observer's parameters (:class:`FollowConfig`), its decisions (:class:`FollowDecision`)
+and their error; people/follow.FollowBehaviour reads them, the follower node sets them from
+``~<field>`` parameters."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional, Tuple
+
+from ..errors import BulletFloorSimError
+
+__all__ = ["FollowError", "FollowConfig", "FollowDecision"]
+
+
+class FollowError(BulletFloorSimError):
+    """A bad follower parameter."""
+
+
+@dataclass
+class FollowConfig:
+    """Follower parameters (metres, seconds).
+
+    Attributes:
+        distance: stand-off distance kept from the target (the lidar needs it in front, and
+            1.5 m leaves a person room to turn round in a doorway).
+        slack: no new goal while the target stands within ``distance + slack`` and in view.
+        replan_distance: send a new goal when the target moved this far since the last one.
+        goal_period: while the target moves, a new goal at least this often.
+        lost_after: no track for this long -> search.
+        search_turn: after reaching the search point, turn this much (radians) to look round.
+        search_wait: after looking round, wait this long before going on to the next region.
+        search_regions: search at most this many of the most likely regions, in turn.
+        search_rounds: after this many rounds of those regions without a sight of the target,
+            patrol the building instead: the roomiest place of every ``patrol_spacing`` block
+            of the map, nearest first, each once before any again (the target walked on to
+            regions its last prediction did not name, and out of sight of them).
+        patrol_spacing: the side (m) of the blocks that give the patrol its places.
+        patrol_sight: a patrol place the observer sees on the way, within this many metres,
+            within 90 degrees of its heading (the Scitos's 180-degree lidar) and with no
+            wall between, counts as visited in this tour; one it was driving to is passed
+            over for the next. 8 m is within the range at which the tracker finds a person
+            (3 beams, ``min_points``, on a 0.5 m body at the lidar's 1 degree: 9.5 m).
+            Going to each place in turn, it patrolled a 3600 m^2 hall for 690 s before it
+            first saw the walker. 0: only the places it goes to count.
+        patrol_after: a target not seen this long from the start, with nothing predicted, is
+            looked for on patrol (it may come by: a crowd's person, a walker dwelling).
+        search_min_probability: ... each at least this likely (the most likely one always).
+        roomy: the wall clearance (m) of a place the observer waits at: a stand-off point is
+            chosen with at least this much when one exists, and an observer standing still
+            with less (in a doorway: 0.47-0.51 m in the office world, its corridor 0.89 m)
+            moves to one. Waiting in a doorway shut the walker in (or out) for good.
+        give_way: the clearance (m) kept from the target's predicted route when near it: two
+            footprint radii and a margin, so that the target passes without stopping.
+        give_way_reach: look for a place to give way at most this far (m) from the observer.
+        give_way_hold: wait where it gave way at most this long (s) for the target to pass.
+        give_way_view: of the places to give way at, one within this angle (radians) of the
+            target's bearing comes first: driving there, the lidar (180 degrees ahead on the
+            Scitos) keeps the target in view; 75 degrees leaves 15 for the path's bends.
+            Stepping aside the other way, it turned its back on the target (a fifth of a
+            200-leg run on malaga_corridor went untracked so). Before the bearing, a place
+            that sees the target (no wall on the line between: navigator.give_way_point)
+            comes first: on freiburg_079 it gave way round a corner from a walker in a
+            room, and tracked it 46 % of its time giving way. 0: neither preference.
+        pass_detour: an observer on the target's way stays where it is (the target in view)
+            when the target can go round it by a way at most this much longer (m); 0: it
+            always steps aside. Stepping aside for a target that could pass, it lost sight
+            of it (office: walker tracked 66.6 % of a 40-leg run with 0, 81.1 % with 2).
+        trail: a target lost while moving is first looked for where it went: the observer
+            drives to the point ``trail`` seconds on from where it was last seen at its last
+            velocity (stopped short of a wall), facing the way it went; then the likely
+            regions. 0: it only turns to where a target lost close by was last seen.
+        unblock: a target that has stayed within ``give_way`` + 0.2 m of the observer this
+            long (s) is taken to be blocked by it, wherever it is going: the observer steps
+            to the nearest place at least ``give_way`` from the target, from where it stands
+            and from the target's predicted routes (a roomy one in view first), and waits
+            there as when it gives way. 0: never. (intel_lab: the walker gave up a leg 0.8 m
+            from its goal, with the observer, following it, standing on that goal; no
+            prediction named a route through it.)
+        snug: a passage whose clearance is below the observer's radius plus this (m) is too
+            snug for it to turn in. A part of the floor behind such passages that is smaller
+            than a disc of radius ``distance`` (where it could not keep its distance from
+            the target) with one such passage into it is a pocket (a dead end): a follow,
+            search or patrol goal in a pocket the observer is not in becomes the nearest
+            place within ``give_way_reach`` outside pockets, facing the goal (aces_austin:
+            it followed the walker into a room 1.5 m deep through a passage 2-3 cm wider
+            than its footprint, wedged itself on the way out and shut the walker in for 10
+            minutes). Rooms behind narrow doors that are bigger than that, or have another
+            way in, are followed into as before (freiburg_079, whose 16 m^2 rooms have
+            0.75 m doors, lost a sixth of its tracking when no such room was). 0 (the
+            default): it goes wherever it can plan to. Off by default: with 0.04, aces_austin
+            gave up 0-5 % of its legs instead of 7-17 %, but on freiburg_079 (seed 1) the
+            walker spent minutes in a 1 x 3.6 m dead-end room the observer then waited
+            outside of, unable to see in: tracked 74 -> 42 % (docs/evaluation.md, session 29).
+    """
+
+    distance: float = 1.5
+    slack: float = 0.7
+    replan_distance: float = 0.5
+    goal_period: float = 2.0
+    lost_after: float = 2.0
+    search_turn: float = math.pi
+    search_wait: float = 3.0
+    search_regions: int = 3
+    search_min_probability: float = 0.05
+    search_rounds: int = 2
+    patrol_spacing: float = 4.0
+    patrol_after: float = 10.0
+    patrol_sight: float = 8.0
+    roomy: float = 0.6
+    give_way: float = 0.9
+    give_way_reach: float = 4.0
+    give_way_hold: float = 20.0
+    give_way_view: float = math.radians(75.0)
+    pass_detour: float = 2.0
+    trail: float = 4.0
+    unblock: float = 4.0
+    snug: float = 0.0
+
+    def check(self) -> None:
+        """Raise FollowError naming the first bad parameter."""
+        for name in ("distance", "slack", "replan_distance", "goal_period", "lost_after",
+                     "search_turn", "search_wait", "patrol_spacing", "patrol_after", "roomy",
+                     "give_way",
+                     "give_way_reach", "give_way_hold"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise FollowError("follower: %s must be a finite number > 0, got %r" % (name, v))
+        for name in ("search_regions", "search_rounds"):
+            v = getattr(self, name)
+            if not (isinstance(v, int) and v >= 1):
+                raise FollowError("follower: %s must be an integer >= 1, got %r" % (name, v))
+        if not (isinstance(self.pass_detour, (int, float)) and math.isfinite(self.pass_detour)
+                and self.pass_detour >= 0):
+            raise FollowError("follower: pass_detour must be a finite number >= 0, got %r"
+                              % (self.pass_detour,))
+        for name in ("trail", "unblock", "snug", "patrol_sight"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise FollowError("follower: %s must be a finite number >= 0, got %r"
+                                  % (name, v))
+        if not (math.isfinite(self.give_way_view) and 0.0 <= self.give_way_view <= math.pi):
+            raise FollowError("follower: give_way_view must be in [0, pi] radians, got %r"
+                              % (self.give_way_view,))
+        v = self.search_min_probability
+        if not (isinstance(v, (int, float)) and 0.0 <= v <= 1.0):
+            raise FollowError("follower: search_min_probability must be in [0, 1], got %r" % (v,))
+
+
+@dataclass
+class FollowDecision:
+    """What the observer should do now.
+
+    Attributes:
+        mode: ``follow``, ``give_way``, ``search``, ``patrol`` or ``idle``.
+        goal: a new navigation goal (x, y, yaw) to send now, or None (keep the current one).
+        reason: one line for the log.
+    """
+
+    mode: str
+    goal: Optional[Tuple[float, float, float]] = None
+    reason: str = ""
