@@ -669,3 +669,27 @@ def test_patrol_places_seen_on_the_way_count_as_visited():
     assert d.mode == "patrol" and round(d.goal[0]) == 16 and "patrolling" in d.reason
     # facing west, nothing ahead is new: it keeps going
     assert fb.update(7.0, (5.0, 2.0, math.pi), None, None).goal is None
+
+
+def test_the_place_to_step_aside_to_is_not_past_the_target_in_a_corridor():
+    # a corridor 1.9 m wide (y 0.05..1.95), alcoves north at x 10.5..11.5 (past the target)
+    # and x 4..5 (behind the observer); the target at (9.5, 1) heads west, through the
+    # observer at (8, 1), to (1, 1)
+    g = np.full((int(4.2 / RES), int(16.0 / RES)), 100, dtype=np.int8)
+    g[1:int(1.95 / RES), 1:-1] = 0
+    for x0 in (4.0, 10.5):
+        g[int(1.95 / RES):int(4.0 / RES), int(x0 / RES):int((x0 + 1.0) / RES)] = 0
+    grid = PlanningGrid(map_from_grid(g, RES))
+    robot, target = (8.0, 1.0, 0.0), (9.5, 1.0)
+    route = np.array([[x, 1.0] for x in np.arange(1.0, 9.6, 0.1)])
+    # a point target leaves a 0.22 m band each side for the observer's centre: a place past
+    # the target is offered (the nearest, in the corridor beyond it)
+    past = give_way_point(grid, route, robot, target, 0.9, 4.0,
+                          obstacles=np.array([target]))
+    assert past is not None and past[0] > 9.5
+    # the follower stamps the target as a body of its own radius: no way by it; the alcove
+    # behind (3.7 m off) it is
+    fb = FollowBehaviour(grid, FollowConfig())
+    d = fb.update(0.0, robot, (*target, 0.0, 0.0), [("1", (1.0, 1.0))])
+    assert d.mode == "give_way" and d.goal is not None
+    assert 4.0 < d.goal[0] < 5.0 and d.goal[1] >= 1.9

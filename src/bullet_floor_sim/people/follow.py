@@ -371,7 +371,7 @@ class FollowBehaviour:
         cfg = self.config
         tx, ty = target
         point = give_way_point(self.grid, keep, robot, target, cfg.give_way,
-                               cfg.give_way_reach, cfg.roomy, obstacles=np.array([[tx, ty]]),
+                               cfg.give_way_reach, cfg.roomy, obstacles=self._body(tx, ty),
                                in_view=cfg.give_way_view)
         if point is None:
             return None
@@ -502,6 +502,14 @@ class FollowBehaviour:
         yaw = math.atan2(y - ry, x - rx) if math.hypot(x - rx, y - ry) > 1e-6 else 0.0
         return FollowDecision("search", (x, y, yaw), why)
 
+    def _body(self, tx: float, ty: float) -> np.ndarray:
+        """The target as the planner's obstacles: a body of the observer's radius (as
+        _passes_by has it), not a point. As a point, the place to step aside to could lie
+        past the target in a 2 m corridor, where the observer could not get by it
+        (aces_austin: it stood behind the walker, blocking it, until the walker went 80 m
+        round the loop)."""
+        return disc_points(tx, ty, self.grid.config.robot_radius)
+
     def _follow(self, t: float, robot: Sequence[float], target: Sequence[float],
                 goal_done: bool) -> FollowDecision:
         cfg = self.config
@@ -521,9 +529,9 @@ class FollowBehaviour:
             if point is None or self.grid.clearance_at(*point) < cfg.roomy:
                 # none on the circle (a long narrow corridor): the nearest roomy place, however
                 # far along it, up to give_way_reach, not past the target
-                here = np.array([[tx, ty]])
-                point = give_way_point(self.grid, here, (rx, ry), (tx, ty), cfg.give_way,
-                                       cfg.give_way_reach, cfg.roomy, obstacles=here)
+                point = give_way_point(self.grid, np.array([[tx, ty]]), (rx, ry), (tx, ty),
+                                       cfg.give_way, cfg.give_way_reach, cfg.roomy,
+                                       obstacles=self._body(tx, ty))
             if point is not None and self.grid.clearance_at(*point) >= cfg.roomy:
                 self._goal_target, self._goal_time = (tx, ty), t
                 gx, gy = point
