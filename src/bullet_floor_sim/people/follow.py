@@ -122,7 +122,6 @@ class FollowBehaviour:
         self._t0: Optional[float] = None   # when it first looked for a target not yet seen
         cfg = self.config
         self._tour = PatrolTour(grid, cfg.patrol_spacing, cfg.roomy, cfg.patrol_sight)
-        self._passed = False             # the patrol place it drove to was seen from afar
         self._search_phase = ""          # back | round | go | look | wait
         self._search_since = -math.inf
         # (target x, y, time, destinations) of self._route
@@ -157,9 +156,8 @@ class FollowBehaviour:
             self._standing = True
         if target is not None:
             self._tour.goal = None
-        # the patrol place it drove to is in view from afar: on to the next
-        self._passed = target is None and self._tour.goal is not None \
-            and self._tour.look_over(t, robot)
+        if target is None and self._tour.goal is not None:
+            self._tour.look_over(t, robot)   # patrolling: the places in view are seen
         decision = self._decide(t, robot, target, destination, goal_done)
         if decision.goal is not None and decision.mode != "give_way":
             decision = self._outside_pockets(robot, decision)
@@ -274,8 +272,6 @@ class FollowBehaviour:
             if goal_done:
                 return self._search_go(rx, ry, "not there: searching predicted region")
             return FollowDecision("search")
-        if self._search_phase == "go" and self._passed:
-            return self._patrol_go(rx, ry)
         if self._search_phase == "go" and goal_done:
             self._search_phase = "look"
             return FollowDecision("search", (rx, ry, wrap_angle(ryaw + cfg.search_turn)),
@@ -480,7 +476,7 @@ class FollowBehaviour:
                 self.mode = "idle"
                 return FollowDecision("idle", None, "target lost, no predicted destination")
             return FollowDecision("idle")
-        if self.mode != "patrol" or goal_done or self._passed:
+        if self.mode != "patrol" or goal_done:
             self.mode = "patrol"
             d = self._patrol_go(rx, ry)
             return FollowDecision("patrol", d.goal, "nothing tracked or predicted: patrolling "

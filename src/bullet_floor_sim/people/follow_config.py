@@ -37,8 +37,8 @@ class FollowConfig:
         patrol_spacing: the side (m) of the blocks that give the patrol its places.
         patrol_sight: a patrol place the observer sees on the way, within this many metres,
             within 90 degrees of its heading (the Scitos's 180-degree lidar) and with no
-            wall between, counts as visited in this tour; one it was driving to is passed
-            over for the next. 8 m is within the range at which the tracker finds a person
+            wall between, counts as visited in this tour (the one it drives to is still
+            gone to: search.PatrolTour). 8 m is within the range at which the tracker finds a person
             (3 beams, ``min_points``, on a 0.5 m body at the lidar's 1 degree: 9.5 m).
             Going to each place in turn, it patrolled a 3600 m^2 hall for 690 s before it
             first saw the walker. 0: only the places it goes to count.
