@@ -282,11 +282,10 @@ class PlanningGrid:
         s = np.linspace(0.0, 1.0, n)[None, :]
         x = pts[:, :1] + s * (tx - pts[:, :1])
         y = pts[:, 1:] + s * (ty - pts[:, 1:])
-        col, row = self.fmap.world_to_cell(x.ravel(), y.ravel())
-        h, w = self._fine.shape
-        inside = (col >= 0) & (row >= 0) & (col < w) & (row < h)
-        solid = np.ones(col.shape, dtype=bool)
-        solid[inside] = self._fine[row[inside], col[inside]] < 0.0
+        # the solid cells themselves: on_walls within 0 m (a solid cell's _fine is -half a
+        # cell, a free one's at least +half a cell); off the map counts as solid
+        solid = self.on_walls(np.column_stack([x.ravel(), y.ravel()]),
+                              tolerance=-self.fmap.resolution)
         return ~solid.reshape(x.shape).any(axis=1)
 
     def graph(self) -> Tuple[Any, np.ndarray]:

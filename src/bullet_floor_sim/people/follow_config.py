@@ -38,8 +38,9 @@ class FollowConfig:
         patrol_sight: a patrol place the observer sees on the way, within this many metres,
             within 90 degrees of its heading (the Scitos's 180-degree lidar) and with no
             wall between, counts as visited in this tour (the one it drives to is still
-            gone to: search.PatrolTour). 8 m is within the range at which the tracker finds a person
-            (3 beams, ``min_points``, on a 0.5 m body at the lidar's 1 degree: 9.5 m).
+            gone to: search.PatrolTour). 8 m is within the range at which the tracker finds
+            a person (3 beams, ``min_points``, on a 0.5 m body at the lidar's 1 degree:
+            9.5 m).
             Going to each place in turn, it patrolled a 3600 m^2 hall for 690 s before it
             first saw the walker. 0: only the places it goes to count.
         patrol_after: a target not seen this long from the start, with nothing predicted, is
@@ -129,11 +130,7 @@ class FollowConfig:
             v = getattr(self, name)
             if not (isinstance(v, int) and v >= 1):
                 raise FollowError("follower: %s must be an integer >= 1, got %r" % (name, v))
-        if not (isinstance(self.pass_detour, (int, float)) and math.isfinite(self.pass_detour)
-                and self.pass_detour >= 0):
-            raise FollowError("follower: pass_detour must be a finite number >= 0, got %r"
-                              % (self.pass_detour,))
-        for name in ("trail", "unblock", "snug", "patrol_sight"):
+        for name in ("pass_detour", "trail", "unblock", "snug", "patrol_sight"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise FollowError("follower: %s must be a finite number >= 0, got %r"
