@@ -163,12 +163,17 @@ def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
     assert grid.clearance_at(gx, gy) >= roomy > grid.clearance_at(gx + 2 * RES, gy)
     assert 10.0 - roomy - 0.2 < gx <= 10.0 - roomy
     # down a corridor too narrow to turn in (1 m: 0.5 m of clearance at most), no trail:
-    # it would stop and look round where its base wedges on the walls
+    # it would stop and look round where its base wedges on the walls. It looks down the
+    # corridor from where it stood to see it (1.5 m short of where it was last seen), and
+    # from there goes on to the region without turning round
     narrow = hall(10.0, 1.0)
-    fn = FollowBehaviour(narrow, FollowConfig(lost_after=1.0, trail=4.0))
+    fn = FollowBehaviour(narrow, FollowConfig(lost_after=1.0, trail=4.0, distance=1.5))
     fn.update(0.0, (5.0, 0.5, 0.0), (8.3, 0.5, 0.6, 0.0))   # 2.8 m off: not close by
     d = fn.update(1.5, (5.5, 0.5, 0.0), None, [("7", (1.0, 0.5))])
-    assert "trailing" not in d.reason and d.goal[:2] == pytest.approx((1.0, 0.5))
+    assert "trailing" not in d.reason and "look where it was" in d.reason
+    assert d.goal == pytest.approx((8.3 - 1.5, 0.5, 0.0), abs=1e-9)
+    d = fn.update(4.0, (6.8, 0.5, 0.0), None, [("7", (1.0, 0.5))], goal_done=True)
+    assert d.goal[:2] == pytest.approx((1.0, 0.5)) and "region 7" in d.reason
     # nor does it look round there after turning to a still target lost close by
     fs = FollowBehaviour(narrow, FollowConfig(lost_after=1.0))
     fs.update(0.0, (5.0, 0.5, 0.0), (6.0, 0.5, 0.0, 0.0))
@@ -182,6 +187,28 @@ def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
     assert "looking back" in d.reason and d.goal[:2] == pytest.approx((6.0, 2.0))
     with pytest.raises(FollowError, match="trail"):
         FollowConfig(trail=-1.0).check()
+
+
+def test_a_target_lost_further_off_is_looked_for_where_it_was_seen_first():
+    """Not close by, not trailed (it stood still): the stand-off point of where it was last
+    seen, facing that place, then a look round there, then the predicted region; trail 0
+    sends the observer straight to the region."""
+    grid = hall()
+    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5, slack=0.7))
+    fb.update(0.0, (2.0, 2.0, 0.0), (6.0, 3.0, 0.05, 0.0))     # 4.1 m off, standing
+    plan = [("7", (1.0, 1.0))]
+    d = fb.update(1.5, (2.0, 2.0, 0.0), None, plan)
+    assert d.mode == "search" and "look where it was" in d.reason
+    gx, gy, gyaw = d.goal
+    assert math.hypot(6.0 - gx, 3.0 - gy) == pytest.approx(1.5, abs=1e-9)
+    assert gx < 6.0 and gyaw == pytest.approx(math.atan2(3.0 - gy, 6.0 - gx), abs=1e-9)
+    d = fb.update(5.0, (gx, gy, gyaw), None, plan, goal_done=True)
+    assert d.goal == pytest.approx((gx, gy, gyaw - math.pi)) and "looking round" in d.reason
+    d = fb.update(7.0, (gx, gy, gyaw - math.pi), None, plan, goal_done=True)
+    assert d.goal[:2] == pytest.approx((1.0, 1.0)) and "region 7" in d.reason
+    straight = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=0.0))
+    straight.update(0.0, (2.0, 2.0, 0.0), (6.0, 3.0, 0.05, 0.0))
+    assert straight.update(1.5, (2.0, 2.0, 0.0), None, plan).goal[:2] == pytest.approx((1.0, 1.0))
 
 
 def test_a_search_goes_on_to_the_next_likely_region_and_round_again():
