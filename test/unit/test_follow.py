@@ -155,7 +155,7 @@ def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
     grid = hall()                                   # 10 x 4 m
     fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=4.0))
     fb.update(0.0, (6.0, 2.0, 0.0), (8.0, 2.5, 0.6, 0.0))   # 2.4 m on would be past the wall
-    d = fb.update(1.5, (6.5, 2.0, 0.0), None, [("7", (1.0, 1.0))])
+    d = fb.update(1.5, (5.5, 2.0, 0.0), None, [("7", (1.0, 1.0))])   # 2.55 m off
     gx, gy, gyaw = d.goal
     assert "trailing" in d.reason and gy == pytest.approx(2.5) and gyaw == pytest.approx(0.0)
     # short of the wall, at the last point with roomy (0.6 m) clearance: room to look round
@@ -185,6 +185,13 @@ def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
     still.update(0.0, (6.0, 2.0, 0.0), (7.0, 2.5, 0.05, 0.0))
     d = still.update(1.5, (6.0, 2.0, math.pi), None, [("7", (1.0, 1.0))])
     assert "looking back" in d.reason and d.goal[:2] == pytest.approx((6.0, 2.0))
+    # moving, but lost close by (1.6 m: it walked past behind the observer): looked back
+    # at, not trailed by a velocity that at a leg's start is seldom the way it goes on
+    mover = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=4.0))
+    mover.update(0.0, (6.0, 2.0, 0.0), (7.5, 2.5, 0.6, 0.0))
+    d = mover.update(1.5, (6.0, 2.0, math.pi), None, [("7", (1.0, 1.0))])
+    assert "looking back" in d.reason and d.goal == pytest.approx(
+        (6.0, 2.0, math.atan2(0.5, 1.5)), abs=1e-9)
     with pytest.raises(FollowError, match="trail"):
         FollowConfig(trail=-1.0).check()
 
@@ -602,6 +609,7 @@ def test_a_target_lost_after_a_give_way_is_trailed_the_way_it_went_meanwhile():
     at = step.goal
     assert fb.update(5.0, at, (6.5, 2.0, 0.6, 0.0), dest, goal_done=True).mode == "give_way"
     assert fb.update(6.0, at, (7.1, 2.0, 0.6, 0.0), dest).mode == "give_way"
+    fb.update(6.5, at, (7.7, 2.0, 0.6, 0.0), dest)   # 2.5 m off: not close by
     fb.update(7.0, at, None, dest)
     d = fb.update(8.5, at, None, dest)
     assert d.mode == "search" and d.goal is not None and "trailing" in d.reason
@@ -721,3 +729,19 @@ def test_the_place_to_step_aside_to_is_not_past_the_target_in_a_corridor():
     d = fb.update(0.0, robot, (*target, 0.0, 0.0), [("1", (1.0, 1.0))])
     assert d.mode == "give_way" and d.goal is not None
     assert 4.0 < d.goal[0] < 5.0 and d.goal[1] >= 1.9
+
+
+def test_a_target_lost_close_by_from_a_doorway_is_trailed_not_turned_to():
+    """In a 0.75 m gap (no room to turn) the observer loses a target 1.3 m off walking out
+    into the hall: it trails it out of the gap instead of turning where it stands (turning
+    in a doorway, it blocked the walker: seattle); with room to turn, it looks back."""
+    grid = hall_with_pocket()
+    assert grid.clearance_at(5.0, 4.1) < FollowConfig().roomy
+    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=4.0, distance=1.5, slack=0.7))
+    fb.update(0.0, (5.0, 4.1, -0.5 * math.pi), (5.0, 2.8, 0.0, -0.6))
+    d = fb.update(1.5, (5.0, 4.1, 0.5 * math.pi), None, [("7", (1.0, 1.0))])
+    assert "trailing" in d.reason and d.goal[1] < 2.8 and d.goal[2] == pytest.approx(-0.5 * math.pi)
+    roomy = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=4.0, distance=1.5, slack=0.7))
+    roomy.update(0.0, (5.0, 3.3, 0.5 * math.pi), (6.0, 2.6, 0.6, 0.0))
+    d = roomy.update(1.5, (5.0, 3.3, 0.5 * math.pi), None, [("7", (1.0, 1.0))])
+    assert "looking back" in d.reason and d.goal[:2] == pytest.approx((5.0, 3.3))

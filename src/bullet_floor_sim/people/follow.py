@@ -27,13 +27,17 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   is stepped away from, on no prediction (it may be going where the observer stands), and
   waited for the same way.
 * **search**: when no track has been seen for ``lost_after`` seconds, the observer first
-  trails a target that was moving: it drives to the point ``trail`` seconds on from where the
-  target was last seen, at its last velocity, short of a wall, facing that way (it had
-  stood in a room while the walker it lost in the doorway went off down the corridor). A
-  target that stood still is turned to where it was last seen, if that was within
-  ``distance + slack`` (turning towards its own goal, it had turned its back on it); one
-  further off, or not trailed (no roomy point on its way), is looked for from the stand-off
-  point of where it was last seen, facing it. Then it goes to the
+  turns to where a target lost within ``distance + slack`` was last seen, moving or not,
+  where it has ``roomy`` clearance to turn (turning towards its own goal, it had turned its
+  back on it; most targets lost so walked past behind the observer at a leg's start, when
+  their velocity is seldom the way they go on; turning in a doorway instead of trailing,
+  it blocked the walker: seattle). A target lost further off while moving, or close by
+  with no room to turn, is trailed: the observer drives to the point
+  ``trail`` seconds on from where it was last seen, at its last velocity, short of a wall,
+  facing that way (it had stood in a room while the walker it lost in the doorway went off
+  down the corridor). One that stood still, or is not trailed (no roomy point on its way),
+  is looked for from the stand-off point of where it was last seen, facing it. Then it goes
+  to the
   predicted destination region (the predictor's arg-max; the point of the region nearest to
   where the target was last seen), turns on the spot to look around, waits ``search_wait``
   seconds, then goes on to the next most likely region (up to ``search_regions`` of them, each
@@ -250,17 +254,19 @@ class FollowBehaviour:
             self.mode, self._search, self._search_index, self._rounds = "search", plan, 0, 0
             self._tour.goal = None
             lx, ly = self.last_target if self.last_target is not None else (rx, ry)
+            close = math.hypot(lx - rx, ly - ry) <= cfg.distance + cfg.slack
+            room = self.grid.clearance_at(rx, ry) >= cfg.roomy   # to turn (not in a doorway)
+            if first_loss and close and (room or self._trail_point() is None):
+                self._search_phase = "back"
+                return FollowDecision("search", (rx, ry, math.atan2(ly - ry, lx - rx)),
+                                      "target lost close by at (%.2f, %.2f): looking back"
+                                      % (lx, ly))
             trail = self._trail_point() if first_loss else None
             if trail is not None:
                 self._search_phase = "back"
                 return FollowDecision("search", trail, "target lost at (%.2f, %.2f) going "
                                       "(%.2f, %.2f) m/s: trailing it to (%.2f, %.2f)"
                                       % (lx, ly, *self._last_velocity, *trail[:2]))
-            if first_loss and math.hypot(lx - rx, ly - ry) <= cfg.distance + cfg.slack:
-                self._search_phase = "back"
-                return FollowDecision("search", (rx, ry, math.atan2(ly - ry, lx - rx)),
-                                      "target lost close by at (%.2f, %.2f): looking back"
-                                      % (lx, ly))
             seen = (self._seen_from(rx, ry) if first_loss and cfg.trail > 0
                     and self.last_target is not None else None)
             if seen is not None:

@@ -66,12 +66,13 @@ class FollowConfig:
             when the target can go round it by a way at most this much longer (m); 0: it
             always steps aside. Stepping aside for a target that could pass, it lost sight
             of it (office: walker tracked 66.6 % of a 40-leg run with 0, 81.1 % with 2).
-        trail: a target lost while moving is first looked for where it went: the observer
-            drives to the point ``trail`` seconds on from where it was last seen at its last
-            velocity (stopped short of a wall), facing the way it went; one that stood
-            still, or is not trailed, from the stand-off point of where it was last seen;
-            then the likely regions. 0: it only turns to where a target lost close by was
-            last seen.
+        trail: a target lost further than ``distance + slack`` off while moving is first
+            looked for where it went: the observer drives to the point ``trail`` seconds on
+            from where it was last seen at its last velocity (stopped short of a wall),
+            facing the way it went; one that stood still, or is not trailed, from the
+            stand-off point of where it was last seen; then the likely regions (a target
+            lost nearer is turned to, moving or not). 0: it only turns to where a target
+            lost close by was last seen.
         unblock: a target that has stayed within ``give_way`` + 0.2 m of the observer this
             long (s) is taken to be blocked by it, wherever it is going: the observer steps
             to the nearest place at least ``give_way`` from the target, from where it stands
