@@ -71,8 +71,9 @@ class FollowConfig:
             from where it was last seen at its last velocity (stopped short of a wall),
             facing the way it went; one that stood still, or is not trailed, from the
             stand-off point of where it was last seen; then the likely regions (a target
-            lost nearer is turned to, moving or not). 0: it only turns to where a target
-            lost close by was last seen.
+            lost nearer is turned to, moving or not, where the observer has ``roomy``
+            clearance; with less, a moving one is trailed). 0: it only turns to where a
+            target lost close by was last seen.
         unblock: a target that has stayed within ``give_way`` + 0.2 m of the observer this
             long (s) is taken to be blocked by it, wherever it is going: the observer steps
             to the nearest place at least ``give_way`` from the target, from where it stands
