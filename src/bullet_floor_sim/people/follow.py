@@ -256,12 +256,12 @@ class FollowBehaviour:
             lx, ly = self.last_target if self.last_target is not None else (rx, ry)
             close = math.hypot(lx - rx, ly - ry) <= cfg.distance + cfg.slack
             room = self.grid.clearance_at(rx, ry) >= cfg.roomy   # to turn (not in a doorway)
-            if first_loss and close and (room or self._trail_point() is None):
+            trail = self._trail_point() if first_loss and not (close and room) else None
+            if first_loss and close and (room or trail is None):
                 self._search_phase = "back"
                 return FollowDecision("search", (rx, ry, math.atan2(ly - ry, lx - rx)),
                                       "target lost close by at (%.2f, %.2f): looking back"
                                       % (lx, ly))
-            trail = self._trail_point() if first_loss else None
             if trail is not None:
                 self._search_phase = "back"
                 return FollowDecision("search", trail, "target lost at (%.2f, %.2f) going "
