@@ -12,7 +12,9 @@ Prints a table and one line per world:
 ``rtf`` is sim time over wall time from the first leg's end to the last's; ``waited`` is read
 from the simulator's own report lines (sim/pacing.py): the mean share of the wall time it held
 its clock for the slowest controller (cmd_vel) or subscriber. The table lists the three it
-waited for most. Each given-up leg is printed with its reason.
+waited for most. Each given-up leg is printed with its reason, and each world's DEMO line
+as soon as it is done (``  done: DEMO ...`` on stderr). Interrupted (^C or a kill), it stops
+the running demo and prints the table of the worlds done before it, exit code 130.
 
     .venv/bin/python bench/demo_legs.py --legs 200 --rtf 0 --worlds office malaga_corridor
 """
@@ -185,25 +187,60 @@ def main() -> int:
     rows = []
     master, port = _master()
     legs = _Legs()
+    signal.signal(signal.SIGTERM, _interrupt)   # kill: as ^C, the worlds done are kept
+    cut = current = ""
     try:
         _listen(port, "robot1", legs)
         for w in worlds:
+            current = world_label(w)
             print("== %s: demo.launch rtf:=%g, %d legs, seed %d" % (w, args.rtf, args.legs,
                                                                       args.seed),
                   file=sys.stderr, flush=True)
             rows.append(run_world(w, args.legs, args.rtf, args.seed, args.timeout, port, legs))
+            _report_world(rows[-1])
+    except KeyboardInterrupt:
+        cut = current or "its start"
     finally:
         _stop(master, 10.0)
     for n in notes:
         print("  note: %s" % n, file=sys.stderr)
+    _table(rows)
+    if cut:
+        print("demo_legs: interrupted during %s: the table has the %d world(s) done before it"
+              % (cut, len(rows)), file=sys.stderr)
+        return 130
     ended = [r for r in rows if "ended" in r]
-    for r in ended:
+    if ended:
+        print("demo_legs: %d world(s) ended before their legs: %s" % (
+            len(ended), ", ".join(r["world"] for r in ended)), file=sys.stderr)
+        return 1
+    return 0
+
+
+def _interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
+def _report_world(r: dict) -> None:
+    """One world's result as soon as it is done (stderr, with the progress lines): why it
+    ended early, each leg given up, and its DEMO line."""
+    if "ended" in r:
         print("  %s: %s" % (r["world"], r["ended"]), file=sys.stderr)
-    for r in rows:
-        for leg in r["failed"]:
-            print("  %s given up: %s -> %s, %s: %s" % (r["world"], leg.get("from"),
-                                                      leg.get("to"), leg.get("outcome"),
-                                                      leg.get("detail")), file=sys.stderr)
+    for leg in r["failed"]:
+        print("  %s given up: %s -> %s, %s: %s" % (r["world"], leg.get("from"), leg.get("to"),
+                                                  leg.get("outcome"), leg.get("detail")),
+              file=sys.stderr)
+    print("  done: %s" % _demo_line(r), file=sys.stderr, flush=True)
+
+
+def _demo_line(r: dict) -> str:
+    return "DEMO world=%s rtf_asked=%g legs=%d given_up=%.3f rtf=%.1f waited_max=%.3f" % (
+        r["world"], r["rtf_asked"], r["legs"], r["given_up"], r["rtf"],
+        max(r["waited"].values(), default=0.0))
+
+
+def _table(rows: list) -> None:
+    """The table of the worlds done, then their DEMO lines (stdout)."""
     print("| world | rtf asked | legs | given up | rtf achieved | the clock waited most for |")
     print("|---|---|---|---|---|---|")
     for r in rows:
@@ -212,14 +249,7 @@ def main() -> int:
         print("| %s | %g | %d | %.1f %% | %.1fx | %s |" % (
             r["world"], r["rtf_asked"], r["legs"], 100 * r["given_up"], r["rtf"], waits or "-"))
     for r in rows:
-        print("DEMO world=%s rtf_asked=%g legs=%d given_up=%.3f rtf=%.1f waited_max=%.3f" % (
-            r["world"], r["rtf_asked"], r["legs"], r["given_up"], r["rtf"],
-            max(r["waited"].values(), default=0.0)))
-    if ended:
-        print("demo_legs: %d world(s) ended before their legs: %s" % (
-            len(ended), ", ".join(r["world"] for r in ended)), file=sys.stderr)
-        return 1
-    return 0
+        print(_demo_line(r))
 
 
 if __name__ == "__main__":
