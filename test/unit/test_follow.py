@@ -10,6 +10,7 @@ from bullet_floor_sim.people.follow import (FollowBehaviour, FollowConfig, Follo
 from bullet_floor_sim.people.search import (in_view, patrol_points, pick_target, search_plan,
                                             search_point)
 from bullet_floor_sim.nav.planner import PlanError, PlanningGrid, give_way_point, path_length
+from bullet_floor_sim.nav.navigator import path_headings
 
 RES = 0.05
 
@@ -427,9 +428,14 @@ def test_a_give_way_point_towards_the_target_comes_before_a_nearer_one_behind():
     off = abs(math.atan2(ahead[1] - 1.6, ahead[0] - 7.0) - math.pi)
     assert off < math.radians(75.0) and abs(math.atan2(behind[1] - 1.6, behind[0] - 7.0)
                                             - math.pi) > math.radians(75.0)
-    # nothing in view within reach: the nearest after all
+    # the bearing that counts is the way the observer sets off (navigator.path_headings):
+    # to the west alcove it drives west along the corridor, at the target, so that alcove
+    # comes first even within 10 degrees (its straight line is 22 degrees off)
+    c, r = grid.to_cell(*ahead)
+    way = path_headings(grid, robot, np.array([r]), np.array([c]), 8.0)[0]
+    assert abs(abs(way) - math.pi) < math.radians(10.0)
     assert give_way_point(grid, route, robot, target, 0.9, 4.0,
-                          in_view=math.radians(10.0)) == pytest.approx(behind)
+                          in_view=math.radians(10.0)) == pytest.approx(ahead)
 
 
 def test_an_observer_on_the_targets_way_steps_aside_and_waits_until_it_passed():
@@ -745,3 +751,21 @@ def test_a_target_lost_close_by_from_a_doorway_is_trailed_not_turned_to():
     roomy.update(0.0, (5.0, 3.3, 0.5 * math.pi), (6.0, 2.6, 0.6, 0.0))
     d = roomy.update(1.5, (5.0, 3.3, 0.5 * math.pi), None, [("7", (1.0, 1.0))])
     assert "looking back" in d.reason and d.goal[:2] == pytest.approx((5.0, 3.3))
+
+
+def test_path_headings_are_the_way_the_robot_sets_off_not_the_straight_line():
+    # a 10 x 6 m hall with a wall at x 3.0-3.2 from the floor up to y 4.5: from (2, 3) the
+    # place (4.5, 3) lies straight east, but the way there goes north round the wall's end
+    g = np.zeros((int(6.0 / RES), int(10.0 / RES)), dtype=np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+    g[:int(4.5 / RES), int(3.0 / RES):int(3.2 / RES)] = 100
+    grid = PlanningGrid(map_from_grid(g, RES))
+    places = [(4.5, 3.0), (2.0, 1.0), (2.0, 3.0)]
+    cols, rows = zip(*(grid.to_cell(x, y) for x, y in places))
+    head = path_headings(grid, (2.0, 3.0), np.array(rows), np.array(cols), 12.0)
+    assert math.degrees(head[0]) > 45.0          # north first, not east (0 degrees)
+    assert head[1] == pytest.approx(-math.pi / 2, abs=0.2)   # open floor: straight south
+    assert not math.isnan(head[2])               # its own cell: the cell's centre
+    # out of reach of the search: NaN
+    assert math.isnan(path_headings(grid, (2.0, 3.0), np.array(rows[:1]), np.array(cols[:1]),
+                                    1.0)[0])

@@ -20,7 +20,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   at most ``pass_detour`` longer), goes to the nearest free point at least that far from it
   (a roomy one first, up to ``give_way_reach`` away: a wider spot of the corridor, a doorway's
   side, or back along the way; of those, one with no wall between it and the target and
-  towards the target first, so that it stays in view), and waits there, facing the target,
+  whose way there sets off towards the target first, so that it stays in view), and waits
+  there, facing the target,
   until the target has moved ``distance`` metres or ``give_way_hold`` seconds have passed.
   Standing on the route of a target that turned back, the observer blocked it for good in
   narrow corridors. A target that stays within ``give_way`` + 0.2 m for ``unblock`` seconds

@@ -54,9 +54,10 @@ class FollowConfig:
             footprint radii and a margin, so that the target passes without stopping.
         give_way_reach: look for a place to give way at most this far (m) from the observer.
         give_way_hold: wait where it gave way at most this long (s) for the target to pass.
-        give_way_view: of the places to give way at, one within this angle (radians) of the
-            target's bearing comes first: driving there, the lidar (180 degrees ahead on the
-            Scitos) keeps the target in view; 75 degrees leaves 15 for the path's bends.
+        give_way_view: of the places to give way at, one whose way from the observer sets off
+            within this angle (radians) of the target's bearing comes first: driving there,
+            the lidar (180 degrees ahead on the Scitos) keeps the target in view; 75 degrees
+            leaves 15 for the path's bends.
             Stepping aside the other way, it turned its back on the target (a fifth of a
             200-leg run on malaga_corridor went untracked so). Before the bearing, a place
             that sees the target (no wall on the line between: navigator.give_way_point)
