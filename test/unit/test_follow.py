@@ -766,6 +766,12 @@ def test_path_headings_are_the_way_the_robot_sets_off_not_the_straight_line():
     assert math.degrees(head[0]) > 45.0          # north first, not east (0 degrees)
     assert head[1] == pytest.approx(-math.pi / 2, abs=0.2)   # open floor: straight south
     assert not math.isnan(head[2])               # its own cell: the cell's centre
+    # from a point too near the wall to stand on (0.1 m from it): from the nearest cell the
+    # robot can stand on, as the planner starts, not NaN
+    c, r = grid.to_cell(2.9, 3.0)
+    assert not np.isfinite(grid.cost[r, c])
+    off = path_headings(grid, (2.9, 3.0), np.array(rows[1:2]), np.array(cols[1:2]), 12.0)[0]
+    assert -math.pi < off < 0.0                  # (2, 1) lies south-west of it
     # out of reach of the search: NaN
     assert math.isnan(path_headings(grid, (2.0, 3.0), np.array(rows[:1]), np.array(cols[:1]),
                                     1.0)[0])

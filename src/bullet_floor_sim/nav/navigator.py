@@ -107,20 +107,23 @@ def path_headings(grid: PlanningGrid, start: Sequence[float], rows: np.ndarray,
                   cols: np.ndarray, reach: float, ahead: float = 0.7) -> np.ndarray:
     """For planning cells (rows, cols), the bearing from ``start`` of the point ``ahead``
     metres out along the cheapest way to each on the planner's graph (the way the robot
-    sets off), searched up to ``reach`` metres of steps; NaN for a cell not reached.
-    A place whose straight line from the robot lies towards a target can lie down a path
-    that first leads away from it (round a wall or the target)."""
+    sets off; from the nearest passable cell when its own is not, as the planner starts),
+    searched up to step costs of 2 x ``reach`` / resolution (at least 1 a cell, more near
+    walls); NaN for a cell not reached. A place whose straight line from the robot lies
+    towards a target can lie down a path that first leads away from it (round a wall). The
+    graph has no target in it: a way through the target's own body counts as towards it."""
     from scipy.sparse.csgraph import dijkstra
 
     graph, node = grid.graph()
-    c0, r0 = grid.to_cell(float(start[0]), float(start[1]))
     out = np.full(len(rows), np.nan)
-    if not grid.inside(c0, r0) or node[r0, c0] < 0 or not len(rows):
+    near = grid.free_cell_near(float(start[0]), float(start[1]))
+    if near is None or not len(rows):
         return out
+    c0, r0 = near
     dist, pred = dijkstra(graph, directed=False, indices=int(node[r0, c0]),
                           return_predecessors=True,
                           limit=2.0 * reach / grid.resolution)   # weights: >= 1 a cell step
-    cells = np.argwhere(node >= 0)            # node k's (row, col)
+    cells = _node_cells(grid)
     cur = node[np.asarray(rows), np.asarray(cols)]
     live = (cur >= 0)
     live[live] = np.isfinite(dist[cur[live]])
@@ -135,6 +138,19 @@ def path_headings(grid: PlanningGrid, start: Sequence[float], rows: np.ndarray,
     px, py = grid.centres(cells[cur, 1], cells[cur, 0])
     out[live] = np.arctan2(py[live] - sy, px[live] - sx)
     return out
+
+
+_CELLS: dict = {}   # id(grid) -> (grid, the (row, col) of each graph node): _node_cells
+
+
+def _node_cells(grid: PlanningGrid) -> np.ndarray:
+    """The (row, col) of each node of ``grid.graph()`` (node k is the k-th passable cell in
+    row-major order), found once per grid."""
+    hit = _CELLS.get(id(grid))
+    if hit is None or hit[0] is not grid:
+        _CELLS.clear()   # one grid at a time: the evaluation's worlds come one after another
+        hit = _CELLS[id(grid)] = (grid, np.argwhere(grid.graph()[1] >= 0))
+    return hit[1]
 
 
 @dataclass
