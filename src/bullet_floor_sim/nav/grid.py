@@ -211,6 +211,7 @@ class PlanningGrid:
         self.cost = cost
         self._flat: Any = None   # the padded costs (_padded)
         self._graph: Optional[Tuple[Any, np.ndarray]] = None
+        self._node_cells: Optional[np.ndarray] = None   # node_cells()
         self._roomiest: Optional[np.ndarray] = None
 
     # -- coordinates -----------------------------------------------------------------------
@@ -296,6 +297,13 @@ class PlanningGrid:
         if self._graph is None:
             self._graph = _grid_graph(self.cost, self.config.cost_weight)
         return self._graph
+
+    def node_cells(self) -> np.ndarray:
+        """The (row, col) of each node of :meth:`graph` (node k is the k-th passable cell in
+        row-major order), (N, 2). Found once."""
+        if self._node_cells is None:
+            self._node_cells = np.argwhere(self.graph()[1] >= 0)
+        return self._node_cells
 
     # -- planning --------------------------------------------------------------------------
     def plan(self, start: Sequence[float],

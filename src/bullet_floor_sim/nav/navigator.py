@@ -123,7 +123,7 @@ def path_headings(grid: PlanningGrid, start: Sequence[float], rows: np.ndarray,
     dist, pred = dijkstra(graph, directed=False, indices=int(node[r0, c0]),
                           return_predecessors=True,
                           limit=2.0 * reach / grid.resolution)   # weights: >= 1 a cell step
-    cells = _node_cells(grid)
+    cells = grid.node_cells()
     cur = node[np.asarray(rows), np.asarray(cols)]
     live = (cur >= 0)
     live[live] = np.isfinite(dist[cur[live]])
@@ -138,19 +138,6 @@ def path_headings(grid: PlanningGrid, start: Sequence[float], rows: np.ndarray,
     px, py = grid.centres(cells[cur, 1], cells[cur, 0])
     out[live] = np.arctan2(py[live] - sy, px[live] - sx)
     return out
-
-
-_CELLS: dict = {}   # id(grid) -> (grid, the (row, col) of each graph node): _node_cells
-
-
-def _node_cells(grid: PlanningGrid) -> np.ndarray:
-    """The (row, col) of each node of ``grid.graph()`` (node k is the k-th passable cell in
-    row-major order), found once per grid."""
-    hit = _CELLS.get(id(grid))
-    if hit is None or hit[0] is not grid:
-        _CELLS.clear()   # one grid at a time: the evaluation's worlds come one after another
-        hit = _CELLS[id(grid)] = (grid, np.argwhere(grid.graph()[1] >= 0))
-    return hit[1]
 
 
 @dataclass
