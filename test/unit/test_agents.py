@@ -86,6 +86,37 @@ def test_walker_agent_legs_results_timeouts_and_pauses(office):
         agent.tick(220.0 + s.pause, pose, ("done", ""))     # ... and a result it cannot know
 
 
+def test_a_leg_driven_the_long_way_round_gets_more_time_up_to_its_cap(office):
+    """timeout_per_m seconds for each metre driven beyond the planned way, at most
+    max_extension times the leg's limit more; standing still, no more time; a jump (a
+    teleport) is not driven."""
+    rois, sampler = office
+    cfg = WalkerConfig(goal_timeout=100.0, timeout_per_m=2.0, max_extension=1.0)
+    pose = (3.0, 10.0, 0.0)
+    still = WalkerAgent(Walker(MarkovChain.from_rois(rois), rois, sampler, cfg, seed=3))
+    leg = still.tick(0.0, pose).start
+    assert leg.way > 0.0 and leg.timeout == max(100.0, 2.0 * leg.way)
+    assert still.tick(leg.timeout + 0.1, pose).finished is leg and leg.outcome == "timeout"
+    assert leg.detail == "no result within %.0f s (~goal_timeout, ~timeout_per_m)" % leg.timeout
+    agent = WalkerAgent(Walker(MarkovChain.from_rois(rois), rois, sampler, cfg, seed=3))
+    leg = agent.tick(0.0, pose).start
+    x = pose[0]
+    for k in range(1, 41):           # 1 m a second along y for 40 s, then stand
+        agent.tick(float(k), (x, 10.0 + 0.5 * (k % 2), 0.0))
+    assert leg.driven == pytest.approx(20.0)
+    assert agent.limit(leg) == pytest.approx(leg.timeout + 2.0 * max(0.0, 20.0 - leg.way))
+    agent.tick(41.0, (x + 30.0, 10.0, 0.0))   # a teleport
+    assert leg.driven == pytest.approx(20.0)
+    for k in range(42, int(2.0 * leg.timeout) + 1):     # 1 m a second: the cap
+        assert agent.tick(float(k), (x + 30.0 + (k % 2), 10.0, 0.0)).finished is None
+    assert agent.limit(leg) == pytest.approx(2.0 * leg.timeout)
+    assert agent.leg is leg
+    s = agent.tick(2.0 * leg.timeout + 0.1, (x + 30.0 + 1.0, 10.0, 0.0))
+    assert s.finished is leg and leg.outcome == "timeout"
+    assert leg.detail.endswith("; %.0f m driven on a planned way of %.0f m"
+                               % (leg.driven, leg.way))
+
+
 def test_walker_agent_gives_a_goal_given_up_close_by_one_new_goal_in_its_region(office):
     rois, sampler = office
     agent = WalkerAgent(Walker(MarkovChain.from_rois(rois), rois, sampler, WalkerConfig(),

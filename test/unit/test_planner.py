@@ -188,6 +188,29 @@ def test_navigator_aborts_when_blocked_for_good():
         world.close()
 
 
+@pytest.mark.parametrize("parked, outcome", [((3.3, 2.0), "aborted"),
+                                              ((3.0, 3.2), "succeeded")])
+def test_a_goal_something_stands_on_is_given_up_after_deadlock_time(parked, outcome):
+    """A robot parked 0.3 m from the goal (its body over it): no progress for deadlock_time
+    (10 s), then "the goal is taken", well before blocked_timeout (30 s) and short of it; one
+    parked 1.2 m beside the goal leaves room, and the goal is reached."""
+    cfg = load_world_config(resolve_world("simple", worlds_dir()))
+    robots = [dataclasses.replace(cfg.robots[0], pose=(1.0, 2.0, 0.0)),
+              dataclasses.replace(cfg.robots[0], name="parked", pose=parked + (0.0,))]
+    world = World(dataclasses.replace(cfg, robots=robots), seed=1)
+    try:
+        nav = Navigator(PlanningGrid(world.fmap))
+        out, _ = _drive(world, [nav], [(3.0, 2.0, None)], limit=60.0)
+        state, t, err, _ = out[0]
+        assert state == outcome, out
+        if outcome == "aborted":
+            assert 0.6 < err < 1.5 and t < 25.0, out
+        else:
+            assert err <= 0.15
+    finally:
+        world.close()
+
+
 def test_navigator_notices_a_stall_and_plans_again():
     """Commanded to move but not moving (pressed against a robot its scan stop does not see
     ahead): after stall_time the navigator stops, counts a stall and plans again."""

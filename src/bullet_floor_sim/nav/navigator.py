@@ -27,6 +27,8 @@ _BOXED_STALLS = 2
 #: and was refused it for good)
 _BACKUP_SLACK = 0.05
 _MAX_RETREATS = 3   # per goal: then it waits where it is, and the goal can time out
+#: m beyond the robot's radius: a scan point this near the goal leaves no room to stand there
+_GOAL_MARGIN = 0.1
 _MAX_REBASES = 20   # new plans a goal whose length restarts the progress count
 
 
@@ -175,7 +177,10 @@ class NavigatorConfig:
             progress as the crow flies, which a new plan does not restart (a map being
             built: its passing places and plans are as partial as it is, and a frontier
             that gets no nearer is given up).
-        deadlock_time: blocked with no progress towards the goal this long, a robot the rule
+        deadlock_time: no progress this long with something the map does not show standing
+            on the goal, the goal is given up with ``passing`` ("the goal is taken"; the
+            walker's agent then draws another in its region). Blocked with no progress towards the goal this
+            long, a robot the rule
             told to yield that has not (it could not) yields; one that has the right of way,
             or keeps its way, after twice as long (what blocks it does not yield: a robot
             parked, or one with another rule). Unequal, so the two do not back off at once.
@@ -372,6 +377,10 @@ class Navigator:
             self._best_t = now
             self._blocked_total = 0.0   # the time blocked counts since the last progress
             self._stuck = None          # and the time stalled
+        if self._goal_taken(now):
+            return self._abort("the goal is taken (something the map does not show stands on "
+                               "it), no progress for %.0f s, %.2f m from it"
+                               % (now - self._best_t, cmd.distance_to_goal), cmd)
         if cmd.state == "blocked":
             self._blocked_total += dt
             if self._blocked_since is None:
@@ -429,6 +438,21 @@ class Navigator:
                 return self._back_off(self._roomier_way(pose), now, cmd)
         self._replan_around(pose, obstacles)
         return NavStatus(0.0, 0.0, "active", "stalled", cmd.distance_to_goal)
+
+    def _goal_taken(self, now: float) -> bool:
+        """No progress for ``deadlock_time`` and a scan point the map does not show within
+        the robot's radius (and ``_GOAL_MARGIN``) of the goal: it cannot stand there (the
+        observer, waiting by the walker, stood on the walker's goal and the walker turned to
+        and fro 1.1 m short of it until its leg timed out)."""
+        if (self.goal is None or self._retreat is not None or not self.config.passing
+                or now - self._best_t < self.config.deadlock_time):
+            return False
+        world = self._seen[~self._known]
+        if not len(world):
+            return False
+        reach = self.grid.config.robot_radius + _GOAL_MARGIN
+        return bool((np.hypot(world[:, 0] - self.goal[0], world[:, 1] - self.goal[1])
+                     < reach).any())
 
     def _back_off(self, sign: float, now: float, cmd: FollowerCommand) -> NavStatus:
         """Back up (``sign`` -1) or nudge forward (+1) for ``_BACKUP_TIME``."""

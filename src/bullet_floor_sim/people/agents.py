@@ -70,11 +70,14 @@ class WalkerStep:
 
 #: WalkerAgent's defaults (the markov_walker node's too): see its doc.
 REGOAL_WITHIN, MAX_REGOALS = 1.5, 1
+#: m between two ticks: more is a jump (a teleport), not driven
+_MAX_STEP = 2.0
 
 
 class WalkerAgent:
     """Legs one after the other: draw a leg, wait for its goal's result or its timeout
-    (``walker.config.goal_timeout``), dwell or back off, draw the next.
+    (:meth:`limit`: the leg's own, longer when the robot drives further than planned), dwell
+    or back off, draw the next.
 
     A goal the navigation gives up on with the robot within ``regoal_within`` of it (someone
     stands on or beside it: the observer, waiting near the walker) is replaced, up to
@@ -98,6 +101,7 @@ class WalkerAgent:
         self.regoal_within, self.max_regoals = float(regoal_within), int(max_regoals)
         self.leg: Optional[Leg] = None
         self.resume_at = -math.inf   # no leg starts before this time
+        self._last_xy: Optional[Tuple[float, float]] = None   # the pose at the last tick
 
     def tick(self, t: float, pose: Sequence[float],
              result: Optional[Tuple[str, str]] = None) -> WalkerStep:
@@ -115,19 +119,23 @@ class WalkerAgent:
         if self.leg is None:
             if t >= self.resume_at:
                 self.leg = step.start = self.walker.next_leg(pose, t)
+                self._last_xy = (float(pose[0]), float(pose[1]))
                 step.notes = self.take_notes()
             return step
         leg = self.leg
         if result is not None and result[0] not in GOAL_RESULTS:
             raise ValueError("walker: unknown goal result %r (one of %s)"
                              % (result[0], ", ".join(GOAL_RESULTS)))
-        limit = leg.timeout or self.walker.config.goal_timeout
+        self._drive(leg, pose)
+        limit = self.limit(leg)
         timed_out = t - leg.started > limit
         if result is not None and result[0] == "succeeded":
             outcome, detail = "succeeded", ""
         elif timed_out:
             outcome, detail = "timeout", ("no result within %.0f s (~goal_timeout, "
                                           "~timeout_per_m)" % limit)
+            if limit > (leg.timeout or self.walker.config.goal_timeout):
+                detail += "; %.0f m driven on a planned way of %.0f m" % (leg.driven, leg.way)
             step.cancel = True
         elif result is not None:
             outcome, detail = result
@@ -141,6 +149,25 @@ class WalkerAgent:
         step.finished, self.leg, self.resume_at = leg, None, t + step.pause
         step.notes = self.take_notes()
         return step
+
+    def limit(self, leg: Leg) -> float:
+        """Seconds ``leg`` may run: its timeout, plus ``timeout_per_m`` for each metre driven
+        beyond its planned way (the long way round something that blocks it), at most
+        ``max_extension`` times its timeout more (WalkerConfig)."""
+        cfg = self.walker.config
+        base = leg.timeout or cfg.goal_timeout
+        more = cfg.timeout_per_m * max(0.0, leg.driven - leg.way)
+        return base + min(more, cfg.max_extension * base)
+
+    def _drive(self, leg: Leg, pose: Sequence[float]) -> None:
+        """Add the way from the last pose to ``leg.driven`` (a jump of more than
+        ``_MAX_STEP`` m between two ticks, a teleport, is not driven)."""
+        x, y = float(pose[0]), float(pose[1])
+        if self._last_xy is not None:
+            step = math.hypot(x - self._last_xy[0], y - self._last_xy[1])
+            if step <= _MAX_STEP:
+                leg.driven += step
+        self._last_xy = (x, y)
 
     def _regoal(self, leg: Leg, pose: Sequence[float], why: str, step: WalkerStep) -> bool:
         """Give ``leg`` another goal in its region when it was given up near its goal."""

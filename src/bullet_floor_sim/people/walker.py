@@ -65,7 +65,13 @@ class WalkerConfig:
         timeout_per_m: a leg gets at least this many seconds per metre of its planned path
             (the robot's 0.6 m/s, with room to wait): 120 s is too short for a leg across a
             140 m hall (a third of edmonton_convention's legs timed out). The crow's
-            distance would cut short a leg whose route goes round walls.
+            distance would cut short a leg whose route goes round walls. A leg whose robot
+            drives further than its planned way (the long way round a robot that blocks a
+            corridor) gets timeout_per_m more seconds for each metre beyond it, up to
+            ``max_extension`` times its limit more (people/agents.WalkerAgent): on mit_csail
+            the walker, blocked by the observer 6.5 m from its goal, went 55 m round a loop
+            and was cut off at 120 s just short of it.
+        max_extension: see timeout_per_m.
         dwell_min, dwell_max: the dwell after a reached goal is uniform in [min, max].
         margin: a goal keeps at least this distance from its region's boundary.
         clearance: a goal keeps at least this distance from every wall (the robot's radius,
@@ -78,6 +84,7 @@ class WalkerConfig:
 
     goal_timeout: float = 120.0
     timeout_per_m: float = 8.0
+    max_extension: float = 2.0
     dwell_min: float = 5.0
     dwell_max: float = 20.0
     margin: float = 0.5
@@ -94,7 +101,7 @@ class WalkerConfig:
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise WalkerError("walker: %s must be a number of seconds > 0, got %r"
                                   % (name, v))
-        for name in ("dwell_min", "dwell_max", "margin", "clearance"):
+        for name in ("dwell_min", "dwell_max", "margin", "clearance", "max_extension"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise WalkerError("walker: %s must be a finite number >= 0, got %r" % (name, v))
@@ -310,7 +317,10 @@ class Leg:
         end_region: where the robot was when the leg finished.
         regoals: new goals the leg was given in its region (people/agents.WalkerAgent).
         timeout: seconds after which it is cancelled (goal_timeout, or timeout_per_m times
-            the distance to its goal when longer).
+            the way to its goal when longer), before the extension for a longer way driven
+            (people/agents.WalkerAgent).
+        way: metres of planned path from its start to its goal when it started.
+        driven: metres the robot has driven on it so far (people/agents.WalkerAgent).
     """
 
     number: int
@@ -324,6 +334,8 @@ class Leg:
     end_region: str = ""
     regoals: int = 0
     timeout: float = 0.0
+    way: float = 0.0
+    driven: float = 0.0
 
     @property
     def duration(self) -> float:
@@ -434,9 +446,9 @@ class Walker:
             yaw = math.atan2(gy - y, gx - x) if math.hypot(gx - x, gy - y) > 1e-6 else (
                 float(pose[2]) if len(pose) > 2 else 0.0)
             cfg = self.config
-            timeout = max(cfg.goal_timeout, cfg.timeout_per_m * self._way((x, y), (gx, gy)))
+            way = self._way((x, y), (gx, gy))
             return Leg(self.legs, self.index.region_at(x, y), target, (gx, gy, yaw), now,
-                       timeout=timeout)
+                       timeout=max(cfg.goal_timeout, cfg.timeout_per_m * way), way=way)
         raise WalkerError("walker: no acceptable goal in the regions drawn from %s after %d "
                           "draws: %s" % (self.label(here), self.config.max_picks,
                                          "; ".join(problems)))

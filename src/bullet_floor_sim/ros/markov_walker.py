@@ -23,8 +23,9 @@ Topics (in the node's namespace, ``~`` = ``markov_walker/``):
   anchors, shaft width proportional to its probability, and a label per region with P(stay).
 
 Parameters: ``~seed`` (-1: random, logged so a run can be repeated), ``~goal_timeout`` (120 s
-sim time, or ``~timeout_per_m`` 8 s a metre of planned path when longer; see
-people.walker.WalkerConfig), ``~dwell_min``/``~dwell_max`` (5/20 s), ``~margin``
+sim time, or ``~timeout_per_m`` 8 s a metre of planned path when longer, and as much
+again for each metre driven beyond it, up to ``~max_extension`` (2) times the limit more;
+see people.walker.WalkerConfig), ``~dwell_min``/``~dwell_max`` (5/20 s), ``~margin``
 (0.5 m inside the polygon), ``~clearance`` (0.45 m from walls) and the other
 people.walker.WalkerConfig fields as ``~<field>`` (``~retry_delay``, ``~max_picks``, ...),
 ``~robot_radius`` (0.34), ``~action`` (``move_base``, relative to the namespace), ``~config``
