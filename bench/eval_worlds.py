@@ -3,7 +3,9 @@
 
 Runs people/evaluation.py (the code ``evaluate_prediction`` runs) on each world under worlds/
 with the same legs and seed, one world after the other in this process, so the real-time
-factors are measured side by side. Prints one row per world and an ``EVAL world=<name> ...``
+factors are measured side by side (``rtf``: sim seconds per wall second of the run's ticks;
+``setup``: the wall seconds before them, loading the world, checking it and the predictor's
+distances). Prints one row per world and an ``EVAL world=<name> ...``
 line each (and a ``done:`` line on stderr as each world ends, so a run cut short keeps what it
 measured). ``margin`` is the predictor's least lead in top-1 over the better of the two
 baselines at any fraction from 25 % on, from tracker and from ground-truth tracks:
@@ -101,7 +103,7 @@ def row(world: str, legs: int, seed: int, allow: bool = False, save: str = "") -
            "given_up": r.failed_legs / max(1, len(r.legs) + r.failed_legs),
            "markov50": tab["tracker"]["markov"][k[0.5]][0],
            "heading50": tab["tracker"]["heading"][k[0.5]][0],
-           "tracked": r.tracked_share, "rtf": r.sim_time / max(r.wall_time, 1e-9),
+           "tracked": r.tracked_share, "rtf": r.rtf, "setup": r.setup_time,
            "notes": r.warnings,   # the observer's share of the run in each follower mode
            "modes": "/".join("%s:%.0f" % (m, 100.0 * n / max(1, r.ticks))
                              for m, n in sorted(r.follow_modes.items()))}
@@ -127,11 +129,12 @@ def _eval_line(r: dict, office: Optional[float]) -> str:
     """The EVAL line of one world's row (with its ratio to office's rtf when known)."""
     return ("EVAL world=%s legs=%d given_up=%.3f trk25=%.3f trk50=%.3f trk75=%.3f gt25=%.3f "
             "gt50=%.3f gt75=%.3f markov50=%.3f heading50=%.3f margin=%.3f tracked=%.3f "
-            "ll50=%.3f markov_ll50=%.3f ll_margin=%.3f modes=%s rtf=%.1f%s"
+            "ll50=%.3f markov_ll50=%.3f ll_margin=%.3f modes=%s rtf=%.1f%s setup=%.0fs"
             % (r["world"], r["legs"], r["given_up"], r["trk25"], r["trk50"], r["trk75"],
                r["gt25"], r["gt50"], r["gt75"], r["markov50"], r["heading50"], r["margin"],
                r["tracked"], r["ll50"], r["markov_ll50"], r["ll_margin"], r["modes"], r["rtf"],
-               "" if office is None else " rtf_vs_office=%.2f" % (r["rtf"] / office)))
+               "" if office is None else " rtf_vs_office=%.2f" % (r["rtf"] / office),
+               r["setup"]))
 
 
 def main() -> int:

@@ -94,6 +94,11 @@ def test_cli_short_run_prints_the_table_and_writes_the_plot(tmp_path, capsys):
         assert 0.0 <= float(vals[k]) <= 1.0, line
     # the observer does see and track the walker on this run (it starts 9 m away, facing it)
     assert float(vals["recall"]) > 0.8, line
+    # the real-time factor is of the ticks: the setup's wall seconds are said apart
+    sim, wall, setup, rtf = (float(v) for v in re.search(
+        r"(\d+) s sim in (\d+) s wall \((\d+) s of it setup; ([\d.]+)x real time after it\)",
+        out).groups())
+    assert 0 < setup < wall and rtf > sim / (wall + 1.0)   # (printed rounded)
     with open(png, "rb") as f:
         assert f.read(8) == b"\x89PNG\r\n\x1a\n"
     assert os.path.getsize(png) > 10000

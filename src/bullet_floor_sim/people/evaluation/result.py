@@ -109,6 +109,12 @@ class EvalResult:
     follow_modes: Dict[str, int]
     handovers: int = 0
     warnings: List[str] = field(default_factory=list)  # the map's handling, regions left out
+    setup_time: float = 0.0   # wall s of wall_time before the first tick (world, check, model)
+
+    @property
+    def rtf(self) -> float:
+        """Sim seconds per wall second of the run's ticks (its setup not counted)."""
+        return self.sim_time / max(self.wall_time - self.setup_time, 1e-9)
 
     @property
     def recall(self) -> float:

@@ -134,6 +134,7 @@ class _Scenario:
         self.err_sum = 0.0
         self.completed: List[LegScore] = []
         self.t0 = world.clock.now
+        self.setup_time = time.time() - t_wall   # world, map check, the predictor's distances
 
     def tick(self, steps: int) -> None:
         """Step the world one control period, then the walker, the ground-truth predictor
@@ -263,7 +264,8 @@ class _Scenario:
                           tracked_ticks=tracked, false_track_ticks=self.false_ticks,
                           id_switches=self.switches, handovers=self.predictor.handovers,
                           mean_track_error=self.err_sum / tracked if tracked else float("nan"),
-                          follow_modes=self.drive.modes, warnings=self.warnings)
+                          follow_modes=self.drive.modes, warnings=self.warnings,
+                          setup_time=self.setup_time)
 
 
 class ObserverDrive:
