@@ -271,11 +271,23 @@ def test_lost_or_never_seen_without_prediction_patrols_the_building():
     # an observer that has not seen its target for patrol_after from the start patrols
     fresh = FollowBehaviour(hall())
     d = fresh.update(0.0, (2.0, 2.0, 0.3), None, None)     # first it looks round, once
-    assert d.goal == pytest.approx((2.0, 2.0, 0.3 - math.pi)) and "looking round" in d.reason
+    # (to the right: facing a little north of east, more of the hall lies to its right)
+    assert d.goal == pytest.approx((2.0, 2.0, 0.3 - math.pi + 0.05))
+    assert d.reason == "target not seen yet: looking round to the right"
     assert fresh.update(1.0, (2.0, 2.0, 1.0), None, None).goal is None
     assert fresh.update(9.0, (2.0, 2.0, 0.3 - math.pi), None, None, goal_done=True).goal is None
     late = fresh.config.patrol_after + 0.1
     assert fresh.update(late, (2.0, 2.0, 0.0), None, None).mode == "patrol"
+
+
+@pytest.mark.parametrize("y, side", [(0.8, 1.0), (3.2, -1.0)])
+def test_a_target_not_seen_yet_is_looked_for_first_where_more_of_the_floor_lies(y, side):
+    """Facing east along a 10 m x 4 m hall 0.8 m from its south wall, the floor lies to the
+    left (north): the look round turns left first (a little under a half turn, so that the
+    short way round is that way); 0.8 m from the north wall, right."""
+    d = FollowBehaviour(hall()).update(0.0, (5.0, y, 0.0), None, None)
+    assert d.goal == pytest.approx((5.0, y, side * (math.pi - 0.05)))
+    assert d.reason.endswith("to the left" if side > 0 else "to the right")
 
 
 def test_pick_target_keeps_the_followed_id_else_the_nearest_to_last_seen():

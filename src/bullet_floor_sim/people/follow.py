@@ -48,8 +48,9 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
 * **patrol**: nothing tracked and nothing predicted (the target never seen, or lost with no
   leg to predict): the building's roomy places in turn, nearest first; a place seen on the
   way (``patrol_sight``) counts as visited (:class:`PatrolTour`).
-  A target not seen yet is first looked round for on the spot (``search_turn``), once, and
-  patrolled for after ``patrol_after`` seconds.
+  A target not seen yet is first looked round for on the spot (``search_turn``), once,
+  turning first to the side where more of the floor lies, and patrolled for after
+  ``patrol_after`` seconds.
 * **idle**: as patrol, on a floor with nowhere to patrol: stay.
 
 Everything is plain numbers in, plain numbers out. The parameters, and why each is what it
@@ -139,6 +140,7 @@ class FollowBehaviour:
         self._standing = True            # no goal under way (the last one finished)
         self._last_velocity = (0.0, 0.0)  # the target's, when last seen
         self._looked = False             # looked round for a target not seen yet
+        self._floor: Optional[np.ndarray] = None   # the passable cells' centres (x; y)
         self._close_since: Optional[float] = None   # the target within give_way since then
         # where it steps aside to (x, y) and the nearest it has been to it since
         self._aside: Optional[Tuple[float, float, float]] = None
@@ -243,8 +245,10 @@ class FollowBehaviour:
             if not self._looked:   # not seen yet: look round once, then a while to see it
                 self._looked = True
                 rx, ry, ryaw = (float(v) for v in robot[:3])
-                return FollowDecision(self.mode, (rx, ry, wrap_angle(ryaw + cfg.search_turn)),
-                                      "target not seen yet: looking round")
+                turn = self._first_turn(robot)
+                return FollowDecision(self.mode, (rx, ry, wrap_angle(ryaw + turn)),
+                                      "target not seen yet: looking round to the %s"
+                                      % ("left" if turn > 0 else "right"))
             return FollowDecision(self.mode)
         plan = as_plan(destination)
         if not plan:
@@ -473,6 +477,21 @@ class FollowBehaviour:
         if i < i0:
             return None
         return lx + vx * s[i], ly + vy * s[i], math.atan2(vy, vx)
+
+    def _first_turn(self, robot: Sequence[float]) -> float:
+        """The look round for a target not seen yet: ``search_turn`` (at most a little under
+        a half turn, so that the way round is this one) to the side, left (> 0) or right, on
+        which more of the passable floor lies. The walker is somewhere on that floor: on
+        orebro and acapulco_convention the observer started 10 m from it with it at its
+        side, turned the other way and lost it for 6 minutes."""
+        x, y, yaw = (float(v) for v in robot[:3])
+        if self._floor is None:
+            rows, cols = np.nonzero(np.isfinite(self.grid.cost))
+            self._floor = np.stack(self.grid.centres(cols, rows))
+        fx, fy = self._floor
+        left = float(np.sum(np.sin(np.arctan2(fy - y, fx - x) - yaw)))
+        turn = min(self.config.search_turn, math.pi - 0.05)
+        return turn if left >= 0.0 else -turn
 
     def _seen_from(self, rx: float, ry: float) -> Optional[Tuple[float, float, float]]:
         """Where to look from at the place a target was last seen (one that stood still, or
