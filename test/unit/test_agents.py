@@ -9,10 +9,11 @@ import math
 import os
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 from shapely.geometry import Point
 
-from bullet_floor_sim.data.rois import Roi, load_rois, roi_polygon
+from bullet_floor_sim.data.rois import Roi, RoiError, load_rois, roi_polygon
 from bullet_floor_sim.nav.planner import PlanningGrid
 from bullet_floor_sim.people.agents import (FollowerAgent, PredictorAgent, TrackerAgent,
                                             WalkerAgent)
@@ -130,12 +131,51 @@ def test_walker_agent_gives_a_goal_given_up_close_by_one_new_goal_in_its_region(
     assert leg.regoals == 1 and math.hypot(leg.goal[0] - first[0], leg.goal[1] - first[1]) >= 1.0
     assert roi_polygon(by_id[leg.target_region]).contains(Point(leg.goal[:2]))
     assert s.notes[0].startswith("leg 1: goal given up 0.60 m short (no progress for 60 s)")
-    # the second give-up ends the leg (one new goal a leg), as does one far from the goal
-    s = agent.tick(70.0, (leg.goal[0] + 0.3, leg.goal[1], 0.0), ("aborted", "blocked"))
-    assert s.finished is leg and leg.outcome == "aborted" and leg.duration == 70.0
-    leg = agent.tick(70.0 + s.pause, (3.0, 10.0, 0.0)).start
-    s = agent.tick(80.0 + s.pause, (leg.goal[0] + 1.2, leg.goal[1], 0.0), ("aborted", "x"))
-    assert s.finished is leg and not s.regoal and leg.regoals == 0
+    # the second give-up close by gets no new goal (one a leg): in its region, the leg ends
+    # there as reached, and says so
+    here = (leg.goal[0] + 0.3, leg.goal[1], 0.0)
+    assert agent.walker.region_at(*here[:2]) == leg.target_region
+    s = agent.tick(70.0, here, ("aborted", "the goal is taken"))
+    assert s.finished is leg and leg.outcome == "succeeded" and leg.duration == 70.0
+    assert leg.end_region == leg.target_region and s.pause >= agent.walker.config.dwell_min
+    assert s.notes == ["leg 1: goal given up 0.30 m short (the goal is taken), no other goal: "
+                       "it stops there, in %s" % agent.walker.label(leg.target_region)]
+    # the next leg's goal keeps regoal_within clear of the goal it stopped short of
+    taken = leg.goal
+    t0 = 70.0 + s.pause
+    nxt = agent.tick(t0, here).start
+    assert math.hypot(nxt.goal[0] - taken[0], nxt.goal[1] - taken[1]) >= 1.0
+    agent.tick(t0 + 5.0, nxt.goal, ("succeeded", ""))
+    # one far from the goal ends as given up
+    t0 += 100.0
+    leg = agent.tick(t0, (3.0, 10.0, 0.0)).start
+    s = agent.tick(t0 + 10.0, (3.0, 10.0, 0.0), ("aborted", "x"))
+    assert s.finished is leg and not s.regoal and leg.regoals == 0 and leg.outcome == "aborted"
+
+
+def test_goals_keep_clear_of_a_spot_to_avoid_and_say_so_when_none_is_left(office):
+    rois, sampler = office
+    office5 = next(r for r in rois if r.id == "5")    # 3.5 m x 7.7 m
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        x, y = sampler.sample(office5, rng, (3.0, 10.0), (2.6, 4.0, 2.0))
+        assert math.hypot(x - 2.6, y - 4.0) >= 2.0
+    with pytest.raises(RoiError, match="within 9.0 m of a spot taken"):
+        sampler.sample(office5, rng, (3.0, 10.0), (2.6, 4.0, 9.0))
+
+
+def test_a_goal_given_up_close_by_but_outside_its_region_is_given_up(office):
+    """No new goal and not in the region it was going to: the leg is given up (a robot
+    short of the doorway of a room it was going to has not got there)."""
+    rois, sampler = office
+    agent = WalkerAgent(Walker(MarkovChain.from_rois(rois), rois, sampler, WalkerConfig(),
+                               seed=4), regoal_within=1.0, max_regoals=0)
+    leg = agent.tick(0.0, (3.0, 10.0, 0.0)).start
+    gx, gy, _ = leg.goal
+    near = next((gx + dx, gy + dy, 0.0) for dx, dy in ((0.9, 0), (-0.9, 0), (0, 0.9), (0, -0.9))
+                if agent.walker.region_at(gx + dx, gy + dy) != leg.target_region)
+    s = agent.tick(20.0, near, ("aborted", "blocked"))
+    assert s.finished is leg and leg.outcome == "aborted" and s.notes == []
 
 
 def test_walker_agent_no_leg_leaves_the_reasons_to_take(office):

@@ -28,7 +28,7 @@ from .follow import FollowBehaviour, FollowConfig, FollowDecision
 from .search import TrackLike, pick_target, search_plan
 from .prediction import DestinationModel, Prediction, PredictorPool
 from .tracking import StaticMap, Track, Tracker, TrackerConfig, detect, scan_points
-from .walker import Leg, Walker
+from .walker import Leg, Walker, WalkerError
 
 __all__ = ["WalkerAgent", "WalkerStep", "REGOAL_WITHIN", "MAX_REGOALS", "TrackerAgent",
            "TrackerStep", "PredictorAgent", "PredictorStep", "FollowerAgent", "FollowerStep",
@@ -83,6 +83,9 @@ class WalkerAgent:
     stands on or beside it: the observer, waiting near the walker) is replaced, up to
     ``max_regoals`` times a leg, by another goal in the same region at least that far from
     it, as a person would stop at another free spot; the leg goes on under its own timeout.
+    With no new goal (none that far, or none left) and the robot in that region, the leg
+    ends there, as reached, and the next leg's goal keeps ``regoal_within`` from the one it
+    stopped short of (a region with no other free goal is not drawn for it).
 
     Args:
         walker: the walk (chain, regions, goal sampler, random streams).
@@ -102,6 +105,8 @@ class WalkerAgent:
         self.leg: Optional[Leg] = None
         self.resume_at = -math.inf   # no leg starts before this time
         self._last_xy: Optional[Tuple[float, float]] = None   # the pose at the last tick
+        # (x, y, r): the goal a leg stopped short of, kept clear of by the next leg's goal
+        self._taken: Optional[Tuple[float, float, float]] = None
 
     def tick(self, t: float, pose: Sequence[float],
              result: Optional[Tuple[str, str]] = None) -> WalkerStep:
@@ -118,7 +123,7 @@ class WalkerAgent:
         step = WalkerStep()
         if self.leg is None:
             if t >= self.resume_at:
-                self.leg = step.start = self.walker.next_leg(pose, t)
+                self.leg = step.start = self._next_leg(pose, t)
                 self._last_xy = (float(pose[0]), float(pose[1]))
                 step.notes = self.take_notes()
             return step
@@ -129,6 +134,7 @@ class WalkerAgent:
         self._drive(leg, pose)
         limit = self.limit(leg)
         timed_out = t - leg.started > limit
+        short: Optional[str] = None   # the note of a leg that stops short of a taken goal
         if result is not None and result[0] == "succeeded":
             outcome, detail = "succeeded", ""
         elif timed_out:
@@ -141,14 +147,29 @@ class WalkerAgent:
             outcome, detail = result
             if outcome == "aborted" and self._regoal(leg, pose, detail, step):
                 return step
+            if outcome == "aborted":
+                short = self._stops_short(leg, pose, detail)
+            if short is not None:
+                outcome, detail = "succeeded", ""
         else:
             return step
         step.line = self.walker.finish(leg, outcome, t, self.walker.region_at(pose[0], pose[1]),
                                        detail)
         step.pause = self.walker.dwell() if outcome == "succeeded" else self.walker.retry_delay()
         step.finished, self.leg, self.resume_at = leg, None, t + step.pause
-        step.notes = self.take_notes()
+        step.notes = ([short] if short else []) + self.take_notes()
         return step
+
+    def _next_leg(self, pose: Sequence[float], t: float) -> Leg:
+        """The next leg, its goal clear of the one the last leg stopped short of; when no
+        region drawn has such a goal, any goal (the spot may have been left meanwhile)."""
+        avoid, self._taken = self._taken, None
+        try:
+            return self.walker.next_leg(pose, t, avoid)
+        except WalkerError:
+            if avoid is None:
+                raise
+            return self.walker.next_leg(pose, t)
 
     def limit(self, leg: Leg) -> float:
         """Seconds ``leg`` may run: its timeout, plus ``timeout_per_m`` for each metre driven
@@ -168,6 +189,21 @@ class WalkerAgent:
             if step <= _MAX_STEP:
                 leg.driven += step
         self._last_xy = (x, y)
+
+    def _stops_short(self, leg: Leg, pose: Sequence[float], why: str) -> Optional[str]:
+        """A goal given up within ``regoal_within`` of it, in its region, with no new goal
+        to go to (none free there, or the leg had its new goals): the robot stops where it
+        is, in the region it was going to, as a person whose spot is taken would (aces_austin:
+        the observer stood on the only free spot of a small room, and the walker gave up
+        eleven legs in a row there). Returns the note that says so, or None."""
+        gx, gy, _ = leg.goal
+        near = math.hypot(pose[0] - gx, pose[1] - gy)
+        w = self.walker
+        if near > self.regoal_within or w.region_at(pose[0], pose[1]) != leg.target_region:
+            return None
+        self._taken = (gx, gy, self.regoal_within)   # the next leg's goal keeps clear of it
+        return ("leg %d: goal given up %.2f m short (%s), no other goal: it stops there, in %s"
+                % (leg.number, near, why, w.label(leg.target_region)))
 
     def _regoal(self, leg: Leg, pose: Sequence[float], why: str, step: WalkerStep) -> bool:
         """Give ``leg`` another goal in its region when it was given up near its goal."""

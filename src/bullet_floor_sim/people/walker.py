@@ -241,8 +241,10 @@ class GoalSampler:
         return component <= 0 or int(self.labels[r, c]) == component
 
     def sample(self, roi: Roi, rng: np.random.Generator,
-               start: Optional[Sequence[float]] = None) -> Tuple[float, float]:
-        """A goal in ``roi``, reachable from ``start`` (x, y) when given.
+               start: Optional[Sequence[float]] = None,
+               avoid: Optional[Tuple[float, float, float]] = None) -> Tuple[float, float]:
+        """A goal in ``roi``, reachable from ``start`` (x, y) when given, and at least r from
+        (x, y) when ``avoid`` is (x, y, r) (a spot someone stands on).
 
         A region narrower than twice the margin gets goals with half the margin, then none.
 
@@ -250,12 +252,14 @@ class GoalSampler:
             RoiError: no acceptable point was drawn (the message names the region and why).
         """
         component = self.component_at(start[0], start[1]) if start is not None else 0
+        ax, ay, ar = avoid if avoid is not None else (0.0, 0.0, 0.0)
         error = None
         for margin in (self.margin, self.margin / 2.0, 0.0):
             try:
                 return random_point_inside(
                     roi, rng, margin=margin, max_tries=self.goal_tries,
-                    is_free=lambda x, y: self.acceptable(x, y, component))
+                    is_free=lambda x, y: (self.acceptable(x, y, component)
+                                          and math.hypot(x - ax, y - ay) >= ar))
             except RoiError as e:
                 error = e
                 if "no point lies" not in str(e):
@@ -263,14 +267,16 @@ class GoalSampler:
         # a cluttered region whose acceptable part is too small for rejection sampling: draw
         # one of its acceptable cell centres (exact, but only to the planning grid's cells)
         x, y, comp = self.cells_in(roi)
-        pick = np.flatnonzero(comp == component) if component > 0 else np.arange(len(x))
+        pick = np.flatnonzero(((comp == component) if component > 0 else True)
+                              & (np.hypot(x - ax, y - ay) >= ar))
         if len(pick):
             k = int(pick[rng.integers(len(pick))])
             return float(x[k]), float(y[k])
         # here no acceptable cell of the region is in the robot's component: if it has any,
         # they lie in another one
-        unreachable = component > 0 and len(comp) > 0
-        why = " (its free space is not connected to the robot's)" if unreachable else ""
+        unreachable = component > 0 and len(comp) > 0 and not (comp == component).any()
+        why = (" (its free space is not connected to the robot's)" if unreachable else
+               " (the rest is within %.1f m of a spot taken)" % ar if ar > 0 else "")
         raise RoiError("%s%s" % (error, why))
 
     def cells_in(self, roi: Roi) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -417,7 +423,8 @@ class Walker:
             raise WalkerError("walker: the chain has no regions")
         return roi.id
 
-    def next_leg(self, pose: Sequence[float], now: float) -> Leg:
+    def next_leg(self, pose: Sequence[float], now: float,
+                 avoid: Optional[Tuple[float, float, float]] = None) -> Leg:
         """Draw the next region from the one the robot is in, and a goal inside it.
 
         A region without an acceptable goal is reported in ``log`` and another one is
@@ -426,6 +433,7 @@ class Walker:
         Args:
             pose: the robot's (x, y[, yaw]) in the map frame.
             now: sim time.
+            avoid: (x, y, r): no goal within r of (x, y) (GoalSampler.sample).
 
         Raises:
             WalkerError: no region drawn had an acceptable goal.
@@ -436,7 +444,8 @@ class Walker:
         for _ in range(self.config.max_picks):
             target = self.chain.sample_next(here, self.rng_region)
             try:
-                gx, gy = self.sampler.sample(self.index.by_id[target], self.rng_goal, (x, y))
+                gx, gy = self.sampler.sample(self.index.by_id[target], self.rng_goal, (x, y),
+                                             avoid)
             except RoiError as e:
                 if str(e) not in problems:
                     problems.append(str(e))
