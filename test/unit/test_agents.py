@@ -102,7 +102,7 @@ def test_a_leg_driven_the_long_way_round_gets_more_time_up_to_its_cap(office):
     agent = WalkerAgent(Walker(MarkovChain.from_rois(rois), rois, sampler, cfg, seed=3))
     leg = agent.tick(0.0, pose).start
     x = pose[0]
-    for k in range(1, 41):           # 1 m a second along y for 40 s, then stand
+    for k in range(1, 41):           # 0.5 m a second to and fro along y for 40 s
         agent.tick(float(k), (x, 10.0 + 0.5 * (k % 2), 0.0))
     assert leg.driven == pytest.approx(20.0)
     assert agent.limit(leg) == pytest.approx(leg.timeout + 2.0 * max(0.0, 20.0 - leg.way))
@@ -137,13 +137,19 @@ def test_walker_agent_gives_a_goal_given_up_close_by_one_new_goal_in_its_region(
     assert agent.walker.region_at(*here[:2]) == leg.target_region
     s = agent.tick(70.0, here, ("aborted", "the goal is taken"))
     assert s.finished is leg and leg.outcome == "succeeded" and leg.duration == 70.0
+    assert leg.detail == "stopped 0.30 m short (the goal is taken)"
     assert leg.end_region == leg.target_region and s.pause >= agent.walker.config.dwell_min
     assert s.notes == ["leg 1: goal given up 0.30 m short (the goal is taken), no other goal: "
                        "it stops there, in %s" % agent.walker.label(leg.target_region)]
     # the next leg's goal keeps regoal_within clear of the goal it stopped short of
     taken = leg.goal
     t0 = 70.0 + s.pause
+    asked = []
+    draw = agent.walker.next_leg
+    agent.walker.next_leg = lambda *a: asked.append(a[2:]) or draw(*a)
     nxt = agent.tick(t0, here).start
+    agent.walker.next_leg = draw
+    assert asked == [((taken[0], taken[1], 1.0),)]
     assert math.hypot(nxt.goal[0] - taken[0], nxt.goal[1] - taken[1]) >= 1.0
     agent.tick(t0 + 5.0, nxt.goal, ("succeeded", ""))
     # one far from the goal ends as given up
@@ -151,6 +157,12 @@ def test_walker_agent_gives_a_goal_given_up_close_by_one_new_goal_in_its_region(
     leg = agent.tick(t0, (3.0, 10.0, 0.0)).start
     s = agent.tick(t0 + 10.0, (3.0, 10.0, 0.0), ("aborted", "x"))
     assert s.finished is leg and not s.regoal and leg.regoals == 0 and leg.outcome == "aborted"
+    # a goal refused at once (no time on the leg) does not stop short, even at the goal
+    t0 += 100.0
+    leg = agent.tick(t0, (3.0, 10.0, 0.0)).start
+    leg.regoals = agent.max_regoals
+    s = agent.tick(t0, (leg.goal[0] + 0.3, leg.goal[1], 0.0), ("aborted", "no plan"))
+    assert s.finished is leg and leg.outcome == "aborted"
 
 
 def test_goals_keep_clear_of_a_spot_to_avoid_and_say_so_when_none_is_left(office):

@@ -98,7 +98,7 @@ def test_cli_short_run_prints_the_table_and_writes_the_plot(tmp_path, capsys):
     sim, wall, setup, rtf = (float(v) for v in re.search(
         r"(\d+) s sim in (\d+) s wall \((\d+) s of it setup; ([\d.]+)x real time after it\)",
         out).groups())
-    assert 0 < setup < wall and rtf > sim / (wall + 1.0)   # (printed rounded)
+    assert 0 < setup < wall and rtf >= 0.95 * sim / (wall - setup + 1.0)   # (printed rounded)
     with open(png, "rb") as f:
         assert f.read(8) == b"\x89PNG\r\n\x1a\n"
     assert os.path.getsize(png) > 10000

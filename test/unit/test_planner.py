@@ -211,6 +211,33 @@ def test_a_goal_something_stands_on_is_given_up_after_deadlock_time(parked, outc
         world.close()
 
 
+def _first_end(x, on_goal, limit=20.0):
+    """A robot held at (x, 2) facing a goal at (8, 2) in a 10 m x 4 m room; ``on_goal(t)``:
+    whether a scan point (not on the map) lies on the goal at time t. The first (t, state,
+    message) that is not active, or None."""
+    g = np.zeros((80, 200), dtype=np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+    nav = Navigator(PlanningGrid(map_from_grid(g, 0.05)))
+    nav.start((x, 2.0, 0.0), (8.0, 2.0, 0.0), 0.0)
+    for k in range(int(limit * 10)):
+        t = 0.1 * k
+        pts = np.array([[8.0 - x, 0.0]]) if on_goal(t) else None
+        st = nav.update((x, 2.0, 0.0), pts, t)
+        if st.state != "active":
+            return round(t, 1), st.state, st.message
+    return None
+
+
+def test_a_goal_is_taken_only_near_it_and_only_when_something_stays_on_it():
+    end = _first_end(7.0, lambda t: True)       # 1 m short, something on it all along
+    assert end is not None and end[1] == "aborted" and 9.9 <= end[0] <= 10.5, end
+    assert end[2].startswith("the goal is taken")
+    crossed = _first_end(7.0, lambda t: 10.5 <= t < 10.7)   # someone crossing it
+    assert crossed is None or not crossed[2].startswith("the goal is taken"), crossed
+    far = _first_end(5.0, lambda t: True)       # 3 m short: blocked, not taken
+    assert far is None or not far[2].startswith("the goal is taken"), far
+
+
 def test_navigator_notices_a_stall_and_plans_again():
     """Commanded to move but not moving (pressed against a robot its scan stop does not see
     ahead): after stall_time the navigator stops, counts a stall and plans again."""

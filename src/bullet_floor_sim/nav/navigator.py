@@ -29,6 +29,9 @@ _BACKUP_SLACK = 0.05
 _MAX_RETREATS = 3   # per goal: then it waits where it is, and the goal can time out
 #: m beyond the robot's radius: a scan point this near the goal leaves no room to stand there
 _GOAL_MARGIN = 0.1
+#: s: a goal counts as taken once something stood on it in every scan this long (not a
+#: person crossing it)
+_TAKEN_FOR = 1.0
 _MAX_REBASES = 20   # new plans a goal whose length restarts the progress count
 
 
@@ -177,10 +180,11 @@ class NavigatorConfig:
             progress as the crow flies, which a new plan does not restart (a map being
             built: its passing places and plans are as partial as it is, and a frontier
             that gets no nearer is given up).
-        deadlock_time: no progress this long with something the map does not show standing
-            on the goal, the goal is given up with ``passing`` ("the goal is taken"; the
-            walker's agent then draws another in its region). Blocked with no progress towards the goal this
-            long, a robot the rule
+        deadlock_time: no progress this long, within ``goal_taken_within`` m of the goal,
+            with something the map does not show standing on it (1 s or more), the goal is
+            given up with ``passing`` ("the goal is taken"; people/agents.WalkerAgent then
+            draws another in the region, or ends the leg there). Blocked with no progress
+            towards the goal this long, a robot the rule
             told to yield that has not (it could not) yields; one that has the right of way,
             or keeps its way, after twice as long (what blocks it does not yield: a robot
             parked, or one with another rule). Unequal, so the two do not back off at once.
@@ -188,6 +192,8 @@ class NavigatorConfig:
             own).
         pass_wait_max: the longest wait (s) at a passing place; it waits as long as what it
             yielded to takes to come that far at 0.4 m/s, at least ``give_way_wait``.
+        goal_taken_within: see ``deadlock_time`` (WalkerAgent's ``regoal_within``: further
+            off, a goal given up ends the leg; 0: never).
         detour, detour_wait: a way round what blocks it that is more than ``detour`` m longer
             than the way it was on is taken only once it has been blocked ``detour_wait`` s
             (with ``passing``): what blocks it may give way first. The walker, blocked by the
@@ -214,6 +220,7 @@ class NavigatorConfig:
     pass_wait_max: float = 30.0
     detour: float = 10.0
     detour_wait: float = 10.0
+    goal_taken_within: float = 1.5
 
 
 @dataclass
@@ -270,6 +277,7 @@ class Navigator:
         self._rebases = 0
         self._wait_for = self.config.give_way_wait  # at the place it retreats to
         self._axis: Optional[np.ndarray] = None   # nav/passing.narrow_axis, on first need
+        self._taken_since: Optional[float] = None  # something stands on the goal since then
 
     @property
     def path(self) -> np.ndarray:
@@ -299,6 +307,7 @@ class Navigator:
         self._last_stall = -math.inf
         self._boxed = 0
         self._stuck = None
+        self._taken_since = None
         self.retreats = 0
         return path
 
@@ -377,7 +386,7 @@ class Navigator:
             self._best_t = now
             self._blocked_total = 0.0   # the time blocked counts since the last progress
             self._stuck = None          # and the time stalled
-        if self._goal_taken(now):
+        if self._goal_taken(now, cmd.distance_to_goal):
             return self._abort("the goal is taken (something the map does not show stands on "
                                "it), no progress for %.0f s, %.2f m from it"
                                % (now - self._best_t, cmd.distance_to_goal), cmd)
@@ -439,20 +448,27 @@ class Navigator:
         self._replan_around(pose, obstacles)
         return NavStatus(0.0, 0.0, "active", "stalled", cmd.distance_to_goal)
 
-    def _goal_taken(self, now: float) -> bool:
-        """No progress for ``deadlock_time`` and a scan point the map does not show within
-        the robot's radius (and ``_GOAL_MARGIN``) of the goal: it cannot stand there (the
-        observer, waiting by the walker, stood on the walker's goal and the walker turned to
-        and fro 1.1 m short of it until its leg timed out)."""
-        if (self.goal is None or self._retreat is not None or not self.config.passing
-                or now - self._best_t < self.config.deadlock_time):
+    def _goal_taken(self, now: float, distance: float) -> bool:
+        """Within ``goal_taken_within`` of the goal (``distance``), a scan point the map
+        does not show within the robot's radius (and ``_GOAL_MARGIN``) of the goal in every
+        scan for ``_TAKEN_FOR`` s, and no progress for ``deadlock_time``: it cannot stand
+        there (the observer, waiting by the walker, stood on the walker's goal and the walker
+        turned to and fro 1.1 m short of it until its leg timed out)."""
+        cfg = self.config
+        if (self.goal is None or self._retreat is not None or not cfg.passing
+                or distance > cfg.goal_taken_within):
+            self._taken_since = None
             return False
         world = self._seen[~self._known]
-        if not len(world):
-            return False
         reach = self.grid.config.robot_radius + _GOAL_MARGIN
-        return bool((np.hypot(world[:, 0] - self.goal[0], world[:, 1] - self.goal[1])
-                     < reach).any())
+        if not (len(world) and (np.hypot(world[:, 0] - self.goal[0],
+                                         world[:, 1] - self.goal[1]) < reach).any()):
+            self._taken_since = None
+            return False
+        if self._taken_since is None:
+            self._taken_since = now
+        return (now - self._taken_since >= _TAKEN_FOR
+                and now - self._best_t >= cfg.deadlock_time)
 
     def _back_off(self, sign: float, now: float, cmd: FollowerCommand) -> NavStatus:
         """Back up (``sign`` -1) or nudge forward (+1) for ``_BACKUP_TIME``."""

@@ -84,8 +84,9 @@ class WalkerAgent:
     ``max_regoals`` times a leg, by another goal in the same region at least that far from
     it, as a person would stop at another free spot; the leg goes on under its own timeout.
     With no new goal (none that far, or none left) and the robot in that region, the leg
-    ends there, as reached, and the next leg's goal keeps ``regoal_within`` from the one it
-    stopped short of (a region with no other free goal is not drawn for it).
+    ends there, as reached (its detail says how far short), and the next leg's goal keeps
+    ``regoal_within`` from the one it stopped short of (a region with no other free goal
+    is not drawn for it, unless no region drawn has one).
 
     Args:
         walker: the walk (chain, regions, goal sampler, random streams).
@@ -147,10 +148,11 @@ class WalkerAgent:
             outcome, detail = result
             if outcome == "aborted" and self._regoal(leg, pose, detail, step):
                 return step
-            if outcome == "aborted":
+            if outcome == "aborted" and t > leg.started:   # (not a goal refused at once)
                 short = self._stops_short(leg, pose, detail)
             if short is not None:
-                outcome, detail = "succeeded", ""
+                outcome, detail = "succeeded", "stopped %.2f m short (%s)" % (
+                    math.hypot(pose[0] - leg.goal[0], pose[1] - leg.goal[1]), detail)
         else:
             return step
         step.line = self.walker.finish(leg, outcome, t, self.walker.region_at(pose[0], pose[1]),
@@ -169,6 +171,7 @@ class WalkerAgent:
         except WalkerError:
             if avoid is None:
                 raise
+            self.take_notes()   # (the draws that kept clear of the spot: not this leg's)
             return self.walker.next_leg(pose, t)
 
     def limit(self, leg: Leg) -> float:

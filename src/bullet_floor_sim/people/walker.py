@@ -276,7 +276,8 @@ class GoalSampler:
         # they lie in another one
         unreachable = component > 0 and len(comp) > 0 and not (comp == component).any()
         why = (" (its free space is not connected to the robot's)" if unreachable else
-               " (the rest is within %.1f m of a spot taken)" % ar if ar > 0 else "")
+               " (the rest is within %.1f m of a spot taken)" % ar if ar > 0 and len(comp)
+               else "")
         raise RoiError("%s%s" % (error, why))
 
     def cells_in(self, roi: Roi) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
