@@ -45,6 +45,7 @@ def test_a_value_of_the_wrong_kind_is_one_error_naming_the_parameter(value, curr
     (PathFollowerParams(inflation_radius=-0.1), r"~inflation_radius -0\.1: must be a number >= 0"),
     (PathFollowerParams(detour=-1.0), r"~detour -1(\.0)?: must be a number >= 0"),
     (PathFollowerParams(detour_wait=0.0), r"~detour_wait 0(\.0)?: must be a number > 0"),
+    (PathFollowerParams(goal_taken_within=-1.0), r"~goal_taken_within -1(\.0)?: must be a number >= 0"),
     (RecorderParams(db_timeout=0.0), r"trajectory_recorder: ~db_timeout 0\.0: must be seconds > 0"),
     (RecorderParams(flush_every=-1.0), r"trajectory_recorder: ~flush_every -1\.0: must be >= 0"),
     (RecorderParams(path_rate=-1.0), r"trajectory_recorder: ~path_rate -1\.0: must be >= 0"),
@@ -60,7 +61,7 @@ def test_each_nodes_parameters_check_names_the_bad_one(params, message):
 def test_the_defaults_and_the_documented_zeros_pass_their_checks():
     for cls in (PathFollowerParams, RecorderParams, RoiManagerParams, ViewerParams):
         cls().check()
-    PathFollowerParams(inflation_radius=0.0).check()                  # no inflation
+    PathFollowerParams(inflation_radius=0.0, goal_taken_within=0.0).check()   # none; never
     RoiManagerParams(sync_period=0.0, save_quiet=0.0).check()         # no sync; save at once
     RecorderParams(flush_every=0.0, path_rate=0.0).check()            # every pose; no path
     assert PathFollowerParams().robot_radius == 0.34 and ViewerParams().max_poses == 100000

@@ -19,7 +19,9 @@ where no path passes, retreat to a wider place, wait and go on: nav/planner.Navi
 ``~keep_way`` false (true: in a passage too narrow for two, never yield by the passing rule,
 only after 20 s blocked: the walker, nav/navigator.NavigatorConfig), ``~detour`` 10 and
 ``~detour_wait`` 10 (a way round what blocks it more than 10 m longer is taken only after
-10 s blocked; 0: at once),
+10 s blocked; 0: at once), ``~goal_taken_within`` 1.5 (within this of its goal, with
+something not on the map standing on the goal for 1 s and no progress for 10 s, the goal is
+aborted as taken; 0: never),
 ``~global_frame`` map, ``~map_topic`` /map, ``~localisation`` ground_truth | tf,
 ``~allow_unknown`` false (true: plan through unknown space, as navfn's ``allow_unknown``;
 exploration needs it).
@@ -76,6 +78,7 @@ class PathFollowerParams:
     keep_way: bool = False
     detour: float = NavigatorConfig.detour
     detour_wait: float = NavigatorConfig.detour_wait
+    goal_taken_within: float = NavigatorConfig.goal_taken_within
     global_frame: str = "map"
     map_topic: str = "/map"
     localisation: str = "ground_truth"
@@ -85,7 +88,7 @@ class PathFollowerParams:
         """Raises BulletFloorSimError naming the first parameter that is not a number > 0
         (>= 0 for ``inflation_radius``: none)."""
         numbers = [f.name for f in fields(self) if isinstance(getattr(self, f.name), float)]
-        zero_ok = ("inflation_radius", "detour")
+        zero_ok = ("inflation_radius", "detour", "goal_taken_within")
         check_at_least(self, "path_follower", [n for n in numbers if n not in zero_ok],
                        what="a number")
         check_at_least(self, "path_follower", list(zero_ok), strict=False, what="a number")
@@ -111,6 +114,7 @@ class PathFollowerNode:
                                        progress_timeout=p.progress_timeout, give_way=p.give_way,
                                        keep_way=p.keep_way, detour=p.detour,
                                        detour_wait=p.detour_wait,
+                                       goal_taken_within=p.goal_taken_within,
                                        # mapping: the map is partial, so are its passing places
                                        passing=not p.allow_unknown)
         self.rate_hz = p.controller_frequency
