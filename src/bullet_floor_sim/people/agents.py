@@ -74,6 +74,11 @@ REGOAL_WITHIN, MAX_REGOALS = 1.5, 1
 _MAX_STEP = 2.0
 
 
+def _short_of(leg: Leg, pose: Sequence[float]) -> float:
+    """Metres from ``pose`` to ``leg``'s goal."""
+    return math.hypot(float(pose[0]) - leg.goal[0], float(pose[1]) - leg.goal[1])
+
+
 class WalkerAgent:
     """Legs one after the other: draw a leg, wait for its goal's result or its timeout
     (:meth:`limit`: the leg's own, longer when the robot drives further than planned), dwell
@@ -148,11 +153,10 @@ class WalkerAgent:
             outcome, detail = result
             if outcome == "aborted" and self._regoal(leg, pose, detail, step):
                 return step
-            if outcome == "aborted" and t > leg.started:   # (not a goal refused at once)
-                short = self._stops_short(leg, pose, detail)
-            if short is not None:
-                outcome, detail = "succeeded", "stopped %.2f m short (%s)" % (
-                    math.hypot(pose[0] - leg.goal[0], pose[1] - leg.goal[1]), detail)
+            stop = (self._stops_short(leg, pose, detail)
+                    if outcome == "aborted" and t > leg.started else None)  # (not refused at once)
+            if stop is not None:
+                outcome, (short, detail) = "succeeded", stop
         else:
             return step
         step.line = self.walker.finish(leg, outcome, t, self.walker.region_at(pose[0], pose[1]),
@@ -193,25 +197,28 @@ class WalkerAgent:
                 leg.driven += step
         self._last_xy = (x, y)
 
-    def _stops_short(self, leg: Leg, pose: Sequence[float], why: str) -> Optional[str]:
+    def _stops_short(self, leg: Leg, pose: Sequence[float],
+                     why: str) -> Optional[Tuple[str, str]]:
         """A goal given up within ``regoal_within`` of it, in its region, with no new goal
         to go to (none free there, or the leg had its new goals): the robot stops where it
         is, in the region it was going to, as a person whose spot is taken would (aces_austin:
         the observer stood on the only free spot of a small room, and the walker gave up
-        eleven legs in a row there). Returns the note that says so, or None."""
+        eleven legs in a row there). Returns the note that says so and the leg's detail, or
+        None."""
         gx, gy, _ = leg.goal
-        near = math.hypot(pose[0] - gx, pose[1] - gy)
+        near = _short_of(leg, pose)
         w = self.walker
         if near > self.regoal_within or w.region_at(pose[0], pose[1]) != leg.target_region:
             return None
         self._taken = (gx, gy, self.regoal_within)   # the next leg's goal keeps clear of it
         return ("leg %d: goal given up %.2f m short (%s), no other goal: it stops there, in %s"
-                % (leg.number, near, why, w.label(leg.target_region)))
+                % (leg.number, near, why, w.label(leg.target_region)),
+                "stopped %.2f m short (%s)" % (near, why))
 
     def _regoal(self, leg: Leg, pose: Sequence[float], why: str, step: WalkerStep) -> bool:
         """Give ``leg`` another goal in its region when it was given up near its goal."""
         gx, gy, _ = leg.goal
-        near = math.hypot(pose[0] - gx, pose[1] - gy)
+        near = _short_of(leg, pose)
         if leg.regoals >= self.max_regoals or near > self.regoal_within:
             return False
         w = self.walker

@@ -140,7 +140,6 @@ class FollowBehaviour:
         self._standing = True            # no goal under way (the last one finished)
         self._last_velocity = (0.0, 0.0)  # the target's, when last seen
         self._looked = False             # looked round for a target not seen yet
-        self._floor: Optional[np.ndarray] = None   # the passable cells' centres (x; y)
         self._close_since: Optional[float] = None   # the target within give_way since then
         # where it steps aside to (x, y) and the nearest it has been to it since
         self._aside: Optional[Tuple[float, float, float]] = None
@@ -485,10 +484,8 @@ class FollowBehaviour:
         orebro and acapulco_convention the observer started 10 m from it with it at its
         side, turned the other way and lost it for 6 minutes."""
         x, y, yaw = (float(v) for v in robot[:3])
-        if self._floor is None:
-            rows, cols = np.nonzero(np.isfinite(self.grid.cost))
-            self._floor = np.stack(self.grid.centres(cols, rows))
-        fx, fy = self._floor
+        rows, cols = np.nonzero(np.isfinite(self.grid.cost))   # once a run: not kept
+        fx, fy = self.grid.centres(cols, rows)
         left = float(np.sum(np.sin(np.arctan2(fy - y, fx - x) - yaw)))
         turn = min(self.config.search_turn, math.pi - 0.05)
         return turn if left >= 0.0 else -turn
