@@ -252,7 +252,8 @@ def test_predictor_agent_predicts_per_track_with_search_plans(corridor_model):
     assert sorted(step.destinations) == [1, 2] and step.went_back == 0.0
     for tid, (p, plan) in step.destinations.items():
         assert p.probabilities == want[tid].probabilities
-        assert len(plan) == 2 and plan[0][0] == p.best
+        assert plan.likely == 2 and plan[0][0] == p.best
+        assert sorted(r for r, _ in plan) == sorted(p.probabilities)   # every region, ranked
         for region, xy in plan:               # each region's one goal point is its search point
             assert xy == GOALS[region][0]
     assert step.destinations[1][0].under_way and step.destinations[1][0].best == "B"

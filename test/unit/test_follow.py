@@ -7,7 +7,8 @@ import pytest
 from bullet_floor_sim.sim.floormap import map_from_grid
 from bullet_floor_sim.people.follow import (FollowBehaviour, FollowConfig, FollowError,
                                             standoff_point)
-from bullet_floor_sim.people.search import (in_view, patrol_points, pick_target, search_plan,
+from bullet_floor_sim.people.search import (SearchPlan, as_plan, likely_count, in_view, patrol_points,
+                                            pick_target, search_plan,
                                             search_point)
 from bullet_floor_sim.nav.planner import PlanError, PlanningGrid, give_way_point, path_length
 from bullet_floor_sim.nav.navigator import path_headings
@@ -240,6 +241,58 @@ def test_a_search_goes_on_to_the_next_likely_region_and_round_again():
     # a new prediction (another list) starts over at its most likely region
     d = fb.update(32.0, (2.0, 1.5, 0.0), None, [("5", (3.0, 3.0))])
     assert d.goal[:2] == pytest.approx((3.0, 3.0))
+
+
+def test_after_its_rounds_a_search_takes_the_other_regions_once_each_then_patrols():
+    """A plan of 3 regions of which 1 is likely: region 7 for two rounds, then 4 and 5 once
+    each, most likely first, then the patrol; a plain list is all likely."""
+    grid = hall(12.0, 4.0)
+    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=2,
+                                            trail=0.0, patrol_sight=0.0))
+    fb.update(0.0, (2.0, 2.0, 0.0), (6.0, 2.0, 0.0, 0.0))
+    plan = SearchPlan([("7", (10.0, 2.0)), ("4", (1.0, 1.0)), ("5", (6.0, 3.0))], likely=1)
+    t, robot, goals = 2.0, (2.0, 2.0, 0.0), []
+    d = fb.update(t, robot, None, plan)
+    for _ in range(30):                                       # goals reached at once
+        if d.goal is not None:
+            goals.append((d.reason, d.goal[:2]))
+            robot = d.goal
+        t += 1.5
+        d = fb.update(t, robot, None, plan, goal_done=d.goal is not None)
+    went = [g for r, g in goals if "searching" in r or "patrolling" in r]
+    assert went[:4] == [(10.0, 2.0), (10.0, 2.0), (1.0, 1.0), (6.0, 3.0)]
+    assert "next likeliest, region 4 (2 of 3)" in [r for r, _ in goals][
+        [g for _, g in goals].index((1.0, 1.0))]
+    assert any("patrolling" in r for r, _ in goals)
+    assert all(g != (1.0, 1.0) for r, g in goals if "patrolling" in r)
+    # a plain list: both regions round and round (two rounds), then the patrol
+    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=2,
+                                            trail=0.0, patrol_sight=0.0))
+    fb.update(0.0, (2.0, 2.0, 0.0), (6.0, 2.0, 0.0, 0.0))
+    plain = [("7", (10.0, 2.0)), ("4", (1.0, 1.0))]
+    t, robot, goals = 2.0, (2.0, 2.0, 0.0), []
+    d = fb.update(t, robot, None, plain)
+    for _ in range(30):
+        if d.goal is not None:
+            goals.append((d.reason, d.goal[:2]))
+            robot = d.goal
+        t += 1.5
+        d = fb.update(t, robot, None, plain, goal_done=d.goal is not None)
+    searched = [g for r, g in goals if "searching" in r]
+    assert searched[:4] == [(10.0, 2.0), (1.0, 1.0), (10.0, 2.0), (1.0, 1.0)]
+    assert "patrolling" in [r for r, _ in goals if "searching" in r or "patrolling" in r][4]
+
+
+def test_search_plan_with_the_rest_ranks_every_region_and_counts_the_likely():
+    probs = {"1": 0.02, "2": 0.5, "3": 0.3, "4": 0.1, "5": 0.08}
+    goals = {"2": [(0.0, 0.0), (5.0, 5.0)], "3": [(1.0, 1.0)], "5": [(9.0, 9.0)]}
+    plan = search_plan(probs, lambda r: goals.get(r, []), (4.0, 4.0), 3, 0.05, rest=True)
+    assert [r for r, _ in plan] == ["2", "3", "4", "5", "1"] and plan.likely == 3
+    assert plan[3] == ("5", (9.0, 9.0)) and plan[4] == ("1", (4.0, 4.0))
+    assert search_plan(probs, lambda r: goals.get(r, []), (0, 0), 5, 0.09, rest=True).likely == 3
+    assert likely_count([0.01, 0.01], 3, 0.5) == 1 and likely_count([], 3, 0.5) == 0
+    assert as_plan(plan).likely == 3 and as_plan(list(plan)).likely == 5
+    assert as_plan(("2", (1, 2))) == [("2", (1.0, 2.0))] and as_plan(None) == []
 
 
 def test_search_plan_takes_the_likely_regions_most_likely_first():
@@ -574,6 +627,33 @@ def test_a_target_that_stays_close_by_is_stepped_away_from():
         assert fb.update(t, robot, (x, 2.0, 0.0, 0.0), goal_done=True).mode == "follow"
     never = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9, unblock=0))
     assert all(never.update(t, robot, target).mode == "follow" for t in range(12))
+
+
+def test_a_blocked_target_tracked_to_and_fro_within_the_distance_is_stepped_away_from():
+    """The target stands 1.2-1.4 m off (beyond give_way + 0.2, within ``distance``), its
+    track jumping 0.4 m to and fro as a blocked walker's did: stepped away from after
+    ``unblock`` seconds. One that walks on (more than ``give_way`` from where it was) or
+    goes beyond ``distance`` starts the count again."""
+    grid = hall()
+    cfg = FollowConfig(distance=1.5, slack=0.7, give_way=0.9, unblock=4.0)
+    fb = FollowBehaviour(grid, cfg)
+    robot = (5.0, 2.0, 0.0)
+    track = [(6.2, 2.0, 0.1, 0.0), (6.3, 2.4, -0.1, 0.2)]
+    for k in range(8):
+        assert fb.update(0.5 * k, robot, track[k % 2]).mode == "follow"
+    d = fb.update(4.0, robot, track[0])
+    assert d.mode == "give_way" and d.goal is not None and "stood within 1.5 m" in d.reason
+    assert math.hypot(d.goal[0] - 6.2, d.goal[1] - 2.0) >= 0.9 - 1e-9
+    # walking on towards the observer and past: each 0.5 s further on, never 4 s in one place
+    fb = FollowBehaviour(grid, cfg)
+    path = [(6.4, 2.0), (6.2, 2.0), (6.0, 2.0), (5.8, 2.0), (5.6, 2.8), (5.1, 3.0), (4.6, 3.0),
+            (4.1, 3.0), (3.6, 3.0)]
+    for k, (x, y) in enumerate(path):
+        assert fb.update(0.6 * k, robot, (x, y, -0.4, 0.0)).mode == "follow"
+    # beyond the distance between two spells of 3 s: no step
+    fb = FollowBehaviour(grid, cfg)
+    for t, x in ((0.0, 6.2), (3.0, 6.2), (3.5, 6.7), (4.0, 6.2), (6.5, 6.2)):
+        assert fb.update(t, robot, (x, 2.0, 0.0, 0.0)).mode == "follow"
 
 
 def test_a_target_lost_while_stepping_aside_is_looked_for_once_there():

@@ -25,7 +25,7 @@ import numpy as np
 from ..data.rois import RoiError
 from ..errors import BulletFloorSimError
 from .follow import FollowBehaviour, FollowConfig, FollowDecision
-from .search import TrackLike, pick_target, search_plan
+from .search import SearchPlan, TrackLike, pick_target, search_plan
 from .prediction import DestinationModel, Prediction, PredictorPool
 from .tracking import StaticMap, Track, Tracker, TrackerConfig, detect, scan_points
 from .walker import Leg, Walker, WalkerError
@@ -34,7 +34,6 @@ __all__ = ["WalkerAgent", "WalkerStep", "REGOAL_WITHIN", "MAX_REGOALS", "Tracker
            "TrackerStep", "PredictorAgent", "PredictorStep", "FollowerAgent", "FollowerStep",
            "GOAL_RESULTS"]
 
-SearchPlan = List[Tuple[str, Tuple[float, float]]]
 TrackTuple = Tuple[int, float, float, float, float]   # id, x, y, vx, vy
 
 GOAL_RESULTS = ("succeeded", "aborted", "rejected", "preempted", "lost")
@@ -344,7 +343,8 @@ class PredictorAgent:
             p = preds.get(tid)
             if p is not None:
                 out[tid] = (p, search_plan(p.probabilities, self.model.goals, (x, y),
-                                           fc.search_regions, fc.search_min_probability, p.best))
+                                           fc.search_regions, fc.search_min_probability, p.best,
+                                           rest=True))
         return PredictorStep(out, list(self.pool.errors.values()), went_back)
 
     @property

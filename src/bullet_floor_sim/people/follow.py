@@ -24,9 +24,9 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   there, facing the target,
   until the target has moved ``distance`` metres or ``give_way_hold`` seconds have passed.
   Standing on the route of a target that turned back, the observer blocked it for good in
-  narrow corridors. A target that stays within ``give_way`` + 0.2 m for ``unblock`` seconds
-  is stepped away from, on no prediction (it may be going where the observer stands), and
-  waited for the same way.
+  narrow corridors. A target that stays within ``distance`` of the observer, and within
+  ``give_way`` of where it was, for ``unblock`` seconds is stepped away from, on no
+  prediction (it may be going where the observer stands), and waited for the same way.
 * **search**: when no track has been seen for ``lost_after`` seconds, the observer first
   turns to where a target lost within ``distance + slack`` was last seen, moving or not,
   where it has ``roomy`` clearance to turn (turning towards its own goal, it had turned its
@@ -42,9 +42,12 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   predicted destination region (the predictor's arg-max; the point of the region nearest to
   where the target was last seen), turns on the spot to look around, waits ``search_wait``
   seconds, then goes on to the next most likely region (up to ``search_regions`` of them, each
-  at least ``search_min_probability``: :func:`search_plan`) and round the list again; a track
-  seen again ends the search. (Looking in one region only, the observer sat for good where
-  the walker was not: a fifth of a 200-leg evaluation.)
+  at least ``search_min_probability``: :func:`search_plan`) and round the list again; after
+  ``search_rounds`` rounds, each other region of the plan once, most likely first, and then
+  the patrol; a track seen again ends the search. (Looking in one region only, the observer
+  sat for good where the walker was not: a fifth of a 200-leg evaluation. Patrolling nearest
+  first straight after the likely regions, it went the length of office while the walker
+  dwelt in a room 6 m from where it was lost: a 255 s search.)
 * **patrol**: nothing tracked and nothing predicted (the target never seen, or lost with no
   leg to predict): the building's roomy places in turn, nearest first; a place seen on the
   way (``patrol_sight``) counts as visited (:class:`PatrolTour`).
@@ -68,7 +71,7 @@ from ..nav.planner import (PlanError, PlanningGrid, disc_points, give_way_point,
 from ..geometry import wrap_angle
 from ..nav.pockets import floor_pockets
 from .follow_config import FollowConfig, FollowDecision, FollowError
-from .search import PatrolTour, as_plan
+from .search import PatrolTour, SearchPlan, as_plan
 
 _GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps to give_way
 _MOVING = 0.15              # m/s: a target slower than this stands still
@@ -122,7 +125,7 @@ class FollowBehaviour:
         self.last_target: Optional[Tuple[float, float]] = None
         self._goal_target: Optional[Tuple[float, float]] = None
         self._goal_time = -math.inf
-        self._search: List[Tuple[str, Tuple[float, float]]] = []
+        self._search = SearchPlan()
         self._search_index = 0
         self._rounds = 0                 # rounds of the search plan gone without a sight
         self._place = ""                 # what the current search goal is (for the log)
@@ -140,7 +143,8 @@ class FollowBehaviour:
         self._standing = True            # no goal under way (the last one finished)
         self._last_velocity = (0.0, 0.0)  # the target's, when last seen
         self._looked = False             # looked round for a target not seen yet
-        self._close_since: Optional[float] = None   # the target within give_way since then
+        # (t, x, y): the target within distance since t, within give_way of (x, y) since
+        self._close_since: Optional[Tuple[float, float, float]] = None
         # where it steps aside to (x, y) and the nearest it has been to it since
         self._aside: Optional[Tuple[float, float, float]] = None
         self._parts: Optional[np.ndarray] = None    # _pockets(): the floor's parts
@@ -228,7 +232,8 @@ class FollowBehaviour:
             # before it: mit_csail, searched for 200 s 8 m the wrong way)
             self.last_seen, self.last_target = t, (float(target[0]), float(target[1]))
             self._last_velocity = (float(target[2]), float(target[3]))
-            dests = [p for _, p in as_plan(destination)]
+            plan = as_plan(destination)
+            dests = [p for _, p in plan[:plan.likely]]
             way = self._give_way(t, robot, target, dests, goal_done)
             if way is None:
                 way = self._unblock(t, robot, target, dests)
@@ -297,14 +302,26 @@ class FollowBehaviour:
         if self._search_phase == "look" and goal_done:
             self._search_phase, self._search_since = "wait", t
         if self._search_phase == "wait" and t - self._search_since >= cfg.search_wait:
-            if self._rounds >= cfg.search_rounds:
-                return self._patrol_go(rx, ry)
-            self._search_index = (self._search_index + 1) % len(self._search)
-            self._rounds += 1 if self._search_index == 0 else 0
-            if self._rounds >= cfg.search_rounds:
-                return self._patrol_go(rx, ry)
-            return self._search_go(rx, ry, "not found: searching region")
+            return self._search_next(rx, ry)
         return FollowDecision("search")
+
+    def _search_next(self, rx: float, ry: float) -> FollowDecision:
+        """On from a region searched in vain: the next likely one, round after round, for
+        ``search_rounds`` rounds; then each other region of the plan once, most likely
+        first; then the patrol."""
+        cfg, plan = self.config, self._search
+        likely = max(1, plan.likely)
+        if self._rounds < cfg.search_rounds:
+            self._search_index = (self._search_index + 1) % likely
+            self._rounds += 1 if self._search_index == 0 else 0
+            if self._rounds < cfg.search_rounds:
+                return self._search_go(rx, ry, "not found: searching region")
+            self._search_index = likely - 1   # the others next, from the first after them
+        if self._search_index + 1 < len(plan):
+            self._search_index += 1
+            return self._search_go(rx, ry, "not found in %d rounds of its likely regions: "
+                                   "searching the next likeliest, region" % self._rounds)
+        return self._patrol_go(rx, ry)
 
     def _give_way(self, t: float, robot: Sequence[float], target: Sequence[float],
                   dests: List[Tuple[float, float]], goal_done: bool
@@ -358,24 +375,26 @@ class FollowBehaviour:
 
     def _unblock(self, t: float, robot: Sequence[float], target: Sequence[float],
                  dests: List[Tuple[float, float]]) -> Optional[FollowDecision]:
-        """Stepping out of the way of a target that has stayed close by for ``unblock``
-        seconds (see FollowConfig.unblock), or None."""
+        """Stepping out of the way of a target that has stayed within ``distance`` of the
+        observer and within ``give_way`` of where it was for ``unblock`` seconds (see
+        FollowConfig.unblock), or None."""
         cfg = self.config
         tx, ty = float(target[0]), float(target[1])
         rx, ry = float(robot[0]), float(robot[1])
-        if cfg.unblock <= 0 or math.hypot(tx - rx, ty - ry) >= cfg.give_way + _GIVE_WAY_HYSTERESIS:
+        if cfg.unblock <= 0 or math.hypot(tx - rx, ty - ry) >= cfg.distance:
             self._close_since = None
             return None
-        if self._close_since is None:
-            self._close_since = t
-        if t - self._close_since < cfg.unblock:
+        if self._close_since is None or math.hypot(
+                tx - self._close_since[1], ty - self._close_since[2]) > cfg.give_way:
+            self._close_since = (t, tx, ty)   # close by from now, or it got on its way
+        if t - self._close_since[0] < cfg.unblock:
             return None
         self._close_since = None
         routes = [self._target_routes(t, (tx, ty), dests)] if dests else []
         keep = np.vstack(routes + [np.array([[tx, ty], [rx, ry]])])
         return self._step_aside(t, (rx, ry), (tx, ty), keep,
                                 "the target has stood within %.1f m for %.0f s" % (
-                                    cfg.give_way + _GIVE_WAY_HYSTERESIS, cfg.unblock))
+                                    cfg.distance, cfg.unblock))
 
     def _step_aside(self, t: float, robot: Tuple[float, float], target: Tuple[float, float],
                     keep: np.ndarray, why: str) -> Optional[FollowDecision]:

@@ -1,5 +1,6 @@
 """Where the observer looks: which track to follow (:func:`pick_target`), where to search for
-a lost target (:func:`search_plan`, :func:`search_point`: the likely destinations' points),
+a lost target (:func:`search_plan`, :func:`search_point`: the destinations' points, the likely
+ones first),
 where to patrol when those gave nothing (:func:`patrol_points`, :class:`PatrolTour`), and
 whether a point is in the lidar's view (:func:`in_view`). people/follow.FollowBehaviour and
 people/agents use them."""
@@ -13,8 +14,8 @@ import numpy as np
 from ..geometry import wrap_angle, wrap_angles
 from ..nav.planner import PlanningGrid
 
-__all__ = ["pick_target", "search_point", "search_plan", "patrol_points", "PatrolTour", "in_view",
-           "as_plan"]
+__all__ = ["pick_target", "search_point", "search_plan", "SearchPlan", "likely_count",
+           "patrol_points", "PatrolTour", "in_view", "as_plan"]
 
 #: points (N, 2): a list of (x, y) or an array (DestinationModel.goals)
 Points = Union[Sequence[Sequence[float]], np.ndarray]
@@ -49,41 +50,59 @@ def search_point(points: Points, xy: Sequence[float]) -> Tuple[float, float]:
     """Where to look for a lost target heading for a region: of the region's goal points
     (``points``, e.g. DestinationModel.goals), the one nearest to where it was last seen
     (``xy`` itself when the region has none)."""
-    best, best_d = (float(xy[0]), float(xy[1])), math.inf
-    for p in points:
-        d = math.hypot(float(p[0]) - float(xy[0]), float(p[1]) - float(xy[1]))
-        if d < best_d:
-            best, best_d = (float(p[0]), float(p[1])), d
-    return best
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    if not len(pts):
+        return float(xy[0]), float(xy[1])
+    i = int(np.argmin(np.hypot(pts[:, 0] - float(xy[0]), pts[:, 1] - float(xy[1]))))
+    return float(pts[i, 0]), float(pts[i, 1])
+
+
+class SearchPlan(list):
+    """Where to search for a lost target: (region, (x, y)) pairs, most likely first; its
+    first ``likely`` are searched in turn, round after round, the rest once each after them
+    (FollowBehaviour)."""
+
+    def __init__(self, pairs=(), likely: Optional[int] = None) -> None:
+        super().__init__(pairs)
+        self.likely = len(self) if likely is None else max(0, min(int(likely), len(self)))
+
+
+def likely_count(ranked: Sequence[float], count: int, min_probability: float) -> int:
+    """How many of the probabilities ``ranked`` (most likely first) make the likely regions
+    of a search: at most ``count``, each at least ``min_probability``, the first always."""
+    n = 0
+    for k, p in enumerate(list(ranked)[:max(1, int(count))]):
+        if k > 0 and float(p) < min_probability:
+            break
+        n += 1
+    return n
 
 
 def search_plan(probabilities: Mapping[str, float], goals: Callable[[str], Points],
                 xy: Sequence[float], count: int = 3, min_probability: float = 0.05,
-                best: Optional[str] = None) -> List[Tuple[str, Tuple[float, float]]]:
+                best: Optional[str] = None, rest: bool = False) -> SearchPlan:
     """Where to search for a lost target: the ``count`` most likely destination regions with
     probability at least ``min_probability`` (the most likely one always), most likely first
     (of equal ones ``best`` first, e.g. the predictor's arg-max, then by region id), each with
     its :func:`search_point` (``goals(region)``: the region's goal points) nearest to ``xy``,
-    where the target was last seen."""
+    where the target was last seen; with ``rest``, every other region after them, in the same
+    order (SearchPlan.likely: how many are the likely ones)."""
     ranked = sorted(probabilities.items(),
                     key=lambda kv: (-float(kv[1]), kv[0] != best, kv[0]))
-    out = []
-    for k, (region, p) in enumerate(ranked[:max(1, int(count))]):
-        if k > 0 and float(p) < min_probability:
-            break
-        out.append((region, search_point(goals(region), xy)))
-    return out
+    n = likely_count([p for _, p in ranked], count, min_probability)
+    return SearchPlan([(region, search_point(goals(region), xy))
+                       for region, _ in (ranked if rest else ranked[:n])], n)
 
 
-def as_plan(destination) -> List[Tuple[str, Tuple[float, float]]]:
-    """``destination`` (None, one (region, (x, y)) pair, or a list of them) as a list."""
+def as_plan(destination) -> SearchPlan:
+    """``destination`` (None, one (region, (x, y)) pair, a list of them, or a SearchPlan) as
+    a SearchPlan (a plain list: all of it likely)."""
     if destination is None:
-        return []
+        return SearchPlan()
+    likely = getattr(destination, "likely", None)
     if len(destination) == 2 and isinstance(destination[0], str):
         destination = [destination]
-    return [(str(r), (float(p[0]), float(p[1]))) for r, p in destination]
-
-
+    return SearchPlan([(str(r), (float(p[0]), float(p[1]))) for r, p in destination], likely)
 
 
 def patrol_points(grid: PlanningGrid, spacing: float, clearance: float) -> np.ndarray:

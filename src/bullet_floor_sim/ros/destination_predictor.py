@@ -20,8 +20,8 @@ from ``~map_topic`` (``/map``, latched).
 Parameters: ``~config`` ("1"), ``~rois_yaml`` (""), ``~tol`` (0.2), ``~mode`` (vertex),
 ``~robot_radius`` (0.34, planning grid inflation), ``~beta`` and the other core
 PredictionConfig fields as ``~<field>``, ``~query_service``, ``~rois_changed_topic``,
-``~map_topic``, ``~search_regions`` (3) and ``~search_min_probability`` (0.05): which regions
-get a search point in ``points`` (people/search.search_plan).
+``~map_topic``. Every region gets a search point in ``points`` (people/search.search_plan); the
+follower's ``~search_regions`` and ``~search_min_probability`` say which are the likely ones.
 """
 from __future__ import annotations
 
@@ -37,7 +37,6 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from ..errors import BulletFloorSimError
 from ..people.agents import PredictorAgent
-from ..people.follow import FollowConfig
 from ..people.markov import MarkovChain, usable_rois
 from ..nav.planner import PlannerConfig, PlanningGrid
 from ..people.prediction import DestinationModel, PredictionConfig
@@ -56,7 +55,7 @@ def destination_msg(track_id: int, prediction, header, best_point=(0.0, 0.0),
                     search=()) -> Destination:
     """A Destination message of a core Prediction (regions most likely first); ``best_point``:
     where to look for the entity in the best region; ``search``: people/search.search_plan's
-    (region, point) pairs, most likely first (``points``)."""
+    (region, point) pairs, most likely first (``points``: as far as they follow ``regions``)."""
     m = Destination()
     m.header = header
     m.track_id = track_id
@@ -92,12 +91,6 @@ class DestinationPredictorNode:
         self.query_service = str(gp("~query_service", "/soma/query_rois"))
         self.planner_cfg = PlannerConfig(robot_radius=float(gp("~robot_radius", PlannerConfig.robot_radius)))
         self.config = config_from_params(PredictionConfig())
-        defaults = FollowConfig()
-        self.search = FollowConfig(
-            search_regions=int(gp("~search_regions", defaults.search_regions)),
-            search_min_probability=float(gp("~search_min_probability",
-                                            defaults.search_min_probability)))
-        self.search.check()
         self.lock = threading.Lock()
         self.grid: Optional[PlanningGrid] = None
         self.rois: Optional[List[Roi]] = None
@@ -172,7 +165,7 @@ class DestinationPredictorNode:
                 rospy.logerr("destination_predictor: cannot build the model: %s", e)
                 continue
             with self.lock:
-                self.rois, self.agent = good, PredictorAgent(model, self.search)
+                self.rois, self.agent = good, PredictorAgent(model)
             rospy.loginfo("destination_predictor: %d regions, model built (%.1f s)", len(good),
                           rospy.get_time() - t0)
 

@@ -6,7 +6,8 @@ Run it in the observing robot's namespace. It picks one track of ``tracks`` (peo
 stand-off point ``~distance`` metres from the target, facing it, re-planned as the track moves;
 when the track is lost for ``~lost_after`` seconds it goes to where the predictor says the
 target is heading (``destination``: the best region's point nearest the track), looks round
-there, and goes on to the next likely regions of ``destination``'s ``points`` in turn.
+there, and goes on to the next likely regions of ``destination``'s ``points`` in turn
+(``~search_regions``, ``~search_min_probability``), then to the others once each.
 people/agents.FollowerAgent (people/follow.py) makes the decisions, as in the evaluation.
 
 Topics: ``tracks`` (in, bullet_floor_sim/TrackArray), ``destination`` (in,
@@ -40,6 +41,7 @@ from std_msgs.msg import String
 from ..errors import BulletFloorSimError
 from ..people.agents import FollowerAgent
 from ..people.follow import FollowBehaviour, FollowConfig
+from ..people.search import SearchPlan, likely_count
 from ..nav.planner import PlannerConfig, PlanningGrid
 from ..msg import Destination, TrackArray
 from .params import config_from_params, map_handling
@@ -53,6 +55,17 @@ _TERMINAL = (GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.REJECTED,
              GoalStatus.PREEMPTED, GoalStatus.RECALLED, GoalStatus.LOST)
 
 
+
+
+def plan_of(msg: Destination, config: FollowConfig) -> SearchPlan:
+    """The search plan of a Destination message: its regions' points, most likely first,
+    the likely ones those of ``config.search_regions`` and ``search_min_probability``
+    (people/search.likely_count); the best point alone when it has no points."""
+    pairs = [(r, (pt.x, pt.y)) for r, pt in zip(msg.regions, msg.points)]
+    if not pairs:
+        return SearchPlan([(msg.best, (msg.best_point.x, msg.best_point.y))])
+    return SearchPlan(pairs, likely_count(msg.probabilities, config.search_regions,
+                                          config.search_min_probability))
 
 class FollowerNode:
     """Tracks and destinations in, move_base goals out."""
@@ -117,9 +130,7 @@ class FollowerNode:
         if not msg.best:
             return
         with self.lock:
-            self.destinations[msg.track_id] = (
-                [(r, (pt.x, pt.y)) for r, pt in zip(msg.regions, msg.points)]
-                or [(msg.best, (msg.best_point.x, msg.best_point.y))])
+            self.destinations[msg.track_id] = plan_of(msg, self.config)
 
     def _pose(self):
         if self.source == "ground_truth":
