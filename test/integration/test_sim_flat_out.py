@@ -22,9 +22,15 @@ from std_msgs.msg import Float64
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from helpers import wait_for  # noqa: E402
 
-#: topic -> sim-time period of its messages (sim.launch's default rates)
-TOPICS = {"/robot1/base_scan": 0.1, "/robot1/battery_state": 0.1, "/robot2/joint_states": 0.1,
-          "/robot2/base_pose_ground_truth": 0.05, "/robot1/odom": 0.02}
+#: topic -> sim-time period of its messages, per sim.launch ``rates`` (the test's ``~rates``):
+#: ours (the default) and stage (Stage's: a 10 Hz step, everything at 10 Hz)
+PERIODS = {
+    "ours": {"/robot1/base_scan": 0.1, "/robot1/battery_state": 0.1, "/robot2/joint_states": 0.1,
+             "/robot2/base_pose_ground_truth": 0.05, "/robot1/odom": 0.02, "/clock": 0.01},
+    "stage": {"/robot1/base_scan": 0.1, "/robot1/battery_state": 0.1,
+              "/robot2/joint_states": 0.1, "/robot2/base_pose_ground_truth": 0.1,
+              "/robot1/odom": 0.1, "/clock": 0.1},
+}
 _HEADER = struct.Struct("<III")
 
 
@@ -37,7 +43,11 @@ class SimFlatOut(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         rospy.init_node("test_sim_flat_out")
-        cls.seen = {t: [] for t in TOPICS}
+        cls.periods = PERIODS[rospy.get_param("~rates", "ours")]
+        cls.clock = []
+        rospy.Subscriber("/clock", Clock, lambda m: cls.clock.append(m.clock.to_nsec()),
+                         queue_size=None)
+        cls.seen = {t: [] for t in cls.periods if t != "/clock"}
         cls.rtf, cls.share = [], []
         rospy.Subscriber("/simulator/real_time_factor_achieved", Float64,
                          lambda m: cls.rtf.append(m.data))
@@ -45,7 +55,7 @@ class SimFlatOut(unittest.TestCase):
                          lambda m: cls.share.append(m.data))
         rospy.wait_for_message("/clock", Clock, timeout=30.0)
         subs = [rospy.Subscriber(t, rospy.AnyMsg, cls._keep, callback_args=t, queue_size=None)
-                for t in TOPICS]
+                for t in cls.seen]
         wait_for(lambda: all(len(v) > 10 for v in cls.seen.values()), 30.0, "every topic")
         # 21 s of sim time on every topic, however fast this machine runs it (4 s of wall
         # time saw 15 sim s with a busy CPU: a speed bound, which belongs in `make bench`)
@@ -69,9 +79,23 @@ class SimFlatOut(unittest.TestCase):
         for v in self.rtf:
             self.assertGreater(v, 0.0, self.rtf)
 
+    def test_the_clock_steps_by_the_step_period(self):
+        """/clock goes up, message after message, by whole steps of the rates' step period
+        (flat out it is sent at most every ``clock_wall_period`` of wall time, so steps are
+        skipped, never split): with rates:=stage every stamp is a multiple of 0.1 s."""
+        step = int(round(self.periods["/clock"] * 1e9))
+        stamps = self.clock[1:]
+        self.assertGreater(len(stamps), 100)
+        gaps = [b - a for a, b in zip(stamps, stamps[1:])]
+        self.assertTrue(all(g > 0 for g in gaps), "/clock went back or repeated")
+        self.assertEqual({g % step for g in gaps}, {0}, "/clock steps off the %d ns grid" % step)
+        self.assertEqual({t % step for t in stamps}, {0})
+        if step == 10 ** 7:   # ours: the 100 Hz step shows between the 0.1 s marks
+            self.assertTrue(any(t % 10 ** 8 for t in stamps))
+
     def test_no_message_lost_or_reordered(self):
-        for topic, period in TOPICS.items():
-            got = self.seen[topic]
+        for topic, got in self.seen.items():
+            period = self.periods[topic]
             # from the second message: the first may have been queued before we connected
             seqs = [s for s, _ in got[1:]]
             stamps = [t for _, t in got[1:]]
