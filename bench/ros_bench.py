@@ -115,6 +115,45 @@ def _subscribe_everything(n: int, shares: list) -> list:
     return subs
 
 
+def turn_on_clock(cmd_topics: list, wait: float = 60.0) -> dict:
+    """Subscribe /clock; on it, every 0.2 s of sim time (5 Hz: the simulator's watchdog
+    stops a robot after 0.5 s), tell each of ``cmd_topics`` to turn in place at 0.5 rad/s.
+    Returns the dict whose "t" is the last /clock (sim s), once one came (up to ``wait``
+    wall seconds); set its "done" to stop the commands."""
+    import rospy
+    from geometry_msgs.msg import Twist
+    from rosgraph_msgs.msg import Clock
+
+    last: dict = {}
+    pubs = [rospy.Publisher(t, Twist, queue_size=1) for t in cmd_topics]
+    turn = Twist()
+    turn.angular.z = 0.5
+
+    def on_clock(m):
+        t = last["t"] = m.clock.to_sec()
+        if pubs and t - last.get("cmd", -1.0) >= 0.2 and "done" not in last:
+            last["cmd"] = t
+            for p in pubs:
+                p.publish(turn)
+
+    rospy.Subscriber("/clock", Clock, on_clock)
+    deadline = time.time() + wait
+    while "t" not in last and time.time() < deadline:
+        time.sleep(0.1)
+    return last
+
+
+def stop(*procs) -> None:
+    """SIGINT each process that is not None, SIGKILL after 10 s."""
+    for p in procs:
+        if p is not None:
+            p.send_signal(signal.SIGINT)
+            try:
+                p.wait(10)
+            except subprocess.TimeoutExpired:
+                p.kill()
+
+
 def _seconds_to_stop(proc: subprocess.Popen) -> float:
     """Seconds a process takes to exit on SIGINT (inf after 30)."""
     t0 = time.monotonic()
@@ -133,8 +172,6 @@ def run_case(n: int, window: float, moving: bool = True, name: str = "office",
     ``people`` >= 0: office's own two robots (``n`` must be 2) and that many people."""
     import rosgraph
     import rospy
-    from geometry_msgs.msg import Twist
-    from rosgraph_msgs.msg import Clock
 
     tmp = tempfile.mkdtemp(prefix="bfs_ros_bench_")
     world = _people_world_file(people, tmp) if people >= 0 else _world_file(n, tmp, name)
@@ -156,23 +193,7 @@ def run_case(n: int, window: float, moving: bool = True, name: str = "office",
                                env=env, stdout=open(os.path.join(tmp, "sim.log"), "w"),
                                stderr=subprocess.STDOUT)
         rospy.init_node("ros_bench_%d" % n, anonymous=True, disable_signals=True)
-        last = {}
-        cmd = [rospy.Publisher("/robot%d/cmd_vel" % (i + 1), Twist, queue_size=1)
-               for i in range(n)] if moving else []
-        turn = Twist()
-        turn.angular.z = 0.5
-
-        def on_clock(m):
-            t = last["t"] = m.clock.to_sec()
-            if cmd and t - last.get("cmd", -1.0) >= 0.2:   # 5 Hz; the watchdog stops after 0.5 s
-                last["cmd"] = t
-                for p in cmd:
-                    p.publish(turn)
-
-        rospy.Subscriber("/clock", Clock, on_clock)
-        deadline = time.time() + 60
-        while "t" not in last and time.time() < deadline:
-            time.sleep(0.1)
+        last = turn_on_clock(["/robot%d/cmd_vel" % (i + 1) for i in range(n)] if moving else [])
         shares: list = []
         subs = _subscribe_everything(n, shares)
         time.sleep(3.0)                        # connections up
@@ -189,13 +210,7 @@ def run_case(n: int, window: float, moving: bool = True, name: str = "office",
         rospy.signal_shutdown("done")
         return (s1 - s0) / (w1 - w0), stop_s, sum(in_window) / len(in_window)
     finally:
-        for p in (sim, core):
-            if p is not None:
-                p.send_signal(signal.SIGINT)
-                try:
-                    p.wait(10)
-                except subprocess.TimeoutExpired:
-                    p.kill()
+        stop(sim, core)
 
 
 def run_core(n: int, sim_seconds: float) -> float:

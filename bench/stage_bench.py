@@ -33,12 +33,11 @@ import argparse
 import math
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
 import time
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import yaml
 
@@ -130,9 +129,7 @@ def measure(cmd: List[str], subs: Sequence[str], cmd_topics: Sequence[str], wind
     roscore, every topic of ``subs`` subscribed, every robot turning at 0.5 rad/s."""
     import rosgraph
     import rospy
-    from geometry_msgs.msg import Twist
-    from rosgraph_msgs.msg import Clock
-    from ros_bench import _free_port
+    from ros_bench import _free_port, stop, turn_on_clock
 
     uri = "http://127.0.0.1:%d" % _free_port()
     env = dict(os.environ, ROS_MASTER_URI=uri, ROS_HOME=tmp)
@@ -150,22 +147,7 @@ def measure(cmd: List[str], subs: Sequence[str], cmd_topics: Sequence[str], wind
                                                                   "w"),
                                stderr=subprocess.STDOUT)
         rospy.init_node("stage_bench", anonymous=True, disable_signals=True)
-        last: Dict[str, float] = {}
-        pubs = [rospy.Publisher(t, Twist, queue_size=1) for t in cmd_topics]
-        turn = Twist()
-        turn.angular.z = 0.5
-
-        def on_clock(m):
-            t = last["t"] = m.clock.to_sec()
-            if t - last.get("cmd", -1.0) >= 0.2 and "done" not in last:
-                last["cmd"] = t
-                for p in pubs:
-                    p.publish(turn)
-
-        rospy.Subscriber("/clock", Clock, on_clock)
-        deadline = time.time() + 60
-        while "t" not in last and time.time() < deadline:
-            time.sleep(0.1)
+        last = turn_on_clock(list(cmd_topics))
         if "t" not in last:
             raise RuntimeError("no /clock within 60 s from %s (log: %s/sim.log)"
                                % (cmd[0], tmp))
@@ -180,13 +162,7 @@ def measure(cmd: List[str], subs: Sequence[str], cmd_topics: Sequence[str], wind
         rospy.signal_shutdown("done")
         return (s1 - s0) / (w1 - w0)
     finally:
-        for p in (sim, core):
-            if p is not None:
-                p.send_signal(signal.SIGINT)
-                try:
-                    p.wait(10)
-                except subprocess.TimeoutExpired:
-                    p.kill()
+        stop(sim, core)
 
 
 def run_case(side: str, n: int, rate: float, window: float) -> float:
