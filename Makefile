@@ -66,9 +66,11 @@ eval: setup
 
 # The full ROS demo (demo.launch, embedded navigation, observer following) on every shipped
 # world, headless at rtf RTF (0 = flat out), until LEGS walker legs have ended: legs given up,
-# the real-time factor held and what the simulator waited for (bench/demo_legs.py).
+# the real-time factor held, what the simulator waited for, each node's CPU and memory
+# (bench/demo_legs.py); PEOPLE people walking too (-1: as each world file says).
+PEOPLE ?= -1
 demo-legs: setup
-	$(ROSENV) $(VENV_PY) bench/demo_legs.py --legs $(LEGS) --seed $(SEED) --rtf $(RTF)
+	$(ROSENV) $(VENV_PY) bench/demo_legs.py --legs $(LEGS) --seed $(SEED) --rtf $(RTF) --people $(PEOPLE)
 
 clean:
 	rm -rf .ws .venv "$${BFS_WS:-$${XDG_CACHE_HOME:-$$HOME/.cache}/bullet_floor_sim/ws-$$(printf %s "$(REPO)" | sha1sum | cut -c1-8)}"

@@ -12,8 +12,11 @@ Prints a table and one line per world:
 ``rtf`` is sim time over wall time from the first leg's end to the last's; ``waited`` is read
 from the simulator's own report lines (sim/pacing.py): the mean share of the wall time it held
 its clock for the slowest controller (cmd_vel) or subscriber. The table lists the three it
-waited for most. Each given-up leg is printed with its reason, and each world's DEMO line
-as soon as it is done (``  done: DEMO ...`` on stderr). Interrupted (^C or a kill), it stops
+waited for most. Each given-up leg is printed with its reason, each node's CPU share (cores,
+from /proc, over the legs) and resident memory (first, largest and last of its samples, every
+10 s), and each world's DEMO line as soon as it is done (``  done: DEMO ...`` on stderr).
+``--people N`` adds N people (demo.launch people:=N); ``--memory-every S`` prints every node's
+memory every S wall seconds (a soak). Interrupted (^C or a kill), it stops
 the running demo and prints the table of the worlds done before it, exit code 130.
 
     .venv/bin/python bench/demo_legs.py --legs 200 --rtf 0 --worlds office malaga_corridor
@@ -39,6 +42,9 @@ sys.path.insert(0, HERE)
 
 from eval_worlds import checked, shipped, world_label  # noqa: E402
 from ros_bench import _free_port  # noqa: E402
+from node_usage import Usage  # noqa: E402
+
+_SAMPLE_EVERY = 10.0   # wall s between samples of the nodes' CPU time and memory
 
 _WAIT = re.compile(r"waited for (?:cmd_vel of|subscribers) ([^;]*)")
 _SHARE = re.compile(r"(\S+(?: \(\S+\))?) (\d+)%")
@@ -98,36 +104,53 @@ def _listen(port: int, walker: str, legs: _Legs) -> None:
 
 
 def run_world(world: str, n: int, rtf: float, seed: int, timeout: float, port: int,
-              legs: _Legs) -> dict:
-    """One demo run until ``n`` legs have ended (or ``timeout`` wall seconds)."""
+              legs: _Legs, people: int = -1, memory_every: float = 0.0) -> dict:
+    """One demo run until ``n`` legs have ended (or ``timeout`` wall seconds), with
+    ``people`` people (-1: as the world file says); every ``memory_every`` wall seconds
+    (0: never) a line of each node's resident memory."""
     home = tempfile.mkdtemp(prefix="bfs_demo_legs_")
     log = open(os.path.join(home, "launch.log"), "w")
     env = dict(os.environ, ROS_HOME=home, ROS_MASTER_URI="http://127.0.0.1:%d" % port)
     cmd = ["roslaunch", "bullet_floor_sim", "demo.launch", "world:=" + world,
-           "nav:=builtin", "rviz:=false", "rtf:=%g" % rtf, "seed:=%d" % seed]
+           "nav:=builtin", "rviz:=false", "rtf:=%g" % rtf, "seed:=%d" % seed,
+           "people:=%d" % people]
     with legs.lock:
         del legs.legs[:]
     proc = subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT,
                             start_new_session=True)
+    usage = Usage(proc.pid)
     try:
-        t_end = time.time() + timeout
-        last = time.time()
+        t0 = time.time()
+        t_end = t0 + timeout
+        last = next_sample = next_memory = t0
         while time.time() < t_end and proc.poll() is None:
             with legs.lock:
                 done = len(legs.legs)
             if done >= n:
                 break
-            if time.time() - last > 30.0:
-                last = time.time()
+            now = time.time()
+            if now >= next_sample:
+                next_sample = now + _SAMPLE_EVERY
+                usage.take()
+            if memory_every > 0 and now >= next_memory:
+                next_memory = now + memory_every
+                print("  %s: memory at %.0f s: %s" % (world, now - t0, ", ".join(
+                    "%s %.0f MB" % (k, v[1]) for k, v in sorted(usage.samples[-1][1].items()))),
+                    file=sys.stderr, flush=True)
+            if now - last > 30.0:
+                last = now
                 print("  %s: %d/%d legs" % (world, done, n), file=sys.stderr, flush=True)
             time.sleep(1.0)
         ended = proc.poll()        # demo.launch stopped by itself (a required node died)
+        usage.take()
     finally:
         _stop(proc, 30.0)
         log.close()
     with legs.lock:
         got = list(legs.legs[:n])
     out = _summary(world, rtf, got, os.path.join(home, "launch.log"))
+    out["cpu"] = usage.cpu_shares(got[0][1] if got else None)
+    out["rss"] = {k: usage.rss(k) for k in (usage.samples[-1][1] if usage.samples else {})}
     if ended is not None and len(got) < n:
         out["ended"] = "demo.launch ended (exit code %d) after %d of %d legs: %s" % (
             ended, len(got), n, _why_ended(os.path.join(home, "launch.log")))
@@ -178,6 +201,10 @@ def main() -> int:
     p.add_argument("--timeout", type=float, default=3600.0, help="wall seconds per world")
     p.add_argument("--worlds", nargs="*", default=None,
                    help="names under worlds/ or world.yaml paths (default: every shipped world)")
+    p.add_argument("--people", type=int, default=-1,
+                   help="people walking the regions (-1 = as each world file says)")
+    p.add_argument("--memory-every", type=float, default=0.0, metavar="S",
+                   help="every S wall seconds, a line of each node's resident memory (a soak)")
     p.add_argument("--allow-unreachable", action="store_true",
                    help="run a world whose map check finds a region the walker cannot reach "
                         "or an observer cut off (check_world); the output says so")
@@ -196,7 +223,8 @@ def main() -> int:
             print("== %s: demo.launch rtf:=%g, %d legs, seed %d" % (w, args.rtf, args.legs,
                                                                       args.seed),
                   file=sys.stderr, flush=True)
-            rows.append(run_world(w, args.legs, args.rtf, args.seed, args.timeout, port, legs))
+            rows.append(run_world(w, args.legs, args.rtf, args.seed, args.timeout, port, legs,
+                                  args.people, args.memory_every))
             _report_world(rows[-1])
     except KeyboardInterrupt:
         cut = current or "its start"
@@ -230,6 +258,13 @@ def _report_world(r: dict) -> None:
         print("  %s given up: %s -> %s, %s: %s" % (r["world"], leg.get("from"), leg.get("to"),
                                                   leg.get("outcome"), leg.get("detail")),
               file=sys.stderr)
+    top = sorted(r["cpu"].items(), key=lambda kv: -kv[1])[:6]
+    print("  %s: CPU (cores) over the legs: %s" % (r["world"], ", ".join(
+        "%s %.2f" % kv for kv in top)), file=sys.stderr)
+    grown = sorted(r["rss"].items(), key=lambda kv: -max(kv[1]))[:6]
+    print("  %s: memory (MB, first / largest / last sample): %s" % (r["world"], ", ".join(
+        "%s %.0f / %.0f / %.0f" % (k, next((v for v in m if v), 0.0), max(m), m[-1])
+        for k, m in grown)), file=sys.stderr)
     print("  done: %s" % _demo_line(r), file=sys.stderr, flush=True)
 
 
