@@ -595,7 +595,10 @@ def test_chunks_stay_under_the_byte_cap_and_longer_ones_are_refused():
     assert cli.main(["import", "--map", "office", "--max-poses", "1000000"]) == 2
 
 
-def test_the_viewer_keeps_the_newest_whole_trajectories_within_its_pose_budget():
+def test_the_viewer_keeps_the_newest_chunks_within_its_pose_budget():
+    """The chunks that end last, newest first, while they fit (the newest always): a
+    trajectory as long as its walker walks loses its oldest chunks first, never grows past
+    the budget; ``last_n`` picks the trajectories first."""
     from bullet_floor_sim.ros.trajectory_viewer import newest
 
     def traj(uuid, start_s, n):
@@ -607,14 +610,18 @@ def test_the_viewer_keeps_the_newest_whole_trajectories_within_its_pose_budget()
 
     chunks = {(c.uuid, c.sequence_id): c
               for c in traj("a", 0, 100) + traj("b", 100, 40) + traj("c", 200, 60)}
-    sizes = {"a": 101, "b": 41, "c": 61}                # the boundary pose counts twice
-    assert sum(len(c.poses) for c in chunks.values()) == sum(sizes.values())
+    sizes = {k: len(c.poses) for k, c in chunks.items()}
+    assert sizes == {("a", 0): 51, ("a", 1): 50, ("b", 0): 21, ("b", 1): 20, ("c", 0): 31,
+                     ("c", 1): 30}                  # the boundary pose counts twice
 
     def kept(last_n, max_poses):
-        return sorted({u for u, _ in newest(chunks, last_n, max_poses)})
+        return sorted(newest(chunks, last_n, max_poses))
 
-    assert kept(0, 1000) == ["a", "b", "c"]
-    assert kept(0, 61 + 41) == ["b", "c"]            # c and b fit, a does not
-    assert kept(0, 61 + 40) == ["c"]
-    assert kept(0, 10) == ["c"]                      # the newest is always shown, whole
-    assert kept(1, 1000) == ["c"] and kept(2, 1000) == ["b", "c"]
+    assert kept(0, 1000) == sorted(chunks)
+    assert kept(0, 102) == [("b", 0), ("b", 1), ("c", 0), ("c", 1)]   # 30 + 31 + 20 + 21
+    assert kept(0, 101) == [("b", 1), ("c", 0), ("c", 1)]             # b's first no longer
+    assert kept(0, 45) == [("c", 1)]                  # the newest trajectory's newest chunk
+    assert kept(0, 10) == [("c", 1)]                  # the newest chunk always
+    assert kept(1, 1000) == [("c", 0), ("c", 1)]
+    assert kept(2, 1000) == [("b", 0), ("b", 1), ("c", 0), ("c", 1)]
+    assert kept(2, 61) == [("c", 0), ("c", 1)] and kept(2, 60) == [("c", 1)]

@@ -24,9 +24,12 @@ from the store (so the map filter applies). ``~refresh_period`` > 0 also re-read
 that often (seconds), e.g. to see imported trajectories. Other parameters: ``~db``,
 ``~db_timeout`` 1.5, ``~frame_id`` map, ``~line_width`` 0.05 m, ``~max_points`` 10000.
 
-Memory stays bounded: the viewer holds at most ``~max_poses`` (100000) poses, the newest whole
-trajectories that fit (about 1.4 h of one walker at 20 Hz); older ones leave the view, with
-one log line.
+Memory stays bounded: the viewer holds at most ``~max_poses`` (100000) poses, the chunks that
+end last (about 1.4 h of one walker at 20 Hz; a trajectory lasts as long as its walker walks,
+so its oldest chunks leave the view first), with one log line. New chunks are shown at most
+every ``~publish_period`` (1.0) seconds of wall time: the markers are rebuilt from every pose
+shown, and rebuilt for each chunk of 20 people's they kept the viewer too busy to read /clock,
+so the simulator waited for it.
 """
 from __future__ import annotations
 
@@ -35,6 +38,7 @@ import math
 import re
 import sys
 import threading
+import time
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
@@ -74,6 +78,7 @@ class ViewerParams:
     chunk_topics: list = field(default_factory=lambda: [
         "/trajectory_recorder/trajectories/batch", "/trajectory_recorder/trajectories/complete"])
     refresh_period: float = 0.0
+    publish_period: float = 1.0
 
     def check(self) -> None:
         """Raises BulletFloorSimError naming the bad parameter (the selection checks its own)."""
@@ -81,7 +86,8 @@ class ViewerParams:
             raise BulletFloorSimError("~max_points %d: must be >= 2" % self.max_points)
         if self.max_poses < 1:
             raise BulletFloorSimError("~max_poses %d: must be >= 1" % self.max_poses)
-        check_at_least(self, "trajectory_viewer", ("line_width", "db_timeout"))
+        check_at_least(self, "trajectory_viewer", ("line_width", "db_timeout",
+                                                   "publish_period"))
         check_at_least(self, "trajectory_viewer", ("refresh_period",), strict=False,
                        what="seconds")   # 0: never
 
@@ -137,26 +143,27 @@ class Selection:
 
 def newest(chunks: Dict[Tuple[str, int], Chunk], last_n: int, max_poses: int
            ) -> Dict[Tuple[str, int], Chunk]:
-    """The chunks of the trajectories that end last: at most ``last_n`` trajectories (0: no
-    limit) and, newest first, as many whole trajectories as fit in ``max_poses`` poses (the
-    newest one always)."""
+    """The chunks shown: of the ``last_n`` trajectories that end last (0: all of them), the
+    chunks that end last, newest first, as many as fit in ``max_poses`` poses (the newest one
+    always). A trajectory is one pose stream as long as its walker walks: whole, the newest
+    one alone could outgrow any cap."""
     ends: Dict[str, int] = {}
-    sizes: Dict[str, int] = {}
     for c in chunks.values():
         ends[c.uuid] = max(ends.get(c.uuid, 0), c.end_ns)
-        sizes[c.uuid] = sizes.get(c.uuid, 0) + len(c.poses)
-    order = sorted(ends, key=lambda u: (ends[u], u), reverse=True)
+    uuids = set(ends)
     if last_n > 0:
-        order = order[:last_n]
-    keep, total = set(), 0
-    for u in order:
-        if keep and total + sizes[u] > max_poses:
+        uuids = set(sorted(ends, key=lambda u: (ends[u], u), reverse=True)[:last_n])
+    order = sorted((k for k, c in chunks.items() if c.uuid in uuids),
+                   key=lambda k: (chunks[k].end_ns, k), reverse=True)
+    keep: Dict[Tuple[str, int], Chunk] = {}
+    total = 0
+    for k in order:
+        n = len(chunks[k].poses)
+        if keep and total + n > max_poses:
             break
-        keep.add(u)
-        total += sizes[u]
-    if len(keep) == len(ends):
-        return chunks
-    return {k: c for k, c in chunks.items() if c.uuid in keep}
+        keep[k] = chunks[k]
+        total += n
+    return chunks if len(keep) == len(chunks) else keep
 
 
 def decimate(poses: Sequence, max_points: int) -> List:
@@ -203,6 +210,9 @@ class ViewerNode:
         ensure_indexes(self.store)  # reads go by start time and by uuid
         self.lock = threading.RLock()
         self.chunks: Dict[Tuple[str, int], Chunk] = {}
+        self.last_seq: Dict[str, int] = {}   # the highest sequence_id read of each uuid
+        self.dirty = False                   # chunks read but not yet shown
+        self.published_at = -math.inf        # wall time of the last markers
         self.shown: List[Joined] = []
         self.need_reload = True
         self.marker_pub = rospy.Publisher("~markers", MarkerArray, queue_size=1, latch=True)
@@ -215,6 +225,7 @@ class ViewerNode:
         with self.lock:
             self._reload_or_warn()
         self.timer = rospy.Timer(rospy.Duration(2.0), self._tick, reset=True)
+        threading.Thread(target=self._show_late, daemon=True).start()
         rospy.loginfo("trajectory_viewer: %d trajectories shown (%s) from %s",
                       len(self.shown), self.selection.describe(), self.store.shown_uri)
 
@@ -226,6 +237,9 @@ class ViewerNode:
     def _reload(self, sel: Selection) -> Dict[Tuple[str, int], Chunk]:
         chunks = select_chunks(self.store, sel.map_name, sel.since_ns, sel.until_ns, sel.last_n,
                                person=sel.person or None)
+        self.last_seq = {}
+        for c in chunks:
+            self.last_seq[c.uuid] = max(self.last_seq.get(c.uuid, -1), c.sequence_id)
         return self._cap({(c.uuid, c.sequence_id): c for c in chunks}, sel.last_n)
 
     def _cap(self, chunks: Dict[Tuple[str, int], Chunk], last_n: int
@@ -277,19 +291,36 @@ class ViewerNode:
                     continue
                 if sel.until_ns is not None and c.start_ns > sel.until_ns:
                     continue
-                if (c.sequence_id > 0 and (c.uuid, c.sequence_id - 1) not in self.chunks
+                if (c.sequence_id > self.last_seq.get(c.uuid, -1) + 1
                         and (sel.since_ns is None or c.start_ns >= sel.since_ns)):
                     # its predecessor (which ends where it starts) is selected too but was
-                    # not announced to us (we started late, or a message was lost): read all
+                    # not read (we started late, or a message was lost): read all
                     self._reload_or_warn()
                     return
                 self.chunks[(c.uuid, c.sequence_id)] = c
+                self.last_seq[c.uuid] = max(self.last_seq.get(c.uuid, -1), c.sequence_id)
             if self.chunks:
                 self.chunks = self._cap(self.chunks, sel.last_n)
-                self._publish()
+                self.dirty = True
+                self._show_if_due()
+
+    def _show_if_due(self) -> None:
+        """Publish what was read, unless the last markers are younger than publish_period
+        (wall time); _show_late publishes it then (called with the lock held)."""
+        if self.dirty and time.monotonic() - self.published_at >= self.params.publish_period:
+            self._publish()
+
+    def _show_late(self) -> None:
+        """Chunks held back by publish_period are shown once it has passed (wall time: sim
+        time flies when the simulator runs flat out)."""
+        while not rospy.is_shutdown():
+            time.sleep(self.params.publish_period / 4.0)
+            with self.lock:
+                self._show_if_due()
 
     # -- output -------------------------------------------------------------------------------
     def _publish(self) -> None:
+        self.dirty, self.published_at = False, time.monotonic()
         sel = self.selection
         self.shown = join_chunks(self.chunks.values())
         stamp = rospy.Time.now()
