@@ -243,22 +243,29 @@ def test_a_search_goes_on_to_the_next_likely_region_and_round_again():
     assert d.goal[:2] == pytest.approx((3.0, 3.0))
 
 
-def test_after_its_rounds_a_search_takes_the_other_regions_once_each_then_patrols():
-    """A plan of 3 regions of which 1 is likely: region 7 for two rounds, then 4 and 5 once
-    each, most likely first, then the patrol; a plain list is all likely."""
-    grid = hall(12.0, 4.0)
-    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=2,
-                                            trail=0.0, patrol_sight=0.0))
+def lost_and_searching(fb, plan, ticks=30):
+    """The target seen once 4 m off, then lost for good: each goal taken as reached at
+    once, a tick every 1.5 s; the (reason, (x, y)) of every goal sent."""
     fb.update(0.0, (2.0, 2.0, 0.0), (6.0, 2.0, 0.0, 0.0))
-    plan = SearchPlan([("7", (10.0, 2.0)), ("4", (1.0, 1.0)), ("5", (6.0, 3.0))], likely=1)
     t, robot, goals = 2.0, (2.0, 2.0, 0.0), []
     d = fb.update(t, robot, None, plan)
-    for _ in range(30):                                       # goals reached at once
+    for _ in range(ticks):
         if d.goal is not None:
             goals.append((d.reason, d.goal[:2]))
             robot = d.goal
         t += 1.5
         d = fb.update(t, robot, None, plan, goal_done=d.goal is not None)
+    return goals
+
+
+def test_after_its_rounds_a_search_takes_the_other_regions_once_each_then_patrols():
+    """A plan of 3 regions of which 1 is likely: region 7 for two rounds, then 4 and 5 once
+    each, most likely first, then the patrol; a plain list is all likely."""
+    grid = hall(12.0, 4.0)
+    cfg = FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=2, trail=0.0,
+                       patrol_sight=0.0)
+    plan = SearchPlan([("7", (10.0, 2.0)), ("4", (1.0, 1.0)), ("5", (6.0, 3.0))], likely=1)
+    goals = lost_and_searching(FollowBehaviour(grid, cfg), plan)
     went = [g for r, g in goals if "searching" in r or "patrolling" in r]
     assert went[:4] == [(10.0, 2.0), (10.0, 2.0), (1.0, 1.0), (6.0, 3.0)]
     assert "next likeliest, region 4 (2 of 3)" in [r for r, _ in goals][
@@ -266,18 +273,8 @@ def test_after_its_rounds_a_search_takes_the_other_regions_once_each_then_patrol
     assert any("patrolling" in r for r, _ in goals)
     assert all(g != (1.0, 1.0) for r, g in goals if "patrolling" in r)
     # a plain list: both regions round and round (two rounds), then the patrol
-    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=2,
-                                            trail=0.0, patrol_sight=0.0))
-    fb.update(0.0, (2.0, 2.0, 0.0), (6.0, 2.0, 0.0, 0.0))
-    plain = [("7", (10.0, 2.0)), ("4", (1.0, 1.0))]
-    t, robot, goals = 2.0, (2.0, 2.0, 0.0), []
-    d = fb.update(t, robot, None, plain)
-    for _ in range(30):
-        if d.goal is not None:
-            goals.append((d.reason, d.goal[:2]))
-            robot = d.goal
-        t += 1.5
-        d = fb.update(t, robot, None, plain, goal_done=d.goal is not None)
+    goals = lost_and_searching(FollowBehaviour(grid, cfg),
+                               [("7", (10.0, 2.0)), ("4", (1.0, 1.0))])
     searched = [g for r, g in goals if "searching" in r]
     assert searched[:4] == [(10.0, 2.0), (1.0, 1.0), (10.0, 2.0), (1.0, 1.0)]
     assert "patrolling" in [r for r, _ in goals if "searching" in r or "patrolling" in r][4]
@@ -383,8 +380,23 @@ def test_a_target_coming_at_the_observer_gets_room_to_the_side_not_a_retreat():
     assert gyaw == pytest.approx(math.atan2(3.0 - gy, 3.6 - gx))
     # going away from the observer: trail it on the line as usual
     fb = FollowBehaviour(grid, FollowConfig(distance=1.5))
-    d = fb.update(0.0, (2.0, 3.0, 0.0), (3.6, 3.0, 0.5, 0.0))
+    d = fb.update(0.0, (1.0, 3.0, 0.0), (3.6, 3.0, 0.5, 0.0))
     assert d.goal[:2] == pytest.approx((2.1, 3.0), abs=1e-9)
+
+
+def test_a_stand_off_point_nearer_than_replan_distance_is_turned_to_not_driven_to():
+    """The target moves (its track jitters) 1.5-1.9 m ahead: the stand-off points lie
+    0.1-0.4 m off, under replan_distance; the observer turns to face the target when it
+    looks more than 0.5 rad away, else stays; a point 1.1 m off is driven to."""
+    grid = hall(10.0, 6.0)
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, replan_distance=0.5))
+    d = fb.update(0.0, (2.0, 3.0, 0.0), (3.6, 3.0, 0.5, 0.0))
+    assert d.goal is None                       # facing it already, 0.1 m to go: stays
+    d = fb.update(2.0, (2.0, 3.0, 1.2), (3.4, 3.4, 0.0, 0.5))
+    assert d.goal is not None and d.goal[:2] == (2.0, 3.0) and "turning" in d.reason
+    assert d.goal[2] == pytest.approx(math.atan2(0.4, 1.4))
+    d = fb.update(4.0, (2.0, 3.0, 0.3), (4.6, 3.0, 0.5, 0.0))
+    assert d.goal[:2] == pytest.approx((3.1, 3.0), abs=1e-9)
 
 
 def two_rooms(door=1.0):

@@ -620,6 +620,15 @@ class FollowBehaviour:
         if point is None:
             return FollowDecision("follow", (rx, ry, facing), "no free stand-off point: turning")
         gx, gy = point
+        if math.hypot(gx - rx, gy - ry) < cfg.replan_distance:
+            # a step shorter than the track's own jitter: turned to face it, not driven (a
+            # blocked walker tracked 0.4 m to and fro had the observer turn from its goal
+            # to the walker and back every 2 s in a narrow corridor: aces_austin)
+            if abs(wrap_angle(facing - ryaw)) > 0.5 or goal_done:
+                return FollowDecision("follow", (rx, ry, facing), "stand-off point %.2f m "
+                                      "off: turning to face the target"
+                                      % math.hypot(gx - rx, gy - ry))
+            return FollowDecision("follow")
         return FollowDecision("follow", (gx, gy, math.atan2(ty - gy, tx - gx)),
                               "target at (%.2f, %.2f)" % (tx, ty))
 
