@@ -292,6 +292,16 @@ def test_search_plan_with_the_rest_ranks_every_region_and_counts_the_likely():
     assert as_plan(("2", (1, 2))) == [("2", (1.0, 2.0))] and as_plan(None) == []
 
 
+def test_the_unlikely_regions_of_a_plan_come_nearest_first():
+    """After the likely regions and those of at least min_probability, the near-nil ones
+    by the distance of their search point from where the target was last seen, not by id."""
+    probs = {"1": 0.6, "2": 0.3, "3": 0.07, "10": 0.01, "11": 0.01, "4": 0.01}
+    goals = {"1": [(1, 0)], "2": [(2, 0)], "3": [(3, 0)], "10": [(9, 0)], "11": [(5, 0)],
+             "4": [(-2, 0)]}
+    plan = search_plan(probs, lambda r: goals[r], (0.0, 0.0), 2, 0.05, rest=True)
+    assert [r for r, _ in plan] == ["1", "2", "3", "4", "11", "10"] and plan.likely == 2
+
+
 def test_search_plan_takes_the_likely_regions_most_likely_first():
     probs = {"1": 0.02, "2": 0.5, "3": 0.3, "4": 0.1, "5": 0.08}
     goals = {"2": [(0.0, 0.0), (5.0, 5.0)], "3": [(1.0, 1.0)], "4": [], "5": [(9.0, 9.0)]}
@@ -391,11 +401,14 @@ def test_a_stand_off_point_nearer_than_replan_distance_is_turned_to_not_driven_t
     grid = hall(10.0, 6.0)
     fb = FollowBehaviour(grid, FollowConfig(distance=1.5, replan_distance=0.5))
     d = fb.update(0.0, (2.0, 3.0, 0.0), (3.6, 3.0, 0.5, 0.0))
-    assert d.goal is None                       # facing it already, 0.1 m to go: stays
-    d = fb.update(2.0, (2.0, 3.0, 1.2), (3.4, 3.4, 0.0, 0.5))
+    assert d.goal == (2.0, 3.0, 0.0)        # first sight: where it stands (replacing any goal)
+    d = fb.update(1.0, (2.0, 3.0, 0.0), (3.6, 3.0, 0.5, 0.0), goal_done=True)
+    d = fb.update(2.1, (2.0, 3.0, 0.0), (3.6, 3.05, 0.5, 0.0))
+    assert d.goal is None                   # standing, facing it, 0.1 m to go: stays
+    d = fb.update(4.2, (2.0, 3.0, 1.2), (3.4, 3.4, 0.0, 0.5))
     assert d.goal is not None and d.goal[:2] == (2.0, 3.0) and "turning" in d.reason
     assert d.goal[2] == pytest.approx(math.atan2(0.4, 1.4))
-    d = fb.update(4.0, (2.0, 3.0, 0.3), (4.6, 3.0, 0.5, 0.0))
+    d = fb.update(6.4, (2.0, 3.0, 0.3), (4.6, 3.0, 0.5, 0.0))
     assert d.goal[:2] == pytest.approx((3.1, 3.0), abs=1e-9)
 
 
@@ -666,6 +679,33 @@ def test_a_blocked_target_tracked_to_and_fro_within_the_distance_is_stepped_away
     fb = FollowBehaviour(grid, cfg)
     for t, x in ((0.0, 6.2), (3.0, 6.2), (3.5, 6.7), (4.0, 6.2), (6.5, 6.2)):
         assert fb.update(t, robot, (x, 2.0, 0.0, 0.0)).mode == "follow"
+
+
+def test_a_goal_under_way_is_replaced_when_the_target_is_seen_close_by():
+    """Searching (a goal under way 5 m on), the observer sees the target standing 1.55 m
+    ahead, its stand-off point under replan_distance away: it stops where it is, facing the
+    target, instead of driving on through it to the search point."""
+    grid = hall(12.0, 6.0)
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, lost_after=1.0, trail=0.0))
+    fb.update(0.0, (2.0, 3.0, 0.0), (7.0, 3.0, 0.0, 0.0))     # seen 5 m off, then lost
+    d = fb.update(3.0, (2.0, 3.0, 0.0), None, [("7", (10.0, 3.0))])
+    assert d.mode == "search" and d.goal[:2] == pytest.approx((10.0, 3.0))
+    d = fb.update(5.0, (5.0, 3.0, 0.0), (6.55, 3.0, 0.0, 0.0), [("7", (10.0, 3.0))])
+    assert d.mode == "follow" and d.goal == (5.0, 3.0, 0.0)
+
+
+def test_a_target_dwelling_at_the_stand_off_distance_is_not_stepped_away_from():
+    """Within ``distance`` but not nearer than ``distance`` - 0.2 m (the observer waits at
+    the stand-off distance, to its goal tolerance): a dwelling target is left alone; one
+    that comes nearer starts the count."""
+    grid = hall()
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9, unblock=4.0))
+    robot = (5.0, 2.0, 0.0)
+    for t in range(12):
+        assert fb.update(float(t), robot, (6.42, 2.0, 0.0, 0.0)).mode == "follow"
+    for t in (12.0, 13.0, 14.0, 15.0):          # 1.25 m, then 1.42 m again: still counted
+        fb.update(t, robot, ((6.25, 2.0, 0.0, 0.0) if t == 12.0 else (6.42, 2.0, 0.0, 0.0)))
+    assert fb.update(16.0, robot, (6.42, 2.0, 0.0, 0.0)).mode == "give_way"
 
 
 def test_a_target_lost_while_stepping_aside_is_looked_for_once_there():

@@ -10,7 +10,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   target. A target coming towards the observer gets room: the stand-off point goes to the side
   of its path (the side nearer the observer), not backwards in front of it into a dead end. A
   new goal is sent when the target has moved ``replan_distance`` from where it was when the
-  last goal was sent, or at least every ``goal_period`` seconds while it moves.
+  last goal was sent, or at least every ``goal_period`` seconds while it moves; a stand-off
+  point nearer than ``replan_distance`` is not driven to, only turned at.
   Within ``distance + slack`` of a target that stands still, the observer only turns to face
   it (a lidar sees 180 degrees ahead).
 * **give way**: near the target (within ``distance + slack``), the observer plans the target's
@@ -24,9 +25,10 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   there, facing the target,
   until the target has moved ``distance`` metres or ``give_way_hold`` seconds have passed.
   Standing on the route of a target that turned back, the observer blocked it for good in
-  narrow corridors. A target that stays within ``distance`` of the observer, and within
-  ``give_way`` of where it was, for ``unblock`` seconds is stepped away from, on no
-  prediction (it may be going where the observer stands), and waited for the same way.
+  narrow corridors. A target that comes nearer than ``distance`` - 0.2 m and stays within
+  ``distance`` of the observer, and within ``give_way`` of where it was, for ``unblock``
+  seconds is stepped away from, on no prediction (it may be going where the observer
+  stands), and waited for the same way.
 * **search**: when no track has been seen for ``lost_after`` seconds, the observer first
   turns to where a target lost within ``distance + slack`` was last seen, moving or not,
   where it has ``roomy`` clearance to turn (turning towards its own goal, it had turned its
@@ -238,6 +240,7 @@ class FollowBehaviour:
             if way is None:
                 way = self._unblock(t, robot, target, dests)
             return way if way is not None else self._follow(t, robot, target, goal_done)
+        self._close_since = None    # (a target seen again starts its count afresh)
         if self._stepping_aside(t, robot):
             return FollowDecision("give_way")
         if self.last_seen is not None and t - self.last_seen < cfg.lost_after:
@@ -258,7 +261,8 @@ class FollowBehaviour:
         if not plan:
             return self._patrol_unseen(robot, goal_done)
         rx, ry, ryaw = (float(v) for v in robot[:3])
-        if self.mode != "search" or [r for r, _ in plan] != [r for r, _ in self._search]:
+        if self.mode != "search" or ([r for r, _ in plan], plan.likely) != (
+                [r for r, _ in self._search], self._search.likely):
             first_loss = self.mode != "search"
             self.mode, self._search, self._search_index, self._rounds = "search", plan, 0, 0
             self._tour.goal = None
@@ -375,18 +379,24 @@ class FollowBehaviour:
 
     def _unblock(self, t: float, robot: Sequence[float], target: Sequence[float],
                  dests: List[Tuple[float, float]]) -> Optional[FollowDecision]:
-        """Stepping out of the way of a target that has stayed within ``distance`` of the
-        observer and within ``give_way`` of where it was for ``unblock`` seconds (see
-        FollowConfig.unblock), or None."""
+        """Stepping out of the way of a target that came nearer than ``distance`` - 0.2 m
+        and has stayed within ``distance`` of the observer and within ``give_way`` of where
+        it was for ``unblock`` seconds (see FollowConfig.unblock), or None."""
         cfg = self.config
         tx, ty = float(target[0]), float(target[1])
         rx, ry = float(robot[0]), float(robot[1])
-        if cfg.unblock <= 0 or math.hypot(tx - rx, ty - ry) >= cfg.distance:
+        d = math.hypot(tx - rx, ty - ry)
+        if cfg.unblock <= 0 or d >= cfg.distance:
             self._close_since = None
             return None
         if self._close_since is None or math.hypot(
                 tx - self._close_since[1], ty - self._close_since[2]) > cfg.give_way:
-            self._close_since = (t, tx, ty)   # close by from now, or it got on its way
+            # close by from now (not at the stand-off distance, where the observer waits
+            # for a target that dwells), or it got on its way
+            self._close_since = ((t, tx, ty) if d < cfg.distance - _GIVE_WAY_HYSTERESIS
+                                 else None)
+            if self._close_since is None:
+                return None
         if t - self._close_since[0] < cfg.unblock:
             return None
         self._close_since = None
@@ -550,7 +560,8 @@ class FollowBehaviour:
     def _patrol_go(self, rx: float, ry: float) -> FollowDecision:
         """On to the nearest patrol place not visited in this tour (a new tour when all are)."""
         n = len(self._tour.places)
-        if n == 0:
+        if n == 0:   # the likely regions again, from the most likely
+            self._search_index = 0
             return self._search_go(rx, ry, "not found, nowhere to patrol: searching region")
         k, x, y = self._tour.next(rx, ry)
         self._place = "patrol place %d" % (k + 1)
@@ -623,8 +634,10 @@ class FollowBehaviour:
         if math.hypot(gx - rx, gy - ry) < cfg.replan_distance:
             # a step shorter than the track's own jitter: turned to face it, not driven (a
             # blocked walker tracked 0.4 m to and fro had the observer turn from its goal
-            # to the walker and back every 2 s in a narrow corridor: aces_austin)
-            if abs(wrap_angle(facing - ryaw)) > 0.5 or goal_done:
+            # to the walker and back every 2 s in a narrow corridor: aces_austin); a goal
+            # under way from before (a search's, a patrol's) is replaced all the same
+            if (abs(wrap_angle(facing - ryaw)) > 0.5 or goal_done or first
+                    or not self._standing):
                 return FollowDecision("follow", (rx, ry, facing), "stand-off point %.2f m "
                                       "off: turning to face the target"
                                       % math.hypot(gx - rx, gy - ry))

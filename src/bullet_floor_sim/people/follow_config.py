@@ -24,7 +24,8 @@ class FollowConfig:
         distance: stand-off distance kept from the target (the lidar needs it in front, and
             1.5 m leaves a person room to turn round in a doorway).
         slack: no new goal while the target stands within ``distance + slack`` and in view.
-        replan_distance: send a new goal when the target moved this far since the last one.
+        replan_distance: send a new goal when the target moved this far since the last one;
+            a stand-off point nearer than this to the observer is turned at, not driven to.
         goal_period: while the target moves, a new goal at least this often.
         lost_after: no track for this long -> search.
         search_turn: after reaching the search point, turn this much (radians) to look round.
@@ -76,8 +77,9 @@ class FollowConfig:
             lost nearer is turned to, moving or not, where the observer has ``roomy``
             clearance; with less, a moving one is trailed). 0: it only turns to where a
             target lost close by was last seen.
-        unblock: a target that has stayed within ``distance`` of the observer, and within
-            ``give_way`` of where it was, this long (s) is taken to be blocked by it,
+        unblock: a target that came nearer than ``distance`` - 0.2 m and has stayed within
+            ``distance`` of the observer, and within ``give_way`` of where it was, this long
+            (s) is taken to be blocked by it,
             wherever it is going: the observer steps to the nearest place at least
             ``give_way`` from the target, from where it stands and from the target's
             predicted routes (a roomy one in view first), and waits there as when it gives
@@ -85,7 +87,9 @@ class FollowConfig:
             the observer, following it, standing on that goal; no prediction named a route
             through it. Counted within ``give_way`` + 0.2 m only, it never fired on
             aces_austin and mit_csail: the walker, blocked 0.9-1.2 m off in a narrow place,
-            was tracked 0.3-0.5 m to and fro and gave up its leg after 30-60 s.)
+            was tracked 0.3-0.5 m to and fro and gave up its leg after 30-60 s. Started
+            anywhere within ``distance``, it fired on walkers dwelling at the stand-off
+            distance.)
         snug: a passage whose clearance is below the observer's radius plus this (m) is too
             snug for it to turn in. A part of the floor behind such passages that is smaller
             than a disc of radius ``distance`` (where it could not keep its distance from

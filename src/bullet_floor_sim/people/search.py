@@ -85,13 +85,23 @@ def search_plan(probabilities: Mapping[str, float], goals: Callable[[str], Point
     probability at least ``min_probability`` (the most likely one always), most likely first
     (of equal ones ``best`` first, e.g. the predictor's arg-max, then by region id), each with
     its :func:`search_point` (``goals(region)``: the region's goal points) nearest to ``xy``,
-    where the target was last seen; with ``rest``, every other region after them, in the same
-    order (SearchPlan.likely: how many are the likely ones)."""
+    where the target was last seen; with ``rest``, every other region after them: those of
+    at least ``min_probability`` in the same order, then the unlikelier ones nearest first
+    (their search point's distance from ``xy``: near-nil probabilities order nothing, and by
+    id the observer crossed the building to and fro). SearchPlan.likely: how many are the
+    likely ones."""
     ranked = sorted(probabilities.items(),
                     key=lambda kv: (-float(kv[1]), kv[0] != best, kv[0]))
     n = likely_count([p for _, p in ranked], count, min_probability)
-    return SearchPlan([(region, search_point(goals(region), xy))
-                       for region, _ in (ranked if rest else ranked[:n])], n)
+    plan = [(region, search_point(goals(region), xy)) for region, _ in ranked[:n]]
+    if rest:
+        more = [(region, search_point(goals(region), xy)) for region, _ in ranked[n:]]
+        likely = {region for region, p in ranked[n:] if float(p) >= min_probability}
+        far = [m for m in more if m[0] not in likely]
+        far.sort(key=lambda m: (math.hypot(m[1][0] - float(xy[0]), m[1][1] - float(xy[1])),
+                                m[0]))
+        plan += [m for m in more if m[0] in likely] + far
+    return SearchPlan(plan, n)
 
 
 def as_plan(destination) -> SearchPlan:

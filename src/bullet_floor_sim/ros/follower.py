@@ -85,7 +85,7 @@ class FollowerNode:
         self.agent: Optional[FollowerAgent] = None
         self.tracks = []
         self.tracks_t = -math.inf
-        self.destinations = {}      # track id -> [(region, (x, y))], most likely first
+        self.destinations = {}      # track id -> SearchPlan (plan_of): most likely first
         self.gt = None
         self.mode = ""
         self.goal_sent = False

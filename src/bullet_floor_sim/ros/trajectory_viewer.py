@@ -245,22 +245,30 @@ class ViewerNode:
     def _cap(self, chunks: Dict[Tuple[str, int], Chunk], last_n: int
              ) -> Dict[Tuple[str, int], Chunk]:
         kept = newest(chunks, last_n, self.max_poses)
-        if len(kept) < len(chunks) and not self.capped:
-            self.capped = True
-            rospy.loginfo("trajectory_viewer: showing the newest trajectories that fit in "
-                          "~max_poses %d poses; older ones are dropped from view (narrow the "
-                          "selection with ~since/~until/~last_n to see them)", self.max_poses)
+        if len(kept) < len(chunks):
+            shown = {u for u, _ in kept}     # a trajectory out of view is read again whole
+            self.last_seq = {u: q for u, q in self.last_seq.items() if u in shown}
+            if not self.capped:
+                self.capped = True
+                rospy.loginfo("trajectory_viewer: showing the chunks that end last within "
+                              "~max_poses %d poses; older ones are dropped from view (narrow "
+                              "the selection with ~since/~until/~last_n to see them)",
+                              self.max_poses)
         return kept
 
-    def _reload_or_warn(self) -> None:
+    def _reload_or_warn(self, at_once: bool = True) -> None:
+        """Read the selection again and show it (``at_once`` False: within publish_period)."""
         try:
             self.chunks = self._reload(self.selection)
         except (StoreError, BulletFloorSimError) as e:
             rospy.logwarn_throttle(30.0, "trajectory_viewer: cannot read the stored "
                                    "trajectories yet: %s", e)
             return
-        self.need_reload = False
-        self._publish()
+        self.need_reload, self.dirty = False, True
+        if at_once:
+            self._publish()
+        else:
+            self._show_if_due()
 
     def _tick(self, event) -> None:
         with self.lock:
@@ -295,7 +303,7 @@ class ViewerNode:
                         and (sel.since_ns is None or c.start_ns >= sel.since_ns)):
                     # its predecessor (which ends where it starts) is selected too but was
                     # not read (we started late, or a message was lost): read all
-                    self._reload_or_warn()
+                    self._reload_or_warn(at_once=False)
                     return
                 self.chunks[(c.uuid, c.sequence_id)] = c
                 self.last_seq[c.uuid] = max(self.last_seq.get(c.uuid, -1), c.sequence_id)
@@ -315,12 +323,21 @@ class ViewerNode:
         time flies when the simulator runs flat out)."""
         while not rospy.is_shutdown():
             time.sleep(self.params.publish_period / 4.0)
-            with self.lock:
-                self._show_if_due()
+            try:
+                with self.lock:
+                    self._show_if_due()
+            except rospy.ROSException:   # (shutting down: the publisher is closed)
+                return
 
     # -- output -------------------------------------------------------------------------------
     def _publish(self) -> None:
-        self.dirty, self.published_at = False, time.monotonic()
+        self.dirty = False
+        try:
+            self._publish_markers()
+        finally:   # the next publish_period counts from the end of this one
+            self.published_at = time.monotonic()
+
+    def _publish_markers(self) -> None:
         sel = self.selection
         self.shown = join_chunks(self.chunks.values())
         stamp = rospy.Time.now()
