@@ -1,0 +1,76 @@
+"""sim/grid_rays.py: rays walked cell by cell on the solid grid meet the walls where the ray
+test on the wall mesh does (worlds/simple exactly, office to Bullet's own edge tolerance),
+and where the known geometry of worlds/simple says."""
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+
+from bullet_floor_sim.paths import worlds_dir
+from bullet_floor_sim.sim import grid_rays
+from bullet_floor_sim.sim.config import load_world_config, resolve_world
+from bullet_floor_sim.sim.sensors.rays import cast_rays
+from bullet_floor_sim.sim.world import World
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from simple_room import expected_range  # noqa: E402
+
+pytestmark = pytest.mark.skipif(not grid_rays.available(), reason="numba not installed")
+
+
+def _world(name):
+    cfg = load_world_config(resolve_world(name, worlds_dir()))
+    return World(dataclasses.replace(cfg, robots=[]), seed=1)
+
+
+def test_simple_room_ranges_match_the_known_geometry():
+    w = _world("simple")
+    try:
+        g = grid_rays.GridRays(w.solid.fmap)
+        points = [(1.0, 1.0), (3.0, 2.0), (5.0, 3.5), (4.25, 0.5), (0.5, 3.0)]
+        angles = np.radians(np.arange(0.3, 360.0, 7.5))      # no ray grazes a corner
+        o = np.array([p for p in points for _ in angles], dtype=float)
+        a = np.tile(angles, len(points))
+        d = np.c_[np.cos(a), np.sin(a)]
+        got = g.cast(o, d, np.zeros(len(o)), np.full(len(o), 20.0))
+        want = [expected_range(x, y, t) for (x, y), t in zip(o, a)]
+        np.testing.assert_allclose(got, want, atol=1e-9)
+        # a ray that ends short of the wall meets nothing
+        assert g.cast(o[:1], d[:1], np.zeros(1), np.full(1, 0.5))[0] == math.inf
+    finally:
+        w.close()
+
+
+@pytest.mark.parametrize("name", ["simple", "office"])
+def test_the_grid_meets_the_walls_where_the_mesh_does(name):
+    """2000 rays from free cells in every direction: the same hits and, but for rays that
+    clip a cell's corner by less than Bullet's edge tolerance, the same distances."""
+    w = _world(name)
+    try:
+        g = grid_rays.GridRays(w.solid.fmap)
+        rng = np.random.default_rng(4)
+        free = np.argwhere(w._clearance > 0.3)
+        cells = free[rng.integers(0, len(free), 2000)]
+        xs, ys = w.solid.fmap.cell_to_world(cells[:, 1], cells[:, 0])
+        a = rng.uniform(-math.pi, math.pi, 2000)
+        d = np.c_[np.cos(a), np.sin(a)]
+        o = np.c_[xs, ys, np.full(2000, 0.3)]
+        start, end = np.full(2000, 0.2), np.full(2000, 25.0)
+        froms, tos = o.copy(), o.copy()
+        froms[:, :2] += d * start[:, None]
+        tos[:, :2] += d * end[:, None]
+        frac, ids = cast_rays(w.client, froms, tos, 1)
+        mesh = np.where(ids >= 0, start + frac * (end - start), np.inf)
+        grid = g.cast(o, d, start, end)
+        assert (np.isfinite(mesh) == np.isfinite(grid)).all()
+        hit = np.isfinite(mesh)
+        close = np.abs(mesh[hit] - grid[hit]) < 1e-5
+        assert close.mean() > 0.995, close.mean()
+        assert (grid[hit][~close] > mesh[hit][~close]).all()   # Bullet's tolerance: earlier
+    finally:
+        w.close()
