@@ -30,7 +30,7 @@ from typing import Dict, Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import collision, kinematics, leg_beams, measure, robot_beams, walls
+from . import collision, grid_rays, kinematics, leg_beams, measure, robot_beams, walls
 from .clock import SimClock
 from .people import People
 from .views import RobotView, Snapshot
@@ -176,6 +176,7 @@ class World:
         self.rays_at_robots = 0     # of which cast again at other robots (see cast_beams)
         self.rays_reused = 0        # beams of unmoved lidars: wall distances of the last scan
         self._lift_for_rays = not self._gui   # (robots would flicker in the window)
+        self._grid_rays = self._walls_on_grid(self.config.wall_height)
         self._body_array = np.array(self.bodies, dtype=np.int64)
         self._beam_geometry = measure.beam_table(self.lidar)
         self._idle = True           # no robot moves or has a non-zero command
@@ -435,8 +436,11 @@ class World:
             dist, hit = self.lidar.previous(plan)
             cast = np.flatnonzero(~same)
             if len(cast):
-                self._lift_bodies()
-                dist[cast], hit[cast] = self._cast(plan, cast)
+                if self._grid_rays is not None:
+                    dist[cast], hit[cast] = self._cast_walls(plan, cast)
+                else:
+                    self._lift_bodies()
+                    dist[cast], hit[cast] = self._cast(plan, cast)
                 self.rays_reused += len(plan.froms) - len(cast)
             self._sync_bodies()
         else:   # every beam in the full scene (GUI: moving bodies out would show)
@@ -450,6 +454,27 @@ class World:
             leg_beams.cast_at_legs(self, plan, dist, hit, self.people.legs(), body.leg_radius,
                                    body.leg_height)
         return dist, hit
+
+    def _walls_on_grid(self, wall_height: float):
+        """The walls' ray caster on the solid grid (sim/grid_rays.py), or None: Bullet casts
+        at the walls when numba is missing, a lidar sits at or above the walls' top (its
+        beams would pass over them) or BULLET_FLOOR_SIM_GRID_RAYS is 0."""
+        if os.environ.get("BULLET_FLOOR_SIM_GRID_RAYS", "1").strip() in ("0", "false", "no"):
+            return None
+        if not grid_rays.available() or any(not 0.0 < m.laser_pose[2] < wall_height
+                                            for m in self.models):
+            return None
+        return grid_rays.GridRays(self.solid.fmap)
+
+    def _cast_walls(self, plan, rays: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+        """As ``_cast`` with the robots lifted out, on the solid grid: the distance to the
+        first wall along each of the plan's rays ``rays`` (its full length on a miss), and
+        whether there is one."""
+        full = plan.full[rays]
+        dist = self._grid_rays.cast(plan.origins[rays], plan.dirs[rays], plan.start[rays], full)
+        hit = np.isfinite(dist)
+        self.rays_cast += len(rays)
+        return np.where(hit, dist, full), hit
 
     def threads(self, rays: int) -> int:
         """PyBullet threads for a ray batch of ``rays`` rays."""
