@@ -114,7 +114,7 @@ def run_case(n_robots: int, sim_seconds: float, name: str = "office") -> dict:
            "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
     out.update(_ray_overhead(world))
     from bullet_floor_sim.sim import bullet_capi
-    out["ray_path"] = bullet_capi.status()
+    out["ray_path"] = ("walls on the grid, " if world.walls_on_grid else "") + bullet_capi.status()
     return out
 
 

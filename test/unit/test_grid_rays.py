@@ -74,3 +74,17 @@ def test_the_grid_meets_the_walls_where_the_mesh_does(name):
         assert (grid[hit][~close] > mesh[hit][~close]).all()   # Bullet's tolerance: earlier
     finally:
         w.close()
+
+
+def test_the_world_walks_its_walls_on_the_grid_unless_told_not_to(monkeypatch):
+    w = _world("simple")
+    try:
+        assert w.walls_on_grid
+    finally:
+        w.close()
+    monkeypatch.setenv("BULLET_FLOOR_SIM_GRID_RAYS", "0")
+    w = _world("simple")
+    try:
+        assert not w.walls_on_grid
+    finally:
+        w.close()

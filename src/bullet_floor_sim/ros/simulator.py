@@ -488,8 +488,10 @@ def main(argv: Optional[List[str]] = None) -> int:
     try:
         if rospy.get_param("~robot_state_publishers", True):
             rsps = RobotStatePublishers(world)
-        rospy.loginfo("simulator: world %s with robots %s; ray tests through %s",
+        rospy.loginfo("simulator: world %s with robots %s; beams at the walls %s, other "
+                      "ray tests through %s",
                       world.config.path, ", ".join(s.name or "<empty>" for s in world.specs),
+                      "on the solid grid" if world.walls_on_grid else "in Bullet",
                       bullet_capi.status())
         if world.people is not None:
             rospy.loginfo("simulator: %d people walk the regions of %s", crowd.n,  # type: ignore

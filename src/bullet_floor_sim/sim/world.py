@@ -455,6 +455,12 @@ class World:
                                    body.leg_height)
         return dist, hit
 
+    @property
+    def walls_on_grid(self) -> bool:
+        """Whether the lidars' beams are walked at the walls on the solid grid
+        (sim/grid_rays.py) rather than cast in Bullet."""
+        return self._grid_rays is not None
+
     def _walls_on_grid(self, wall_height: float):
         """The walls' ray caster on the solid grid (sim/grid_rays.py), or None: Bullet casts
         at the walls when numba is missing, a lidar sits at or above the walls' top (its
