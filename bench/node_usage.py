@@ -1,8 +1,8 @@
 """CPU time and memory of every ROS node a roslaunch started, read from /proc (Linux).
 
-``sample(pgid)`` finds the processes of one process group (roslaunch started with
-``start_new_session``: its pid is the group's) and names each by its ``__name:=`` argument
-(the node's name; other processes by their executable). ``Usage`` keeps the samples of a
+``sample(root)`` finds a process and all its descendants (roslaunch and the nodes it
+started) and names each by its ``__name:=`` argument (the node's name; other processes by
+their executable). ``Usage`` keeps the samples of a
 run and gives each node's share of one CPU between two samples and its resident memory over
 time, for bench/demo_legs.py.
 """
@@ -27,23 +27,34 @@ def _name(pid: str) -> str:
         if exe else pid
 
 
-def sample(pgid: int) -> Dict[str, Tuple[float, float]]:
-    """{node name: (CPU seconds so far, resident MB)} of the processes in process group
-    ``pgid`` (several of one name are summed)."""
-    out: Dict[str, Tuple[float, float]] = {}
+def sample(root: int) -> Dict[str, Tuple[float, float]]:
+    """{node name: (CPU seconds so far, resident MB)} of process ``root`` and all its
+    descendants (roslaunch starts each node in a session of its own, so neither the process
+    group nor the session holds them; several of one name are summed)."""
+    stats = {}
     for pid in os.listdir("/proc"):
         if not pid.isdigit():
             continue
         try:
             with open("/proc/%s/stat" % pid) as f:
-                fields = f.read().rsplit(")", 1)[1].split()
-            if int(fields[2]) != pgid:          # fields[2]: pgrp (after state, ppid)
-                continue
+                stats[int(pid)] = f.read().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue                             # gone meanwhile
+    children: Dict[int, List[int]] = {}
+    for pid, fields in stats.items():
+        children.setdefault(int(fields[1]), []).append(pid)   # fields[1]: ppid
+    out: Dict[str, Tuple[float, float]] = {}
+    todo = [root] if root in stats else []
+    while todo:
+        pid = todo.pop()
+        todo.extend(children.get(pid, []))
+        fields = stats[pid]
+        try:
             cpu = (int(fields[11]) + int(fields[12])) / _TICK   # utime + stime
             rss = int(fields[21]) * _PAGE / 1e6
-            name = _name(pid)
+            name = _name(str(pid))
         except (OSError, IndexError, ValueError):
-            continue                             # gone meanwhile
+            continue
         c, r = out.get(name, (0.0, 0.0))
         out[name] = (c + cpu, r + rss)
     return out
@@ -52,12 +63,12 @@ def sample(pgid: int) -> Dict[str, Tuple[float, float]]:
 class Usage:
     """The samples of one run: (wall time, {node: (CPU s, RSS MB)})."""
 
-    def __init__(self, pgid: int) -> None:
-        self.pgid = pgid
+    def __init__(self, root: int) -> None:
+        self.root = root
         self.samples: List[Tuple[float, Dict[str, Tuple[float, float]]]] = []
 
     def take(self) -> None:
-        self.samples.append((time.time(), sample(self.pgid)))
+        self.samples.append((time.time(), sample(self.root)))
 
     def cpu_shares(self, since: Optional[float] = None) -> Dict[str, float]:
         """Each node's CPU seconds per wall second (1.0 = one core busy) from the first
