@@ -448,6 +448,31 @@ def test_an_observer_waiting_in_a_doorway_moves_out_of_it():
     assert fb.update(9.0, (gx, gy, gyaw), (6.3, 3.0, 0.0, 0.0), goal_done=True).goal is None
 
 
+def test_the_way_out_of_a_narrow_passage_is_not_turned_back_from():
+    """Waiting in a doorway, the observer is sent out of it; the target, seen again with a
+    jittering track on the way, gets no turn back to it (that kept the observer in the
+    doorway and shut the walker in for good: aces_austin); once there, it faces the target
+    again as usual (unblock off: the rule under test alone)."""
+    grid = two_rooms()
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, roomy=0.6,
+                                            replan_distance=0.5, unblock=0.0))
+    fb.update(0.0, (5.0, 3.0, 0.0), (6.3, 3.0, 0.0, 0.0))
+    d = fb.update(2.0, (5.0, 3.0, 0.0), (6.3, 3.0, 0.0, 0.0), goal_done=True)
+    assert d.goal is not None and "narrow passage" in d.reason
+    out = d.goal
+    # on the way out, turned away from the target (its stand-off point is where the
+    # observer is), the track jitters: no turn back to it
+    x = out[0]
+    d = fb.update(4.5, (x, 1.8, -math.pi / 2), (x, 3.3, 0.4, 0.3))
+    assert d.goal is None
+    d = fb.update(7.0, (x, 1.7, -math.pi / 2), (x + 0.05, 3.2, -0.4, 0.3))
+    assert d.goal is None
+    # there, the goal done: a target still in the doorway's reach is faced as before
+    d = fb.update(9.0, (out[0], out[1], -math.pi / 2), (6.3, 3.0, 0.0, 0.0), goal_done=True)
+    assert d.goal is not None and d.goal[:2] == pytest.approx(out[:2])
+    assert d.goal[2] == pytest.approx(math.atan2(3.0 - out[1], 6.3 - out[0]))
+
+
 def corridor_with_alcove():
     """A corridor 1.2 m wide (y 1.0..2.2) and 12 m long, with a 2 x 2 m alcove on its north
     side at x 6..8 (y 2.2..4.2): the one place where two robots can pass."""

@@ -151,6 +151,8 @@ class FollowBehaviour:
         self._aside: Optional[Tuple[float, float, float]] = None
         self._parts: Optional[np.ndarray] = None    # _pockets(): the floor's parts
         self._pocket: Optional[np.ndarray] = None   # ... and which of them are pockets
+        # the goal out of a narrow passage under way (see _follow), None for any other
+        self._leaving: Optional[Tuple[float, float, float]] = None
 
     def update(self, t: float, robot: Sequence[float], target: Optional[Sequence[float]],
                destination=None, goal_done: bool = False) -> FollowDecision:
@@ -176,6 +178,8 @@ class FollowBehaviour:
             decision = self._outside_pockets(robot, decision)
         if decision.goal is not None:
             self._standing = False
+            if decision.goal != self._leaving:
+                self._leaving = None
         return decision
 
     def _outside_pockets(self, robot: Sequence[float], decision: FollowDecision
@@ -606,7 +610,8 @@ class FollowBehaviour:
             if point is not None and self.grid.clearance_at(*point) >= cfg.roomy:
                 self._goal_target, self._goal_time = (tx, ty), t
                 gx, gy = point
-                return FollowDecision("follow", (gx, gy, math.atan2(ty - gy, tx - gx)),
+                self._leaving = (gx, gy, math.atan2(ty - gy, tx - gx))
+                return FollowDecision("follow", self._leaving,
                                       "out of the narrow passage at (%.2f, %.2f)" % (rx, ry))
         if not first and dist <= cfg.distance + cfg.slack and not moving:
             if abs(wrap_angle(facing - ryaw)) > 0.5 and (goal_done or moved > cfg.replan_distance):
@@ -635,7 +640,12 @@ class FollowBehaviour:
             # a step shorter than the track's own jitter: turned to face it, not driven (a
             # blocked walker tracked 0.4 m to and fro had the observer turn from its goal
             # to the walker and back every 2 s in a narrow corridor: aces_austin); a goal
-            # under way from before (a search's, a patrol's) is replaced all the same
+            # under way from before (a search's, a patrol's) is replaced all the same, but
+            # not the way out of a narrow passage: turned back to the walker each time it
+            # was seen again, the observer stayed in a doorway and shut a walker in for
+            # good (aces_austin, seed 1: 5 legs given up)
+            if self._leaving is not None and not self._standing and not goal_done:
+                return FollowDecision("follow")
             if (abs(wrap_angle(facing - ryaw)) > 0.5 or goal_done or first
                     or not self._standing):
                 return FollowDecision("follow", (rx, ry, facing), "stand-off point %.2f m "
