@@ -9,7 +9,7 @@ from bullet_floor_sim.people.follow import (FollowBehaviour, FollowConfig, Follo
                                             standoff_point)
 from bullet_floor_sim.people.search import (SearchPlan, as_plan, likely_count, in_view, patrol_points,
                                             pick_target, search_plan,
-                                            search_point)
+                                            search_point, search_points)
 from bullet_floor_sim.nav.planner import PlanError, PlanningGrid, give_way_point, path_length
 from bullet_floor_sim.nav.navigator import path_headings
 
@@ -361,6 +361,10 @@ def test_pick_target_keeps_the_followed_id_else_the_nearest_to_last_seen():
 def test_search_point_and_in_view():
     assert search_point([(0.0, 0.0), (3.0, 4.0), (1.0, 1.0)], (2.5, 3.0)) == (3.0, 4.0)
     assert search_point([], (2.5, 3.0)) == (2.5, 3.0)
+    # all regions at once: the nearest of each (the first of equals), where it was for none
+    regions = [[(0.0, 0.0), (3.0, 4.0)], [], [(2.0, 3.0), (3.0, 3.0)], [(9.0, 9.0)]]
+    assert search_points(regions, (2.5, 3.0)) == [(3.0, 4.0), (2.5, 3.0), (2.0, 3.0),
+                                                  (9.0, 9.0)]
     laser = (0.3, 0.0, 0.0)
     assert in_view((0.0, 0.0, 0.0), laser, (3.0, 0.0), math.pi, 30.0)
     assert in_view((0.0, 0.0, 0.0), laser, (0.3, 2.0), math.pi, 30.0)      # 90 deg: edge

@@ -14,7 +14,7 @@ import numpy as np
 from ..geometry import wrap_angle, wrap_angles
 from ..nav.planner import PlanningGrid
 
-__all__ = ["pick_target", "search_point", "search_plan", "SearchPlan", "likely_count",
+__all__ = ["pick_target", "search_point", "search_points", "search_plan", "SearchPlan", "likely_count",
            "patrol_points", "PatrolTour", "in_view", "as_plan"]
 
 #: points (N, 2): a list of (x, y) or an array (DestinationModel.goals)
@@ -50,11 +50,31 @@ def search_point(points: Points, xy: Sequence[float]) -> Tuple[float, float]:
     """Where to look for a lost target heading for a region: of the region's goal points
     (``points``, e.g. DestinationModel.goals), the one nearest to where it was last seen
     (``xy`` itself when the region has none)."""
-    pts = np.asarray(points, dtype=float).reshape(-1, 2)
-    if not len(pts):
-        return float(xy[0]), float(xy[1])
-    i = int(np.argmin(np.hypot(pts[:, 0] - float(xy[0]), pts[:, 1] - float(xy[1]))))
-    return float(pts[i, 0]), float(pts[i, 1])
+    return search_points([points], xy)[0]
+
+
+def search_points(regions: Sequence[Points], xy: Sequence[float]
+                  ) -> List[Tuple[float, float]]:
+    """:func:`search_point` of each region's points, with one distance computation for all
+    of them (a plan of every region is made on every track update)."""
+    x, y = float(xy[0]), float(xy[1])
+    arrays = [np.asarray(p, dtype=float).reshape(-1, 2) for p in regions]
+    counts = [len(a) for a in arrays]
+    if not sum(counts):
+        return [(x, y)] * len(arrays)
+    pts = np.concatenate(arrays)
+    d = np.hypot(pts[:, 0] - x, pts[:, 1] - y)
+    seg = np.repeat(np.arange(len(arrays)), counts)
+    first = np.lexsort((np.arange(len(d)), d, seg))    # by region, nearest first
+    starts = np.cumsum([0] + counts[:-1])
+    out = []
+    for k, s in zip(counts, starts.tolist()):
+        if k:
+            i = int(first[s])
+            out.append((float(pts[i, 0]), float(pts[i, 1])))
+        else:
+            out.append((x, y))
+    return out
 
 
 class SearchPlan(list):
@@ -93,9 +113,11 @@ def search_plan(probabilities: Mapping[str, float], goals: Callable[[str], Point
     ranked = sorted(probabilities.items(),
                     key=lambda kv: (-float(kv[1]), kv[0] != best, kv[0]))
     n = likely_count([p for _, p in ranked], count, min_probability)
-    plan = [(region, search_point(goals(region), xy)) for region, _ in ranked[:n]]
+    regions = [region for region, _ in (ranked if rest else ranked[:n])]
+    points = list(zip(regions, search_points([goals(r) for r in regions], xy)))
+    plan = points[:n]
     if rest:
-        more = [(region, search_point(goals(region), xy)) for region, _ in ranked[n:]]
+        more = points[n:]
         likely = {region for region, p in ranked[n:] if float(p) >= min_probability}
         far = [m for m in more if m[0] not in likely]
         far.sort(key=lambda m: (math.hypot(m[1][0] - float(xy[0]), m[1][1] - float(xy[1])),

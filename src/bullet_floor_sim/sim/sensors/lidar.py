@@ -171,7 +171,7 @@ class Lidar:
         out_of_range = (yaw < -np.pi) | (yaw >= np.pi)   # wrap only those: (y + pi) - pi != y
         if out_of_range.any():
             yaw[out_of_range] = np.remainder(yaw[out_of_range] + np.pi, 2.0 * np.pi) - np.pi
-        plan = self.plan(due, world.pose, world.ray_bounds())
+        plan = self.plan(due, world.pose, world.ray_bounds(), predict=not world.walls_on_grid)
         dist, hit = world.cast_beams(plan)
         out = []
         s = 0
@@ -200,7 +200,7 @@ class Lidar:
         self._prev_ok[slice(None) if robots is None else list(robots)] = False
 
     def plan(self, robots: Union[Sequence[int], np.ndarray], poses: np.ndarray,
-             bounds: Tuple[float, float, float, float]) -> RayPlan:
+             bounds: Tuple[float, float, float, float], predict: bool = True) -> RayPlan:
         """Ray segments for the given robots' scans.
 
         A beam runs from where it leaves the robot's own body toward range_max, clipped to
@@ -208,14 +208,15 @@ class Lidar:
         is also cut a margin beyond the farthest of the previous scan's ranges around the
         same world direction (a long ray walks past many walls and robots it cannot reach);
         a cut ray that hits nothing is cast again in full (``World`` does), so the result is
-        exactly that of the full ray.
+        exactly that of the full ray. Without ``predict`` no ray is cut (the walls' grid
+        caster stops at the first wall anyway: the prediction only cost time).
         """
         robots = np.asarray(robots, dtype=np.int64).reshape(-1)
         counts = [len(self.angles[i]) for i in robots.tolist()]
         groups: Dict[int, List[int]] = {}
         for q, i in enumerate(robots.tolist()):
             groups.setdefault(self._kind[i], []).append(q)
-        parts = [self._plan_kind(np.array(qs, dtype=np.int64), robots, poses)
+        parts = [self._plan_kind(np.array(qs, dtype=np.int64), robots, poses, predict)
                  for qs in groups.values()]
         if len(parts) == 1:      # one lidar geometry (the usual case): already in ray order
             o, d, start, end, rmax = parts[0][1:]
@@ -242,7 +243,8 @@ class Lidar:
         return RayPlan(robots=robots, counts=counts, origins=o, dirs=d, froms=f, tos=t,
                        start=start, length=end - start, full=full, cut=end < full)
 
-    def _plan_kind(self, qs: np.ndarray, robots: np.ndarray, poses: np.ndarray):
+    def _plan_kind(self, qs: np.ndarray, robots: np.ndarray, poses: np.ndarray,
+                   predict: bool = True):
         """Beams of the scanning robots ``robots[qs]``, which share one lidar geometry:
         (qs, origins, dirs, starts, predicted ends, range_max), robot after robot."""
         rows = robots[qs]
@@ -259,7 +261,8 @@ class Lidar:
         d[:, 0] = np.cos(ang).reshape(-1)
         d[:, 1] = np.sin(ang).reshape(-1)
         start = self._exits[rows, :n].reshape(-1)
-        end = self._predict(rows, origin, yaw).reshape(-1)
+        end = (self._predict(rows, origin, yaw).reshape(-1) if predict
+               else np.full(len(start), np.inf))
         rmax = np.repeat(self._range_max[rows], n)
         return qs, np.repeat(origin, n, axis=0), d, start, end, rmax
 
