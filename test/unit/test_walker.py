@@ -146,6 +146,40 @@ def test_unreachable_region_is_reported():
     assert sampler.component_at(50.0, 50.0) == 0
 
 
+def test_a_stay_leg_moves_at_least_min_stay_move_else_another_region_is_drawn():
+    """One 7 m x 4 m hall: a big region (west) and a small one (east, 1.2 m square: its
+    points all lie within 0.85 m of its centre). Stays in the west region go at least
+    min_stay_move from where the walker stands; from the small one every leg goes west and
+    the log says why the stay was drawn again; a region with no other way out keeps its
+    short stays."""
+    grid = np.zeros((80, 140), dtype=np.int8)
+    grid[:2, :] = grid[-2:, :] = grid[:, :2] = grid[:, -2:] = 100
+    sampler = GoalSampler(PlanningGrid(map_from_grid(grid, 0.05, (0.0, 0.0, 0.0))),
+                          clearance=0.45, margin=0.5, goal_tries=100)
+    west = Roi("w", "1", "office", "m", [(0.1, 0.1), (4.5, 0.1), (4.5, 1.4), (4.5, 2.6),
+                                         (4.5, 3.9), (0.1, 3.9)])
+    east = Roi("e", "1", "office", "m", [(4.5, 1.4), (5.7, 1.4), (5.7, 2.6), (4.5, 2.6)])
+    chain = MarkovChain.from_rois([west, east])
+    w = Walker(chain, [west, east], sampler, WalkerConfig(min_stay_move=1.0), seed=4)
+    stays = 0
+    for k in range(200):
+        leg = w.next_leg((2.0, 2.0), float(k))
+        if leg.target_region == "w":
+            stays += 1
+            assert math.hypot(leg.goal[0] - 2.0, leg.goal[1] - 2.0) >= 1.0
+    assert stays > 20
+    for k in range(20):
+        assert w.next_leg((5.1, 2.0), float(k)).target_region == "w"
+    assert any(line.startswith("no goal in office e") and "1.0 m of where it stands" in line
+               for line in w.log)
+    # without the rule, the small region's stays are drawn (under 1 m off)
+    w0 = Walker(chain, [west, east], sampler, WalkerConfig(min_stay_move=0.0), seed=4)
+    assert any(w0.next_leg((5.1, 2.0), float(k)).target_region == "e" for k in range(20))
+    # a region the chain leaves for no other still gets its (short) stays
+    alone = Walker(MarkovChain.from_rois([east]), [east], sampler, WalkerConfig(), seed=4)
+    assert alone.next_leg((5.1, 2.0), 0.0).target_region == "e"
+
+
 def rooms_and_narrow_door(door_cells: int):
     """Three 2 m x 3 m rooms in a row: a 1.0 m door between the first two, a door of
     ``door_cells`` x 0.05 m between the second and the third, and a 0.3 m wide closet."""
