@@ -467,14 +467,31 @@ def test_the_way_out_of_a_narrow_passage_is_not_turned_back_from():
     # on the way out, turned away from the target (its stand-off point is where the
     # observer is), the track jitters: no turn back to it
     x = out[0]
-    d = fb.update(4.5, (x, 1.8, -math.pi / 2), (x, 3.3, 0.4, 0.3))
+    d = fb.update(4.5, (x, 2.3, -math.pi / 2), (x, 3.8, 0.4, 0.3))
     assert d.goal is None
-    d = fb.update(7.0, (x, 1.7, -math.pi / 2), (x + 0.05, 3.2, -0.4, 0.3))
+    d = fb.update(7.0, (x, 2.2, -math.pi / 2), (x + 0.05, 3.7, -0.4, 0.3))
     assert d.goal is None
     # there, the goal done: a target still in the doorway's reach is faced as before
     d = fb.update(9.0, (out[0], out[1], -math.pi / 2), (6.3, 3.0, 0.0, 0.0), goal_done=True)
     assert d.goal is not None and d.goal[:2] == pytest.approx(out[:2])
     assert d.goal[2] == pytest.approx(math.atan2(3.0 - out[1], 6.3 - out[0]))
+
+
+def test_a_stand_off_goal_back_from_a_target_too_close_is_not_turned_back_from():
+    """The target (its track jittering, so moving) stands 0.8 m off: the observer is sent
+    back to the stand-off distance and turns away to drive there; seen again 1.2 m off, its
+    stand-off point under replan_distance away, the goal under way is kept, not replaced by
+    a turn back to the target (that loop held the observer in a walker's way for 60 s:
+    seattle)."""
+    grid = hall(10.0, 6.0)
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, replan_distance=0.5, unblock=0.0))
+    d = fb.update(0.0, (5.0, 3.0, 0.0), (5.8, 3.0, 0.3, 0.0))
+    assert d.goal is not None and d.goal[:2] == pytest.approx((4.3, 3.0), abs=1e-6)
+    d = fb.update(2.5, (4.95, 3.0, math.pi), (6.15, 3.0, 0.3, 0.0))
+    assert d.goal is None
+    # there, the goal done: turned to face the target as usual
+    d = fb.update(5.0, (4.3, 3.0, math.pi), (5.8, 3.0, 0.3, 0.0), goal_done=True)
+    assert d.goal == pytest.approx((4.3, 3.0, 0.0), abs=1e-6)
 
 
 def corridor_with_alcove():

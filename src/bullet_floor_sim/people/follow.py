@@ -151,8 +151,8 @@ class FollowBehaviour:
         self._aside: Optional[Tuple[float, float, float]] = None
         self._parts: Optional[np.ndarray] = None    # _pockets(): the floor's parts
         self._pocket: Optional[np.ndarray] = None   # ... and which of them are pockets
-        # the goal out of a narrow passage under way (see _follow), None for any other
-        self._leaving: Optional[Tuple[float, float, float]] = None
+        # the last goal sent (x, y, mode)
+        self._goal: Optional[Tuple[float, float, str]] = None
 
     def update(self, t: float, robot: Sequence[float], target: Optional[Sequence[float]],
                destination=None, goal_done: bool = False) -> FollowDecision:
@@ -178,8 +178,7 @@ class FollowBehaviour:
             decision = self._outside_pockets(robot, decision)
         if decision.goal is not None:
             self._standing = False
-            if decision.goal != self._leaving:
-                self._leaving = None
+            self._goal = (decision.goal[0], decision.goal[1], decision.mode)
         return decision
 
     def _outside_pockets(self, robot: Sequence[float], decision: FollowDecision
@@ -406,9 +405,15 @@ class FollowBehaviour:
         self._close_since = None
         routes = [self._target_routes(t, (tx, ty), dests)] if dests else []
         keep = np.vstack(routes + [np.array([[tx, ty], [rx, ry]])])
-        return self._step_aside(t, (rx, ry), (tx, ty), keep,
-                                "the target has stood within %.1f m for %.0f s" % (
-                                    cfg.distance, cfg.unblock))
+        why = "the target has stood within %.1f m for %.0f s" % (cfg.distance, cfg.unblock)
+        way = self._step_aside(t, (rx, ry), (tx, ty), keep, why)
+        if way is None:
+            # no place off its ways (the observer in the doorway of a small room the target
+            # heads into, where no place is give_way off the way in: seattle, 60 s blocked
+            # for good): a place off the target and its destinations, deeper in, will do
+            keep = np.array([[tx, ty]] + [list(d) for d in dests])
+            way = self._step_aside(t, (rx, ry), (tx, ty), keep, why + " (off its destinations)")
+        return way
 
     def _step_aside(self, t: float, robot: Tuple[float, float], target: Tuple[float, float],
                     keep: np.ndarray, why: str) -> Optional[FollowDecision]:
@@ -610,8 +615,7 @@ class FollowBehaviour:
             if point is not None and self.grid.clearance_at(*point) >= cfg.roomy:
                 self._goal_target, self._goal_time = (tx, ty), t
                 gx, gy = point
-                self._leaving = (gx, gy, math.atan2(ty - gy, tx - gx))
-                return FollowDecision("follow", self._leaving,
+                return FollowDecision("follow", (gx, gy, math.atan2(ty - gy, tx - gx)),
                                       "out of the narrow passage at (%.2f, %.2f)" % (rx, ry))
         if not first and dist <= cfg.distance + cfg.slack and not moving:
             if abs(wrap_angle(facing - ryaw)) > 0.5 and (goal_done or moved > cfg.replan_distance):
@@ -641,10 +645,11 @@ class FollowBehaviour:
             # blocked walker tracked 0.4 m to and fro had the observer turn from its goal
             # to the walker and back every 2 s in a narrow corridor: aces_austin); a goal
             # under way from before (a search's, a patrol's) is replaced all the same, but
-            # not the way out of a narrow passage: turned back to the walker each time it
-            # was seen again, the observer stayed in a doorway and shut a walker in for
-            # good (aces_austin, seed 1: 5 legs given up)
-            if self._leaving is not None and not self._standing and not goal_done:
+            # not a follow goal still the stand-off distance from the target (out of a
+            # narrow passage, back from a target too close): turned back to the target each
+            # time it was seen again, the observer never got there and shut the walker in
+            # (aces_austin, seattle, seed 1: 6 legs given up)
+            if self._keeps_goal(rx, ry, tx, ty, goal_done):
                 return FollowDecision("follow")
             if (abs(wrap_angle(facing - ryaw)) > 0.5 or goal_done or first
                     or not self._standing):
@@ -654,6 +659,16 @@ class FollowBehaviour:
             return FollowDecision("follow")
         return FollowDecision("follow", (gx, gy, math.atan2(ty - gy, tx - gx)),
                               "target at (%.2f, %.2f)" % (tx, ty))
+
+
+    def _keeps_goal(self, rx: float, ry: float, tx: float, ty: float, goal_done: bool) -> bool:
+        """A follow goal to drive to (``replan_distance`` or more from the observer at
+        (rx, ry), not a turn) is under way and at least ``distance`` - 0.2 m from the target
+        at (tx, ty): still a stand-off point (one the target came near is not)."""
+        g, cfg = self._goal, self.config
+        return (not goal_done and not self._standing and g is not None and g[2] == "follow"
+                and math.hypot(g[0] - rx, g[1] - ry) >= cfg.replan_distance
+                and math.hypot(g[0] - tx, g[1] - ty) >= cfg.distance - _GIVE_WAY_HYSTERESIS)
 
 
 def _distance_to(points: np.ndarray, x: float, y: float) -> np.ndarray:
