@@ -492,6 +492,13 @@ def test_a_stand_off_goal_back_from_a_target_too_close_is_not_turned_back_from()
     # there, the goal done: turned to face the target as usual
     d = fb.update(5.0, (4.3, 3.0, math.pi), (5.8, 3.0, 0.3, 0.0), goal_done=True)
     assert d.goal == pytest.approx((4.3, 3.0, 0.0), abs=1e-6)
+    # a stand-off goal towards a target far off is no back-off: a target that walked past
+    # the observer meanwhile is turned to at once
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, replan_distance=0.5, unblock=0.0))
+    d = fb.update(0.0, (3.0, 3.0, 0.0), (6.0, 4.0, -0.5, 0.0))
+    assert d.goal is not None and math.hypot(d.goal[0] - 3.0, d.goal[1] - 3.0) > 1.0
+    d = fb.update(3.0, (3.3, 3.1, 0.3), (1.8, 4.0, -0.5, 0.0))
+    assert d.goal is not None and d.goal[:2] == pytest.approx((3.3, 3.1)) and "turning" in d.reason
 
 
 def corridor_with_alcove():

@@ -170,7 +170,8 @@ def test_a_stay_leg_moves_at_least_min_stay_move_else_another_region_is_drawn():
     assert stays > 20
     for k in range(20):
         assert w.next_leg((5.1, 2.0), float(k)).target_region == "w"
-    assert any(line.startswith("no goal in office e") and "1.0 m of where it stands" in line
+    assert any(line.startswith("no goal in office e for a stay 1.0 m from where the walker "
+                               "stands (") and line.endswith("drawn again without the stay")
                for line in w.log)
     # without the rule, the small region's stays are drawn (under 1 m off)
     w0 = Walker(chain, [west, east], sampler, WalkerConfig(min_stay_move=0.0), seed=4)
@@ -381,7 +382,9 @@ def test_no_acceptable_goal_gives_up_with_the_reasons(office):
                                           r'from office w after 3 draws: ROI "w": no '
                                           r'acceptable point'):
         w.next_leg((-3.0, -3.0), 0.0)
-    assert w.legs == 0 and w.log[0].startswith('no goal in office w: ROI "w"')
+    # first its stay 1 m off, then any stay (the region has no other way out)
+    assert w.legs == 0 and w.log[0].startswith('no goal in office w for a stay 1.0 m from')
+    assert w.log[1].startswith('no goal in office w: ROI "w"')
 
 
 @pytest.mark.parametrize("config,message", [

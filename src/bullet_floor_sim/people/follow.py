@@ -151,8 +151,9 @@ class FollowBehaviour:
         self._aside: Optional[Tuple[float, float, float]] = None
         self._parts: Optional[np.ndarray] = None    # _pockets(): the floor's parts
         self._pocket: Optional[np.ndarray] = None   # ... and which of them are pockets
-        # the last goal sent (x, y, mode)
-        self._goal: Optional[Tuple[float, float, str]] = None
+        # the last goal sent: (x, y, whether it is a back-off _keeps_goal keeps)
+        self._goal: Optional[Tuple[float, float, bool]] = None
+        self._backing_off = False      # the goal _follow returns now is a back-off
 
     def update(self, t: float, robot: Sequence[float], target: Optional[Sequence[float]],
                destination=None, goal_done: bool = False) -> FollowDecision:
@@ -178,7 +179,8 @@ class FollowBehaviour:
             decision = self._outside_pockets(robot, decision)
         if decision.goal is not None:
             self._standing = False
-            self._goal = (decision.goal[0], decision.goal[1], decision.mode)
+            self._goal = (decision.goal[0], decision.goal[1], self._backing_off)
+        self._backing_off = False
         return decision
 
     def _outside_pockets(self, robot: Sequence[float], decision: FollowDecision
@@ -407,11 +409,12 @@ class FollowBehaviour:
         keep = np.vstack(routes + [np.array([[tx, ty], [rx, ry]])])
         why = "the target has stood within %.1f m for %.0f s" % (cfg.distance, cfg.unblock)
         way = self._step_aside(t, (rx, ry), (tx, ty), keep, why)
-        if way is None:
+        if way is None and dests:
             # no place off its ways (the observer in the doorway of a small room the target
             # heads into, where no place is give_way off the way in: seattle, 60 s blocked
-            # for good): a place off the target and its destinations, deeper in, will do
-            keep = np.array([[tx, ty]] + [list(d) for d in dests])
+            # for good): a place off the target, its destinations and where the observer
+            # stands, deeper in, will do
+            keep = np.array([[tx, ty], [rx, ry]] + [list(d) for d in dests])
             way = self._step_aside(t, (rx, ry), (tx, ty), keep, why + " (off its destinations)")
         return way
 
@@ -615,10 +618,12 @@ class FollowBehaviour:
             if point is not None and self.grid.clearance_at(*point) >= cfg.roomy:
                 self._goal_target, self._goal_time = (tx, ty), t
                 gx, gy = point
+                self._backing_off = True
                 return FollowDecision("follow", (gx, gy, math.atan2(ty - gy, tx - gx)),
                                       "out of the narrow passage at (%.2f, %.2f)" % (rx, ry))
         if not first and dist <= cfg.distance + cfg.slack and not moving:
-            if abs(wrap_angle(facing - ryaw)) > 0.5 and (goal_done or moved > cfg.replan_distance):
+            if abs(wrap_angle(facing - ryaw)) > 0.5 and (goal_done or moved > cfg.replan_distance) \
+                    and not self._keeps_goal(rx, ry, tx, ty, goal_done):
                 self._goal_target, self._goal_time = (tx, ty), t
                 return FollowDecision("follow", (rx, ry, facing), "turning to face the target")
             return FollowDecision("follow")
@@ -657,16 +662,19 @@ class FollowBehaviour:
                                       "off: turning to face the target"
                                       % math.hypot(gx - rx, gy - ry))
             return FollowDecision("follow")
+        self._backing_off = dist < cfg.distance - _GIVE_WAY_HYSTERESIS
         return FollowDecision("follow", (gx, gy, math.atan2(ty - gy, tx - gx)),
                               "target at (%.2f, %.2f)" % (tx, ty))
 
 
     def _keeps_goal(self, rx: float, ry: float, tx: float, ty: float, goal_done: bool) -> bool:
-        """A follow goal to drive to (``replan_distance`` or more from the observer at
-        (rx, ry), not a turn) is under way and at least ``distance`` - 0.2 m from the target
-        at (tx, ty): still a stand-off point (one the target came near is not)."""
+        """A back-off is under way (a follow goal sent out of a narrow passage, or back from
+        a target nearer than ``distance`` - 0.2 m), still ``replan_distance`` or more from the
+        observer at (rx, ry) and at least ``distance`` - 0.2 m from the target at (tx, ty):
+        still a stand-off point (one the target came near is not)."""
         g, cfg = self._goal, self.config
-        return (not goal_done and not self._standing and g is not None and g[2] == "follow"
+        return (not goal_done and not self._standing and g is not None and g[2]
+                and self.mode == "follow"
                 and math.hypot(g[0] - rx, g[1] - ry) >= cfg.replan_distance
                 and math.hypot(g[0] - tx, g[1] - ty) >= cfg.distance - _GIVE_WAY_HYSTERESIS)
 

@@ -25,7 +25,9 @@ class FollowConfig:
             1.5 m leaves a person room to turn round in a doorway).
         slack: no new goal while the target stands within ``distance + slack`` and in view.
         replan_distance: send a new goal when the target moved this far since the last one;
-            a stand-off point nearer than this to the observer is turned at, not driven to.
+            a stand-off point nearer than this to the observer is turned at, not driven to
+            (a back-off under way, out of a narrow passage or from a target too close, is
+            kept while it is still this far off and ``distance`` - 0.2 m from the target).
         goal_period: while the target moves, a new goal at least this often.
         lost_after: no track for this long -> search.
         search_turn: after reaching the search point, turn this much (radians) to look round.
@@ -82,8 +84,9 @@ class FollowConfig:
             (s) is taken to be blocked by it,
             wherever it is going: the observer steps to the nearest place at least
             ``give_way`` from the target, from where it stands and from the target's
-            predicted routes (a roomy one in view first), and waits there as when it gives
-            way. 0: never. (intel_lab: the walker gave up a leg 0.8 m from its goal, with
+            predicted routes (a roomy one in view first; with none, one that far from the
+            target, where it stands and the predicted destinations), and waits there as when
+            it gives way. 0: never. (intel_lab: the walker gave up a leg 0.8 m from its goal, with
             the observer, following it, standing on that goal; no prediction named a route
             through it. Counted within ``give_way`` + 0.2 m only, it never fired on
             aces_austin and mit_csail: the walker, blocked 0.9-1.2 m off in a narrow place,

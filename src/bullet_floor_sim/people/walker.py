@@ -281,7 +281,8 @@ class GoalSampler:
         x, y, comp = self.cells_in(roi)
         pick = np.flatnonzero(((comp == component) if component > 0 else True)
                               & (np.hypot(x - ax, y - ay) >= ar)
-                              & (np.hypot(x - sx, y - sy) >= away))
+                              & (np.hypot(x - sx, y - sy) >= away)
+                              & (self._inner(roi, x, y) if away > 0 else True))
         if len(pick):
             k = int(pick[rng.integers(len(pick))])
             return float(x[k]), float(y[k])
@@ -293,6 +294,16 @@ class GoalSampler:
         why = (" (its free space is not connected to the robot's)" if unreachable else
                " (the rest is within %s)" % " or ".join(near) if near and len(comp) else "")
         raise RoiError("%s%s" % (error, why))
+
+    def _inner(self, roi: Roi, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Which points are at least half the margin inside the region (a stay's goal from
+        the cells would otherwise lie at its edge, often the doorway to the next region)."""
+        import shapely
+
+        if not len(x):
+            return np.zeros(0, dtype=bool)
+        edge = roi_polygon(roi).exterior
+        return np.asarray(shapely.distance(edge, shapely.points(x, y))) >= self.margin / 2.0
 
     def cells_in(self, roi: Roi) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The acceptable planning-cell centres inside a region: (x, y, component) arrays."""
@@ -457,17 +468,23 @@ class Walker:
         here = self.origin_region(x, y)
         problems = []
         stay = True     # a stay may be drawn (until it has no point far enough away)
-        for _ in range(self.config.max_picks):
-            target = self._draw(here, stay)
-            # nothing but the stay left (a region the chain leaves for no other): a short
-            # stay, as the chain has it, rather than no leg at all
+        for k in range(self.config.max_picks + 1):
+            target = self._draw(here, stay) if k < self.config.max_picks else None
+            if target is None and stay:
+                break
+            # nothing but the stay left (a region the chain leaves for no other, or the other
+            # regions drawn had no goal): a short stay rather than no leg at all
             away = self.config.min_stay_move if target == here else 0.0
             target = here if target is None else target
             try:
                 gx, gy = self.sampler.sample(self.index.by_id[target], self.rng_goal, (x, y),
                                              avoid, away)
             except RoiError as e:
-                if str(e) not in problems:
+                if away:
+                    self.log.append("no goal in %s for a stay %.1f m from where the walker "
+                                    "stands (%s): drawn again without the stay"
+                                    % (self.label(target), away, e))
+                elif str(e) not in problems:
                     problems.append(str(e))
                     self.log.append("no goal in %s: %s" % (self.label(target), e))
                 stay = stay and not away

@@ -458,8 +458,9 @@ class World:
     @property
     def walls_on_grid(self) -> bool:
         """Whether the lidars' beams are walked at the walls on the solid grid
-        (sim/grid_rays.py) rather than cast in Bullet."""
-        return self._grid_rays is not None
+        (sim/grid_rays.py) rather than cast in Bullet (never with the GUI: every beam is
+        cast in the full scene there, see cast_beams)."""
+        return self._grid_rays is not None and self._lift_for_rays
 
     def _walls_on_grid(self, wall_height: float):
         """The walls' ray caster on the solid grid (sim/grid_rays.py), or None: Bullet casts
