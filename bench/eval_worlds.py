@@ -101,6 +101,7 @@ def row(world: str, legs: int, seed: int, allow: bool = False, save: str = "") -
     k = {f: FRACTIONS.index(f) for f in (0.25, 0.5, 0.75)}
     out = {"world": world_label(world), "legs": len(r.legs),
            "given_up": r.failed_legs / max(1, len(r.legs) + r.failed_legs),
+           "short": r.short_legs,
            "markov50": tab["tracker"]["markov"][k[0.5]][0],
            "heading50": tab["tracker"]["heading"][k[0.5]][0],
            "tracked": r.tracked_share, "rtf": r.rtf, "setup": r.setup_time,
@@ -129,10 +130,11 @@ def _eval_line(r: dict, office: Optional[float]) -> str:
     """The EVAL line of one world's row (with its ratio to office's rtf when known)."""
     return ("EVAL world=%s legs=%d given_up=%.3f trk25=%.3f trk50=%.3f trk75=%.3f gt25=%.3f "
             "gt50=%.3f gt75=%.3f markov50=%.3f heading50=%.3f margin=%.3f tracked=%.3f "
-            "ll50=%.3f markov_ll50=%.3f ll_margin=%.3f modes=%s rtf=%.1f%s setup=%.0fs"
+            "ll50=%.3f markov_ll50=%.3f ll_margin=%.3f modes=%s short=%d rtf=%.1f%s setup=%.0fs"
             % (r["world"], r["legs"], r["given_up"], r["trk25"], r["trk50"], r["trk75"],
                r["gt25"], r["gt50"], r["gt75"], r["markov50"], r["heading50"], r["margin"],
-               r["tracked"], r["ll50"], r["markov_ll50"], r["ll_margin"], r["modes"], r["rtf"],
+               r["tracked"], r["ll50"], r["markov_ll50"], r["ll_margin"], r["modes"], r["short"],
+               r["rtf"],
                "" if office is None else " rtf_vs_office=%.2f" % (r["rtf"] / office),
                r["setup"]))
 

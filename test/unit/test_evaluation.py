@@ -188,3 +188,13 @@ def test_people_run_predicts_each_leg_from_where_it_started():
     for leg in legs:
         assert leg.moments["ground_truth"][k] is not None
         assert leg.moments["ground_truth"][k][0] == leg.start_region
+
+
+def test_legs_shorter_than_min_leg_path_are_counted_not_scored():
+    """Every leg under a 1 km planned way: none is scored or given up, each is counted as
+    too short (a stay of 0 s would be a miss for every method at every fraction)."""
+    r = ev.run(ev.EvalConfig(legs=2, seed=2, min_leg_path=1000.0, max_sim_time=90.0))
+    assert r.legs == [] and r.short_legs >= 2 and r.failed_legs == 0
+    assert "0 legs scored, 0 failed, %d too short to score" % r.short_legs in ev.format_table(r)
+    with pytest.raises(ev.EvaluationError, match="min_leg_path must be >= 0, got -1"):
+        ev.run(ev.EvalConfig(legs=2, min_leg_path=-1.0))

@@ -33,9 +33,10 @@ def format_table(result: EvalResult) -> str:
                  "hand-overs %d), ticks with a false track %d"
                  % (100 * r.recall, r.recalled_ticks, r.visible_ticks, 100 * r.tracked_share,
                     r.mean_track_error, r.id_switches, r.handovers, r.false_track_ticks))
-    lines.append("run: %d legs scored, %d failed, %.0f s sim in %.0f s wall (%.0f s of it setup; "
-                 "%.1fx real time after it); follower modes %s"
-                 % (len(r.legs), r.failed_legs, r.sim_time, r.wall_time, r.setup_time, r.rtf,
+    lines.append("run: %d legs scored, %d failed, %d too short to score, %.0f s sim in %.0f s "
+                 "wall (%.0f s of it setup; %.1fx real time after it); follower modes %s"
+                 % (len(r.legs), r.failed_legs, r.short_legs, r.sim_time, r.wall_time,
+                    r.setup_time, r.rtf,
                                         ", ".join("%s %.0f%%" % (k, 100.0 * v / max(1, r.ticks))
                                                   for k, v in sorted(r.follow_modes.items()))))
     return "\n".join(lines)

@@ -45,6 +45,10 @@ class EvalConfig:
         allow_unreachable: run even when the map check (building/check.py) finds a region
             the walker cannot reach or an observer cut off from it (else the run refuses);
             what it found is then among the result's warnings.
+        min_leg_path: a leg whose planned way is shorter than this (m) is not scored (nor
+            counted as given up): a stay a few centimetres off has nothing to observe at
+            any fraction, and in a small room of seattle 17 of 40 legs (seed 1) were such
+            stays of 0 s, each scored a miss by every method.
     """
 
     legs: int = 200
@@ -59,6 +63,7 @@ class EvalConfig:
     visible_beams: int = 3
     prediction: Optional[PredictionConfig] = None
     allow_unreachable: bool = False
+    min_leg_path: float = 1.0
 
     def check(self) -> None:
         if not (isinstance(self.legs, int) and self.legs >= 1):
@@ -69,6 +74,9 @@ class EvalConfig:
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise EvaluationError("evaluate: %s must be > 0, got %r" % (name, v))
+        if not (math.isfinite(self.min_leg_path) and self.min_leg_path >= 0):
+            raise EvaluationError("evaluate: min_leg_path must be >= 0, got %r"
+                                  % self.min_leg_path)
 
 
 @dataclass
@@ -108,6 +116,7 @@ class EvalResult:
     mean_track_error: float
     follow_modes: Dict[str, int]
     handovers: int = 0
+    short_legs: int = 0   # legs done but not scored (planned way under min_leg_path)
     warnings: List[str] = field(default_factory=list)  # the map's handling, regions left out
     setup_time: float = 0.0   # wall s of wall_time before the first tick (world, check, model)
 

@@ -130,7 +130,7 @@ class _Scenario:
         self.gt_records: List[Record] = []
         self.trk_records: List[Record] = []
         self.n_ticks = self.visible = self.recalled = self.tracked = 0
-        self.false_ticks = self.switches = self.failed = 0
+        self.false_ticks = self.switches = self.failed = self.short = 0
         self.err_sum = 0.0
         self.completed: List[LegScore] = []
         self.t0 = world.clock.now
@@ -198,7 +198,10 @@ class _Scenario:
 
     def _leg_ended(self, t: float, step) -> None:
         leg = step.finished
-        if leg.outcome == "succeeded":
+        if leg.outcome == "succeeded" and leg.way < self.cfg.min_leg_path:
+            self.short += 1
+            where = " (not scored: a way of %.2f m)" % leg.way
+        elif leg.outcome == "succeeded":
             self.completed.append(score_leg(leg, self.gt_records, self.trk_records, self.model,
                                          self.uniform))
             where = ""
@@ -265,6 +268,7 @@ class _Scenario:
                           id_switches=self.switches, handovers=self.predictor.handovers,
                           mean_track_error=self.err_sum / tracked if tracked else float("nan"),
                           follow_modes=self.drive.modes, warnings=self.warnings,
+                          short_legs=self.short,
                           setup_time=self.setup_time)
 
 
