@@ -81,8 +81,8 @@ class WalkerConfig:
         min_stay_move: a stay leg (to the region the walker is in) goes to a point at least
             this far (m) from where it stands; from a region with no such point the walker
             leaves by the chain's other transitions (one with none keeps short stays). 0 (the
-            default): any stay, as the chain has it. The evaluation leaves short legs
-            unscored instead (EvalConfig.min_leg_path), which keeps the walks as they were:
+            default): any stay, as the chain has it. The evaluation leaves legs that hardly
+            move unscored instead (EvalConfig.min_leg_path), which keeps the walks as they were:
             with 1 m, seed 2's walks changed and so did its figures, both ways, by up to
             30 points a world (edmonton_convention tracked 92 -> 58 %).
         retry_delay: wait after the first failed leg in a row; doubled for each further

@@ -45,10 +45,12 @@ class EvalConfig:
         allow_unreachable: run even when the map check (building/check.py) finds a region
             the walker cannot reach or an observer cut off from it (else the run refuses);
             what it found is then among the result's warnings.
-        min_leg_path: a leg whose planned way is shorter than this (m) is not scored (nor
-            counted as given up): a stay a few centimetres off has nothing to observe at
-            any fraction, and in a small room of seattle 17 of 40 legs (seed 1) were such
-            stays of 0 s, each scored a miss by every method.
+        min_leg_path: a leg whose planned way is shorter than this (m, about a body's
+            width) is not scored (nor counted as given up): a stay a few centimetres off has
+            nothing to observe at any fraction, and in a small room of seattle 17 of 40 legs
+            (seed 1) were such stays of 0 s, each scored a miss by every method. With 1 m,
+            stays of 0.3-1 m that take seconds (the prior's easy hits) went unscored too, and
+            trk50 fell by up to 15 points a world (acapulco_convention, seed 2).
     """
 
     legs: int = 200
@@ -63,7 +65,7 @@ class EvalConfig:
     visible_beams: int = 3
     prediction: Optional[PredictionConfig] = None
     allow_unreachable: bool = False
-    min_leg_path: float = 1.0
+    min_leg_path: float = 0.25
 
     def check(self) -> None:
         if not (isinstance(self.legs, int) and self.legs >= 1):
