@@ -674,7 +674,6 @@ class FollowBehaviour:
         still a stand-off point (one the target came near is not)."""
         g, cfg = self._goal, self.config
         return (not goal_done and not self._standing and g is not None and g[2]
-                and self.mode == "follow"
                 and math.hypot(g[0] - rx, g[1] - ry) >= cfg.replan_distance
                 and math.hypot(g[0] - tx, g[1] - ty) >= cfg.distance - _GIVE_WAY_HYSTERESIS)
 
