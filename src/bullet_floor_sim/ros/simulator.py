@@ -247,7 +247,11 @@ class SimulatorNode:
         if self.own_time:
             set_rostime(rospy.Time(secs, nsecs))
         if self.out.wanted(self.clock_pub):
+            # each /clock in its own send: a rospy node keeps only the newest /clock of what
+            # one read brings (its /clock subscriber's queue size is 1), so /clock messages
+            # batched with the next flush would reach Python nodes as jumps of several steps
             self.out.put(self.clock_pub, U32.pack(8) + II.pack(secs, nsecs))
+            self.out.send_now(self.clock_pub)
         self._clock_behind = False
 
     def publish(self, scans) -> None:

@@ -75,6 +75,13 @@ class Outbox:
             if len(msgs) > limit and not self._send(c, q):
                 del msgs[1 if q[1] else 0]      # drop the oldest not yet being sent
 
+    def send_now(self, pub: rospy.Publisher) -> None:
+        """Send what waits for ``pub``'s subscribers at once (one non-blocking send each)."""
+        for c in pub.impl.connections:
+            q = self._queues.get(c)
+            if q is not None and q[0]:
+                self._send(c, q)
+
     def unread(self, unread_by_socket: Dict[Any, int]) -> Dict[Tuple[str, str], int]:
         """Unread bytes per (subscriber, topic) of every connection on this machine, from
         the kernel's count per socket (sim/pacing.tcp_unread)."""
