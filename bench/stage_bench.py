@@ -25,7 +25,11 @@ The real-time factor is sim time gained on /clock over a wall-clock window. Prin
 ratios of ours over Stage's, with each side's own figures in the table above them. Without
 stageros it prints ``BENCH vs_stage skipped: ...`` and exits 0.
 
-Usage: stage_bench.py [--robots 1,10,50] [--rates 100,10] [--window 10]
+Each case runs ``--repeats`` times (3), ours then Stage's back to back; the printed ratio is
+the median of the pairs' ratios, with their range beside it (two single runs on a busy 2-core
+VM differed by up to 2x in one cell).
+
+Usage: stage_bench.py [--robots 1,10,50] [--rates 100,10] [--window 10] [--repeats 3]
 """
 from __future__ import annotations
 
@@ -195,11 +199,28 @@ def _sub(side: str, n: int, rate: float, window: float) -> float:
     return float(lines[-1])
 
 
+def paired(n: int, rate: float, window: float, repeats: int) -> Tuple[float, float, float, str]:
+    """``repeats`` runs of ours, each followed at once by Stage's (a busy machine's slow
+    spells then fall on both sides of a pair): the medians of each side's real-time factor,
+    the median of the pairs' ratios, and the ratios' range (text)."""
+    import statistics
+
+    pairs = [(_sub("ours", n, rate, window), _sub("stage", n, rate, window))
+             for _ in range(repeats)]
+    if any(math.isnan(o) or math.isnan(s) for o, s in pairs):
+        return float("nan"), float("nan"), float("nan"), "a run failed"
+    ratios = [o / s for o, s in pairs]
+    return (statistics.median(o for o, _ in pairs), statistics.median(s for _, s in pairs),
+            statistics.median(ratios), "%.2f-%.2f" % (min(ratios), max(ratios)))
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--robots", default="1,10,50")
     ap.add_argument("--rates", default="100,10")
     ap.add_argument("--window", type=float, default=10.0)
+    ap.add_argument("--repeats", type=int, default=3,
+                    help="pairs (ours, then Stage) per case; the median ratio is printed")
     ap.add_argument("--case", nargs=4, metavar=("SIDE", "N", "RATE", "WINDOW"),
                     help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
@@ -213,14 +234,17 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return 0
     robots = [int(v) for v in a.robots.split(",")]
     rates = [float(v) for v in a.rates.split(",")]
-    print("%-6s %-7s %10s %10s %10s" % ("step", "robots", "ours", "stage", "ours/stage"))
+    if a.repeats < 1:
+        ap.error("--repeats must be at least 1")
+    print("%-6s %-7s %10s %10s %10s %14s" % ("step", "robots", "ours", "stage", "ours/stage",
+                                             "pairs' range"))
     for rate in rates:
         ratios = []
         for n in robots:
-            ours, stage = _sub("ours", n, rate, a.window), _sub("stage", n, rate, a.window)
-            ratios.append(ours / stage)
-            print("%-6s %-7d %10.1f %10.1f %10.2f" % ("%g Hz" % rate, n, ours, stage,
-                                                       ratios[-1]), flush=True)
+            ours, stage, ratio, spread = paired(n, rate, a.window, a.repeats)
+            ratios.append(ratio)
+            print("%-6s %-7d %10.1f %10.1f %10.2f %14s" % ("%g Hz" % rate, n, ours, stage,
+                                                            ratio, spread), flush=True)
         print("BENCH vs_stage rate=%g %s" % (rate, " ".join(
             "n%d=%.2f" % (n, r) for n, r in zip(robots, ratios))), flush=True)
     return 0
