@@ -284,6 +284,11 @@ class Navigator:
         """The path being followed (map frame)."""
         return self.follower.path
 
+    @property
+    def retreat(self) -> Optional[Tuple[float, float]]:
+        """Where it retreats to, out of the way of what blocks it (None: not retreating)."""
+        return self._retreat
+
     def start(self, pose: Sequence[float], goal: Sequence[float], now: float) -> np.ndarray:
         """Plan to a new goal (x, y, yaw-or-None) and start following it.
 

@@ -252,7 +252,7 @@ class PathFollowerNode:
         rospy.loginfo("path_follower: goal (%.2f, %.2f, %.2f): path of %.1f m", target[0],
                       target[1], target[2], path_length(path))
         self._publish_plan(path)
-        replans = 0
+        replans, retreats, logged = 0, 0, ("", -math.inf)   # (last recovery logged, when)
         rate = rospy.Rate(self.rate_hz)
         fb = MoveBaseFeedback()
         fb.base_position.header.frame_id = self.global_frame
@@ -278,9 +278,14 @@ class PathFollowerNode:
             cmd = Twist()
             cmd.linear.x, cmd.angular.z = st.v, st.w
             self.cmd_pub.publish(cmd)
-            if nav.replans != replans:
-                replans = nav.replans
+            if nav.replans != replans or nav.retreats != retreats:
+                replans, retreats = nav.replans, nav.retreats
                 self._publish_plan(nav.path)
+            doing = _recovery(nav, st)
+            if doing and (doing != logged[0] or now.to_sec() - logged[1] >= 5.0):
+                logged = (doing, now.to_sec())
+                rospy.loginfo("path_follower: %s, %.2f m from the goal", doing,
+                              st.distance_to_goal)
             x, y, yaw = self.pose
             fb.base_position.header.stamp = now
             fb.base_position.pose.position.x, fb.base_position.pose.position.y = x, y
@@ -305,6 +310,18 @@ class PathFollowerNode:
             ps.pose.orientation.w = 1.0
             msg.poses.append(ps)
         self.plan_pub.publish(msg)
+
+
+def _recovery(nav: Navigator, st) -> str:
+    """What the navigator does to get past something, for the log ('' when it just follows
+    its path): a goal aborted for good in CI had left no trace of how it got stuck."""
+    if nav.retreat is not None:
+        return "giving way: out of the way to (%.2f, %.2f)" % nav.retreat
+    if st.message == "blocked":
+        return "blocked by something the scan shows on the path: planning around it"
+    if st.message in ("stalled", "backing up", "nudging forward", "giving way"):
+        return st.message
+    return ""
 
 
 def main(argv: Optional[List[str]] = None) -> int:
