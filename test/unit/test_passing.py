@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from bullet_floor_sim.nav.passing import narrow_axis, passing_place
-from bullet_floor_sim.nav.planner import Navigator, NavigatorConfig, PlanningGrid
+from bullet_floor_sim.nav.planner import Navigator, NavigatorConfig, PlanningGrid, obstacles_in_base
 from bullet_floor_sim.sim.world import World
 
 from bullet_floor_sim.sim.floormap import map_from_grid
@@ -188,3 +188,56 @@ def test_the_heading_rule_picks_exactly_one_of_two_robots_facing_each_other():
     assert heads_west_or_south(-math.pi / 2 + 0.01) and heads_west_or_south(-math.pi / 2 - 0.01)
     assert not heads_west_or_south(math.pi / 2 + 0.01)
     assert not heads_west_or_south(math.pi / 2 - 0.01)
+
+
+
+def _meet_late(seed, period, scan_lag, cmd_lag, pose_lag, limit=150.0):
+    """office's CI meeting (robot1 from the west corridor to room 12, robot2 from the
+    centre to room 5, nose to nose in the 2 m corridor) with a ROS graph's delays: each
+    navigator runs every ``period`` s on a pose ``pose_lag`` steps (10 ms) and a scan
+    ``scan_lag`` scans old, and its command takes effect ``cmd_lag`` s later. Returns each
+    robot's (state, time)."""
+    world = World.from_name("office", seed=seed)
+    try:
+        grid = PlanningGrid(world.fmap)
+        navs = [Navigator(grid), Navigator(grid)]
+        goals = [(10.96, 15.20, 0.0), (2.65, 4.80, 0.0)]
+        lp = world.models[0].laser_pose
+        scans, poses, queued = [[None], [None]], [[], []], [[], []]
+        out, now, due = [None, None], 0.0, [0.0, 0.0]
+        while now < limit and None in out:
+            for i in range(2):
+                poses[i].append(world.view(i).pose)
+                while queued[i] and queued[i][0][0] <= now + 1e-9:
+                    world.command(i, queued[i][0][1], 0.0, queued[i].pop(0)[2])
+                if out[i] is not None or now + 1e-9 < due[i]:
+                    continue
+                pose = poses[i][-min(len(poses[i]), 1 + pose_lag)]
+                if due[i] == 0.0:
+                    navs[i].start(pose, goals[i], now)
+                due[i] += period
+                scan = scans[i][max(0, len(scans[i]) - 1 - scan_lag)]
+                st = navs[i].update(pose, scan, now)
+                queued[i].append((now + cmd_lag, st.v, st.w))
+                if st.state != "active":
+                    out[i] = (st.state, round(now, 1), st.message)
+            for sc in world.step(1):
+                scans[sc.robot].append(obstacles_in_base(sc.ranges, sc.angle_min,
+                                                         sc.angle_increment, sc.range_max,
+                                                         (lp[0], lp[1], lp[3])))
+            now += 0.01
+        return out
+    finally:
+        world.close()
+
+
+def test_two_robots_nose_to_nose_with_a_ros_graphs_delays_break_the_deadlock():
+    """With the delays of a ROS graph (5 Hz control, commands 0.2 s late), the two robots of
+    nav_builtin_two.test each planned past the other's unseen far side and stopped on it,
+    again and again: both goals were aborted, blocked 30 s (as in a CI run). A deadlock with
+    a way round each time is now broken as one with none: after deadlock_time (10 s)
+    without progress, the robot the heading rule makes yield (robot2, heading west) steps
+    aside to its right and waits; both arrive."""
+    out = _meet_late(16, 0.2, 1, 0.2, 2)
+    assert [o[0] for o in out] == ["succeeded", "succeeded"], out
+    assert max(o[1] for o in out) < 80.0, out

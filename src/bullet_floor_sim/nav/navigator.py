@@ -188,6 +188,12 @@ class NavigatorConfig:
             told to yield that has not (it could not) yields; one that has the right of way,
             or keeps its way, after twice as long (what blocks it does not yield: a robot
             parked, or one with another rule). Unequal, so the two do not back off at once.
+            With a way round each time and still no progress (each planned past the other's
+            unseen far side and stopped on it again: two robots nose to nose in a corridor
+            wide enough for two, under a ROS graph's delays), the same: the one heading west
+            or south (nav/passing.heads_west_or_south), or with ``give_way``, after this
+            long, any other after twice as long; where the nearest passing place is where it
+            stands, it steps ``sidestep`` m aside (right first) and waits there.
         other_radius: the radius (m) of what it meets, for the passing places (default: its
             own).
         pass_wait_max: the longest wait (s) at a passing place; it waits as long as what it
@@ -538,30 +544,45 @@ class Navigator:
             path = self.grid.plan(pose, self._retreat or self.goal, obstacles=world)
             if self._waits_for_detour(path):
                 return   # blocked: what blocks it may give way before the long way round
+            if self._retreat is None and len(world) and self._deadlocked(pose, world):
+                # a way round each time, and blocked on it each time (the scan shows only
+                # the near side of what blocks it: two robots nose to nose in a corridor
+                # each planned past the other's unseen far side): as when there is no way
+                raise PlanError("deadlocked")
         except PlanError:
-            if self.retreats < _MAX_RETREATS and len(world) and self._yields(pose, world):
-                # the observer first steps out of the way nearby (it keeps its target in
-                # sight), unless that is still in the narrow passage (it backed 0.5 m along
-                # a corridor, three times) and a passing place is in reach; a robot yielding
-                # in a narrow passage goes to a passing place
-                path = self._out_of_the_way(pose, world) if self.config.give_way else None
-                if self.config.passing and (path is None or self._in_narrow(path[-1])):
-                    aside = self._to_passing_place(pose, world)
-                    path = aside if aside is not None else path
-                if path is not None:   # it gets out of the way
-                    self._retreat = (float(path[-1, 0]), float(path[-1, 1]))
-                    self._wait_for = self._pass_wait(world, self._retreat)
-                    self.retreats += 1
-                    self._blocked_total = 0.0
-                    self._best_t = self._last_t or 0.0   # yielding is not a lack of progress
-                    self.follower.set_path(path, None)
-                    return
+            if (self.retreats < _MAX_RETREATS and len(world) and self._yields(pose, world)
+                    and self._yield_to(pose, world)):
+                return
             path = None if self._retreat else self._sidestep(pose, world)
             if path is None:
                 return  # nothing better: wait for the obstacle to move
         self.replans += 1
         self._rebase = self._retreat is None
         self.follower.set_path(path, None if self._retreat else self.goal[2])
+
+    def _yield_to(self, pose: Sequence[float], world: np.ndarray) -> bool:
+        """Get out of the way of ``world`` (the points of what blocks it) and wait, if it can;
+        whether it does. The observer first steps out of the way nearby (it keeps its target
+        in sight), unless that is still in the narrow passage (it backed 0.5 m along a
+        corridor, three times) and a passing place is in reach; a robot yielding in a narrow
+        passage goes to a passing place; where the nearest passing place is where it stands
+        (a corridor wide enough for two, with the other in its middle), it steps aside (right
+        first) and waits there."""
+        path = self._out_of_the_way(pose, world) if self.config.give_way else None
+        if self.config.passing and (path is None or self._in_narrow(path[-1])):
+            aside = self._to_passing_place(pose, world)
+            path = aside if aside is not None else path
+        if path is None or math.hypot(path[-1, 0] - pose[0], path[-1, 1] - pose[1]) < 0.3:
+            path = next(self._side_paths(pose, world), None)
+        if path is None:
+            return False
+        self._retreat = (float(path[-1, 0]), float(path[-1, 1]))
+        self._wait_for = self._pass_wait(world, self._retreat)
+        self.retreats += 1
+        self._blocked_total = 0.0
+        self._best_t = self._last_t or 0.0   # yielding is not a lack of progress
+        self.follower.set_path(path, None)
+        return True
 
     def _waits_for_detour(self, path: np.ndarray) -> bool:
         """Whether to keep waiting instead of taking ``path``, a way round what blocks it more
@@ -570,6 +591,23 @@ class Navigator:
         return (cfg.passing and cfg.detour > 0 and self._retreat is None
                 and self._blocked_total < cfg.detour_wait
                 and path_length(path) > self._left + cfg.detour)
+
+    def _deadlocked(self, pose: Sequence[float], world: np.ndarray) -> bool:
+        """Blocked, with no progress for the deadlock time (see NavigatorConfig: twice as
+        long for the robot with the heading rule's right of way, or keeping its way), by
+        something ahead of it."""
+        from .passing import heads_west_or_south
+
+        cfg = self.config
+        if not cfg.passing or self._last_t is None:
+            return False
+        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+        cx, cy = (float(v) for v in world.mean(axis=0))
+        if (cx - x) * math.cos(yaw) + (cy - y) * math.sin(yaw) <= 0.0:
+            return False
+        first = cfg.give_way or (cfg.heading_rule and not cfg.keep_way
+                                 and heads_west_or_south(yaw))
+        return self._last_t - self._best_t >= cfg.deadlock_time * (1.0 if first else 2.0)
 
     def _yields(self, pose: Sequence[float], world: np.ndarray) -> bool:
         """Whether this robot gives way to what blocks it (``world``, the points of it):
@@ -675,6 +713,21 @@ class Navigator:
 
     def _sidestep(self, pose: Sequence[float], world: np.ndarray) -> Optional[np.ndarray]:
         assert self.goal is not None   # _replan_around checks it
+        for first in self._side_paths(pose, world):
+            wx, wy = (float(v) for v in first[-1])
+            try:
+                try:
+                    rest = self.grid.plan((wx, wy), self.goal, obstacles=world)
+                except PlanError:  # the other one has not stepped aside yet
+                    rest = self.grid.plan((wx, wy), self.goal)
+            except PlanError:
+                continue
+            return np.vstack([first, rest[1:]])
+        return None
+
+    def _side_paths(self, pose: Sequence[float], world: np.ndarray):
+        """Paths to a place ``sidestep`` (or half of it) m to the robot's right, then left,
+        that is free and clear of ``world``, in that order (a generator)."""
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
         r = self.grid.config.robot_radius
         for side in (-1.0, 1.0):  # right first
@@ -686,12 +739,6 @@ class Navigator:
                 if len(world) and np.min(np.hypot(world[:, 0] - wx, world[:, 1] - wy)) < r + 0.05:
                     continue
                 try:
-                    first = self.grid.plan(pose, (wx, wy))
-                    try:
-                        rest = self.grid.plan((wx, wy), self.goal, obstacles=world)
-                    except PlanError:  # the other one has not stepped aside yet
-                        rest = self.grid.plan((wx, wy), self.goal)
+                    yield self.grid.plan(pose, (wx, wy))
                 except PlanError:
                     continue
-                return np.vstack([first, rest[1:]])
-        return None
