@@ -84,7 +84,6 @@ def test_a_robot_and_a_person_meeting_in_the_corridor_both_arrive():
     # 0.50 m apart at the closest, shoulders 0.09 m into the robot's planning footprint)
     import dataclasses
 
-    from bullet_floor_sim.nav.planner import obstacles_in_base
     from bullet_floor_sim.people.crowd.build import routes_for
     from bullet_floor_sim.people.crowd.config import BodyConfig
     from bullet_floor_sim.people.crowd.crowd import Crowd, Person

@@ -26,7 +26,7 @@ _BOXED_STALLS = 2
 #: robot wedged on a wall's corner at 0.339 m of clearance could only back off to 0.325 m,
 #: and was refused it for good)
 _BACKUP_SLACK = 0.05
-_MAX_RETREATS = 3   # per goal: then it waits where it is, and the goal can time out
+_MAX_RETREATS = 3   # per goal: then it only plans round, steps aside or waits where it is
 #: m beyond the robot's radius: a scan point this near the goal leaves no room to stand there
 _GOAL_MARGIN = 0.1
 #: s: a goal counts as taken once something stood on it in every scan this long (not a
@@ -190,10 +190,12 @@ class NavigatorConfig:
             parked, or one with another rule). Unequal, so the two do not back off at once.
             With a way round each time and still no progress (each planned past the other's
             unseen far side and stopped on it again: two robots nose to nose in a corridor
-            wide enough for two, under a ROS graph's delays), the same: the one heading west
-            or south (nav/passing.heads_west_or_south), or with ``give_way``, after this
-            long, any other after twice as long; where the nearest passing place is where it
-            stands, it steps ``sidestep`` m aside (right first) and waits there.
+            wide enough for two, under a ROS graph's delays), it yields too: with
+            ``give_way``, or when what blocks it lies west or south of it
+            (nav/passing.heads_west_or_south of the bearing), after this long; any other
+            after twice as long; where the nearest passing place is where it stands, it steps
+            ``sidestep`` m aside (right first) and waits there; when it cannot yield it
+            takes the way round.
         other_radius: the radius (m) of what it meets, for the passing places (default: its
             own).
         pass_wait_max: the longest wait (s) at a passing place; it waits as long as what it
@@ -528,10 +530,13 @@ class Navigator:
     def _replan_around(self, pose: Sequence[float], obstacles: Optional[np.ndarray]) -> None:
         """Plan again with the nearby scan points as walls; keep the old path if none.
 
-        When no path passes the obstacle (two robots nose to nose in a corridor), step aside to
-        the right first, as people do: a waypoint ``sidestep`` metres to the robot's right (then
-        left) that is clear of walls and of the obstacle, and on to the goal from there. Both
-        robots of a head-on meeting do the same, so they pass each other.
+        When no path passes the obstacle (two robots nose to nose in a corridor), the robot
+        the rules make yield (``_yields``) gets out of the way (``_yield_to``); else it steps
+        aside to the right first, as people do: a waypoint ``sidestep`` metres to the robot's
+        right (then left) that is clear of walls and of the obstacle, and on to the goal from
+        there. Both robots of a head-on meeting do the same, so they pass each other. A way
+        round found again and again without progress (``_deadlocked``) is given up for a
+        yield, when one is possible.
         """
         if self.goal is None or obstacles is None or len(obstacles) == 0:
             return
@@ -544,11 +549,14 @@ class Navigator:
             path = self.grid.plan(pose, self._retreat or self.goal, obstacles=world)
             if self._waits_for_detour(path):
                 return   # blocked: what blocks it may give way before the long way round
-            if self._retreat is None and len(world) and self._deadlocked(pose, world):
-                # a way round each time, and blocked on it each time (the scan shows only
+            if (self._retreat is None and self.retreats < _MAX_RETREATS and len(world)
+                    and self._deadlocked(pose, world)
+                    and self._yield_to(pose, world, aside=True)):
+                # a way round each time, and stopped on it each time (the scan shows only
                 # the near side of what blocks it: two robots nose to nose in a corridor
-                # each planned past the other's unseen far side): as when there is no way
-                raise PlanError("deadlocked")
+                # each planned past the other's unseen far side): it yields as when there
+                # is no way round; when it cannot, it takes the way round
+                return
         except PlanError:
             if (self.retreats < _MAX_RETREATS and len(world) and self._yields(pose, world)
                     and self._yield_to(pose, world)):
@@ -560,20 +568,25 @@ class Navigator:
         self._rebase = self._retreat is None
         self.follower.set_path(path, None if self._retreat else self.goal[2])
 
-    def _yield_to(self, pose: Sequence[float], world: np.ndarray) -> bool:
-        """Get out of the way of ``world`` (the points of what blocks it) and wait, if it can;
-        whether it does. The observer first steps out of the way nearby (it keeps its target
-        in sight), unless that is still in the narrow passage (it backed 0.5 m along a
+    def _yield_to(self, pose: Sequence[float], world: np.ndarray, aside: bool = False) -> bool:
+        """Get out of the way of ``world`` (the points of what blocks it) and wait there, if
+        it can; whether it does. The observer first steps out of the way nearby (it keeps its
+        target in sight), unless that is still in the narrow passage (it backed 0.5 m along a
         corridor, three times) and a passing place is in reach; a robot yielding in a narrow
-        passage goes to a passing place; where the nearest passing place is where it stands
-        (a corridor wide enough for two, with the other in its middle), it steps aside (right
-        first) and waits there."""
+        passage goes to a passing place. With ``aside`` (a deadlock with a way round), when
+        that place is where it stands (a corridor wide enough for two, the other in its
+        middle), it steps ``sidestep`` m aside instead (right first; not into a narrow
+        passage, not nearer what blocks it) and waits there."""
         path = self._out_of_the_way(pose, world) if self.config.give_way else None
         if self.config.passing and (path is None or self._in_narrow(path[-1])):
-            aside = self._to_passing_place(pose, world)
-            path = aside if aside is not None else path
-        if path is None or math.hypot(path[-1, 0] - pose[0], path[-1, 1] - pose[1]) < 0.3:
-            path = next(self._side_paths(pose, world), None)
+            to_place = self._to_passing_place(pose, world)
+            path = to_place if to_place is not None else path
+        if aside and (path is None or math.hypot(path[-1, 0] - pose[0],
+                                                 path[-1, 1] - pose[1]) < 0.3):
+            near = float(np.min(np.hypot(world[:, 0] - pose[0], world[:, 1] - pose[1])))
+            path = next((p for p in self._side_paths(pose, world)
+                         if not self._in_narrow(p[-1]) and float(np.min(np.hypot(
+                             world[:, 0] - p[-1, 0], world[:, 1] - p[-1, 1]))) >= near), None)
         if path is None:
             return False
         self._retreat = (float(path[-1, 0]), float(path[-1, 1]))
@@ -593,9 +606,11 @@ class Navigator:
                 and path_length(path) > self._left + cfg.detour)
 
     def _deadlocked(self, pose: Sequence[float], world: np.ndarray) -> bool:
-        """Blocked, with no progress for the deadlock time (see NavigatorConfig: twice as
-        long for the robot with the heading rule's right of way, or keeping its way), by
-        something ahead of it."""
+        """No progress for the deadlock time, with something ahead of it (see
+        NavigatorConfig): once that long with ``give_way``, or when the bearing to what
+        blocks it heads west or south (the heading rule's loser: the bearings of two robots
+        nose to nose are opposite, their headings, each turned to its way round, need not
+        be); twice as long otherwise (and with ``keep_way`` or without the heading rule)."""
         from .passing import heads_west_or_south
 
         cfg = self.config
@@ -606,7 +621,7 @@ class Navigator:
         if (cx - x) * math.cos(yaw) + (cy - y) * math.sin(yaw) <= 0.0:
             return False
         first = cfg.give_way or (cfg.heading_rule and not cfg.keep_way
-                                 and heads_west_or_south(yaw))
+                                 and heads_west_or_south(math.atan2(cy - y, cx - x)))
         return self._last_t - self._best_t >= cfg.deadlock_time * (1.0 if first else 2.0)
 
     def _yields(self, pose: Sequence[float], world: np.ndarray) -> bool:

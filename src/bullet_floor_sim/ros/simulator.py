@@ -255,7 +255,8 @@ class SimulatorNode:
         self._clock_behind = False
 
     def publish(self, scans) -> None:
-        """Queue what is due after a step (called with the lock held; ``flush`` sends)."""
+        """Queue what is due after a step (called with the lock held; ``flush`` sends; a
+        /clock goes out at once, ``_publish_clock``)."""
         w = self.world
         steps = w.clock.steps
         now_ns = w.clock.now_ns

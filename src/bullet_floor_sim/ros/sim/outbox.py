@@ -17,7 +17,8 @@ class Outbox:
 
     rospy hands every message to one writer thread per subscriber. Here messages wait per
     connection and leave in one non-blocking ``send`` per connection per ``flush`` (or as
-    soon as a connection has the publisher's queue size waiting); a subscriber that does not
+    soon as a connection has the publisher's queue size waiting, or at ``send_now``: the
+    simulator sends each /clock so); a subscriber that does not
     keep up loses its oldest messages beyond that queue size (as with rospy's queue) and
     never stalls the simulation. Main thread only. Publishers
     used here are created without a rospy queue (raw connections) and never publish through
@@ -76,11 +77,15 @@ class Outbox:
                 del msgs[1 if q[1] else 0]      # drop the oldest not yet being sent
 
     def send_now(self, pub: rospy.Publisher) -> None:
-        """Send what waits for ``pub``'s subscribers at once (one non-blocking send each)."""
+        """Send what waits for ``pub``'s subscribers at once (one non-blocking send each;
+        /clock). It does not set ``sent``: the clock waits for subscribers after the data
+        flushes, not after each /clock."""
+        sent = self.sent
         for c in pub.impl.connections:
             q = self._queues.get(c)
             if q is not None and q[0]:
                 self._send(c, q)
+        self.sent = sent
 
     def unread(self, unread_by_socket: Dict[Any, int]) -> Dict[Tuple[str, str], int]:
         """Unread bytes per (subscriber, topic) of every connection on this machine, from
