@@ -190,8 +190,8 @@ class NavigatorConfig:
             parked, or one with another rule). Unequal, so the two do not back off at once.
             With a way round each time and still no progress (each planned past the other's
             unseen far side and stopped on it again: two robots nose to nose in a corridor
-            wide enough for two, under a ROS graph's delays), it yields too: with
-            ``give_way``, or when what blocks it lies west or south of it
+            wide enough for two, under a ROS graph's delays), it yields too (not with
+            ``give_way``): when what blocks it lies west or south of it
             (nav/passing.heads_west_or_south of the bearing), after this long; any other
             after twice as long; where the nearest passing place is where it stands, it steps
             ``sidestep`` m aside (right first) and waits there; when it cannot yield it
@@ -607,21 +607,24 @@ class Navigator:
 
     def _deadlocked(self, pose: Sequence[float], world: np.ndarray) -> bool:
         """No progress for the deadlock time, with something ahead of it (see
-        NavigatorConfig): once that long with ``give_way``, or when the bearing to what
-        blocks it heads west or south (the heading rule's loser: the bearings of two robots
-        nose to nose are opposite, their headings, each turned to its way round, need not
-        be); twice as long otherwise (and with ``keep_way`` or without the heading rule)."""
+        NavigatorConfig): once that long when the bearing to what blocks it heads west or
+        south (the heading rule's loser: the bearings of two robots nose to nose are
+        opposite, their headings, each turned to its way round, need not be); twice as long
+        otherwise (and with ``keep_way`` or without the heading rule). Never with
+        ``give_way``: the observer, blocked by the walker it keeps in view, stepped out of
+        the way and lost it (mit_csail, seed 3: tracked 74 -> 69 %); its follower has its
+        own way out (people/follow.py's unblock)."""
         from .passing import heads_west_or_south
 
         cfg = self.config
-        if not cfg.passing or self._last_t is None:
+        if not cfg.passing or cfg.give_way or self._last_t is None:
             return False
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
         cx, cy = (float(v) for v in world.mean(axis=0))
         if (cx - x) * math.cos(yaw) + (cy - y) * math.sin(yaw) <= 0.0:
             return False
-        first = cfg.give_way or (cfg.heading_rule and not cfg.keep_way
-                                 and heads_west_or_south(math.atan2(cy - y, cx - x)))
+        first = (cfg.heading_rule and not cfg.keep_way
+                 and heads_west_or_south(math.atan2(cy - y, cx - x)))
         return self._last_t - self._best_t >= cfg.deadlock_time * (1.0 if first else 2.0)
 
     def _yields(self, pose: Sequence[float], world: np.ndarray) -> bool:
