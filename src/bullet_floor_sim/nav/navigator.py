@@ -245,6 +245,14 @@ class NavStatus:
     distance_to_goal: float = 0.0
 
 
+def _ahead(pose: Sequence[float], world: np.ndarray) -> bool:
+    """Whether the middle of ``world`` (points of what blocks it) lies ahead of ``pose``
+    (x, y, yaw): not what it follows out of sight behind, not a box beside."""
+    cx, cy = (float(v) for v in world.mean(axis=0))
+    yaw = float(pose[2])
+    return (cx - float(pose[0])) * math.cos(yaw) + (cy - float(pose[1])) * math.sin(yaw) > 0.0
+
+
 class Navigator:
     """Plan, follow, and recover: the embedded move_base.
 
@@ -617,14 +625,11 @@ class Navigator:
         from .passing import heads_west_or_south
 
         cfg = self.config
-        if not cfg.passing or cfg.give_way or self._last_t is None:
+        if not cfg.passing or cfg.give_way or self._last_t is None or not _ahead(pose, world):
             return False
-        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
         cx, cy = (float(v) for v in world.mean(axis=0))
-        if (cx - x) * math.cos(yaw) + (cy - y) * math.sin(yaw) <= 0.0:
-            return False
         first = (cfg.heading_rule and not cfg.keep_way
-                 and heads_west_or_south(math.atan2(cy - y, cx - x)))
+                 and heads_west_or_south(math.atan2(cy - float(pose[1]), cx - float(pose[0]))))
         return self._last_t - self._best_t >= cfg.deadlock_time * (1.0 if first else 2.0)
 
     def _yields(self, pose: Sequence[float], world: np.ndarray) -> bool:
@@ -637,9 +642,7 @@ class Navigator:
         cfg = self.config
         if cfg.give_way or not cfg.passing:
             return cfg.give_way
-        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
-        cx, cy = (float(v) for v in world.mean(axis=0))
-        if (cx - x) * math.cos(yaw) + (cy - y) * math.sin(yaw) <= 0.0:
+        if not _ahead(pose, world):
             return False
         rule = (not cfg.keep_way and cfg.heading_rule
                 and gives_way(self.grid, self._narrow_axis(), pose, world,
