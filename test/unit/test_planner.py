@@ -97,6 +97,22 @@ def test_follower_stops_for_an_obstacle_ahead_but_not_beside():
     assert cmd.state == "rotating" and cmd.v == 0.0
 
 
+def test_follower_stopped_beside_something_new_goes_on_unless_the_path_takes_it_nearer():
+    # a point 0.36 m to the left and 5 cm ahead: inside the stop corridor's half-width (0.37)
+    # but beyond the footprint (0.34). Straight on, the robot gets no nearer to it: it goes
+    # (before, it was blocked there for good); a path bending left towards it stops it.
+    f = PathFollower(FollowerConfig(robot_radius=0.34, stop_distance=0.3, side_margin=0.03))
+    beside = np.array([[0.05, 0.36]])
+    f.set_path(np.array([[0.0, 0.0], [5.0, 0.0]]))
+    cmd = f.compute((0, 0, 0), beside, np.array([False]))
+    assert cmd.state == "following" and cmd.v > 0
+    f.set_path(np.array([[0.0, 0.0], [0.4, 0.1], [1.0, 0.6]]))
+    assert f.compute((0, 0, 0), beside, np.array([False])).state == "blocked"
+    # the same point 0.3 m further ahead lies in the corridor the robot would sweep: it stops
+    f.set_path(np.array([[0.0, 0.0], [5.0, 0.0]]))
+    assert f.compute((0, 0, 0), np.array([[0.35, 0.36]]), np.array([False])).state == "blocked"
+
+
 def test_scan_points_land_in_the_base_frame():
     pts = obstacles_in_base([1.0, float("inf"), 2.0], -math.pi / 2, math.pi / 2, 30.0,
                             (0.3, 0.0, 0.0))
