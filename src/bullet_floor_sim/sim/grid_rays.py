@@ -30,13 +30,20 @@ def _axis(p, cell, rate):  # type: ignore
     return 0, math.inf, math.inf
 
 
-def _first_crossing(solid, u0, v0, du, dv, length, out):  # type: ignore
-    """For each ray i from (u0, v0) (grid units: cells, from the grid's corner) along
-    (du, dv) (cells per metre), the metres to its first crossing between a solid and a free
-    cell (outside the grid is free) within ``length[i]``; inf where there is none."""
+def _first_crossing(solid, frame, o, d, start, end, out):  # type: ignore
+    """For each ray i from ``o[i]`` + ``start[i]`` along the unit direction ``d[i]`` (map
+    frame, metres), ``start[i]`` plus the metres to its first crossing between a solid and
+    a free cell (outside the grid is free) before ``end[i]``; inf where there is none.
+    ``frame``: the grid's origin x, y, the cos and sin of its yaw, and cells per metre."""
     h, w = solid.shape
-    for i in range(u0.shape[0]):
-        u, v, a, b, lim = u0[i], v0[i], du[i], dv[i], length[i]
+    gx, gy, gc, gs, k = frame[0], frame[1], frame[2], frame[3], frame[4]
+    for i in range(o.shape[0]):
+        # the ray's start and direction in grid units (cells, from the grid's corner)
+        px = o[i, 0] + d[i, 0] * start[i] - gx
+        py = o[i, 1] + d[i, 1] * start[i] - gy
+        u, v = (gc * px + gs * py) * k, (-gs * px + gc * py) * k
+        a, b = (gc * d[i, 0] + gs * d[i, 1]) * k, (-gs * d[i, 0] + gc * d[i, 1]) * k
+        lim = end[i] - start[i]
         cx, cy = int(math.floor(u)), int(math.floor(v))
         inside = 0 <= cx < w and 0 <= cy < h
         prev = solid[cy, cx] if inside else False
@@ -71,7 +78,7 @@ def _first_crossing(solid, u0, v0, du, dv, length, out):  # type: ignore
             if cur != prev or side != prev:
                 hit = t
                 break
-        out[i] = hit
+        out[i] = start[i] + hit
 
 
 try:   # the same loop, compiled (a 360-beam scan on office: well under a millisecond)
@@ -99,23 +106,15 @@ class GridRays:
         self.solid = np.ascontiguousarray(solid.occupied)
         self.resolution = float(solid.resolution)
         ox, oy, yaw = (float(v) for v in solid.origin)
-        self.origin, self.c, self.s = (ox, oy), math.cos(yaw), math.sin(yaw)
+        self.frame = np.array([ox, oy, math.cos(yaw), math.sin(yaw), 1.0 / self.resolution])
 
     def cast(self, origins: np.ndarray, dirs: np.ndarray, start: np.ndarray,
              end: np.ndarray) -> np.ndarray:
         """Distance from each origin (M, 2+) along its unit direction (M, 2) to the first
         wall between ``start`` and ``end`` metres; inf where there is none."""
-        o = np.asarray(origins, dtype=float)[:, :2]
-        d = np.asarray(dirs, dtype=float)[:, :2]
-        start = np.asarray(start, dtype=float)
-        px = o[:, 0] + d[:, 0] * start - self.origin[0]
-        py = o[:, 1] + d[:, 1] * start - self.origin[1]
-        k = 1.0 / self.resolution
-        u0 = (self.c * px + self.s * py) * k
-        v0 = (-self.s * px + self.c * py) * k
-        du = (self.c * d[:, 0] + self.s * d[:, 1]) * k
-        dv = (-self.s * d[:, 0] + self.c * d[:, 1]) * k
+        o = np.ascontiguousarray(origins, dtype=float)
+        d = np.ascontiguousarray(dirs, dtype=float)
         out = np.empty(len(o))
-        _first_crossing(self.solid, u0, v0, du, dv,
-                        np.asarray(end, dtype=float) - start, out)
-        return start + out
+        _first_crossing(self.solid, self.frame, o, d, np.ascontiguousarray(start, dtype=float),
+                        np.ascontiguousarray(end, dtype=float), out)
+        return out

@@ -230,16 +230,12 @@ class Lidar:
                 at = (offs[qs][:, None] + np.arange(n)[None, :]).reshape(-1)
                 for dst, src in zip((o, d, start, end, rmax), arrays):
                     dst[at] = src
-        full = np.minimum(rmax, _exit_distance(o[:, :2], d, bounds))
-        start = np.minimum(start, full)
-        end = np.minimum(np.maximum(end, start), full)
-        short = end - start < 1e-6
-        if short.any():
-            end[short] = full[short]             # nothing left to cast: cast it all
-        f = o.copy()
-        f[:, :2] += d * start[:, None]
-        t = o.copy()
-        t[:, :2] += d * end[:, None]
+        m = len(start)
+        f, t, full = np.empty((m, 3)), np.empty((m, 3)), np.empty(m)
+        start, end = np.array(start, dtype=float), np.array(end, dtype=float)
+        xmin, ymin, xmax, ymax = (float(v) for v in bounds)
+        _segments(o, d, start, end, np.asarray(rmax, dtype=float), xmin, ymin, xmax, ymax,
+                  full, f, t)
         return RayPlan(robots=robots, counts=counts, origins=o, dirs=d, froms=f, tos=t,
                        start=start, length=end - start, full=full, cut=end < full)
 
@@ -356,17 +352,32 @@ class Lidar:
                     range_max=cfg.range_max, scan_time=1.0 / cfg.rate)
 
 
-def _exit_distance(origin: np.ndarray, d: np.ndarray,
-                   bounds: Tuple[float, float, float, float]) -> np.ndarray:
-    """Distance along each ray (origin (M, 2), unit dir (M, 2)) to where it leaves the box."""
-    xmin, ymin, xmax, ymax = bounds
-    with np.errstate(divide="ignore", invalid="ignore"):
-        # a zero component gives +-inf or nan, which fmin (nan) and the sign fix (-inf) drop
-        tx = (np.where(d[:, 0] > 0, xmax, xmin) - origin[:, 0]) / d[:, 0]
-        ty = (np.where(d[:, 1] > 0, ymax, ymin) - origin[:, 1]) / d[:, 1]
-        tx[d[:, 0] == 0] = np.inf
-        ty[d[:, 1] == 0] = np.inf
-    return np.maximum(np.minimum(tx, ty), 0.0)
+def _segments(o, d, start, end, rmax, xmin, ymin, xmax, ymax, full, f, t):  # type: ignore
+    """Each ray's segment, in place: ``full`` (M,) the nearer of ``rmax`` and where the ray
+    (origin ``o`` (M, 3), unit direction ``d`` (M, 2)) leaves the box (xmin, ymin, xmax,
+    ymax); ``start`` and ``end`` (M,) clipped to it (an end less than 1e-6 m past its start
+    moves to ``full``: nothing left to cast, cast it all); ``f`` and ``t`` (M, 3) the
+    segment's ends. One loop over the rays (compiled by numba: the same arithmetic as
+    numpy's, a tenth of its per-call cost on a 360-beam scan)."""
+    for k in range(o.shape[0]):
+        a, b = d[k, 0], d[k, 1]
+        tx = (xmax - o[k, 0]) / a if a > 0 else ((xmin - o[k, 0]) / a if a < 0 else math.inf)
+        ty = (ymax - o[k, 1]) / b if b > 0 else ((ymin - o[k, 1]) / b if b < 0 else math.inf)
+        fk = min(rmax[k], max(min(tx, ty), 0.0))
+        sk = min(start[k], fk)
+        ek = min(max(end[k], sk), fk)
+        if ek - sk < 1e-6:
+            ek = fk
+        full[k], start[k], end[k] = fk, sk, ek
+        f[k, 0], f[k, 1], f[k, 2] = o[k, 0] + a * sk, o[k, 1] + b * sk, o[k, 2]
+        t[k, 0], t[k, 1], t[k, 2] = o[k, 0] + a * ek, o[k, 1] + b * ek, o[k, 2]
+
+
+try:   # as sim/grid_rays.py: compiled where numba is installed (the venv's requirements)
+    import numba
+    _segments = numba.njit(cache=True)(_segments)
+except ImportError:   # pragma: no cover
+    pass
 
 
 KIND = SensorKind(LaserConfig, Lidar.build)
