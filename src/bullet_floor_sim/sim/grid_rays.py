@@ -30,11 +30,15 @@ def _axis(p, cell, rate):  # type: ignore
     return 0, math.inf, math.inf
 
 
-def _first_crossing(solid, frame, o, d, start, end, out):  # type: ignore
+def _first_crossing(solid, room, frame, o, d, start, end, out):  # type: ignore
     """For each ray i from ``o[i]`` + ``start[i]`` along the unit direction ``d[i]`` (map
     frame, metres), ``start[i]`` plus the metres to its first crossing between a solid and
     a free cell (outside the grid is free) before ``end[i]``; inf where there is none.
-    ``frame``: the grid's origin x, y, the cos and sin of its yaw, and cells per metre."""
+    ``frame``: the grid's origin x, y, the cos and sin of its yaw, and cells per metre.
+    ``room``: per cell, the distance (cells) between its centre and the nearest solid
+    cell's; a ray in a free cell with ``_JUMP`` cells of room or more jumps ``room - 1.5``
+    cells at once (no solid cell's point is that near any point of the cell: sqrt(2) < 1.5)
+    instead of walking them."""
     h, w = solid.shape
     gx, gy, gc, gs, k = frame[0], frame[1], frame[2], frame[3], frame[4]
     for i in range(o.shape[0]):
@@ -50,7 +54,18 @@ def _first_crossing(solid, frame, o, d, start, end, out):  # type: ignore
         sx, tx, dx = _axis(u, cx, a)
         sy, ty, dy = _axis(v, cy, b)
         hit = math.inf
+        here = 0.0      # metres along the ray to where it entered its cell (or jumped to)
         while True:
+            if not prev and 0 <= cx < w and 0 <= cy < h and room[cy, cx] >= _JUMP:
+                here += (room[cy, cx] - 1.5) / k
+                if here > lim:
+                    break
+                cx, cy = int(math.floor(u + a * here)), int(math.floor(v + b * here))
+                sx, tx, dx = _axis(u + a * here, cx, a)
+                sy, ty, dy = _axis(v + b * here, cy, b)
+                tx += here
+                ty += here
+                continue
             side = prev
             if abs(tx - ty) <= 1e-9 * (1.0 + tx):
                 # through a cell corner: the two cells beside it are touched too (the mesh's
@@ -74,11 +89,16 @@ def _first_crossing(solid, frame, o, d, start, end, out):  # type: ignore
                 ty += dy
             if t > lim:
                 break
+            here = t
             cur = solid[cy, cx] if (0 <= cx < w and 0 <= cy < h) else False
             if cur != prev or side != prev:
                 hit = t
                 break
         out[i] = start[i] + hit
+
+
+#: Cells of room (see _first_crossing) from which a ray jumps instead of walking.
+_JUMP = 4.0
 
 
 try:   # the same loop, compiled (a 360-beam scan on office: well under a millisecond)
@@ -107,6 +127,12 @@ class GridRays:
         self.resolution = float(solid.resolution)
         ox, oy, yaw = (float(v) for v in solid.origin)
         self.frame = np.array([ox, oy, math.cos(yaw), math.sin(yaw), 1.0 / self.resolution])
+        if self.solid.any():
+            from scipy.ndimage import distance_transform_edt
+
+            self.room = np.ascontiguousarray(distance_transform_edt(~self.solid))
+        else:
+            self.room = np.full(self.solid.shape, 1e9)
 
     def cast(self, origins: np.ndarray, dirs: np.ndarray, start: np.ndarray,
              end: np.ndarray) -> np.ndarray:
@@ -115,6 +141,7 @@ class GridRays:
         o = np.ascontiguousarray(origins, dtype=float)
         d = np.ascontiguousarray(dirs, dtype=float)
         out = np.empty(len(o))
-        _first_crossing(self.solid, self.frame, o, d, np.ascontiguousarray(start, dtype=float),
+        _first_crossing(self.solid, self.room, self.frame, o, d,
+                        np.ascontiguousarray(start, dtype=float),
                         np.ascontiguousarray(end, dtype=float), out)
         return out

@@ -477,8 +477,11 @@ class World:
         """As ``_cast`` with the robots lifted out, on the solid grid: the distance to the
         first wall along each of the plan's rays ``rays`` (its full length on a miss), and
         whether there is one."""
-        full = plan.full[rays]
-        dist = self._grid_rays.cast(plan.origins[rays], plan.dirs[rays], plan.start[rays], full)
+        every = len(rays) == len(plan.full)    # (the usual case: indexing copies them all)
+        full = plan.full if every else plan.full[rays]
+        dist = (self._grid_rays.cast(plan.origins, plan.dirs, plan.start, full) if every else
+                self._grid_rays.cast(plan.origins[rays], plan.dirs[rays], plan.start[rays],
+                                     full))
         hit = np.isfinite(dist)
         self.rays_cast += len(rays)
         return np.where(hit, dist, full), hit
