@@ -117,3 +117,40 @@ def test_rays_that_jump_through_open_floor_end_where_walking_every_cell_ends(nam
         np.testing.assert_allclose(jumped[ok], walked[ok], rtol=0, atol=1e-9)
     finally:
         w.close()
+
+
+def test_beams_along_grid_lines_end_where_walking_every_cell_ends():
+    """Lidar-style beams (yaw + i degrees: cos and sin leave 1e-16 where 0 is meant) from
+    points on grid lines of a grid of random wall stubs: a beam that runs along a grid line
+    and grazes a stub's end meets it, or not, as the cell-by-cell walk does (a jump took the
+    side of the line afresh: 2 of 120,000 beams differed by up to 0.75 m)."""
+    import types
+
+    rng = np.random.default_rng(3)
+    h, w = 120, 150
+    solid = np.zeros((h, w), bool)
+    for _ in range(40):
+        r, c = rng.integers(0, h), rng.integers(0, w)
+        solid[r:r + rng.integers(1, 15), c:c + rng.integers(1, 3)] = True
+        r, c = rng.integers(0, h), rng.integers(0, w)
+        solid[r:r + rng.integers(1, 3), c:c + rng.integers(1, 15)] = True
+    bad = 0
+    for org in [(-2.3, 1.7), (-10.0, -60.0), (0.0, 0.0)]:
+        g = grid_rays.GridRays(types.SimpleNamespace(occupied=solid, resolution=0.05,
+                                                     origin=(org[0], org[1], 0.0)))
+        n = 40000
+        u, v = rng.uniform(0, w, n), rng.uniform(0, h, n)
+        half = np.arange(n) % 2 == 0
+        v[half], u[~half] = np.round(v[half]), np.round(u[~half])
+        o = np.c_[org[0] + u * 0.05, org[1] + v * 0.05, np.full(n, 0.3)]
+        yaw = rng.choice([0.0, math.pi / 2, -math.pi / 2, math.pi, 0.1, -1.3], n)
+        a = yaw + (-math.pi + rng.integers(0, 360, n) * math.radians(1.0))
+        d = np.c_[np.cos(a), np.sin(a)]
+        start, end = np.zeros(n), np.full(n, 12.0)
+        jumped = g.cast(o, d, start, end)
+        g.room = np.zeros_like(g.room)
+        walked = g.cast(o, d, start, end)
+        both = np.isfinite(jumped) & np.isfinite(walked)
+        bad += int((np.isfinite(jumped) != np.isfinite(walked)).sum()
+                   + (np.abs(jumped[both] - walked[both]) > 1e-9).sum())
+    assert bad == 0

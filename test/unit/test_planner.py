@@ -98,11 +98,11 @@ def test_follower_stops_for_an_obstacle_ahead_but_not_beside():
 
 
 def test_follower_stopped_beside_something_new_goes_on_unless_the_path_takes_it_nearer():
-    # a point 0.36 m to the left and 5 cm ahead: inside the stop corridor's half-width (0.37)
+    # a point 0.36 m to the left and 4 cm ahead: inside the stop corridor's half-width (0.37)
     # but beyond the footprint (0.34). Straight on, the robot gets no nearer to it: it goes
     # (before, it was blocked there for good); a path bending left towards it stops it.
     f = PathFollower(FollowerConfig(robot_radius=0.34, stop_distance=0.3, side_margin=0.03))
-    beside = np.array([[0.05, 0.36]])
+    beside = np.array([[0.04, 0.36]])
     f.set_path(np.array([[0.0, 0.0], [5.0, 0.0]]))
     cmd = f.compute((0, 0, 0), beside, np.array([False]))
     assert cmd.state == "following" and cmd.v > 0
@@ -111,6 +111,15 @@ def test_follower_stopped_beside_something_new_goes_on_unless_the_path_takes_it_
     # the same point 0.3 m further ahead lies in the corridor the robot would sweep: it stops
     f.set_path(np.array([[0.0, 0.0], [5.0, 0.0]]))
     assert f.compute((0, 0, 0), np.array([[0.35, 0.36]]), np.array([False])).state == "blocked"
+    # heading 0.45 rad left of its path, the point at map (0.08, 0.36) lies 0.23 m ahead of
+    # it: the path's line passes it at 0.36 m, but pure pursuit's arc sets off along the
+    # heading, into it (the exemption is for points beside the robot, not ahead)
+    yaw = 0.45
+    c, s = math.cos(yaw), math.sin(yaw)
+    ahead = np.array([[c * 0.08 + s * 0.36, -s * 0.08 + c * 0.36]])
+    f.set_path(np.array([[0.0, 0.0], [5.0, 0.0]]))
+    cmd = f.compute((0, 0, yaw), ahead, np.array([False]))
+    assert cmd.v == 0.0 and cmd.state in ("rotating", "blocked")
 
 
 def test_scan_points_land_in_the_base_frame():

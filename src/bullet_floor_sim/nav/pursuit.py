@@ -19,6 +19,8 @@ __all__ = ["FollowerCommand", "FollowerConfig", "PathFollower", "obstacles_in_ba
 #: How much nearer (m) than now the path must take the robot to a point it already stands
 #: within the stop corridor's half-width of for that point to block it (free_along_path).
 _NEARER = 0.01
+#: How far ahead of the robot's centre (m, along its heading) such a point may lie.
+_BESIDE = 0.05
 
 
 @dataclass
@@ -136,22 +138,29 @@ class PathFollower:
         """Distance (m) from the footprint's front, along the path ahead (from the robot to the
         path's next points, ``sweep`` metres of it), to the first base-frame point in front of
         the robot within ``robot_radius + side_margin`` of that line: what the footprint would
-        sweep. A point it already stands that near (beside it) counts only where the line
-        comes more than ``_NEARER`` m nearer to it than the robot is now: else a robot that
-        stopped within the margin of something beside it stayed blocked for good, though
-        going on takes it no nearer (a SLAM map's door jamb 0.2 m off, seen as new, held the
-        explorer there for 1100 s in CI). inf when there is none."""
+        sweep. A point it already stands that near beside it (less than ``_BESIDE`` m ahead
+        of its centre and at least the footprint's radius to the side: driving on along its
+        heading, or along the line, takes it a few mm nearer at most) counts only where the
+        line comes more than ``_NEARER`` m nearer to it than the robot is now: else a robot
+        that stopped within the margin of something beside it stayed blocked for good,
+        though going on takes it no nearer (a SLAM map's door jamb 0.2 m off, seen as new,
+        held the explorer there for 1100 s in CI, we think). A point further ahead, or
+        nearer the side, counts within the half-width however near: pure pursuit's arc
+        leaves along the heading, not the line. inf when there is none."""
         if obstacles is None or len(obstacles) == 0:
             return math.inf
         cfg = self.config
-        pts = np.asarray(obstacles, dtype=float).reshape(-1, 2)
-        pts = to_map(pose, pts[pts[:, 0] > 0.0])
-        if not len(pts):
+        base = np.asarray(obstacles, dtype=float).reshape(-1, 2)
+        base = base[base[:, 0] > 0.0]
+        if not len(base):
             return math.inf
+        pts = to_map(pose, base)
         here = np.asarray(pose[:2], dtype=float)
         line = np.vstack([here[None, :], self.path[self._index + 1:]])
         half, best, s0 = cfg.robot_radius + cfg.side_margin, math.inf, 0.0
-        near = np.minimum(half, np.hypot(*(pts - here).T) - _NEARER)
+        beside = (base[:, 0] < _BESIDE) & (np.abs(base[:, 1]) >= cfg.robot_radius)
+        near = np.where(beside, np.minimum(half, np.hypot(base[:, 0], base[:, 1]) - _NEARER),
+                        half)
         for a, b in zip(line[:-1], line[1:]):
             ab = b - a
             seg = float(np.hypot(*ab))

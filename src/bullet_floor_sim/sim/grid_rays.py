@@ -38,7 +38,7 @@ def _first_crossing(solid, room, frame, o, d, start, end, out):  # type: ignore
     ``room``: per cell, the distance (cells) between its centre and the nearest solid
     cell's; a ray in a free cell with ``_JUMP`` cells of room or more jumps ``room - 1.5``
     cells at once (no solid cell's point is that near any point of the cell: sqrt(2) < 1.5)
-    instead of walking them."""
+    instead of walking them, unless it runs along a grid line (``_AXIAL``)."""
     h, w = solid.shape
     gx, gy, gc, gs, k = frame[0], frame[1], frame[2], frame[3], frame[4]
     for i in range(o.shape[0]):
@@ -55,8 +55,13 @@ def _first_crossing(solid, room, frame, o, d, start, end, out):  # type: ignore
         sy, ty, dy = _axis(v, cy, b)
         hit = math.inf
         here = 0.0      # metres along the ray to where it entered its cell (or jumped to)
+        # a ray along a grid line (a beam at 0 or 90 degrees: cos gives 1e-16, not 0) walks:
+        # which side of the line it runs on is the walk's rounding, and a jump would take
+        # it afresh from the jumped-to point (a beam grazing a wall's end then differs)
+        jumps = min(abs(a), abs(b)) > _AXIAL * max(abs(a), abs(b))
         while True:
-            if not prev and 0 <= cx < w and 0 <= cy < h and room[cy, cx] >= _JUMP:
+            if (jumps and not prev and 0 <= cx < w and 0 <= cy < h
+                    and room[cy, cx] >= _JUMP):
                 here += (room[cy, cx] - 1.5) / k
                 if here > lim:
                     break
@@ -99,6 +104,9 @@ def _first_crossing(solid, room, frame, o, d, start, end, out):  # type: ignore
 
 #: Cells of room (see _first_crossing) from which a ray jumps instead of walking.
 _JUMP = 4.0
+#: A ray whose direction's smaller grid component is below this share of the larger never
+#: jumps (it runs along a grid line; see _first_crossing).
+_AXIAL = 1e-6
 
 
 try:   # the same loop, compiled (a 360-beam scan on office: well under a millisecond)

@@ -477,7 +477,9 @@ class World:
         """As ``_cast`` with the robots lifted out, on the solid grid: the distance to the
         first wall along each of the plan's rays ``rays`` (its full length on a miss), and
         whether there is one."""
-        every = len(rays) == len(plan.full)    # (the usual case: indexing copies them all)
+        # rays is sorted and unique (flatnonzero): as long as the plan, it is every ray in
+        # order (the usual case: indexing would copy them all)
+        every = len(rays) == len(plan.full)
         full = plan.full if every else plan.full[rays]
         dist = (self._grid_rays.cast(plan.origins, plan.dirs, plan.start, full) if every else
                 self._grid_rays.cast(plan.origins[rays], plan.dirs[rays], plan.start[rays],
