@@ -412,9 +412,11 @@ class World:
         """(xmin, ymin, xmax, ymax) that every beam ends within: the map's bounds, grown to
         take in every robot with a metre to spare."""
         xmin, ymin, xmax, ymax = self.bounds
-        lo = self.pose[:, :2].min(axis=0) - 1.0
-        hi = self.pose[:, :2].max(axis=0) + 1.0
-        return (min(xmin, lo[0]), min(ymin, lo[1]), max(xmax, hi[0]), max(ymax, hi[1]))
+        if not self.n:      # (numpy's min and max on a few rows cost more than Python's)
+            return (xmin, ymin, xmax, ymax)
+        xs, ys = self.pose[:, 0].tolist(), self.pose[:, 1].tolist()
+        return (min(xmin, min(xs) - 1.0), min(ymin, min(ys) - 1.0),
+                max(xmax, max(xs) + 1.0), max(ymax, max(ys) + 1.0))
 
     def cast_beams(self, plan) -> Tuple[np.ndarray, np.ndarray]:
         """The true distances and hits of the lidar plan's beams (``Lidar.read`` makes them
@@ -432,16 +434,15 @@ class World:
         lift = self._lift_for_rays and self.n > 0
         if lift:
             # a lidar that has not moved since its last scan sees the same walls
-            same = np.repeat(self.lidar.unmoved(plan, self.pose), plan.counts)
-            dist, hit = self.lidar.previous(plan)
-            cast = np.flatnonzero(~same)
-            if len(cast):
-                if self._grid_rays is not None:
-                    dist[cast], hit[cast] = self._cast_walls(plan, cast)
-                else:
-                    self._lift_bodies()
-                    dist[cast], hit[cast] = self._cast(plan, cast)
-                self.rays_reused += len(plan.froms) - len(cast)
+            same = self.lidar.unmoved(plan, self.pose)
+            if same.any():
+                dist, hit = self.lidar.previous(plan)
+                cast = np.flatnonzero(~np.repeat(same, plan.counts))
+                if len(cast):
+                    dist[cast], hit[cast] = self._cast_lifted(plan, cast)
+                self.rays_reused += len(plan.full) - len(cast)
+            else:   # no lidar where it was (robots on the move): every ray is cast
+                dist, hit = self._cast_lifted(plan, None)
             self._sync_bodies()
         else:   # every beam in the full scene (GUI: moving bodies out would show)
             self._sync_bodies()
@@ -473,19 +474,27 @@ class World:
             return None
         return grid_rays.GridRays(self.solid.fmap)
 
-    def _cast_walls(self, plan, rays: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    def _cast_lifted(self, plan, rays: Optional[np.ndarray]) -> Tuple[np.ndarray, np.ndarray]:
+        """Distances and hits of the plan's rays ``rays`` (sorted, unique; None: every ray)
+        at the walls alone: on the solid grid, or in Bullet with the robots lifted out."""
+        if self._grid_rays is not None:
+            return self._cast_walls(plan, rays)
+        self._lift_bodies()
+        return self._cast(plan, np.arange(len(plan.full)) if rays is None else rays)
+
+    def _cast_walls(self, plan, rays: Optional[np.ndarray]) -> Tuple[np.ndarray, np.ndarray]:
         """As ``_cast`` with the robots lifted out, on the solid grid: the distance to the
-        first wall along each of the plan's rays ``rays`` (its full length on a miss), and
-        whether there is one."""
-        # rays is sorted and unique (flatnonzero): as long as the plan, it is every ray in
-        # order (the usual case: indexing would copy them all)
-        every = len(rays) == len(plan.full)
-        full = plan.full if every else plan.full[rays]
-        dist = (self._grid_rays.cast(plan.origins, plan.dirs, plan.start, full) if every else
-                self._grid_rays.cast(plan.origins[rays], plan.dirs[rays], plan.start[rays],
-                                     full))
+        first wall along each of the plan's rays ``rays`` (None: every ray; its full length
+        on a miss), and whether there is one."""
+        if rays is None:
+            full = plan.full
+            dist = self._grid_rays.cast(plan.origins, plan.dirs, plan.start, full)
+        else:
+            full = plan.full[rays]
+            dist = self._grid_rays.cast(plan.origins[rays], plan.dirs[rays], plan.start[rays],
+                                        full)
         hit = np.isfinite(dist)
-        self.rays_cast += len(rays)
+        self.rays_cast += len(full)
         return np.where(hit, dist, full), hit
 
     def threads(self, rays: int) -> int:

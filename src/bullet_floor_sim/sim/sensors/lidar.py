@@ -94,6 +94,7 @@ class RayPlan:
         length: (M,) segment length, tos - froms.
         full: (M,) where the beam ends (range_max or the map bounds).
         cut: (M,) the segment stops short of ``full`` (cast again in full on a miss).
+        first: (Q,) int64 each robot's first ray (its rays are first .. first + count - 1).
     """
 
     robots: np.ndarray
@@ -106,6 +107,7 @@ class RayPlan:
     length: np.ndarray
     full: np.ndarray
     cut: np.ndarray
+    first: np.ndarray
 
 
 class Lidar:
@@ -133,6 +135,8 @@ class Lidar:
         self.period_ns = np.array([int(round(1e9 / c.rate)) for c in self.cfgs], dtype=np.int64)
         self.self_exit: List[Optional[np.ndarray]] = [None] * len(self.cfgs)
         self._range_max = np.array([c.range_max for c in self.cfgs], dtype=float)
+        self._beams = [len(a) for a in self.angles]
+        self._beam_counts = np.array(self._beams, dtype=np.int64)
         # where each beam starts (set_self_exit), one row per robot; ragged if geometries differ
         width = max((len(a) for a in self.angles), default=0)
         self._exits = np.zeros((len(self.cfgs), width))
@@ -212,55 +216,37 @@ class Lidar:
         caster stops at the first wall anyway: the prediction only cost time).
         """
         robots = np.asarray(robots, dtype=np.int64).reshape(-1)
-        counts = [len(self.angles[i]) for i in robots.tolist()]
+        listed = robots.tolist()
+        counts = [self._beams[i] for i in listed]
+        first = [0] * len(listed)            # each robot's first ray
         groups: Dict[int, List[int]] = {}
-        for q, i in enumerate(robots.tolist()):
+        m = 0
+        for q, (i, k) in enumerate(zip(listed, counts)):
+            first[q] = m
+            m += k
             groups.setdefault(self._kind[i], []).append(q)
-        parts = [self._plan_kind(np.array(qs, dtype=np.int64), robots, poses, predict)
-                 for qs in groups.values()]
-        if len(parts) == 1:      # one lidar geometry (the usual case): already in ray order
-            o, d, start, end, rmax = parts[0][1:]
-        else:
-            m = int(sum(counts))
-            offs = np.concatenate(([0], np.cumsum(counts)))[:-1].astype(np.int64)
-            o, d, start, end, rmax = (np.empty((m, 3)), np.empty((m, 2)), np.empty(m),
-                                      np.empty(m), np.empty(m))
-            for qs, *arrays in parts:
-                n = counts[qs[0]]
-                at = (offs[qs][:, None] + np.arange(n)[None, :]).reshape(-1)
-                for dst, src in zip((o, d, start, end, rmax), arrays):
-                    dst[at] = src
-        m = len(start)
-        f, t, full = np.empty((m, 3)), np.empty((m, 3)), np.empty(m)
-        start, end = np.array(start, dtype=float), np.array(end, dtype=float)
+        o, d, f, t = np.empty((m, 3)), np.empty((m, 2)), np.empty((m, 3)), np.empty((m, 3))
+        start, end, full, length = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
+        cut = np.empty(m, dtype=bool)
+        firsts = np.array(first, dtype=np.int64)
         xmin, ymin, xmax, ymax = (float(v) for v in bounds)
-        _segments(o, d, start, end, np.asarray(rmax, dtype=float), xmin, ymin, xmax, ymax,
-                  full, f, t)
+        for qs in groups.values():   # robots with one lidar geometry: their beams at once
+            rows = robots[qs] if len(groups) > 1 else robots
+            yaw = poses[rows, 2]
+            ang = (yaw + self.yaw[rows])[:, None] + self.angles[int(rows[0])][None, :]
+            origin = self._origins(rows, poses, yaw)
+            pred = self._predict(rows, origin, yaw) if predict else _NO_PREDICTION
+            _beams(origin, np.cos(ang), np.sin(ang), self._exits, self._range_max, rows,
+                   firsts[qs] if len(groups) > 1 else firsts, pred, xmin, ymin, xmax, ymax,
+                   o, d, start, end, full, length, cut, f, t)
         return RayPlan(robots=robots, counts=counts, origins=o, dirs=d, froms=f, tos=t,
-                       start=start, length=end - start, full=full, cut=end < full)
+                       start=start, length=length, full=full, cut=cut, first=firsts)
 
-    def _plan_kind(self, qs: np.ndarray, robots: np.ndarray, poses: np.ndarray,
-                   predict: bool = True):
-        """Beams of the scanning robots ``robots[qs]``, which share one lidar geometry:
-        (qs, origins, dirs, starts, predicted ends, range_max), robot after robot."""
-        rows = robots[qs]
-        n = len(self.angles[rows[0]])
-        yaw = poses[rows, 2]
-        c, sn = np.cos(yaw), np.sin(yaw)
-        ox, oy, oz = self.offsets[rows, 0], self.offsets[rows, 1], self.offsets[rows, 2]
-        origin = np.empty((len(rows), 3))                                         # (Q, 3)
-        origin[:, 0] = poses[rows, 0] + c * ox - sn * oy
-        origin[:, 1] = poses[rows, 1] + sn * ox + c * oy
-        origin[:, 2] = oz
-        ang = (yaw + self.yaw[rows])[:, None] + self.angles[rows[0]][None, :]      # (Q, n)
-        d = np.empty((len(rows) * n, 2))
-        d[:, 0] = np.cos(ang).reshape(-1)
-        d[:, 1] = np.sin(ang).reshape(-1)
-        start = self._exits[rows, :n].reshape(-1)
-        end = (self._predict(rows, origin, yaw).reshape(-1) if predict
-               else np.full(len(start), np.inf))
-        rmax = np.repeat(self._range_max[rows], n)
-        return qs, np.repeat(origin, n, axis=0), d, start, end, rmax
+    def _origins(self, rows: np.ndarray, poses: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+        """(Q, 3) the laser origins of robots ``rows`` at ``poses`` (map frame)."""
+        origin = np.empty((len(rows), 3))
+        _laser_origins(poses, rows, np.cos(yaw), np.sin(yaw), self.offsets, origin)
+        return origin
 
     def _predict(self, rows: np.ndarray, origin: np.ndarray, yaw: np.ndarray) -> np.ndarray:
         """(Q, beams) distance along each beam of robots ``rows`` (same lidar geometry)
@@ -297,11 +283,10 @@ class Lidar:
 
     def unmoved(self, plan: RayPlan, poses: np.ndarray) -> np.ndarray:
         """Per planned robot: its lidar is exactly where it was at its previous scan."""
-        rows = plan.robots
-        offs = np.concatenate(([0], np.cumsum(plan.counts)))[:-1]
-        meta = self._prev_meta[rows]
-        return (self._prev_ok[rows] & (meta[:, 0] == poses[rows, 2])
-                & (meta[:, 1] == plan.origins[offs, 0]) & (meta[:, 2] == plan.origins[offs, 1]))
+        out = np.empty(len(plan.robots), dtype=bool)
+        _unmoved(self._prev_ok, self._prev_meta, plan.robots, plan.first, poses, plan.origins,
+                 out)
+        return out
 
     def previous(self, plan: RayPlan) -> Tuple[np.ndarray, np.ndarray]:
         """The planned robots' previous ranges as (distance, hit) per ray (what
@@ -317,18 +302,8 @@ class Lidar:
     def remember(self, plan: RayPlan, poses: np.ndarray, dist: np.ndarray,
                  hit: np.ndarray) -> None:
         """Keep this scan's true ranges (+inf = no return) for the next scan's ``plan``."""
-        r = np.where(hit, dist, np.inf)
-        offs = np.concatenate(([0], np.cumsum(plan.counts)))[:-1]
-        rows = plan.robots
-        if len(set(plan.counts)) == 1 and len(rows):
-            n = plan.counts[0]
-            self._prev_dist[rows, :n] = r.reshape(len(rows), n)
-        else:
-            for i, s, k in zip(rows.tolist(), offs.tolist(), plan.counts):
-                self._prev_dist[i, :k] = r[s:s + k]
-        self._prev_meta[rows, 0] = poses[rows, 2]
-        self._prev_meta[rows, 1:] = plan.origins[offs, :2]
-        self._prev_ok[rows] = True
+        _remember(self._prev_dist, self._prev_meta, self._prev_ok, plan.robots, plan.first,
+                  self._beam_counts, poses, plan.origins, dist, hit)
 
     def ranges(self, robot: int, dist: np.ndarray, hit: np.ndarray) -> np.ndarray:
         """REP 117 ranges of one scan from true hit distances: noise, -inf below min, +inf no
@@ -337,10 +312,9 @@ class Lidar:
         r = dist
         if cfg.noise_std > 0.0:
             r = r + self.rng.normal(0.0, cfg.noise_std, size=r.shape)
-        out = np.where(hit, r, np.inf)
-        out[hit & (r < cfg.range_min)] = -np.inf
-        out[hit & (r > cfg.range_max)] = np.inf
-        return out.astype(np.float32)
+        out = np.empty(len(r), dtype=np.float32)
+        _rep117(r, hit, cfg.range_min, cfg.range_max, out)
+        return out
 
     def scan(self, robot: int, stamp_ns: int, ranges: np.ndarray) -> Scan:
         """Wrap ranges into a Scan with the robot's beam geometry."""
@@ -352,30 +326,93 @@ class Lidar:
                     range_max=cfg.range_max, scan_time=1.0 / cfg.rate)
 
 
-def _segments(o, d, start, end, rmax, xmin, ymin, xmax, ymax, full, f, t):  # type: ignore
-    """Each ray's segment, in place: ``full`` (M,) the nearer of ``rmax`` and where the ray
-    (origin ``o`` (M, 3), unit direction ``d`` (M, 2)) leaves the box (xmin, ymin, xmax,
-    ymax); ``start`` and ``end`` (M,) clipped to it (an end less than 1e-6 m past its start
-    moves to ``full``: nothing left to cast, cast it all); ``f`` and ``t`` (M, 3) the
-    segment's ends. One loop over the rays (compiled by numba: the same arithmetic as
-    numpy's, a tenth of its per-call cost on a 360-beam scan)."""
-    for k in range(o.shape[0]):
-        a, b = d[k, 0], d[k, 1]
-        tx = (xmax - o[k, 0]) / a if a > 0 else ((xmin - o[k, 0]) / a if a < 0 else math.inf)
-        ty = (ymax - o[k, 1]) / b if b > 0 else ((ymin - o[k, 1]) / b if b < 0 else math.inf)
-        fk = min(rmax[k], max(min(tx, ty), 0.0))
-        sk = min(start[k], fk)
-        ek = min(max(end[k], sk), fk)
-        if ek - sk < 1e-6:
-            ek = fk
-        full[k], start[k], end[k] = fk, sk, ek
-        f[k, 0], f[k, 1], f[k, 2] = o[k, 0] + a * sk, o[k, 1] + b * sk, o[k, 2]
-        t[k, 0], t[k, 1], t[k, 2] = o[k, 0] + a * ek, o[k, 1] + b * ek, o[k, 2]
+#: ``Lidar.plan``'s stand-in for "no predicted ends" (every ray runs to its full length).
+_NO_PREDICTION = np.empty((0, 0))
+
+
+def _laser_origins(poses, rows, c, sn, offsets, out):  # type: ignore
+    """``out[q]``: the laser origin of robot ``rows[q]`` at ``poses`` (map frame), its yaw's
+    cosine and sine ``c[q]``, ``sn[q]`` (numpy's: numba's own differ in the last bit)."""
+    for q in range(rows.shape[0]):
+        r = rows[q]
+        ox, oy = offsets[r, 0], offsets[r, 1]
+        out[q, 0] = poses[r, 0] + c[q] * ox - sn[q] * oy
+        out[q, 1] = poses[r, 1] + sn[q] * ox + c[q] * oy
+        out[q, 2] = offsets[r, 2]
+
+
+def _rep117(r, hit, range_min, range_max, out):  # type: ignore
+    """``out`` (float32): each range ``r`` where it is a hit within [range_min, range_max],
+    -inf for a hit nearer than range_min, +inf for no hit or one beyond range_max."""
+    for k in range(r.shape[0]):
+        if not hit[k] or r[k] > range_max:
+            out[k] = math.inf
+        elif r[k] < range_min:
+            out[k] = -math.inf
+        else:
+            out[k] = r[k]
+
+
+def _unmoved(prev_ok, prev_meta, rows, first, poses, origins, out):  # type: ignore
+    """``out[q]``: robot ``rows[q]``'s lidar, whose first ray is ``first[q]`` of ``origins``,
+    is exactly where ``prev_meta`` (yaw, laser x, laser y) had it at a kept scan."""
+    for q in range(rows.shape[0]):
+        r, k = rows[q], first[q]
+        out[q] = (prev_ok[r] and prev_meta[r, 0] == poses[r, 2]
+                  and prev_meta[r, 1] == origins[k, 0] and prev_meta[r, 2] == origins[k, 1])
+
+
+def _remember(prev_dist, prev_meta, prev_ok, rows, first, beams, poses, origins, dist,
+              hit):  # type: ignore
+    """Keep each robot ``rows[q]``'s ranges (``beams[r]`` rays from ``first[q]``; +inf
+    where ``hit`` is false), its yaw and its laser's x, y."""
+    for q in range(rows.shape[0]):
+        r, k = rows[q], first[q]
+        for j in range(beams[r]):
+            prev_dist[r, j] = dist[k + j] if hit[k + j] else math.inf
+        prev_meta[r, 0], prev_meta[r, 1], prev_meta[r, 2] = poses[r, 2], origins[k, 0], origins[k, 1]
+        prev_ok[r] = True
+
+
+def _beams(origin, cos_a, sin_a, exits, rmax, rows, first, pred, xmin, ymin, xmax, ymax,
+           o, d, start, end, full, length, cut, f, t):  # type: ignore
+    """The rays of robots ``rows`` (one lidar geometry), in place from each robot's
+    ``first`` ray: origin ``o``, unit direction ``d`` (the beam angles' cosines and sines,
+    (Q, n)), ``start`` where the beam leaves the robot (``exits``), ``full`` the nearer of
+    the robot's ``rmax`` and where the ray leaves the box (xmin, ymin, xmax, ymax), ``end``
+    the predicted end (``pred`` (Q, n); none: ``full``), start and end clipped to full (an
+    end less than 1e-6 m past its start moves to ``full``: nothing left to cast, cast it
+    all), ``length`` end - start, ``cut`` end < full, and the segment's ends ``f``, ``t``.
+    One loop over the rays (compiled by numba: the same arithmetic as numpy's, a tenth of
+    its per-call cost on a 360-beam scan)."""
+    for q in range(rows.shape[0]):
+        r = rows[q]
+        ox, oy, oz = origin[q, 0], origin[q, 1], origin[q, 2]
+        for j in range(cos_a.shape[1]):
+            k = first[q] + j
+            a, b = cos_a[q, j], sin_a[q, j]
+            tx = (xmax - ox) / a if a > 0 else ((xmin - ox) / a if a < 0 else math.inf)
+            ty = (ymax - oy) / b if b > 0 else ((ymin - oy) / b if b < 0 else math.inf)
+            fk = min(rmax[r], max(min(tx, ty), 0.0))
+            sk = min(exits[r, j], fk)
+            ek = min(max(pred[q, j] if pred.shape[0] else math.inf, sk), fk)
+            if ek - sk < 1e-6:
+                ek = fk
+            o[k, 0], o[k, 1], o[k, 2] = ox, oy, oz
+            d[k, 0], d[k, 1] = a, b
+            full[k], start[k], end[k] = fk, sk, ek
+            length[k], cut[k] = ek - sk, ek < fk
+            f[k, 0], f[k, 1], f[k, 2] = ox + a * sk, oy + b * sk, oz
+            t[k, 0], t[k, 1], t[k, 2] = ox + a * ek, oy + b * ek, oz
 
 
 try:   # as sim/grid_rays.py: compiled where numba is installed (the venv's requirements)
     import numba
-    _segments = numba.njit(cache=True)(_segments)
+    _beams = numba.njit(cache=True)(_beams)
+    _laser_origins = numba.njit(cache=True)(_laser_origins)
+    _unmoved = numba.njit(cache=True)(_unmoved)
+    _rep117 = numba.njit(cache=True)(_rep117)
+    _remember = numba.njit(cache=True)(_remember)
 except ImportError:   # pragma: no cover
     pass
 
