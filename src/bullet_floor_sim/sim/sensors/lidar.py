@@ -170,10 +170,13 @@ class Lidar:
         """The scans of the due lidars (``World.cast_beams`` measures their beams), each next
         due one period on (a missed one is not made up)."""
         now = world.clock.now_ns
-        due = self.robots[self.next_scan_ns[self.robots] <= now]
+        due = np.empty(len(self.robots), dtype=np.int64)
+        k, self.next_ns = _take_due(self.next_scan_ns, self.robots, self.period_ns, now, NEVER,
+                                    due)
+        due = due[:k]
         yaw = world.pose[:, 2]
-        out_of_range = (yaw < -np.pi) | (yaw >= np.pi)   # wrap only those: (y + pi) - pi != y
-        if out_of_range.any():
+        if any(not -math.pi <= y < math.pi for y in yaw.tolist()):
+            out_of_range = (yaw < -np.pi) | (yaw >= np.pi)   # wrap only those: (y + pi) - pi != y
             yaw[out_of_range] = np.remainder(yaw[out_of_range] + np.pi, 2.0 * np.pi) - np.pi
         plan = self.plan(due, world.pose, world.ray_bounds(), predict=not world.walls_on_grid)
         dist, hit = world.cast_beams(plan)
@@ -183,9 +186,6 @@ class Lidar:
             e = s + k
             out.append(self.scan(i, now, self.ranges(i, dist[s:e], hit[s:e])))
             s = e
-        nxt = self.next_scan_ns[due] + self.period_ns[due]
-        self.next_scan_ns[due] = np.where(nxt <= now, now + self.period_ns[due], nxt)
-        self._schedule()
         return out
 
     def reset(self, world, rows: Sequence[int]) -> None:
@@ -341,6 +341,23 @@ def _laser_origins(poses, rows, c, sn, offsets, out):  # type: ignore
         out[q, 2] = offsets[r, 2]
 
 
+def _take_due(next_scan_ns, robots, period_ns, now, never, due):  # type: ignore
+    """The lidars of ``robots`` due at ``now`` into ``due`` (returns their count), each next
+    due one period on (a missed one is not made up), and the earliest next scan of all
+    (``never`` without robots)."""
+    k = 0
+    for r in robots:
+        if next_scan_ns[r] <= now:
+            due[k] = r
+            k += 1
+            nxt = next_scan_ns[r] + period_ns[r]
+            next_scan_ns[r] = now + period_ns[r] if nxt <= now else nxt
+    first = never
+    for r in robots:
+        first = min(first, next_scan_ns[r])
+    return k, first
+
+
 def _rep117(r, hit, range_min, range_max, out):  # type: ignore
     """``out`` (float32): each range ``r`` where it is a hit within [range_min, range_max],
     -inf for a hit nearer than range_min, +inf for no hit or one beyond range_max."""
@@ -412,6 +429,7 @@ try:   # as sim/grid_rays.py: compiled where numba is installed (the venv's requ
     _laser_origins = numba.njit(cache=True)(_laser_origins)
     _unmoved = numba.njit(cache=True)(_unmoved)
     _rep117 = numba.njit(cache=True)(_rep117)
+    _take_due = numba.njit(cache=True)(_take_due)
     _remember = numba.njit(cache=True)(_remember)
 except ImportError:   # pragma: no cover
     pass
