@@ -575,3 +575,49 @@ def test_an_arc_ends_where_the_circle_says_at_any_step_rate(rate):
     assert th1 == pytest.approx(th0 + 1.0, abs=1e-9)
     assert x1 == pytest.approx(x0 + math.sin(th0 + 1.0) - math.sin(th0), abs=1e-9)
     assert y1 == pytest.approx(y0 - math.cos(th0 + 1.0) + math.cos(th0), abs=1e-9)
+
+
+@pytest.mark.parametrize("grid", [True, False])
+def test_lidar_loops_compiled_equal_their_plain_python(monkeypatch, grid):
+    # the lidar's per-scan loops (sensors/lidar.py) are compiled by numba where it is
+    # installed and run as plain Python where not: both must give the same scans, stamps
+    # and ranges to the bit, with two beam geometries, a robot without a lidar, noise, a
+    # lidar that stops moving (reuse), and the Bullet caster's cut rays (grid=False)
+    from bullet_floor_sim.sim import grid_rays
+    from bullet_floor_sim.sim.sensors import lidar
+
+    kernels = ["_beams", "_laser_origins", "_unmoved", "_remember", "_rep117", "_take_due"]
+    if not all(hasattr(getattr(lidar, k), "py_func") for k in kernels) or not grid_rays.available():
+        pytest.skip("numba not installed")
+    fan = LaserConfig(fov=180.0, resolution=0.5, noise_std=0.02)
+    off = dataclasses.replace(EXACT, enabled=False)
+    specs = [RobotSpec(name="a", pose=(1.0, 1.0, 0.3), laser=EXACT, odometry=STILL),
+             RobotSpec(name="b", pose=(2.5, 2.0, 2.0), laser=off, odometry=STILL),
+             RobotSpec(name="c", pose=(5.2, 3.0, -2.0), laser=fan, odometry=STILL)]
+
+    def run():
+        w = simple_world(specs, seed=5)
+        if not grid:
+            w._grid_rays = None
+        try:
+            scans = []
+            for k in range(60):
+                if k == 30:    # robot c stands still from here: its walls' distances reused
+                    w.command(2, 0.0, 0.0, 0.0)
+                elif k % 10 == 0:
+                    for i in range(3):
+                        w.command(i, 0.3, 0.0, 0.8 - 0.4 * i)
+                scans += w.step(1)
+            return scans
+        finally:
+            w.close()
+
+    compiled = run()
+    for k in kernels:
+        monkeypatch.setattr(lidar, k, getattr(lidar, k).py_func)
+    plain = run()
+    assert [(s.robot, s.stamp_ns) for s in compiled] == [(s.robot, s.stamp_ns) for s in plain]
+    assert {s.robot for s in compiled} == {0, 2} and len(compiled) >= 10
+    for a, b in zip(compiled, plain):
+        assert a.ranges.dtype == np.float32 and np.array_equal(a.ranges, b.ranges), a.robot
+    assert any(np.isfinite(s.ranges).sum() > 100 for s in compiled)
