@@ -171,8 +171,8 @@ class Lidar:
         due one period on (a missed one is not made up)."""
         now = world.clock.now_ns
         due = np.empty(len(self.robots), dtype=np.int64)
-        k, self.next_ns = _take_due(self.next_scan_ns, self.robots, self.period_ns, now, NEVER,
-                                    due)
+        k, first = _take_due(self.next_scan_ns, self.robots, self.period_ns, now, NEVER, due)
+        self.next_ns = int(first)
         due = due[:k]
         yaw = world.pose[:, 2]
         if any(not -math.pi <= y < math.pi for y in yaw.tolist()):
