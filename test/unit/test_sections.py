@@ -80,3 +80,35 @@ def test_clip_beams_enters_and_leaves_a_square():
     assert t_in[2] < 0.0 < t_out[2] == 1.0      # starts inside, leaves at y = 1
     assert t_in[3] > t_out[3]                   # passes above it
     assert t_in[4] <= t_out[4]                  # runs along its top edge: touching
+
+
+def test_clip_beams_equals_the_half_plane_formula_on_random_polygons():
+    # Cyrus-Beck by its formula in numpy: each half-plane n.x <= c cuts the beam at
+    # t = (c - n.o) / (n.d), entering where n.d < 0 and leaving where n.d > 0; a beam
+    # parallel to an edge (n.d = 0) and outside it misses. Padding rows (n = 0, c = 1)
+    # constrain nothing. clip_beams (compiled where numba is) must give it to the bit.
+    rng = np.random.default_rng(7)
+    checked = crossing = 0
+    for trial in range(60):
+        p, k = int(rng.integers(1, 300)), int(rng.integers(3, 10))
+        o = rng.uniform(-2.0, 2.0, (p, 2))
+        a = rng.uniform(-math.pi, math.pi, p)
+        d = np.c_[np.cos(a), np.sin(a)]
+        n = rng.normal(size=(p, k, 2))
+        c = rng.uniform(-0.5, 1.0, (p, k))
+        n[:, 0] = (1.0, 0.0)             # an axis-aligned edge, and beams parallel to it
+        d[::7] = (0.0, 1.0)
+        c[::3, 0] = -5.0                 # ... some of them outside it
+        n[:, -1], c[:, -1] = 0.0, 1.0    # a padding row
+        nd = n[..., 0] * d[:, None, 0] + n[..., 1] * d[:, None, 1]
+        num = c - (n[..., 0] * o[:, None, 0] + n[..., 1] * o[:, None, 1])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = num / nd
+        want_in = np.max(np.where(nd < 0.0, t, -np.inf), axis=1)
+        want_out = np.min(np.where(nd > 0.0, t, np.inf), axis=1)
+        want_out[np.any((nd == 0.0) & (num < 0.0), axis=1)] = -np.inf
+        t_in, t_out = clip_beams(o, d, n, c)
+        assert np.array_equal(t_in, want_in) and np.array_equal(t_out, want_out)
+        checked += p
+        crossing += int(np.sum((t_in <= t_out) & np.isfinite(t_in) & np.isfinite(t_out)))
+    assert checked > 3000 and crossing > 100      # beams that cross a polygon, not only misses
