@@ -28,8 +28,7 @@ def cast_at_legs(world: Any, plan: Any, dist: np.ndarray, hit: np.ndarray,
     if not len(legs) or not len(plan.robots):
         return
     reach = np.where(hit, dist, plan.full)
-    offs = np.concatenate(([0], np.cumsum(plan.counts)))[:-1]
-    above = plan.origins[offs, 2] >= height                           # (Q,)
+    above = plan.origins[plan.first, 2] >= height                           # (Q,)
     radii = np.full((len(plan.robots), len(legs)), float(radius))
     g, k, _, _ = circle_candidates(world, plan, reach, legs, radii,
                                    np.repeat(above[:, None], len(legs), axis=1))

@@ -41,7 +41,7 @@ def cast_at_robots(world: Any, plan: Any, dist: np.ndarray, hit: np.ndarray) -> 
 
 def ray_owner(plan: Any, g: np.ndarray) -> np.ndarray:
     """Index into ``plan.robots`` of the scan each ray ``g`` belongs to."""
-    return np.searchsorted(np.cumsum(plan.counts), g, side="right")
+    return np.searchsorted(plan.first, g, side="right") - 1
 
 def _clip(world: Any, plan: Any, reach: np.ndarray, g: np.ndarray, j: np.ndarray,
                     sec: np.ndarray, dist: np.ndarray, hit: np.ndarray) -> None:
@@ -126,7 +126,7 @@ def circle_candidates(world: Any, plan: Any, reach: np.ndarray, centres: np.ndar
     none = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0),
             np.zeros(0))
     q_robot = plan.robots
-    offs = np.concatenate(([0], np.cumsum(plan.counts)))[:-1]
+    offs = plan.first
     o = plan.origins[offs, :2]                                   # (Q, 2) laser origins
     rel = centres[None, :, :] - o[:, None, :]                     # (Q, N, 2)
     d = np.hypot(rel[..., 0], rel[..., 1])

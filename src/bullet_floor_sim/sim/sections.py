@@ -139,10 +139,11 @@ def clip_beams(origins: np.ndarray, dirs: np.ndarray, normals: np.ndarray,
         (t_in, t_out) distances along the beams (P,); t_in > t_out when the line misses.
     """
     p = len(origins)
+    k = np.shape(offsets)[-1]       # (half-planes shared by every beam broadcast, as numpy did)
     t_in, t_out = np.empty(p), np.empty(p)
     _cyrus_beck(np.ascontiguousarray(origins, dtype=float), np.ascontiguousarray(dirs, dtype=float),
-                np.ascontiguousarray(normals, dtype=float),
-                np.ascontiguousarray(offsets, dtype=float), t_in, t_out)
+                np.ascontiguousarray(np.broadcast_to(normals, (p, k, 2)), dtype=float),
+                np.ascontiguousarray(np.broadcast_to(offsets, (p, k)), dtype=float), t_in, t_out)
     return t_in, t_out
 
 

@@ -135,8 +135,8 @@ class Lidar:
         self.period_ns = np.array([int(round(1e9 / c.rate)) for c in self.cfgs], dtype=np.int64)
         self.self_exit: List[Optional[np.ndarray]] = [None] * len(self.cfgs)
         self._range_max = np.array([c.range_max for c in self.cfgs], dtype=float)
-        self._beams = [len(a) for a in self.angles]
-        self._beam_counts = np.array(self._beams, dtype=np.int64)
+        self._n_beams = [len(a) for a in self.angles]         # (a list: read per robot in Python)
+        self._n_beams_array = np.array(self._n_beams, dtype=np.int64)
         # where each beam starts (set_self_exit), one row per robot; ragged if geometries differ
         width = max((len(a) for a in self.angles), default=0)
         self._exits = np.zeros((len(self.cfgs), width))
@@ -164,7 +164,7 @@ class Lidar:
         return lidar
 
     def _schedule(self) -> None:
-        self.next_ns = int(self.next_scan_ns[self.robots].min()) if len(self.robots) else NEVER
+        self.next_ns = int(_earliest(self.next_scan_ns, self.robots, NEVER))
 
     def read(self, world) -> List["Scan"]:
         """The scans of the due lidars (``World.cast_beams`` measures their beams), each next
@@ -217,7 +217,7 @@ class Lidar:
         """
         robots = np.asarray(robots, dtype=np.int64).reshape(-1)
         listed = robots.tolist()
-        counts = [self._beams[i] for i in listed]
+        counts = [self._n_beams[i] for i in listed]
         first = [0] * len(listed)            # each robot's first ray
         groups: Dict[int, List[int]] = {}
         m = 0
@@ -303,7 +303,7 @@ class Lidar:
                  hit: np.ndarray) -> None:
         """Keep this scan's true ranges (+inf = no return) for the next scan's ``plan``."""
         _remember(self._prev_dist, self._prev_meta, self._prev_ok, plan.robots, plan.first,
-                  self._beam_counts, poses, plan.origins, dist, hit)
+                  self._n_beams_array, poses, plan.origins, dist, hit)
 
     def ranges(self, robot: int, dist: np.ndarray, hit: np.ndarray) -> np.ndarray:
         """REP 117 ranges of one scan from true hit distances: noise, -inf below min, +inf no
@@ -352,10 +352,15 @@ def _take_due(next_scan_ns, robots, period_ns, now, never, due):  # type: ignore
             k += 1
             nxt = next_scan_ns[r] + period_ns[r]
             next_scan_ns[r] = now + period_ns[r] if nxt <= now else nxt
+    return k, _earliest(next_scan_ns, robots, never)
+
+
+def _earliest(next_scan_ns, robots, never):  # type: ignore
+    """The earliest next scan of ``robots`` (``never`` without robots)."""
     first = never
     for r in robots:
         first = min(first, next_scan_ns[r])
-    return k, first
+    return first
 
 
 def _rep117(r, hit, range_min, range_max, out):  # type: ignore
@@ -429,6 +434,7 @@ try:   # as sim/grid_rays.py: compiled where numba is installed (the venv's requ
     _laser_origins = numba.njit(cache=True)(_laser_origins)
     _unmoved = numba.njit(cache=True)(_unmoved)
     _rep117 = numba.njit(cache=True)(_rep117)
+    _earliest = numba.njit(cache=True)(_earliest)
     _take_due = numba.njit(cache=True)(_take_due)
     _remember = numba.njit(cache=True)(_remember)
 except ImportError:   # pragma: no cover
