@@ -42,8 +42,10 @@ import time
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
+import numpy as np
+
 import rospy
-from geometry_msgs.msg import Point, Pose, Quaternion
+from geometry_msgs.msg import Pose, Quaternion
 from nav_msgs.msg import Path
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
@@ -56,9 +58,10 @@ from ..msg import Trajectory
 from ..srv import SelectTrajectories, SelectTrajectoriesResponse
 from .convert import pose_msgs
 from .node import forward_store_log, run_node
+from .packed_markers import PackedMarkerArray, pack_marker, time_colours
 from .params import check_at_least, config_from_params
 
-__all__ = ["main", "ViewerNode", "Selection", "decimate", "newest", "time_colour",
+__all__ = ["main", "ViewerNode", "Selection", "decimate", "newest",
            "trajectory_colour"]
 
 _NS = 1000000000
@@ -173,12 +176,6 @@ def decimate(poses: Sequence, max_points: int) -> List:
         return list(poses)
     step = (n - 1) / float(max_points - 1)
     return [poses[int(round(k * step))] for k in range(max_points)]
-
-
-def time_colour(f: float) -> ColorRGBA:
-    """Blue (f = 0, oldest) through green to red (f = 1, newest)."""
-    r, g, b = colorsys.hsv_to_rgb(0.66 * (1.0 - min(max(f, 0.0), 1.0)), 1.0, 1.0)
-    return ColorRGBA(r, g, b, 1.0)
 
 
 def trajectory_colour(k: int) -> ColorRGBA:
@@ -342,7 +339,7 @@ class ViewerNode:
         self.shown = join_chunks(self.chunks.values())
         stamp = rospy.Time.now()
         header = Header(0, stamp, self.frame_id)
-        markers = [Marker(header=header, ns="trajectories", action=Marker.DELETEALL)]
+        packed = [pack_marker(Marker(header=header, ns="trajectories", action=Marker.DELETEALL))]
         times = [p[0] for j in self.shown for p in (j.poses[0], j.poses[-1]) if j.poses]
         t0, t1 = (min(times), max(times)) if times else (0, 0)
         span = float(t1 - t0) or 1.0
@@ -353,15 +350,17 @@ class ViewerNode:
             m = Marker(header=header, ns="trajectories", id=k, type=Marker.LINE_STRIP,
                        action=Marker.ADD, pose=Pose(orientation=Quaternion(0, 0, 0, 1)))
             m.scale.x = self.line_width
-            m.points = [Point(p[1], p[2], p[3]) for p in poses]
+            m.text = j.uuid
+            xyz = np.array([p[1:4] for p in poses], dtype=float)
+            colours = None
             if sel.color_by == "time":
                 m.color = ColorRGBA(1, 1, 1, 1)
-                m.colors = [time_colour((p[0] - t0) / span) for p in poses]
+                stamps = np.fromiter((p[0] for p in poses), dtype=np.int64, count=len(poses))
+                colours = time_colours((stamps - t0) / span)
             else:
                 m.color = trajectory_colour(k)
-            m.text = j.uuid
-            markers.append(m)
-        self.marker_pub.publish(MarkerArray(markers))
+            packed.append(pack_marker(m, xyz, colours))
+        self.marker_pub.publish(PackedMarkerArray(packed))
         self._publish_paths(stamp)
 
     def _publish_paths(self, stamp: rospy.Time) -> None:
