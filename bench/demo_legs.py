@@ -258,9 +258,12 @@ def _report_world(r: dict) -> None:
         print("  %s given up: %s -> %s, %s: %s" % (r["world"], leg.get("from"), leg.get("to"),
                                                   leg.get("outcome"), leg.get("detail")),
               file=sys.stderr)
-    top = sorted(r["cpu"].items(), key=lambda kv: -kv[1])[:6]
-    print("  %s: CPU (cores) over the legs: %s" % (r["world"], ", ".join(
-        "%s %.2f" % kv for kv in top)), file=sys.stderr)
+    cpu = sorted(r["cpu"].items(), key=lambda kv: -kv[1])
+    total = sum(v for _, v in cpu)
+    print("  %s: CPU (cores) over the legs: %s; all nodes %.2f cores, %.0f ms of CPU per sim "
+          "second (not rosmaster)" % (r["world"], ", ".join("%s %.2f" % kv for kv in cpu), total,
+                                      1000.0 * total / r["rtf"] if r["rtf"] > 0 else 0.0),
+          file=sys.stderr)
     grown = sorted(r["rss"].items(), key=lambda kv: -max(kv[1]))[:6]
     print("  %s: memory (MB, first / largest / last sample): %s" % (r["world"], ", ".join(
         "%s %.0f / %.0f / %.0f" % (k, next((v for v in m if v), 0.0), max(m), m[-1])

@@ -143,3 +143,34 @@ def test_the_clock_is_thinned_only_when_the_asked_pace_would_outrun_the_wall_bou
     assert clock_wall_bound(100.0, 10.0, 0.001) == 0.0       # exactly 1000 Hz: not above
     assert clock_wall_bound(100.0, 10.5, 0.001) == 0.001
     assert clock_wall_bound(100.0, 0.0, 0.001) == 0.001      # as fast as possible
+
+
+def test_tcp_unread_keeps_only_the_peers_of_one_port():
+    import socket
+    import time
+
+    servers, pairs = [], []
+    try:
+        for _ in range(2):
+            srv = socket.socket()
+            srv.bind(("127.0.0.1", 0))
+            srv.listen(1)
+            sender = socket.create_connection(srv.getsockname())
+            reader, _ = srv.accept()
+            servers.append(srv)
+            pairs.append((sender, reader))
+        # the server side writes, the client side reads: as the simulator's publishers do
+        for k, (client, accepted) in enumerate(pairs):
+            accepted.sendall(b"y" * (100 + k))
+        port = servers[0].getsockname()[1]
+        keys = [(c.getsockname(), c.getpeername()) for c, _ in pairs]
+        deadline = time.time() + 2.0
+        while tcp_unread().get(keys[1], 0) < 101 and time.time() < deadline:
+            time.sleep(0.01)
+        everything, mine = tcp_unread(), tcp_unread(port)
+        assert everything[keys[0]] == 100 and everything[keys[1]] == 101
+        assert mine == {keys[0]: 100}                  # the other port's reader left out
+        assert all(peer[1] == port for _, peer in mine)
+    finally:
+        for s in servers + [s for p in pairs for s in p]:
+            s.close()

@@ -194,17 +194,36 @@ _NLMSG_ERROR, _NLMSG_DONE = 2, 3
 _NLM_F_REQUEST_DUMP = 0x301
 _TCP_ESTABLISHED = 1
 _NLMSGHDR = struct.Struct("=IHHII")
+_RTATTR = struct.Struct("=HH")          # an attribute's length and type
+_BC_OP = struct.Struct("=BBH")          # struct inet_diag_bc_op: code, yes, no
+_INET_DIAG_REQ_BYTECODE = 1
+_INET_DIAG_BC_D_EQ = 12
 
 
-def tcp_unread() -> Dict[Tuple[Endpoint, Endpoint], int]:
+def _port_filter(port: int) -> bytes:
+    """sock_diag bytecode keeping the sockets whose peer port is ``port``: one "destination
+    port equals" test, a match jumping to the end (kept), a miss past it (dropped)."""
+    ops = _BC_OP.pack(_INET_DIAG_BC_D_EQ, 8, 12) + _BC_OP.pack(0, 0, port)
+    return _RTATTR.pack(_RTATTR.size + len(ops), _INET_DIAG_REQ_BYTECODE) + ops
+
+
+def tcp_unread(peer_port: Optional[int] = None) -> Dict[Tuple[Endpoint, Endpoint], int]:
     """Unread bytes in the receive queue of every established IPv4 TCP socket of this machine
     (network namespace), keyed by (its own address, its peer's address).
 
+    Args:
+        peer_port: only the sockets whose peer has this port (the kernel filters them: the
+            subscribers of a node's publishers all connect to its one TCPROS port); None:
+            every socket.
+
     Raises:
-        OSError: sock_diag is not available (not Linux, or no netlink in this sandbox).
+        OSError: sock_diag is not available (not Linux, or no netlink in this sandbox), or
+            it refused the filter.
     """
     req = struct.pack("=BBBBI", socket.AF_INET, socket.IPPROTO_TCP, 0, 0,
                       1 << _TCP_ESTABLISHED) + bytes(48)
+    if peer_port is not None:
+        req += _port_filter(peer_port)
     out = {}  # type: Dict[Tuple[Endpoint, Endpoint], int]
     with socket.socket(socket.AF_NETLINK, socket.SOCK_DGRAM, _NETLINK_SOCK_DIAG) as s:
         s.send(_NLMSGHDR.pack(_NLMSGHDR.size + len(req), _SOCK_DIAG_BY_FAMILY,

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import socket
-from typing import Any, Dict, List, Tuple
+from typing import Any, Dict, List, Optional, Tuple
 
 
 import rospy
@@ -101,6 +101,13 @@ class Outbox:
                 if peer[0] is not None:
                     out[peer[1]] = max(out.get(peer[1], 0), unread_by_socket.get(peer[0], 0))
         return out
+
+    def local_port(self) -> Optional[int]:
+        """This node's port at its end of the subscriber connections seen by ``unread`` when
+        they share one (rospy serves every topic of a node on one TCPROS port), else None:
+        sim/pacing.tcp_unread then asks the kernel for those connections only."""
+        ports = {key[1][1] for key, _ in self._peers.values() if key is not None}
+        return ports.pop() if len(ports) == 1 else None
 
     def flush(self) -> None:
         """Send what each connection's socket takes now; keep the rest for the next flush."""
