@@ -19,7 +19,7 @@ from bullet_floor_sim.data.trajectory import (COLLECTION, DATABASE, STORED_TYPE,
                                               Chunker, RegionLocator, TrajectoryError,
                                               chunk_fields, chunk_from_document,
                                               chunk_from_json, chunk_to_json, displacement,
-                                              document_to_json, ensure_indexes,
+                                              document_to_json, ensure_indexes, format_time,
                                               iter_documents, join_chunks, path_length,
                                               pose_from_xy_yaw, select_chunks, split_poses,
                                               yaw_of)
@@ -302,13 +302,15 @@ def db_pair(request, tmp_path, monkeypatch):
     return uri, uri  # one server, two databases would need a db option: clear in between
 
 
-def record(store, chunks, map_name="office", person=None):
+def record(store, chunks, map_name="office", person=None, robot=None):
     from bullet_floor_sim.data.store import insert_message
 
     ensure_indexes(store)
     meta = {"map": map_name, "taken": "online"}
     if person is not None:
         meta["person"] = person
+    if robot is not None:
+        meta["robot"] = robot
     for c in chunks:
         insert_message(store, DATABASE, COLLECTION, chunk_fields(c, c.end_ns), STORED_TYPE,
                        meta=dict(meta), inserted_by="/test", now=c.end_ns / 1e9)
@@ -517,6 +519,110 @@ def test_export_and_plot_one_person(tmp_path, capsys, monkeypatch):
     assert "plotted 2 trajectories (6 chunks)" in err
 
 
+def _three_walkers(tmp_path):
+    """A robot's (robot1) and two people's (ann, bob) trajectories, 2 each (1000 + 400
+    poses in 4 + 2 chunks), in an embedded database."""
+    db = str(tmp_path / "db")
+    _, walker = recorded_chunks()
+    _, ann = recorded_chunks(uuid_start=10)
+    _, bob = recorded_chunks(uuid_start=20)
+    with open_store(db) as store:
+        record(store, walker, robot="robot1")
+        record(store, ann, person="ann")
+        record(store, bob, person="bob")
+    return db, walker, ann, bob
+
+
+def _uuids(chunks):
+    return list(dict.fromkeys(c.uuid for c in chunks))
+
+
+def test_list_names_every_trajectory_and_counts_its_poses(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("ROS_HOME", str(tmp_path / "ros_home"))
+    db, walker, ann, bob = _three_walkers(tmp_path)
+    code, out, err = run_cli(["list", "--db", db], capsys)
+    assert code == 0, err
+    lines = [line.split("\t") for line in out.splitlines()]
+    assert lines[0] == ["uuid", "who", "kind", "map", "start", "end", "poses", "chunks"]
+    rows = {r[0]: r for r in lines[1:]}
+    assert len(rows) == 6
+    first = rows[walker[0].uuid]
+    assert first[1:4] == ["robot1", "robot", "office"]
+    assert first[4:] == [format_time(walker[0].start_ns), format_time(walker[3].end_ns),
+                         "1000", "4"]        # 4 chunks of 301, 301, 301, 100: 3 shared poses
+    assert rows[ann[4].uuid][1:3] == ["ann", "person"] and rows[ann[4].uuid][6:] == ["400", "2"]
+    assert "6 trajectories (4200 poses, 18 chunks)" in err
+    code, out, _ = run_cli(["list", "--db", db, "--people"], capsys)
+    assert sorted(r.split("\t")[1] for r in out.splitlines()[1:]) == ["ann", "ann", "bob", "bob"]
+    code, out, _ = run_cli(["list", "--db", db, "--robots"], capsys)
+    assert [r.split("\t")[0] for r in out.splitlines()[1:]] == _uuids(walker)
+
+
+def test_export_several_people_or_only_robots(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("ROS_HOME", str(tmp_path / "ros_home"))
+    db, walker, ann, bob = _three_walkers(tmp_path)
+    for args, want in ((["--person", "ann", "bob"], ann + bob), (["--people"], ann + bob),
+                       (["--robots"], walker), (["--person", "bob"], bob)):
+        code, out, err = run_cli(["export", "--db", db] + args, capsys)
+        assert code == 0, err
+        got = [json.loads(x)["uuid"] for x in out.splitlines()]
+        assert sorted(got) == sorted(c.uuid for c in want), args
+    code, _, err = run_cli(["export", "--db", db, "--people", "--robots"], capsys)
+    assert code == 2 and "not allowed with argument" in err
+
+
+def test_an_unknown_person_is_an_error_that_lists_who_is_stored(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("ROS_HOME", str(tmp_path / "ros_home"))
+    db, *_ = _three_walkers(tmp_path)
+    for command in (["export"], ["list"], ["plot", "--out", str(tmp_path / "x.png")]):
+        code, out, err = run_cli(command + ["--db", db, "--person", "ann", "carol"], capsys)
+        assert code == 2 and out == "", command
+        assert "no trajectories of carol in " in err and err.rstrip().endswith(
+            "stored: ann, bob"), err
+    assert not os.path.exists(str(tmp_path / "x.png"))
+
+
+def test_reading_commands_refuse_a_database_that_does_not_exist(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("ROS_HOME", str(tmp_path / "ros_home"))
+    nowhere = tmp_path / "typo_db"
+    for command in (["export"], ["list"], ["plot", "--out", str(tmp_path / "x.png")]):
+        for db in (["--db", str(nowhere)], []):     # a mistyped --db, and the default one
+            code, out, err = run_cli(command + db, capsys)
+            assert code == 2 and out == ""
+            assert "no such database: %s" % (nowhere if db else tmp_path / "ros_home"
+                                               / "bullet_floor_sim" / "db") in err, err
+    assert not nowhere.exists() and not (tmp_path / "ros_home" / "bullet_floor_sim").exists()
+    dump = tmp_path / "in.jsonl"
+    dump.write_text(chunk_to_json(sample_chunk()) + "\n")
+    code, _, err = run_cli(["import", "--db", str(nowhere), "--map", "m", str(dump)], capsys)
+    assert code == 0 and "imported 1 chunks" in err     # import creates it
+
+
+def test_a_reader_that_stops_reading_ends_the_export_quietly(tmp_path, monkeypatch):
+    import subprocess
+
+    db, *_ = _three_walkers(tmp_path)
+    code = ("import sys; from bullet_floor_sim.ros import trajectories; "
+            "sys.exit(trajectories.main(['export', '--db', %r]))" % db)
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, env=dict(os.environ,
+                                                             ROS_HOME=str(tmp_path)))
+    first = proc.stdout.readline()
+    proc.stdout.close()                          # as `| head -1` does
+    err = proc.stderr.read()
+    assert proc.wait(30) == 141 and json.loads(first)["sequence_id"] == 0
+    assert err == b"", err
+
+
+def test_the_recorder_names_a_pose_topic_by_its_namespace():
+    pytest.importorskip("rospy")
+    from bullet_floor_sim.ros.trajectory_recorder import robot_of_topic
+
+    assert robot_of_topic("/robot1/pose") == "robot1"
+    assert robot_of_topic("/site/robot2/pose") == "site/robot2"
+    assert robot_of_topic("/pose") == "/pose"
+
+
 def test_import_splits_an_oversize_line_and_renumbers(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("ROS_HOME", str(tmp_path / "ros_home"))
     long = Chunk.from_poses("u", 0, line_stream(25), False)
@@ -538,7 +644,7 @@ def test_import_splits_an_oversize_line_and_renumbers(tmp_path, capsys, monkeypa
 
 
 @pytest.mark.parametrize("args, message", [
-    ([], r"give a command: export, import or plot"),
+    ([], r"give a command: list, export, import or plot"),
     (["import", "--db", "D"], r"import needs --map NAME"),
     (["export", "--since", "5", "--until", "4"], r"--since 5 is after --until 4"),
     (["export", "--since", "soon"], r"--since 'soon': must be a number of seconds >= 0"),

@@ -21,7 +21,7 @@ from typing import List, Optional
 from bullet_floor_sim.errors import BulletFloorSimError
 from bullet_floor_sim.data.roi_store import COLLECTION, DATABASE, RoiStore
 from bullet_floor_sim.data.rois import load_rois, save_rois
-from bullet_floor_sim.data.store import open_store
+from bullet_floor_sim.data.store import open_store, require_existing
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -50,8 +50,7 @@ def _only(kind: str, values: List[str], option: str, where: str) -> str:
 
 
 def export(args: argparse.Namespace) -> int:
-    if args.db and "://" not in args.db and not os.path.isdir(os.path.expanduser(args.db)):
-        raise BulletFloorSimError("--db %s: no such database directory" % args.db)
+    require_existing(args.db)
     with open_store(args.db or None) as store:
         map_name = args.map
         if not map_name:

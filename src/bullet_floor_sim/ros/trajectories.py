@@ -1,18 +1,28 @@
-"""``rosrun bullet_floor_sim trajectories export|import|plot --db URI``: stored trajectories
-as JSON lines and pictures.
+"""``rosrun bullet_floor_sim trajectories list|export|import|plot --db URI``: stored
+trajectories listed, as JSON lines and as pictures.
 
 A plain command-line tool (no ROS master needed, rospy is not imported)::
 
-    trajectories export --db URI [--map M] [--person P] [--since T] [--until T] [--out FILE]
+    trajectories list   --db URI [--map M] [WHO] [--since T] [--until T]
+    trajectories export --db URI [--map M] [WHO] [--since T] [--until T] [--out FILE]
                         [--format jsonl|csv|trajnet|mcap] [--rate 2.5]
     trajectories import --db URI --map M [FILE ...] [--max-poses N]
-    trajectories plot   --db URI --out traj.png [--map M] [--person P] [--since T] [--until T]
+    trajectories plot   --db URI --out traj.png [--map M] [WHO] [--since T] [--until T]
                         [--world W | --map-yaml MAP] [--cell 0.25]
+
+WHO is ``--person NAME [NAME ...]`` (those people's trajectories), ``--people`` (every
+person's) or ``--robots`` (the robots', which name no person); default: all.
 
 ``--db`` is ``mongodb://host:port/`` or a directory for the embedded store (default
 ``$ROS_HOME/bullet_floor_sim/db``). Times are seconds (ROS time, sim time in simulation): a
 chunk is selected when it ends at or after ``--since`` and starts at or before ``--until``;
-``--person`` keeps one person's trajectories (the recorder of a people topic names them).
+the recorder of a people topic names each person in the chunks' meta, the recorder of a
+pose topic the robot. ``list``, ``export`` and ``plot`` only read: a ``--db`` directory that
+does not exist is an error (``no such database``), as is a ``--person`` nobody stored (the
+error lists who is stored).
+
+* ``list`` prints one line per trajectory: uuid, person or robot name, map, start and end
+  (s), poses and chunks.
 
 * ``export`` prints one JSON line per stored chunk: ``{"uuid", "sequence_id", "start_time",
   "end_time", "complete", "trajectory_length", "poses": [[t, x, y, yaw], ...]}``, t in
@@ -30,7 +40,9 @@ chunk is selected when it ends at or after ``--since`` and starts at or before `
   share of poses per ``--cell`` square) over the map image: ``--map-yaml``, else the map of
   ``--world``, else of the world named like ``--map`` when there is one.
 
-A summary goes to stderr; any error is one line on stderr and exit code 2.
+A summary goes to stderr; any error is one line on stderr and exit code 2. A reader that
+stops reading (``| head``) ends the output quietly, exit code 141 as for a C tool that
+SIGPIPE ends.
 """
 from __future__ import annotations
 
@@ -40,23 +52,25 @@ import os
 import sys
 import time
 from dataclasses import replace
-from typing import Dict, IO, Iterable, List, Optional, Sequence, Tuple
+from typing import Any, Dict, IO, Iterable, List, Optional, Sequence, Tuple
 
 from ..errors import BulletFloorSimError
 from ..files import atomic_file
-from ..people.plotting import draw_map, pyplot
-from ..data.store import Store, insert_message, open_store
+from ..data.store import Store, insert_message, open_store, require_existing
 from ..data.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_POSES, STORED_TYPE, Chunk,
                                check_max_poses, chunk_fields, chunk_from_document,
                                chunk_from_json, document_to_json, ensure_indexes,
-                               iter_documents, join_chunks, parse_time, split_poses)
+                               Persons, format_time, iter_documents, parse_time,
+                               split_poses, stored_people, trajectory_heads)
 from ..data.trajectory.formats import (FORMATS, TRAJNET_RATE, write_csv, write_mcap,
                                        write_trajnet)
 from .cli import Parser, UsageError
+from .trajectory_plot import map_for_plot, plot_trajectories
 
-__all__ = ["main", "export_chunks", "import_lines", "plot_trajectories"]
+__all__ = ["main", "export_chunks", "import_lines", "list_trajectories", "plot_trajectories"]
 
 PROG = "trajectories"
+_READING = ("list", "export", "plot")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -69,11 +83,20 @@ def _parser() -> argparse.ArgumentParser:
                        "$ROS_HOME/bullet_floor_sim/db)")
         q.add_argument("--map", dest="map_name", default="", help="only this map")
         if window:
-            q.add_argument("--person", default="", help="only this person's trajectories "
-                           "(those the recorder stored from a people topic)")
+            who = q.add_mutually_exclusive_group()
+            who.add_argument("--person", nargs="+", default=[], metavar="NAME",
+                             help="only these people's trajectories (as the recorder of a "
+                             "people topic names them)")
+            who.add_argument("--people", action="store_true",
+                             help="only people's trajectories")
+            who.add_argument("--robots", action="store_true",
+                             help="only robots' trajectories (no person named)")
             q.add_argument("--since", help="only chunks ending at or after this time (s)")
             q.add_argument("--until", help="only chunks starting at or before this time (s)")
 
+    ls = sub.add_parser("list", help="one line per stored trajectory: uuid, person or robot, "
+                        "map, start, end, poses, chunks")
+    common(ls)
     e = sub.add_parser("export", help="print stored chunks as JSON lines, or write them as "
                        "CSV, TrajNet++ text or a ROS 2 bag")
     common(e)
@@ -111,7 +134,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     try:
         args = _parser().parse_args(args_in)
         if not args.command:
-            raise UsageError("give a command: export, import or plot")
+            raise UsageError("give a command: list, export, import or plot")
         since = until = None
         if getattr(args, "since", None) is not None:
             since = parse_time(args.since, "--since")
@@ -127,23 +150,109 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             check_max_poses(args.max_poses)
         if args.command == "plot" and not args.cell > 0:
             raise UsageError("--cell must be a positive number of metres, got %s" % args.cell)
+        if args.command in _READING:
+            require_existing(args.db)
         with open_store(args.db or None) as store:
-            if args.command == "export":
+            if args.command in _READING:
+                _check_people(store, args.person)
+            if args.command == "list":
+                _list(store, args, since, until)
+            elif args.command == "export":
                 _export(store, args, since, until)
             elif args.command == "import":
                 _import(store, args)
             else:
                 _plot(store, args, since, until)
+    except BrokenPipeError:
+        return _reader_gone()
     except (UsageError, BulletFloorSimError, ValueError, OSError) as e:
         return _fail(str(e))
     return 0
 
 
+def _reader_gone() -> int:
+    """The reader of stdout stopped reading: no message, and no second error when Python
+    flushes stdout at exit."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):   # (stdout is no file: nothing will be flushed to it)
+        pass
+    return 141
+
+
+def _who(args: argparse.Namespace) -> dict:
+    """The selection by person or kind of ``--person``, ``--people``, ``--robots``."""
+    return {"person": args.person or None,
+            "kind": "people" if args.people else "robots" if args.robots else ""}
+
+
+def _check_people(store: Store, names: Sequence[str]) -> None:
+    """An error naming who is stored when a ``--person`` is not."""
+    if not names:
+        return
+    known = stored_people(store)
+    missing = [n for n in names if n not in known]
+    if missing:
+        shown = ", ".join(known[:20]) + (" and %d more" % (len(known) - 20)
+                                         if len(known) > 20 else "")
+        raise UsageError("no trajectories of %s in %s; stored: %s"
+                         % (", ".join(missing), store.shown_uri,
+                            shown or "nobody's (no person named in any trajectory)"))
+
+
+# -- list -------------------------------------------------------------------------------------
+
+def list_trajectories(store: Store, map_name: str = "", since: Optional[int] = None,
+                      until: Optional[int] = None, person: Persons = None,
+                      kind: str = "") -> List[Dict[str, Any]]:
+    """One row per selected trajectory (data/trajectory's trajectory_heads), in order of its
+    first pose: ``uuid``, ``who`` (the person's name, or the robot's as its recorder stored it,
+    or ""), ``kind`` ("person" or "robot"), ``map``, ``start_ns``, ``end_ns``, ``poses`` (each
+    once, as export writes them) and ``chunks``. Every chunk is read (a few at a time) to
+    count the poses."""
+    ensure_indexes(store)
+    rows = []
+    for head in trajectory_heads(store, map_name or None, since, until, person=person or None,
+                                 kind=kind):
+        poses = chunks = 0
+        last = None
+        for doc in iter_documents(store, heads=[head]):
+            c = chunk_from_document(doc)
+            chunks += 1
+            poses += len(c.poses) - (1 if c.poses and c.poses[0] == last else 0)
+            last = c.poses[-1] if c.poses else last
+        meta = head.meta
+        rows.append({"uuid": str(head.uuid), "who": str(meta.get("person") or
+                                                        meta.get("robot") or ""),
+                     "kind": "person" if meta.get("person") else "robot",
+                     "map": str(meta.get("map", "")), "start_ns": head.start_ns,
+                     "end_ns": head.end_ns, "poses": poses, "chunks": chunks})
+    return rows
+
+
+def _list(store: Store, args: argparse.Namespace, since: Optional[int],
+          until: Optional[int]) -> None:
+    rows = list_trajectories(store, args.map_name, since, until, **_who(args))
+    out = sys.stdout
+    out.write("uuid\twho\tkind\tmap\tstart\tend\tposes\tchunks\n")
+    for r in rows:
+        out.write("%s\t%s\t%s\t%s\t%s\t%s\t%d\t%d\n" % (
+            r["uuid"], r["who"] or "-", r["kind"], r["map"] or "-", format_time(r["start_ns"]),
+            format_time(r["end_ns"]), r["poses"], r["chunks"]))
+    out.flush()
+    _note("%d trajectories (%d poses, %d chunks) in %s" % (
+        len(rows), sum(r["poses"] for r in rows), sum(r["chunks"] for r in rows),
+        store.shown_uri))
+
+
 # -- export -----------------------------------------------------------------------------------
 
 def export_chunks(store: Store, out: IO[str], map_name: str = "", since: Optional[int] = None,
-                  until: Optional[int] = None, person: str = "") -> Tuple[int, int]:
-    """Write the selected chunks (of ``person`` when given) as JSON lines to ``out``.
+                  until: Optional[int] = None, person: Persons = None,
+                  kind: str = "") -> Tuple[int, int]:
+    """Write the selected chunks (of ``person`` or ``kind`` when given: data/trajectory's
+    trajectory_heads) as JSON lines to ``out``.
 
     Returns:
         (chunks, poses) written.
@@ -158,7 +267,7 @@ def export_chunks(store: Store, out: IO[str], map_name: str = "", since: Optiona
     gc.disable()
     try:
         for doc in iter_documents(store, map_name or None, since, until,
-                                  person=person or None):
+                                  person=person or None, kind=kind):
             write(document_to_json(doc))
             write("\n")
             chunks += 1
@@ -181,11 +290,12 @@ def _export(store: Store, args: argparse.Namespace, since: Optional[int],
     if args.out:
         try:
             with atomic_file(args.out) as f:  # an old file stays whole if the query fails
-                n, poses = export_chunks(store, f, args.map_name, since, until, args.person)
+                n, poses = export_chunks(store, f, args.map_name, since, until, **_who(args))
         except OSError as e:
             raise BulletFloorSimError("%s: cannot write (%s)" % (args.out, e.strerror or e))
     else:
-        n, poses = export_chunks(store, sys.stdout, args.map_name, since, until, args.person)
+        n, poses = export_chunks(store, sys.stdout, args.map_name, since, until,
+                                 **_who(args))
         sys.stdout.flush()
     _note("exported %d chunks (%d poses) from %s in %.2f s" % (n, poses, store.shown_uri,
                                                                time.monotonic() - t0))
@@ -196,7 +306,7 @@ def _export_as(store: Store, args: argparse.Namespace, since: Optional[int],
     """The csv, trajnet and mcap exports (data/trajectory/formats.py)."""
     ensure_indexes(store)
     chunks = (chunk_from_document(d) for d in iter_documents(
-        store, args.map_name or None, since, until, person=args.person or None))
+        store, args.map_name or None, since, until, **_who(args)))
     if args.format == "mcap":
         if not args.out:
             raise UsageError("--format mcap needs --out DIR (the ROS 2 bag directory to create)")
@@ -307,86 +417,14 @@ def _import(store: Store, args: argparse.Namespace) -> None:
 
 # -- plot -------------------------------------------------------------------------------------
 
-def _map_for_plot(args: argparse.Namespace):
-    from ..sim.config import load_world_config, resolve_world
-    from ..sim.floormap import load_map
-    from ..paths import worlds_dir
-
-    if args.map_yaml:
-        return load_map(args.map_yaml)
-    world = args.world
-    if not world and args.map_name and os.path.isfile(
-            os.path.join(worlds_dir(), args.map_name, "world.yaml")):
-        world = args.map_name
-    if not world:
-        return None
-    return load_map(load_world_config(resolve_world(world, worlds_dir())).map_yaml)
-
-
 def _plot(store: Store, args: argparse.Namespace, since: Optional[int],
           until: Optional[int]) -> None:
     ensure_indexes(store)
     chunks = [chunk_from_document(d) for d in iter_documents(
-        store, args.map_name or None, since, until, person=args.person or None)]
-    fmap = _map_for_plot(args)
+        store, args.map_name or None, since, until, **_who(args))]
+    fmap = map_for_plot(args.map_yaml, args.world, args.map_name)
     n = plot_trajectories(chunks, args.out, fmap, args.cell)
     _note("plotted %d trajectories (%d chunks) to %s" % (n, len(chunks), args.out))
-
-
-def plot_trajectories(chunks: Sequence[Chunk], path: str, fmap=None, cell: float = 0.25) -> int:
-    """Draw the trajectories (joined from ``chunks``) and the pose heat-map to a PNG.
-
-    Args:
-        chunks: stored chunks.
-        path: PNG file to write.
-        fmap: optional FloorMap drawn underneath.
-        cell: heat-map cell size, metres.
-
-    Returns:
-        How many trajectories were drawn.
-
-    Raises:
-        BulletFloorSimError: matplotlib is missing or the file cannot be written.
-    """
-    plt = pyplot("plot")
-    import numpy as np
-
-    joined = join_chunks(chunks)
-    fig, ax = plt.subplots(figsize=(12, 9))
-    try:
-        bounds = draw_map(ax, fmap) if fmap is not None else None
-        xy = np.array([(p[1], p[2]) for j in joined for p in j.poses], dtype=float)
-        if len(xy):
-            x0, x1, y0, y1 = bounds or (xy[:, 0].min(), xy[:, 0].max(), xy[:, 1].min(),
-                                        xy[:, 1].max())
-            nx = max(1, int(np.ceil((x1 - x0) / cell)))
-            ny = max(1, int(np.ceil((y1 - y0) / cell)))
-            hist, _, _ = np.histogram2d(xy[:, 0], xy[:, 1], bins=(nx, ny),
-                                        range=((x0, x0 + nx * cell), (y0, y0 + ny * cell)))
-            share = np.ma.masked_equal(hist.T / len(xy), 0.0)
-            im = ax.imshow(share, origin="lower", cmap="inferno", alpha=0.6,
-                           extent=(x0, x0 + nx * cell, y0, y0 + ny * cell),
-                           interpolation="nearest")
-            fig.colorbar(im, ax=ax, fraction=0.03, label="share of poses per %.2f m cell"
-                         % cell)
-        palette = plt.get_cmap("tab10")
-        for k, j in enumerate(joined):
-            ax.plot([p[1] for p in j.poses], [p[2] for p in j.poses], linewidth=0.8,
-                    color=palette(k % 10), alpha=0.8)
-        ax.set_aspect("equal")
-        ax.autoscale_view()
-        ax.set_xlabel("x (m, map frame)")
-        ax.set_ylabel("y (m)")
-        ax.set_title("%d trajectories, %d poses" % (len(joined), sum(len(j.poses)
-                                                                      for j in joined)))
-        try:
-            fig.savefig(path, dpi=120, bbox_inches="tight")
-        except OSError as e:
-            raise BulletFloorSimError("%s: cannot write the plot: %s"
-                                      % (path, e.strerror or e)) from None
-    finally:
-        plt.close(fig)
-    return len(joined)
 
 
 def _note(message: str) -> None:

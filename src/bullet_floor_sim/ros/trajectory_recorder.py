@@ -3,9 +3,10 @@
 Subscribes to ``~pose_topic`` (geometry_msgs/PoseStamped in ``map``, e.g. the simulator's
 ground truth ``/robot1/pose``), records every pose, and stores each chunk as a
 human_trajectory Trajectory in database ``message_store``, collection ``people_trajectory``, in
-mongodb_store's layout with ``_meta`` ``{"map", "taken": "online", "closed_by"}`` (and
-``"region"`` with ``split: region``). Stored chunks are also published: those that continue
-a trajectory on ``~trajectories/batch``, the last one of each trajectory (``complete``) on
+mongodb_store's layout with ``_meta`` ``{"map", "taken": "online", "closed_by", "robot"}``
+(``robot``: the pose topic's namespace, e.g. ``robot1``; ``"region"`` with ``split:
+region``). Stored chunks are also published: those that continue a trajectory on
+``~trajectories/batch``, the last one of each trajectory (``complete``) on
 ``~trajectories/complete`` (together: exactly what is stored). ``~path`` (nav_msgs/Path,
 latched) shows the open chunk, ``~path_rate`` times a second.
 
@@ -119,6 +120,13 @@ class RecorderParams:
                        what="seconds")
         check_at_least(self, "trajectory_recorder", ("path_rate", "rois_wait", "flush_every"),
                        strict=False)   # flush_every 0: every pose
+
+
+def robot_of_topic(topic: str) -> str:
+    """The robot a pose topic belongs to, as ``trajectories list`` names it: the topic's
+    namespace (``/robot1/pose`` -> ``robot1``), or the topic itself when it has none."""
+    parts = [p for p in topic.split("/") if p]
+    return "/".join(parts[:-1]) if len(parts) > 1 else topic
 
 
 class RecorderNode:
@@ -362,6 +370,8 @@ class RecorderNode:
             meta["region"] = chunk.region
         if stream.person is not None:
             meta["person"] = stream.person
+        else:
+            meta["robot"] = robot_of_topic(self.topic)
         seq = header_seq if header_seq is not None else 0
         doc = message_document(chunk_fields(chunk, stamp_ns, seq), STORED_TYPE, meta=meta,
                                inserted_by=rospy.get_name(), now=stamp_ns / 1e9,

@@ -26,7 +26,7 @@ from .base import (MONGODB_DEFAULT_PORT, DuplicateKeyError, StoreError, StoreUna
 from .messages import (SOMA_TYPES, insert_message, message_document, ros_datetime,
                        stored_class_for)
 from .store import Store
-from .uri import open_store
+from .uri import open_store, require_existing
 
 __all__ = [
     "MONGODB_DEFAULT_PORT",
@@ -39,7 +39,7 @@ __all__ = [
     "default_journal_path",
     "insert_message",
     "message_document",
-    "open_store",
+    "open_store", "require_existing",
     "ros_datetime",
     "ros_home",
     "stored_class_for",

@@ -8,7 +8,23 @@ from .base import Backend, StoreError, default_db_dir, default_journal_path, red
 from .journal import DEFAULT_MAX_BYTES
 from .store import DEFAULT_MAX_HELD_BYTES, Store
 
-__all__ = ["open_store"]
+__all__ = ["open_store", "require_existing"]
+
+
+def require_existing(uri: Optional[str]) -> None:
+    """For a tool that only reads: refuse an embedded database that does not exist (opening
+    it would create an empty one, and the tool would report nothing found). A MongoDB URI
+    passes: a server that cannot be reached is an error when it is read.
+
+    Raises:
+        StoreError: "no such database: PATH".
+    """
+    if uri and "://" in uri:
+        return
+    path = os.path.abspath(os.path.expanduser(uri or default_db_dir()))
+    if not os.path.isdir(path):
+        raise StoreError("no such database: %s (a directory of the embedded store; give --db "
+                         "mongodb://host:port/ or the directory a recorder wrote)" % path)
 
 
 def open_store(uri: Optional[str] = None, journal_dir: Optional[str] = None,

@@ -42,7 +42,7 @@ from .documents import (DATABASE, COLLECTION, STORED_TYPE, INDEXES, MAX_CHUNK_BY
                         check_max_poses, max_poses_within, chunk_fields, chunk_id,
                         chunk_from_document, chunk_to_json, chunk_from_json, format_time,
                         parse_time, ensure_indexes, Head, trajectory_heads, iter_documents,
-                        document_to_json, select_chunks)
+                        document_to_json, select_chunks, stored_people, KINDS, Persons)
 
 __all__ = ["DATABASE", "COLLECTION", "STORED_TYPE", "SPLITS", "DEFAULT_PERIOD",
            "DEFAULT_MAX_POSES", "DEFAULT_MAX_GAP", "INDEXES", "Pose", "TrajectoryError", "Chunk",
@@ -50,4 +50,5 @@ __all__ = ["DATABASE", "COLLECTION", "STORED_TYPE", "SPLITS", "DEFAULT_PERIOD",
            "pose_from_xy_yaw", "split_poses", "join_chunks", "chunk_fields", "chunk_id",
            "chunk_from_document", "chunk_to_json", "chunk_from_json", "format_time", "parse_time",
            "ensure_indexes", "Head", "trajectory_heads", "iter_documents", "document_to_json",
-           "select_chunks", "MAX_CHUNK_BYTES", "check_max_poses", "max_poses_within"]
+           "select_chunks", "stored_people", "KINDS", "Persons", "MAX_CHUNK_BYTES",
+           "check_max_poses", "max_poses_within"]

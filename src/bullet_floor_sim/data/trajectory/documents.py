@@ -9,7 +9,7 @@ import json
 import math
 import struct
 from dataclasses import dataclass, field
-from typing import Any, Dict, Iterable, Iterator, List, Optional, Tuple
+from typing import Any, Collection, Dict, Iterable, Iterator, List, Optional, Tuple, Union
 
 from .chunks import Chunk, Pose, TrajectoryError, displacement, pose_from_xy_yaw
 
@@ -271,6 +271,7 @@ class Head:
         start_ns: first pose of its first chunk; end_ns: last pose of its last chunk.
         first_seq, last_seq: its first and last ``sequence_id``.
         only: the document, when the trajectory is a single chunk (already read).
+        meta: its last chunk's ``_meta`` (map, person or robot).
     """
 
     uuid: Any
@@ -279,15 +280,48 @@ class Head:
     first_seq: int
     last_seq: int
     only: Optional[Dict[str, Any]] = field(default=None, repr=False)
+    meta: Dict[str, Any] = field(default_factory=dict, repr=False)
+
+
+#: a person's name, several, or None (everyone)
+Persons = Union[None, str, Collection[str]]
+#: what ``kind`` selects: everyone, people (``_meta.person``), robots (no ``_meta.person``)
+KINDS = ("", "people", "robots")
+
+
+def _names(person: Persons) -> frozenset:
+    if not person:
+        return frozenset()
+    return frozenset([person] if isinstance(person, str) else person)
+
+
+def _is_of(doc: Dict[str, Any], names: frozenset, kind: str) -> bool:
+    who = (doc.get("_meta") or {}).get("person")
+    if names:
+        return who in names
+    return kind == "" or (kind == "people") == bool(who)
+
+
+def stored_people(store: Any, database: str = DATABASE, collection: str = COLLECTION
+                  ) -> List[str]:
+    """Every person's name that a stored trajectory carries (``_meta.person``), sorted.
+
+    Raises:
+        StoreUnavailable: the database cannot be read now.
+    """
+    return sorted({str(p) for d in store.latest(database, collection, ["uuid"], "sequence_id")
+                   for p in [(d.get("_meta") or {}).get("person")] if p})
 
 
 def trajectory_heads(store: Any, map_name: Optional[str] = None,
                      since_ns: Optional[int] = None, until_ns: Optional[int] = None,
                      database: str = DATABASE, collection: str = COLLECTION,
-                     person: Optional[str] = None) -> List[Head]:
+                     person: Persons = None, kind: str = "") -> List[Head]:
     """The stored trajectories of ``map_name`` (all when empty) that reach into
-    [since, until], ordered by their first pose (then uuid); with ``person``, only that
-    person's (``_meta.person``, as the recorder of a people topic stores them).
+    [since, until], ordered by their first pose (then uuid); with ``person`` (a name or
+    several), only those people's (``_meta.person``, as the recorder of a people topic stores
+    them); with ``kind`` "people" or "robots", only people's or only robots' (no
+    ``_meta.person``).
 
     One ``latest(group_by=uuid, order_by=sequence_id)`` (an index walk reading the last chunk
     of each trajectory) and, for trajectories of several chunks, one indexed lookup of the
@@ -301,11 +335,14 @@ def trajectory_heads(store: Any, map_name: Optional[str] = None,
         StoreUnavailable: the database cannot be read now.
         TrajectoryError: a stored document is malformed.
     """
+    if kind not in KINDS:
+        raise ValueError("kind %r: use one of %s" % (kind, ", ".join(repr(k) for k in KINDS)))
+    names = _names(person)
     heads = []
     for last in store.latest(database, collection, ["uuid"], "sequence_id"):
         if map_name and _map_of(last) != map_name:
             continue
-        if person and (last.get("_meta") or {}).get("person") != person:
+        if not _is_of(last, names, kind):
             continue
         end = _span(last)[1]
         if since_ns is not None and end < since_ns:
@@ -320,7 +357,8 @@ def trajectory_heads(store: Any, map_name: Optional[str] = None,
         start = _span(first)[0]
         if until_ns is not None and start > until_ns:
             continue
-        heads.append(Head(uid, start, end, _seq(first), last_seq, only))
+        heads.append(Head(uid, start, end, _seq(first), last_seq, only,
+                          dict(last.get("_meta") or {})))
     heads.sort(key=lambda h: (h.start_ns, str(h.uuid)))
     return heads
 
@@ -335,7 +373,7 @@ _PAGE_POSES = 20000
 def iter_documents(store: Any, map_name: Optional[str] = None, since_ns: Optional[int] = None,
                    until_ns: Optional[int] = None, heads: Optional[List[Head]] = None,
                    database: str = DATABASE, collection: str = COLLECTION,
-                   person: Optional[str] = None) -> Iterator[Dict[str, Any]]:
+                   person: Persons = None, kind: str = "") -> Iterator[Dict[str, Any]]:
     """The stored chunks of ``map_name`` that end at or after ``since_ns`` and start at or
     before ``until_ns``, as documents: trajectory after trajectory (in order of their first
     pose), each in ``sequence_id`` order.
@@ -347,7 +385,8 @@ def iter_documents(store: Any, map_name: Optional[str] = None, since_ns: Optiona
     Args:
         heads: the trajectories to read (default: :func:`trajectory_heads` of the same
             selection).
-        person: only this person's trajectories (when ``heads`` is not given).
+        person, kind: only these people's, or only people's or robots' trajectories (when
+            ``heads`` is not given; see :func:`trajectory_heads`).
 
     Raises:
         StoreUnavailable: the database cannot be read now.
@@ -355,7 +394,7 @@ def iter_documents(store: Any, map_name: Optional[str] = None, since_ns: Optiona
     """
     if heads is None:
         heads = trajectory_heads(store, map_name, since_ns, until_ns, database, collection,
-                                 person)
+                                 person, kind)
     for head in heads:
         if head.only is not None:
             pages: Iterable[List[Dict[str, Any]]] = [[head.only]]
