@@ -32,7 +32,7 @@ from typing import Optional, Sequence
 import actionlib
 import rospy
 import tf2_ros
-from actionlib_msgs.msg import GoalStatus
+from actionlib.action_client import CommState
 from geometry_msgs.msg import PointStamped
 from move_base_msgs.msg import MoveBaseAction
 from nav_msgs.msg import OccupancyGrid, Odometry
@@ -51,8 +51,6 @@ from .node import run_node
 __all__ = ["main", "FollowerNode"]
 
 _Tr = namedtuple("_Tr", "id x y vx vy")
-_TERMINAL = (GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.REJECTED,
-             GoalStatus.PREEMPTED, GoalStatus.RECALLED, GoalStatus.LOST)
 
 
 
@@ -88,13 +86,15 @@ class FollowerNode:
         self.destinations = {}      # track id -> SearchPlan (plan_of): most likely first
         self.gt = None
         self.mode = ""
-        self.goal_sent = False
+        self.goal_handle = None   # the last goal sent (actionlib ClientGoalHandle)
         self.tf_buffer = tf2_ros.Buffer()
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
         self.mode_pub = rospy.Publisher("~mode", String, queue_size=1, latch=True)
         self.target_pub = rospy.Publisher("~target", PointStamped, queue_size=2)
-        self.client = actionlib.SimpleActionClient(str(gp("~action", "move_base")),
-                                                   MoveBaseAction)
+        # The plain ActionClient, polled (as markov_walker's): SimpleActionClient logs "Got a
+        # transition callback on a goal handle that we're not tracking" at ERROR when the
+        # server's status of a goal it replaced arrives after the next send_goal.
+        self.client = actionlib.ActionClient(str(gp("~action", "move_base")), MoveBaseAction)
         rospy.Subscriber(str(gp("~map_topic", "/map")), OccupancyGrid, self._on_map,
                          queue_size=1)
         rospy.Subscriber("tracks", TrackArray, self._on_tracks, queue_size=2)
@@ -151,7 +151,8 @@ class FollowerNode:
                 return
             now = rospy.get_time()
             tracks = self.tracks if now - self.tracks_t < 1.0 else []
-            done = self.goal_sent and self.client.get_state() in _TERMINAL
+            gh = self.goal_handle
+            done = gh is not None and gh.get_comm_state() == CommState.DONE
             step = self.agent.tick(now, pose, tracks, self.destinations, done)
         target, dec = step.target, step.decision
         if step.new:
@@ -166,9 +167,8 @@ class FollowerNode:
             pt.point.x, pt.point.y = target.x, target.y
             self.target_pub.publish(pt)
         if dec.goal is not None:
-            self.client.send_goal(move_base_goal(dec.goal[0], dec.goal[1], dec.goal[2],
-                                                 self.frame))
-            self.goal_sent = True
+            self.goal_handle = self.client.send_goal(
+                move_base_goal(dec.goal[0], dec.goal[1], dec.goal[2], self.frame))
 
     def run(self) -> None:
         while not rospy.is_shutdown() and not self.client.wait_for_server(rospy.Duration(5.0)):
@@ -183,7 +183,7 @@ class FollowerNode:
                 pass
             except rospy.ROSInterruptException:
                 break
-        if self.goal_sent:
+        if self.goal_handle is not None:
             self.client.cancel_all_goals()
 
 

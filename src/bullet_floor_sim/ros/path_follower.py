@@ -232,6 +232,20 @@ class PathFollowerNode:
         return p.position.x, p.position.y, yaw_of(p.orientation)
 
     def _execute(self, goal) -> None:
+        """The action's execute callback: the goal always ends with a terminal status (a
+        shutdown while it runs aborts it; actionlib warns of a goal left open)."""
+        try:
+            self._run_goal(goal)
+        finally:
+            if self.server.is_active():
+                try:
+                    self.cmd_pub.publish(Twist())
+                    self.server.set_aborted(MoveBaseResult(), "path_follower stopped "
+                                            "(shutdown) before the goal ended")
+                except rospy.ROSException:   # (too late: the publishers are closed)
+                    pass
+
+    def _run_goal(self, goal) -> None:
         stop = Twist()
         deadline = rospy.Time.now() + rospy.Duration(10.0)
         while (self.grid is None or self.pose is None) and not rospy.is_shutdown():
