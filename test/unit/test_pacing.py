@@ -174,3 +174,43 @@ def test_tcp_unread_keeps_only_the_peers_of_one_port():
     finally:
         for s in servers + [s for p in pairs for s in p]:
             s.close()
+
+
+def test_the_outbox_finds_its_subscribers_unread_bytes_through_its_port():
+    """Outbox.local_port (the port its connections share) filters tcp_unread to them, and
+    unread() reads each subscriber's backlog from it; real sockets, as a publisher's."""
+    import socket
+    import time
+    from types import SimpleNamespace
+
+    pytest.importorskip("rospy")
+    from bullet_floor_sim.ros.sim.outbox import Outbox
+
+    class Conn:      # a rospy connection's attributes the outbox reads (hashable, as rospy's)
+        def __init__(self, sock, endpoint_id):
+            self.socket, self.endpoint_id, self.done = sock, endpoint_id, False
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(4)
+    readers, conns = [], []
+    try:
+        for name in ("/a", "/b"):
+            readers.append(socket.create_connection(server.getsockname()))
+            sock, _ = server.accept()
+            conns.append(Conn(sock, name))
+        out = Outbox()
+        out.publishers.append(SimpleNamespace(impl=SimpleNamespace(connections=conns),
+                                              resolved_name="/t"))
+        assert out.local_port() is None                  # no connection looked at yet
+        assert out.unread(tcp_unread()) == {("/a", "/t"): 0, ("/b", "/t"): 0}
+        assert out.local_port() == server.getsockname()[1]
+        conns[1].socket.sendall(b"z" * 77)
+        deadline = time.time() + 2.0
+        while out.unread(tcp_unread(out.local_port()))[("/b", "/t")] < 77 \
+                and time.time() < deadline:
+            time.sleep(0.01)
+        assert out.unread(tcp_unread(out.local_port())) == {("/a", "/t"): 0, ("/b", "/t"): 77}
+    finally:
+        for s in [server] + readers + [c.socket for c in conns]:
+            s.close()

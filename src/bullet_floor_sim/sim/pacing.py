@@ -197,13 +197,16 @@ _NLMSGHDR = struct.Struct("=IHHII")
 _RTATTR = struct.Struct("=HH")          # an attribute's length and type
 _BC_OP = struct.Struct("=BBH")          # struct inet_diag_bc_op: code, yes, no
 _INET_DIAG_REQ_BYTECODE = 1
-_INET_DIAG_BC_D_EQ = 12
+_INET_DIAG_BC_D_GE, _INET_DIAG_BC_D_LE = 4, 5
 
 
 def _port_filter(port: int) -> bytes:
-    """sock_diag bytecode keeping the sockets whose peer port is ``port``: one "destination
-    port equals" test, a match jumping to the end (kept), a miss past it (dropped)."""
-    ops = _BC_OP.pack(_INET_DIAG_BC_D_EQ, 8, 12) + _BC_OP.pack(0, 0, port)
+    """sock_diag bytecode keeping the sockets whose peer port is ``port``: "destination port
+    >= port" then "<= port" (the tests every kernel has; "equals" came in Linux 4.16). Each
+    test is an op and an op holding the port; a pass goes on to the next op (the end: kept),
+    a failure jumps past the end (dropped)."""
+    ops = (_BC_OP.pack(_INET_DIAG_BC_D_GE, 8, 20) + _BC_OP.pack(0, 0, port)
+           + _BC_OP.pack(_INET_DIAG_BC_D_LE, 8, 12) + _BC_OP.pack(0, 0, port))
     return _RTATTR.pack(_RTATTR.size + len(ops), _INET_DIAG_REQ_BYTECODE) + ops
 
 
