@@ -556,6 +556,22 @@ def test_list_names_every_trajectory_and_counts_its_poses(tmp_path, capsys, monk
     assert sorted(r.split("\t")[1] for r in out.splitlines()[1:]) == ["ann", "ann", "bob", "bob"]
     code, out, _ = run_cli(["list", "--db", db, "--robots"], capsys)
     assert [r.split("\t")[0] for r in out.splitlines()[1:]] == _uuids(walker)
+    # the time window as export selects it: of the first trajectory only its last chunk
+    since = format_time(walker[3].start_ns + 1)
+    code, out, _ = run_cli(["list", "--db", db, "--robots", "--since", since], capsys)
+    rows = [r.split("\t") for r in out.splitlines()[1:]]
+    assert [r[4:] for r in rows] == [
+        [format_time(walker[3].start_ns), format_time(walker[3].end_ns), "100", "1"],
+        [format_time(walker[4].start_ns), format_time(walker[5].end_ns), "400", "2"]]
+    # imported chunks name neither a person nor a robot: listed, but in neither kind
+    dump = tmp_path / "in.jsonl"
+    dump.write_text(chunk_to_json(sample_chunk()) + "\n")
+    assert run_cli(["import", "--db", db, "--map", "office", str(dump)], capsys)[0] == 0
+    code, out, _ = run_cli(["list", "--db", db], capsys)
+    row = [r.split("\t") for r in out.splitlines()[1:] if r.startswith(sample_chunk().uuid)]
+    assert [r[1:3] for r in row] == [["-", "-"]]
+    code, out, _ = run_cli(["list", "--db", db, "--robots"], capsys)
+    assert len(out.splitlines()) == 1 + 2
 
 
 def test_export_several_people_or_only_robots(tmp_path, capsys, monkeypatch):
@@ -580,6 +596,8 @@ def test_an_unknown_person_is_an_error_that_lists_who_is_stored(tmp_path, capsys
         assert "no trajectories of carol in " in err and err.rstrip().endswith(
             "stored: ann, bob"), err
     assert not os.path.exists(str(tmp_path / "x.png"))
+    code, _, err = run_cli(["export", "--db", db, "--person", "ann", "--map", "lab"], capsys)
+    assert code == 2 and "(ann: stored, but not on this map or in this time window)" in err
 
 
 def test_reading_commands_refuse_a_database_that_does_not_exist(tmp_path, capsys, monkeypatch):
@@ -592,6 +610,11 @@ def test_reading_commands_refuse_a_database_that_does_not_exist(tmp_path, capsys
             assert "no such database: %s" % (nowhere if db else tmp_path / "ros_home"
                                                / "bullet_floor_sim" / "db") in err, err
     assert not nowhere.exists() and not (tmp_path / "ros_home" / "bullet_floor_sim").exists()
+    other = tmp_path / "some_directory"      # there, but no database in it
+    other.mkdir()
+    code, _, err = run_cli(["list", "--db", str(other)], capsys)
+    assert code == 2 and "holds no message_store (message_store.sqlite3)" in err
+    assert os.listdir(str(other)) == []
     dump = tmp_path / "in.jsonl"
     dump.write_text(chunk_to_json(sample_chunk()) + "\n")
     code, _, err = run_cli(["import", "--db", str(nowhere), "--map", "m", str(dump)], capsys)

@@ -50,7 +50,7 @@ def _only(kind: str, values: List[str], option: str, where: str) -> str:
 
 
 def export(args: argparse.Namespace) -> int:
-    require_existing(args.db)
+    require_existing(args.db, DATABASE)
     with open_store(args.db or None) as store:
         map_name = args.map
         if not map_name:

@@ -151,10 +151,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         if args.command == "plot" and not args.cell > 0:
             raise UsageError("--cell must be a positive number of metres, got %s" % args.cell)
         if args.command in _READING:
-            require_existing(args.db)
+            require_existing(args.db, DATABASE)
         with open_store(args.db or None) as store:
             if args.command in _READING:
-                _check_people(store, args.person)
+                _check_people(store, args, since, until)
             if args.command == "list":
                 _list(store, args, since, until)
             elif args.command == "export":
@@ -187,18 +187,26 @@ def _who(args: argparse.Namespace) -> dict:
             "kind": "people" if args.people else "robots" if args.robots else ""}
 
 
-def _check_people(store: Store, names: Sequence[str]) -> None:
-    """An error naming who is stored when a ``--person`` is not."""
-    if not names:
+def _check_people(store: Store, args: argparse.Namespace, since: Optional[int],
+                  until: Optional[int]) -> None:
+    """An error when a ``--person`` has no trajectory in the selection: naming who is stored
+    at all (and whether that person is, but not on ``--map`` or in the time window)."""
+    if not args.person:
+        return
+    ensure_indexes(store)
+    heads = trajectory_heads(store, args.map_name or None, since, until, person=args.person)
+    found = {str(h.meta.get("person")) for h in heads}
+    missing = [n for n in args.person if n not in found]
+    if not missing:
         return
     known = stored_people(store)
-    missing = [n for n in names if n not in known]
-    if missing:
-        shown = ", ".join(known[:20]) + (" and %d more" % (len(known) - 20)
-                                         if len(known) > 20 else "")
-        raise UsageError("no trajectories of %s in %s; stored: %s"
-                         % (", ".join(missing), store.shown_uri,
-                            shown or "nobody's (no person named in any trajectory)"))
+    elsewhere = [n for n in missing if n in known]
+    shown = ", ".join(known[:20]) + (" and %d more" % (len(known) - 20)
+                                     if len(known) > 20 else "")
+    raise UsageError("no trajectories of %s in %s%s; stored: %s" % (
+        ", ".join(missing), store.shown_uri,
+        " (%s: stored, but not on this map or in this time window)" % ", ".join(elsewhere)
+        if elsewhere else "", shown or "nobody's (no person named in any trajectory)"))
 
 
 # -- list -------------------------------------------------------------------------------------
@@ -207,27 +215,34 @@ def list_trajectories(store: Store, map_name: str = "", since: Optional[int] = N
                       until: Optional[int] = None, person: Persons = None,
                       kind: str = "") -> List[Dict[str, Any]]:
     """One row per selected trajectory (data/trajectory's trajectory_heads), in order of its
-    first pose: ``uuid``, ``who`` (the person's name, or the robot's as its recorder stored it,
-    or ""), ``kind`` ("person" or "robot"), ``map``, ``start_ns``, ``end_ns``, ``poses`` (each
-    once, as export writes them) and ``chunks``. Every chunk is read (a few at a time) to
-    count the poses."""
+    first pose, of its chunks in the selection (``map_name``, ``since``, ``until``, as export
+    selects them): ``uuid``, ``who`` (the person's name, or the robot's as its recorder stored
+    it, or ""), ``kind`` ("person", "robot", or "" when the chunks name neither, e.g.
+    imported ones), ``map``, ``start_ns`` and ``end_ns`` (of the first and last selected
+    chunk), ``poses`` (each once: a pose two chunks share counts once, as in the csv export)
+    and ``chunks``."""
     ensure_indexes(store)
     rows = []
     for head in trajectory_heads(store, map_name or None, since, until, person=person or None,
                                  kind=kind):
         poses = chunks = 0
+        start = end = None
         last = None
-        for doc in iter_documents(store, heads=[head]):
+        for doc in iter_documents(store, map_name or None, since, until, heads=[head]):
             c = chunk_from_document(doc)
             chunks += 1
             poses += len(c.poses) - (1 if c.poses and c.poses[0] == last else 0)
             last = c.poses[-1] if c.poses else last
+            start = c.start_ns if start is None else start
+            end = c.end_ns
+        if not chunks:
+            continue
         meta = head.meta
+        kind_of = "person" if meta.get("person") else "robot" if meta.get("robot") else ""
         rows.append({"uuid": str(head.uuid), "who": str(meta.get("person") or
                                                         meta.get("robot") or ""),
-                     "kind": "person" if meta.get("person") else "robot",
-                     "map": str(meta.get("map", "")), "start_ns": head.start_ns,
-                     "end_ns": head.end_ns, "poses": poses, "chunks": chunks})
+                     "kind": kind_of, "map": str(meta.get("map", "")), "start_ns": start,
+                     "end_ns": end, "poses": poses, "chunks": chunks})
     return rows
 
 
@@ -238,7 +253,8 @@ def _list(store: Store, args: argparse.Namespace, since: Optional[int],
     out.write("uuid\twho\tkind\tmap\tstart\tend\tposes\tchunks\n")
     for r in rows:
         out.write("%s\t%s\t%s\t%s\t%s\t%s\t%d\t%d\n" % (
-            r["uuid"], r["who"] or "-", r["kind"], r["map"] or "-", format_time(r["start_ns"]),
+            r["uuid"], r["who"] or "-", r["kind"] or "-", r["map"] or "-",
+            format_time(r["start_ns"]),
             format_time(r["end_ns"]), r["poses"], r["chunks"]))
     out.flush()
     _note("%d trajectories (%d poses, %d chunks) in %s" % (

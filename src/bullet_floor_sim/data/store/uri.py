@@ -11,13 +11,13 @@ from .store import DEFAULT_MAX_HELD_BYTES, Store
 __all__ = ["open_store", "require_existing"]
 
 
-def require_existing(uri: Optional[str]) -> None:
-    """For a tool that only reads: refuse an embedded database that does not exist (opening
-    it would create an empty one, and the tool would report nothing found). A MongoDB URI
+def require_existing(uri: Optional[str], database: str) -> None:
+    """For a tool that only reads: refuse an embedded store without ``database`` (opening it
+    would create an empty one, and the tool would report nothing found). A MongoDB URI
     passes: a server that cannot be reached is an error when it is read.
 
     Raises:
-        StoreError: "no such database: PATH".
+        StoreError: "no such database: PATH ...".
     """
     if uri and "://" in uri:
         return
@@ -25,6 +25,9 @@ def require_existing(uri: Optional[str]) -> None:
     if not os.path.isdir(path):
         raise StoreError("no such database: %s (a directory of the embedded store; give --db "
                          "mongodb://host:port/ or the directory a recorder wrote)" % path)
+    if not os.path.isfile(os.path.join(path, database + ".sqlite3")):
+        raise StoreError("no such database: %s holds no %s (%s.sqlite3); is it the directory "
+                         "a recorder wrote?" % (path, database, database))
 
 
 def open_store(uri: Optional[str] = None, journal_dir: Optional[str] = None,

@@ -285,8 +285,8 @@ class Head:
 
 #: a person's name, several, or None (everyone)
 Persons = Union[None, str, Collection[str]]
-#: what ``kind`` selects: everyone, people (``_meta.person``), robots (no ``_meta.person``)
-KINDS = ("", "people", "robots")
+#: what ``kind`` selects: everyone, people (``_meta.person``), robots (``_meta.robot``)
+KINDS = ("", "people", "robots")   # robots: ``_meta.robot`` (the recorder of a pose topic)
 
 
 def _names(person: Persons) -> frozenset:
@@ -296,10 +296,13 @@ def _names(person: Persons) -> frozenset:
 
 
 def _is_of(doc: Dict[str, Any], names: frozenset, kind: str) -> bool:
-    who = (doc.get("_meta") or {}).get("person")
+    meta = doc.get("_meta") or {}
+    who = meta.get("person")
     if names:
-        return who in names
-    return kind == "" or (kind == "people") == bool(who)
+        return who is not None and str(who) in names
+    if kind == "people":
+        return bool(who)
+    return kind == "" or bool(meta.get("robot")) and not who
 
 
 def stored_people(store: Any, database: str = DATABASE, collection: str = COLLECTION
@@ -320,8 +323,9 @@ def trajectory_heads(store: Any, map_name: Optional[str] = None,
     """The stored trajectories of ``map_name`` (all when empty) that reach into
     [since, until], ordered by their first pose (then uuid); with ``person`` (a name or
     several), only those people's (``_meta.person``, as the recorder of a people topic stores
-    them); with ``kind`` "people" or "robots", only people's or only robots' (no
-    ``_meta.person``).
+    them); with ``kind`` "people" or "robots", only people's or only robots'
+    (``_meta.robot``, as the recorder of a pose topic stores it; chunks that name neither,
+    e.g. imported ones, are in neither).
 
     One ``latest(group_by=uuid, order_by=sequence_id)`` (an index walk reading the last chunk
     of each trajectory) and, for trajectories of several chunks, one indexed lookup of the
