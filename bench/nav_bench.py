@@ -327,7 +327,7 @@ def _kill_leftovers(tag: str) -> int:
 
 #: Two-robot runs: each robot's goals come from its own half of the office (robot1 the west
 #: rooms, robot2 the east ones), so both cross the shared corridor at once but do not have to
-#: pass head-on through the same door (two stock move_bases deadlock there; see the README).
+#: pass head-on through the same door (two stock move_bases deadlock there; see docs/simulator.md).
 TWO_ROBOT_ROOMS = {"robot1": ["5", "6", "7", "10", "11", "12"],
                    "robot2": ["8", "9", "13", "14", "15"]}
 
