@@ -31,8 +31,9 @@ from __future__ import annotations
 import math
 import sys
 import threading
+import time
 from dataclasses import dataclass, fields
-from typing import List, Optional
+from typing import Dict, List, Optional
 
 import actionlib
 import numpy as np
@@ -57,6 +58,8 @@ from .params import check_at_least, config_from_params, map_handling
 from .node import run_node
 
 __all__ = ["main", "PathFollowerNode"]
+
+_LASER_TF_GRACE = 5.0   # wall s a laser's transform may be missing before a warning
 
 
 
@@ -124,6 +127,7 @@ class PathFollowerNode:
         self.base_frame = ""
         self.obstacles: Optional[np.ndarray] = None
         self.laser = {}  # laser frame -> (x, y, yaw) in the base frame
+        self._no_laser_since: Dict[str, float] = {}   # laser frame -> first failed look-up
         self.tf_buffer = tf2_ros.Buffer()
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
         self.cmd_pub = rospy.Publisher("cmd_vel", Twist, queue_size=1)
@@ -195,8 +199,13 @@ class PathFollowerNode:
                                                     rospy.Time(0), rospy.Duration(0.5))
             except (tf2_ros.LookupException, tf2_ros.ConnectivityException,
                     tf2_ros.ExtrapolationException, tf2_ros.TransformException) as e:
-                rospy.logwarn_throttle(10.0, "path_follower: no transform %s -> %s yet: %s",
-                                       self.base_frame, msg.header.frame_id, e)
+                # the first scans may come before robot_state_publisher's static transforms:
+                # a warning only when the laser's stays missing
+                since = self._no_laser_since.setdefault(msg.header.frame_id, time.monotonic())
+                log = rospy.logwarn_throttle if time.monotonic() - since > _LASER_TF_GRACE \
+                    else rospy.logdebug_throttle
+                log(10.0, "path_follower: no transform %s -> %s yet: %s", self.base_frame,
+                    msg.header.frame_id, e)
                 return
             laser = planar(t.transform)
             self.laser[msg.header.frame_id] = laser
