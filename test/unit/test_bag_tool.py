@@ -85,6 +85,11 @@ def test_convert_a_ros1_bag_to_ros2(tmp_path, capsys):
                      "/robot1/base_scan": "sensor_msgs/msg/LaserScan",
                      "/ground_truth/people": "bullet_floor_sim/msg/People"}
     assert sorted(got, key=_by_time) == sorted(sent, key=_by_time)
+    import rosbag2_readers
+
+    meta = rosbag2_readers.load(out)
+    assert meta["version"] == 8
+    assert rosbag2_readers.humble_problems(meta) == [] == rosbag2_readers.jazzy_problems(meta)
     # one topic only, and the errors
     only = str(tmp_path / "poses")
     assert bag_tool.main(["convert", src, "--out", only, "--topic", "/robot1/pose"]) == 0

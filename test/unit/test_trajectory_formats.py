@@ -10,10 +10,12 @@ import pytest
 
 from bullet_floor_sim.data.store import open_store
 from bullet_floor_sim.data.trajectory import Chunker, join_chunks, pose_from_xy_yaw
-from bullet_floor_sim.data.trajectory.formats import (mcap_topic, poses_once, write_csv,
-                                                      write_mcap, write_trajnet)
+from bullet_floor_sim.data.trajectory.formats import (ROS2_BAG_VERSION, mcap_topic,
+                                                      poses_once, write_csv, write_mcap,
+                                                      write_trajnet)
 from bullet_floor_sim.ros import trajectories as cli
 
+import rosbag2_readers
 from test_trajectory import record
 
 NS = 1_000_000_000
@@ -97,6 +99,10 @@ def test_mcap_reads_back_with_rosbags(tmp_path):
             q, o = m.pose.position, m.pose.orientation
             got.setdefault(conn.topic, []).append((t, q.x, q.y, q.z, o.x, o.y, o.z, o.w))
     assert got == {mcap_topic("ann-1"): a, mcap_topic("bob-2"): b}
+    meta = rosbag2_readers.load(path)
+    assert meta["version"] == ROS2_BAG_VERSION == 8
+    assert rosbag2_readers.humble_problems(meta) == []
+    assert rosbag2_readers.jazzy_problems(meta) == []
     with pytest.raises(Exception, match="bag"):
         write_mcap(chunked("c", a), path)          # an existing bag is not overwritten
 
@@ -119,3 +125,19 @@ def test_cli_formats(tmp_path, capsys):
                          "--out", str(tmp_path / "b")]) == 0
         assert "50 poses to the ROS 2 bag" in capsys.readouterr().err
     assert join_chunks(chunked("ann", a))[0].poses == a
+
+
+def test_a_version_9_bag_is_what_humble_cannot_read(tmp_path):
+    """The readers' rules catch the issue's failure: rosbags' version 9 writes
+    offered_qos_profiles as a list, which Humble's rosbag2 parses as a string."""
+    pytest.importorskip("rosbags")
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    path = str(tmp_path / "v9")
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        w.add_connection("/p", "geometry_msgs/msg/PoseStamped", typestore=store)
+    meta = rosbag2_readers.load(path)
+    assert rosbag2_readers.humble_problems(meta) == ["/p: offered_qos_profiles is not a string"]
+    assert rosbag2_readers.jazzy_problems(meta) == []

@@ -14,6 +14,7 @@ import sys
 from typing import Optional, Sequence
 
 from ..errors import BulletFloorSimError
+from ..data.trajectory.formats import ROS2_BAG_VERSION
 from .cli import Parser, UsageError
 
 __all__ = ["main", "convert"]
@@ -43,7 +44,7 @@ def convert(sources: Sequence[str], out: str, storage: str = "mcap",
     if os.path.exists(out):
         raise BulletFloorSimError("%s exists: give a new directory for the ROS 2 bag" % out)
     try:
-        rb_convert([Path(s) for s in sources], Path(out), storage, 9, None, "file",
+        rb_convert([Path(s) for s in sources], Path(out), storage, ROS2_BAG_VERSION, None, "file",
                    get_typestore(Stores.ROS2_HUMBLE), None, [], list(topics), [], [])
     except ConverterError as e:
         raise BulletFloorSimError("bag convert: %s" % e) from None

@@ -23,8 +23,8 @@ from typing import IO, Any, Dict, Iterable, Iterator, List, Tuple
 from ...errors import BulletFloorSimError
 from .chunks import Chunk, Pose, yaw_of
 
-__all__ = ["FORMATS", "poses_once", "write_csv", "write_trajnet", "write_mcap",
-           "TRAJNET_RATE", "mcap_topic"]
+__all__ = ["FORMATS", "ROS2_BAG_VERSION", "poses_once", "write_csv", "write_trajnet",
+           "write_mcap", "TRAJNET_RATE", "mcap_topic"]
 
 FORMATS = ("jsonl", "csv", "trajnet", "mcap")
 #: Samples a second of the trajnet export (ETH-UCY's 0.4 s).
@@ -92,6 +92,13 @@ def _samples(poses: List[Pose], rate: float) -> Iterator[Tuple[int, float, float
         k += 1
 
 
+#: The rosbag2 metadata version our ROS 2 bags carry. Humble's rosbag2 (metadata version 5)
+#: reads any version's file by its own rules, and from version 9 on ``offered_qos_profiles``
+#: is a YAML list where Humble parses a string ("yaml-cpp: bad conversion"); version 8 keeps
+#: the string, and Jazzy reads it too (test_trajectory_formats.py checks both readers' rules).
+ROS2_BAG_VERSION = 8
+
+
 def mcap_topic(uuid: str) -> str:
     """The topic a trajectory goes on in the mcap export."""
     return "/trajectories/t_" + "".join(ch for ch in uuid if ch.isalnum())
@@ -115,7 +122,7 @@ def write_mcap(chunks: Iterable[Chunk], path: str, frame_id: str = "map") -> int
     conns: Dict[str, Any] = {}
     n = 0
     try:
-        writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
+        writer = Writer(path, version=ROS2_BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
     except Exception as e:   # rosbags' WriterError: the directory exists
         raise BulletFloorSimError("%s: %s" % (path, e)) from None
     with writer:
