@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import os
 
 import pytest
 
@@ -12,7 +13,7 @@ from bullet_floor_sim.data.store import open_store
 from bullet_floor_sim.data.trajectory import Chunker, join_chunks, pose_from_xy_yaw
 from bullet_floor_sim.data.trajectory.formats import (ROS2_BAG_VERSION, mcap_topic,
                                                       poses_once, write_csv, write_mcap,
-                                                      write_trajnet)
+                                                      write_ros2_bag, write_trajnet)
 from bullet_floor_sim.ros import trajectories as cli
 
 import rosbag2_readers
@@ -80,14 +81,44 @@ def test_trajnet_samples_at_the_rate_by_interpolation():
             assert (x, y) == pytest.approx((2.0, 3.0 - (t - 100.9)), abs=6e-5)
 
 
-def test_mcap_reads_back_with_rosbags(tmp_path):
+def test_mcap_is_ros1_that_mcap_ros1_support_reads(tmp_path):
+    """--format mcap: ROS 1 MCAP, read back with mcap-ros1-support's own reader (its
+    decoder builds the classes from the file's ros1msg schema): every pose, stamp, frame and
+    header seq, on one topic per trajectory; the md5sum is genpy's PoseStamped's."""
+    pytest.importorskip("rosbags")
+    reader = pytest.importorskip("mcap_ros1.reader")
+    from mcap.reader import make_reader
+
+    a, b = walk(100.0, 50, 0.7, 0.3), walk(100.5, 30, -0.5, 0.1, x0=5.0)
+    path = tmp_path / "t.mcap"
+    with open(str(path), "wb") as f:
+        assert write_mcap(chunked("ann-1", a) + chunked("bob-2", b), f) == 80
+    got, seqs = {}, {}
+    for m in reader.read_ros1_messages(str(path)):
+        assert m.schema.name == "geometry_msgs/PoseStamped" and m.schema.encoding == "ros1msg"
+        assert m.channel.message_encoding == "ros1"
+        h, q, o = m.ros_msg.header, m.ros_msg.pose.position, m.ros_msg.pose.orientation
+        t = h.stamp.secs * NS + h.stamp.nsecs
+        assert t == m.log_time_ns and h.frame_id == "map"
+        seqs.setdefault(m.topic, []).append(h.seq)
+        got.setdefault(m.topic, []).append((t, q.x, q.y, q.z, o.x, o.y, o.z, o.w))
+    assert got == {mcap_topic("ann-1"): a, mcap_topic("bob-2"): b}
+    assert seqs[mcap_topic("bob-2")] == list(range(30))
+    with open(str(path), "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary.statistics.message_count == 80
+    assert {c.metadata["md5sum"] for c in summary.channels.values()} == {
+        "d3812c3cbc69362b77dc0b19b345f8f5"}      # geometry_msgs/PoseStamped's
+
+
+def test_mcap_ros2_reads_back_with_rosbags(tmp_path):
     pytest.importorskip("rosbags")
     from rosbags.rosbag2 import Reader
     from rosbags.typesys import Stores, get_typestore
 
     a, b = walk(100.0, 50, 0.7, 0.3), walk(100.5, 30, -0.5, 0.1, x0=5.0)
     path = str(tmp_path / "bag")
-    assert write_mcap(chunked("ann-1", a) + chunked("bob-2", b), path) == 80
+    assert write_ros2_bag(chunked("ann-1", a) + chunked("bob-2", b), path) == 80
     store = get_typestore(Stores.ROS2_HUMBLE)
     got = {}
     with Reader(path) as reader:
@@ -104,7 +135,7 @@ def test_mcap_reads_back_with_rosbags(tmp_path):
     assert rosbag2_readers.humble_problems(meta) == []
     assert rosbag2_readers.jazzy_problems(meta) == []
     with pytest.raises(Exception, match="bag"):
-        write_mcap(chunked("c", a), path)          # an existing bag is not overwritten
+        write_ros2_bag(chunked("c", a), path)      # an existing bag is not overwritten
 
 
 def test_cli_formats(tmp_path, capsys):
@@ -119,11 +150,16 @@ def test_cli_formats(tmp_path, capsys):
     lines = capsys.readouterr().out.splitlines()
     assert len(lines) == 13 and lines[0] == "0 1 0.0000 1.0000"    # t = 100.0 .. 102.4
     assert cli.main(["export", "--db", db, "--format", "mcap"]) == 2
-    assert "--format mcap needs --out" in capsys.readouterr().err
+    assert "--format mcap needs --out FILE.mcap" in capsys.readouterr().err
     if pytest.importorskip("rosbags"):
-        assert cli.main(["export", "--db", db, "--format", "mcap", "--person", "ann",
+        assert cli.main(["export", "--db", db, "--format", "mcap-ros2", "--person", "ann",
                          "--out", str(tmp_path / "b")]) == 0
         assert "50 poses to the ROS 2 bag" in capsys.readouterr().err
+        out = tmp_path / "t.mcap"
+        assert cli.main(["export", "--db", db, "--format", "mcap", "--out", str(out)]) == 0
+        assert "50 poses to the ROS 1 MCAP file" in capsys.readouterr().err
+        assert out.is_file() and out.read_bytes()[:8] == b"\x89MCAP0\r\n"   # exactly that file
+        assert sorted(os.listdir(str(tmp_path))) == ["b", "db", "t.mcap"]
     assert join_chunks(chunked("ann", a))[0].poses == a
 
 

@@ -5,7 +5,7 @@ A plain command-line tool (no ROS master needed, rospy is not imported)::
 
     trajectories list   --db URI [--map M] [WHO] [--since T] [--until T]
     trajectories export --db URI [--map M] [WHO] [--since T] [--until T] [--out FILE]
-                        [--format jsonl|csv|trajnet|mcap] [--rate 2.5]
+                        [--format jsonl|csv|trajnet|mcap|mcap-ros2] [--rate 2.5]
     trajectories import --db URI --map M [FILE ...] [--max-poses N]
     trajectories plot   --db URI --out traj.png [--map M] [WHO] [--since T] [--until T]
                         [--world W | --map-yaml MAP] [--cell 0.25]
@@ -28,9 +28,9 @@ error lists who is stored).
   "end_time", "complete", "trajectory_length", "poses": [[t, x, y, yaw], ...]}``, t in
   seconds with 9 decimals; trajectory after trajectory (in order of their first pose), each
   in sequence_id order. Memory stays bounded (the store is read a few chunks at a time).
-  ``--format`` csv, trajnet (TrajNet++ / ETH-UCY ``frame id x y`` at ``--rate``) or mcap (a
-  ROS 2 bag directory, ``--out`` needed) write every pose once instead
-  (data/trajectory/formats.py).
+  ``--format`` csv, trajnet (TrajNet++ / ETH-UCY ``frame id x y`` at ``--rate``), mcap (ROS 1
+  MCAP: ``--out FILE.mcap``, exactly that file) or mcap-ros2 (a ROS 2 bag: ``--out DIR``)
+  write every pose once instead (data/trajectory/formats.py).
 * ``import`` reads such lines (files or stdin) back into the store as the recorder stores
   chunks (meta ``map`` from ``--map``, ``taken: "imported"``). A chunk already stored (same
   uuid and sequence_id) is skipped, so importing twice changes nothing. A line with more
@@ -63,6 +63,7 @@ from ..data.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_POSES, STORED_T
                                Persons, format_time, iter_documents, parse_time,
                                split_poses, stored_people, trajectory_heads)
 from ..data.trajectory.formats import (FORMATS, TRAJNET_RATE, write_csv, write_mcap,
+                                       write_ros2_bag,
                                        write_trajnet)
 from .cli import Parser, UsageError
 from .trajectory_plot import map_for_plot, plot_trajectories
@@ -100,10 +101,11 @@ def _parser() -> argparse.ArgumentParser:
     e = sub.add_parser("export", help="print stored chunks as JSON lines, or write them as "
                        "CSV, TrajNet++ text or a ROS 2 bag")
     common(e)
-    e.add_argument("--out", help="write to this file (mcap: this bag directory) instead of "
+    e.add_argument("--out", help="write to this file (mcap-ros2: this bag directory) instead of "
                    "stdout")
     e.add_argument("--format", default="jsonl", choices=FORMATS,
-                   help="jsonl (default), csv, trajnet (frame id x y) or mcap (a ROS 2 bag)")
+                   help="jsonl (default), csv, trajnet (frame id x y), mcap (ROS 1 MCAP, --out "
+                   "FILE) or mcap-ros2 (a ROS 2 bag, --out DIR)")
     e.add_argument("--rate", type=float, default=TRAJNET_RATE,
                    help="trajnet: samples a second (%g)" % TRAJNET_RATE)
     i = sub.add_parser("import", help="store JSON lines (files or stdin)")
@@ -319,15 +321,26 @@ def _export(store: Store, args: argparse.Namespace, since: Optional[int],
 
 def _export_as(store: Store, args: argparse.Namespace, since: Optional[int],
                until: Optional[int]) -> None:
-    """The csv, trajnet and mcap exports (data/trajectory/formats.py)."""
+    """The csv, trajnet, mcap and mcap-ros2 exports (data/trajectory/formats.py)."""
     ensure_indexes(store)
     chunks = (chunk_from_document(d) for d in iter_documents(
         store, args.map_name or None, since, until, **_who(args)))
+    if args.format == "mcap-ros2":
+        if not args.out:
+            raise UsageError("--format mcap-ros2 needs --out DIR (the ROS 2 bag directory to "
+                             "create)")
+        n = write_ros2_bag(chunks, args.out)
+        _note("%d poses to the ROS 2 bag %s" % (n, args.out))
+        return
     if args.format == "mcap":
         if not args.out:
-            raise UsageError("--format mcap needs --out DIR (the ROS 2 bag directory to create)")
-        n = write_mcap(chunks, args.out)
-        _note("%d poses to the ROS 2 bag %s" % (n, args.out))
+            raise UsageError("--format mcap needs --out FILE.mcap (binary output)")
+        try:
+            with atomic_file(args.out, "wb") as f:
+                n = write_mcap(chunks, f)
+        except OSError as e:
+            raise BulletFloorSimError("%s: cannot write (%s)" % (args.out, e.strerror or e))
+        _note("%d poses to the ROS 1 MCAP file %s" % (n, args.out))
         return
     write = {"csv": write_csv,
              "trajnet": lambda c, f: write_trajnet(c, f, args.rate)}[args.format]
