@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import math
 import os
 
@@ -13,7 +14,8 @@ from bullet_floor_sim.data.store import open_store
 from bullet_floor_sim.data.trajectory import Chunker, join_chunks, pose_from_xy_yaw
 from bullet_floor_sim.data.trajectory.formats import (ROS2_BAG_VERSION, mcap_topic,
                                                       poses_once, write_csv, write_mcap,
-                                                      write_ros2_bag, write_trajnet)
+                                                      write_ros2_bag)
+from bullet_floor_sim.data.trajectory import trajnet
 from bullet_floor_sim.ros import trajectories as cli
 
 import rosbag2_readers
@@ -62,14 +64,16 @@ def test_csv_reads_back_exactly():
                                            else math.atan2(0.1, -0.5), abs=1e-12)
 
 
-def test_trajnet_samples_at_the_rate_by_interpolation():
+def test_ethucy_samples_at_the_rate_by_interpolation():
     # ann from t = 100.05 s on, 20 Hz, x = 0.5 (t - 100.05), y = 1; bob from t = 100.9 s.
     # 2.5 Hz samples fall on t = 100.4, 100.8, ... : frame 0 is ann's at 100.4
     a = walk(100.05, 60, 0.5, 0.0)                 # to t = 103.0
     b = walk(100.9, 20, 0.0, -1.0, x0=2.0, y0=3.0)  # to t = 101.85
     buf = io.StringIO()
-    n = write_trajnet(chunked("ann", a) + chunked("bob", b), buf, rate=2.5)
-    lines = [tuple(float(v) for v in line.split()) for line in buf.getvalue().splitlines()]
+    sampled = trajnet.sample(chunked("ann", a) + chunked("bob", b), rate=2.5)
+    assert sampled.ids == {1: "ann", 2: "bob"} and sampled.frame0_ns == 100_400_000_000
+    n = trajnet.write_ethucy(sampled, buf)
+    lines = [tuple(float(v) for v in line.split("\t")) for line in buf.getvalue().splitlines()]
     assert n == len(lines) == 7 + 2        # ann: 100.4 .. 102.8; bob: 101.2, 101.6
     assert [ln[:2] for ln in lines] == [(0, 1), (1, 1), (2, 1), (2, 2), (3, 1), (3, 2), (4, 1),
                                         (5, 1), (6, 1)]
@@ -146,9 +150,13 @@ def test_cli_formats(tmp_path, capsys):
     assert cli.main(["export", "--db", db, "--format", "csv"]) == 0
     out = capsys.readouterr().out.splitlines()
     assert len(out) == 51 and out[1].startswith("ann,100.000000000,0.0,1.0,")
-    assert cli.main(["export", "--db", db, "--format", "trajnet", "--rate", "5"]) == 0
-    lines = capsys.readouterr().out.splitlines()
-    assert len(lines) == 13 and lines[0] == "0 1 0.0000 1.0000"    # t = 100.0 .. 102.4
+    eth = tmp_path / "ann.txt"
+    assert cli.main(["export", "--db", db, "--format", "ethucy", "--rate", "5",
+                     "--out", str(eth)]) == 0
+    lines = eth.read_text().splitlines()
+    assert len(lines) == 13 and lines[0] == "0\t1\t0.0000\t1.0000"   # t = 100.0 .. 102.4
+    assert cli.main(["export", "--db", db, "--format", "trajnet"]) == 2
+    assert "--format trajnet needs --out FILE" in capsys.readouterr().err
     assert cli.main(["export", "--db", db, "--format", "mcap"]) == 2
     assert "--format mcap needs --out FILE.mcap" in capsys.readouterr().err
     if pytest.importorskip("rosbags"):
@@ -159,7 +167,8 @@ def test_cli_formats(tmp_path, capsys):
         assert cli.main(["export", "--db", db, "--format", "mcap", "--out", str(out)]) == 0
         assert "50 poses to the ROS 1 MCAP file" in capsys.readouterr().err
         assert out.is_file() and out.read_bytes()[:8] == b"\x89MCAP0\r\n"   # exactly that file
-        assert sorted(os.listdir(str(tmp_path))) == ["b", "db", "t.mcap"]
+        assert sorted(os.listdir(str(tmp_path))) == ["ann.txt", "ann.txt.meta.json", "b", "db",
+                                                     "t.mcap"]
     assert join_chunks(chunked("ann", a))[0].poses == a
 
 
@@ -177,3 +186,54 @@ def test_a_version_9_bag_is_what_humble_cannot_read(tmp_path):
     meta = rosbag2_readers.load(path)
     assert rosbag2_readers.humble_problems(meta) == ["/p: offered_qos_profiles is not a string"]
     assert rosbag2_readers.jazzy_problems(meta) == []
+
+
+def _side_by_side(n_people, seconds, rate_hz=10):
+    """People walking east side by side, 0.5 m apart, from t = 100 s."""
+    return [walk(100.0, int(seconds * rate_hz), 0.8, 0.0, y0=1.0 + 0.5 * k, hz=rate_hz)
+            for k in range(n_people)]
+
+
+def test_trajnet_is_what_trajnetplusplus_reads(tmp_path, capsys):
+    """--format trajnet: TrajNet++ ndjson that trajnetplusplustools.Reader loads, its scenes
+    cut as TrajNet++ cuts them. Three people walking together for 20 s (50 samples at
+    2.5 Hz): a scene every 3 samples while 21 fit, (50 - 21) // 3 + 1 = 10 per person."""
+    reader = pytest.importorskip("trajnetplusplustools")
+    db = str(tmp_path / "db")
+    walks = _side_by_side(3, 20.0)
+    with open_store(db) as store:
+        for k, w in enumerate(walks):
+            record(store, chunked("p%d" % k, w, period=7.0), person="person_%d" % k)
+    out = tmp_path / "t.ndjson"
+    assert cli.main(["export", "--db", db, "--format", "trajnet", "--out", str(out)]) == 0
+    assert "30 scenes" in capsys.readouterr().err
+    r = reader.Reader(str(out), scene_type="paths")
+    scenes = list(r.scenes())
+    assert len(scenes) == 30
+    side = json.loads((tmp_path / "t.ndjson.meta.json").read_text())
+    assert side["frame0_time"] == "100.000000000" and side["rate"] == 2.5
+    assert {i: (v["name"], v["kind"]) for i, v in side["ids"].items()} == {
+        "1": ("person_0", "person"), "2": ("person_1", "person"), "3": ("person_2", "person")}
+    by_id = {int(i): v["uuid"] for i, v in side["ids"].items()}
+    for scene_id, paths in scenes:
+        primary = paths[0]
+        assert len(primary) == 21 and len(paths) == 3          # the others in view
+        k0 = primary[0].frame
+        assert [row.frame for row in primary] == list(range(k0, k0 + 21))
+        person = int(by_id[primary[0].pedestrian][1:])
+        for row in primary:             # x = 0.8 (t - 100), y = 1 + 0.5 person, to the cm
+            assert (row.x, row.y) == (round(0.8 * 0.4 * row.frame, 2), 1.0 + 0.5 * person)
+    assert sorted(s.pedestrian for s in r.scenes_by_id.values()) == [1] * 10 + [2] * 10 + [3] * 10
+
+
+def test_a_walker_alone_makes_no_trajnet_scene_and_is_told_so(tmp_path, capsys):
+    pytest.importorskip("trajnetplusplustools")
+    db = str(tmp_path / "db")
+    with open_store(db) as store:
+        record(store, chunked("w", _side_by_side(1, 20.0)[0]), robot="robot1")
+    out = tmp_path / "w.ndjson"
+    assert cli.main(["export", "--db", db, "--format", "trajnet", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "0 scenes, 0 track lines (1 trajectories" in err and "no scene" in err
+    assert out.read_text() == ""
+    assert json.loads((tmp_path / "w.ndjson.meta.json").read_text())["ids"]["1"]["kind"] == "robot"

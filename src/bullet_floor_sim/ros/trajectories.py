@@ -5,7 +5,7 @@ A plain command-line tool (no ROS master needed, rospy is not imported)::
 
     trajectories list   --db URI [--map M] [WHO] [--since T] [--until T]
     trajectories export --db URI [--map M] [WHO] [--since T] [--until T] [--out FILE]
-                        [--format jsonl|csv|trajnet|mcap|mcap-ros2] [--rate 2.5]
+                        [--format jsonl|csv|trajnet|ethucy|mcap|mcap-ros2] [--rate 2.5]
     trajectories import --db URI --map M [FILE ...] [--max-poses N]
     trajectories plot   --db URI --out traj.png [--map M] [WHO] [--since T] [--until T]
                         [--world W | --map-yaml MAP] [--cell 0.25]
@@ -28,9 +28,11 @@ error lists who is stored).
   "end_time", "complete", "trajectory_length", "poses": [[t, x, y, yaw], ...]}``, t in
   seconds with 9 decimals; trajectory after trajectory (in order of their first pose), each
   in sequence_id order. Memory stays bounded (the store is read a few chunks at a time).
-  ``--format`` csv, trajnet (TrajNet++ / ETH-UCY ``frame id x y`` at ``--rate``), mcap (ROS 1
-  MCAP: ``--out FILE.mcap``, exactly that file) or mcap-ros2 (a ROS 2 bag: ``--out DIR``)
-  write every pose once instead (data/trajectory/formats.py).
+  ``--format`` csv, trajnet (TrajNet++ ndjson, its scenes cut as TrajNet++ cuts them),
+  ethucy (the ETH/UCY ``frame<TAB>id<TAB>x<TAB>y`` text), both at ``--rate`` with a sidecar
+  ``FILE.meta.json`` naming each id (``--out FILE`` needed), mcap (ROS 1 MCAP: ``--out
+  FILE.mcap``, exactly that file) or mcap-ros2 (a ROS 2 bag: ``--out DIR``) write every pose
+  once instead (data/trajectory/formats.py, trajnet.py).
 * ``import`` reads such lines (files or stdin) back into the store as the recorder stores
   chunks (meta ``map`` from ``--map``, ``taken: "imported"``). A chunk already stored (same
   uuid and sequence_id) is skipped, so importing twice changes nothing. A line with more
@@ -62,9 +64,9 @@ from ..data.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_POSES, STORED_T
                                chunk_from_json, document_to_json, ensure_indexes,
                                Persons, format_time, iter_documents, parse_time,
                                split_poses, stored_people, trajectory_heads)
+from ..data.trajectory import trajnet
 from ..data.trajectory.formats import (FORMATS, TRAJNET_RATE, write_csv, write_mcap,
-                                       write_ros2_bag,
-                                       write_trajnet)
+                                       write_ros2_bag)
 from .cli import Parser, UsageError
 from .trajectory_plot import map_for_plot, plot_trajectories
 
@@ -104,10 +106,11 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("--out", help="write to this file (mcap-ros2: this bag directory) instead of "
                    "stdout")
     e.add_argument("--format", default="jsonl", choices=FORMATS,
-                   help="jsonl (default), csv, trajnet (frame id x y), mcap (ROS 1 MCAP, --out "
-                   "FILE) or mcap-ros2 (a ROS 2 bag, --out DIR)")
+                   help="jsonl (default), csv, trajnet (TrajNet++ ndjson, --out FILE), ethucy "
+                   "(frame id x y, tab-separated, --out FILE), mcap (ROS 1 MCAP, --out FILE) or "
+                   "mcap-ros2 (a ROS 2 bag, --out DIR)")
     e.add_argument("--rate", type=float, default=TRAJNET_RATE,
-                   help="trajnet: samples a second (%g)" % TRAJNET_RATE)
+                   help="trajnet, ethucy: samples a second (%g)" % TRAJNET_RATE)
     i = sub.add_parser("import", help="store JSON lines (files or stdin)")
     common(i, window=False)
     i.add_argument("files", nargs="*", metavar="FILE", help="JSON-lines files (default stdin)")
@@ -321,10 +324,15 @@ def _export(store: Store, args: argparse.Namespace, since: Optional[int],
 
 def _export_as(store: Store, args: argparse.Namespace, since: Optional[int],
                until: Optional[int]) -> None:
-    """The csv, trajnet, mcap and mcap-ros2 exports (data/trajectory/formats.py)."""
+    """The csv, trajnet, ethucy, mcap and mcap-ros2 exports (data/trajectory/formats.py,
+    trajnet.py)."""
     ensure_indexes(store)
+    heads = trajectory_heads(store, args.map_name or None, since, until, **_who(args))
     chunks = (chunk_from_document(d) for d in iter_documents(
-        store, args.map_name or None, since, until, **_who(args)))
+        store, args.map_name or None, since, until, heads=heads))
+    if args.format in ("trajnet", "ethucy"):
+        _export_benchmark(args, chunks, {str(h.uuid): h.meta for h in heads})
+        return
     if args.format == "mcap-ros2":
         if not args.out:
             raise UsageError("--format mcap-ros2 needs --out DIR (the ROS 2 bag directory to "
@@ -342,18 +350,43 @@ def _export_as(store: Store, args: argparse.Namespace, since: Optional[int],
             raise BulletFloorSimError("%s: cannot write (%s)" % (args.out, e.strerror or e))
         _note("%d poses to the ROS 1 MCAP file %s" % (n, args.out))
         return
-    write = {"csv": write_csv,
-             "trajnet": lambda c, f: write_trajnet(c, f, args.rate)}[args.format]
     if args.out:
         try:
             with atomic_file(args.out) as f:
-                n = write(chunks, f)
+                n = write_csv(chunks, f)
         except OSError as e:
             raise BulletFloorSimError("%s: cannot write (%s)" % (args.out, e.strerror or e))
     else:
-        n = write(chunks, sys.stdout)
+        n = write_csv(chunks, sys.stdout)
         sys.stdout.flush()
-    _note("%d %s" % (n, "lines" if args.format == "trajnet" else "poses"))
+    _note("%d poses" % n)
+
+
+def _export_benchmark(args: argparse.Namespace, chunks: Iterable[Chunk],
+                      meta: Dict[str, Dict[str, Any]]) -> None:
+    """TrajNet++ ndjson or the ETH/UCY text, and the sidecar naming each id."""
+    if not args.out:
+        raise UsageError("--format %s needs --out FILE (beside it FILE.meta.json says who each "
+                         "id is)" % args.format)
+    sampled = trajnet.sample(chunks, args.rate)
+    try:
+        with atomic_file(args.out) as f:
+            if args.format == "trajnet":
+                scenes, n = trajnet.write_trajnetpp(sampled, f)
+            else:
+                scenes, n = -1, trajnet.write_ethucy(sampled, f)
+        trajnet.write_sidecar(args.out, trajnet.sidecar(sampled, args.format, meta))
+    except OSError as e:
+        raise BulletFloorSimError("%s: cannot write (%s)" % (args.out, e.strerror or e))
+    if scenes < 0:
+        _note("%d lines (%d trajectories at %g Hz) to %s, ids in %s.meta.json"
+              % (n, len(sampled.ids), args.rate, args.out, args.out))
+    else:
+        _note("%d scenes, %d track lines (%d trajectories at %g Hz) to %s, ids in %s.meta.json%s"
+              % (scenes, n, len(sampled.ids), args.rate, args.out, args.out,
+                 "" if scenes else ": TrajNet++ keeps scenes of a person moving among others "
+                 "(someone within its 5 m cell); with nobody near, no scene (--format ethucy "
+                 "keeps every track)"))
 
 
 # -- import -----------------------------------------------------------------------------------

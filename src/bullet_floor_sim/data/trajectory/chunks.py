@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 import uuid as uuidlib
 from dataclasses import dataclass, field
-from typing import Any, Callable, Dict, Iterable, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, Iterable, Iterator, List, Optional, Sequence, Tuple
 
 from ...errors import BulletFloorSimError
 
@@ -280,6 +280,19 @@ class Joined:
     @property
     def end_ns(self) -> int:
         return self.poses[-1][0] if self.poses else 0
+
+
+def poses_once(chunks: Iterable[Chunk]) -> Iterator[Tuple[str, Pose]]:
+    """(uuid, pose) of every pose of chunks in export order, each once: a chunk's first pose
+    is left out when it repeats the last pose of its trajectory's chunk before it."""
+    last: Dict[str, Pose] = {}
+    for c in chunks:
+        for k, p in enumerate(c.poses):
+            if k == 0 and last.get(c.uuid) == p:
+                continue
+            yield c.uuid, p
+        if c.poses:
+            last[c.uuid] = c.poses[-1]
 
 
 def join_chunks(chunks: Iterable[Chunk]) -> List[Joined]:

@@ -7,10 +7,7 @@ it (the boundary pose two chunks share).
 
 * ``csv``: ``uuid,t,x,y,yaw``, one row per pose, t in seconds with 9 decimals, coordinates
   as Python writes them (they read back exactly).
-* ``trajnet``: the TrajNet++ / ETH-UCY text that trajectory-prediction benchmarks read:
-  ``frame id x y`` per line, positions sampled at a fixed ``rate`` (2.5 Hz, the ETH-UCY
-  rate) by linear interpolation, frames counted from the first sample of the export, people
-  numbered 1, 2, ... in export order, lines ordered by frame then id.
+* ``trajnet`` (TrajNet++ ndjson) and ``ethucy`` (the ETH/UCY text): trajnet.py.
 * ``mcap``: one MCAP file of ROS 1 messages (profile ``ros1``, schemas ``ros1msg``,
   messages ``ros1``: what mcap-ros1-support and Foxglove read as ROS 1), each trajectory on
   its own topic ``/trajectories/t_<uuid hex>`` as ``geometry_msgs/PoseStamped`` in ``map``,
@@ -21,31 +18,17 @@ it (the boundary pose two chunks share).
 """
 from __future__ import annotations
 
-import math
-from typing import IO, Any, Dict, Iterable, Iterator, List, Literal, Optional, Tuple
+from typing import IO, Any, Dict, Iterable, List, Literal, Optional
 
 from ...errors import BulletFloorSimError
-from .chunks import Chunk, Pose, yaw_of
+from .chunks import Chunk, Pose, poses_once, yaw_of
+from .trajnet import RATE as TRAJNET_RATE
 
-__all__ = ["FORMATS", "ROS2_BAG_VERSION", "poses_once", "write_csv", "write_trajnet",
-           "write_mcap", "write_ros2_bag", "TRAJNET_RATE", "mcap_topic"]
+__all__ = ["FORMATS", "ROS2_BAG_VERSION", "poses_once", "write_csv", "write_mcap",
+           "write_ros2_bag", "TRAJNET_RATE", "mcap_topic"]
 
-FORMATS = ("jsonl", "csv", "trajnet", "mcap", "mcap-ros2")
-#: Samples a second of the trajnet export (ETH-UCY's 0.4 s).
-TRAJNET_RATE = 2.5
+FORMATS = ("jsonl", "csv", "trajnet", "ethucy", "mcap", "mcap-ros2")
 _NS = 1_000_000_000
-
-
-def poses_once(chunks: Iterable[Chunk]) -> Iterator[Tuple[str, Pose]]:
-    """(uuid, pose) of every pose, each once (see the module doc)."""
-    last: Dict[str, Pose] = {}
-    for c in chunks:
-        for k, p in enumerate(c.poses):
-            if k == 0 and last.get(c.uuid) == p:
-                continue
-            yield c.uuid, p
-        if c.poses:
-            last[c.uuid] = c.poses[-1]
 
 
 def write_csv(chunks: Iterable[Chunk], out: IO[str]) -> int:
@@ -57,43 +40,6 @@ def write_csv(chunks: Iterable[Chunk], out: IO[str]) -> int:
         out.write("%s,%d.%09d,%r,%r,%r\n" % (uuid, s, ns, p[1], p[2], yaw_of(p)))
         n += 1
     return n
-
-
-def write_trajnet(chunks: Iterable[Chunk], out: IO[str], rate: float = TRAJNET_RATE) -> int:
-    """Write ``frame id x y`` lines sampled at ``rate`` Hz; returns how many lines."""
-    if not (math.isfinite(rate) and rate > 0):
-        raise BulletFloorSimError("trajnet: rate must be a positive number of Hz, got %r"
-                                  % (rate,))
-    tracks: Dict[str, List[Pose]] = {}
-    for uuid, p in poses_once(chunks):
-        tracks.setdefault(uuid, []).append(p)
-    rows: List[Tuple[int, int, float, float]] = []
-    for person, poses in enumerate(tracks.values(), 1):
-        rows.extend((k, person, x, y) for k, x, y in _samples(poses, rate))
-    if not rows:
-        return 0
-    first = min(r[0] for r in rows)
-    rows.sort(key=lambda r: (r[0], r[1]))
-    for k, person, x, y in rows:
-        out.write("%d %d %.4f %.4f\n" % (k - first, person, x, y))
-    return len(rows)
-
-
-def _samples(poses: List[Pose], rate: float) -> Iterator[Tuple[int, float, float]]:
-    """(sample number since t = 0, x, y) at every multiple of 1 / rate the poses span,
-    interpolated linearly between the poses around it."""
-    step_ns = _NS / rate
-    k = math.ceil(poses[0][0] / step_ns)
-    j = 0
-    while k * step_ns <= poses[-1][0]:
-        t = k * step_ns
-        while j + 1 < len(poses) and poses[j + 1][0] < t:
-            j += 1
-        a = poses[j]
-        b = poses[min(j + 1, len(poses) - 1)]
-        f = 0.0 if b[0] == a[0] else (t - a[0]) / (b[0] - a[0])
-        yield k, a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2])
-        k += 1
 
 
 #: The rosbag2 metadata version our ROS 2 bags carry. Humble's rosbag2 (metadata version 5)
