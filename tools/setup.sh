@@ -36,7 +36,7 @@ case "${ID}:${VERSION_CODENAME:-}" in
       python3-visualization-msgs ros-std-srvs python3-std-srvs ros-move-base-msgs
       python3-move-base-msgs ros-map-msgs python3-map-msgs python3-rosgraph-msgs
       python3-tf2-msgs python3-actionlib-msgs python3-tf2-geometry-msgs python3-matplotlib
-      python3-skimage catkin-lint rviz)
+      python3-skimage python3-pandas catkin-lint rviz)
     ;;
   ubuntu:focal)
     ROS_SETUP=/opt/ros/noetic/setup.bash
@@ -47,7 +47,8 @@ case "${ID}:${VERSION_CODENAME:-}" in
       ros-noetic-sensor-msgs ros-noetic-visualization-msgs ros-noetic-std-srvs
       ros-noetic-move-base-msgs ros-noetic-map-msgs ros-noetic-rostest ros-noetic-rosbag
       ros-noetic-tf2-geometry-msgs python3-matplotlib python3-skimage
-      python3-venv python3-numpy python3-scipy python3-yaml python3-pil python3-lxml python3-catkin-lint)
+      python3-venv python3-numpy python3-scipy python3-yaml python3-pil python3-lxml python3-catkin-lint
+      python3-pandas)
     ;;
   *) die "unsupported system ${PRETTY_NAME:-unknown}: use Debian 12 or Ubuntu 20.04 + ROS Noetic" ;;
 esac
