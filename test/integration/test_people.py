@@ -3,7 +3,9 @@
 
 * the ground truth arrives on subscribers that declare the upstream types (people_msgs/People,
   spencer_tracking_msgs/TrackedPersons), whose md5sums genmsg computes from the upstream
-  definitions kept as test fixtures: what a subscriber of those types checks on connect;
+  definitions kept as test fixtures: what a subscriber of those types checks on connect; the
+  connection headers name the upstream types (what rosbag records), and a subscriber of our
+  own bullet_floor_sim/People connects too;
 * three people, named person_1..3, inside the room, the two topics agreeing;
 * robot1's published scan (it stands still at its spawn pose, its laser 0.3 m ahead): every
   beam that ends short of the known walls and off robot2 ends within 0.31 m of a person's
@@ -49,8 +51,9 @@ class PeopleTest(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node("test_people")
         cls.lock = threading.Lock()
-        cls.people, cls.tracked, cls.scans = {}, {}, {}
+        cls.people, cls.tracked, cls.scans, cls.ours = {}, {}, {}, {}
         rospy.Subscriber("/ground_truth/people", UpstreamPeople, cls._keep, cls.people)
+        rospy.Subscriber("/ground_truth/people", People, cls._keep, cls.ours)   # our own type
         rospy.Subscriber("/ground_truth/tracked_persons", UpstreamTracked, cls._keep,
                          cls.tracked)
         rospy.Subscriber("/robot1/base_scan", LaserScan, cls._keep, cls.scans)
@@ -64,9 +67,18 @@ class PeopleTest(unittest.TestCase):
         self.assertEqual(UpstreamPeople._md5sum, upstream_md5("people_msgs/People"))
         self.assertEqual(UpstreamTracked._md5sum,
                          upstream_md5("spencer_tracking_msgs/TrackedPersons"))
-        wait_for(lambda: len(self.people) >= 20 and len(self.tracked) >= 20, 60,
-                 "20 messages on each ground-truth topic")
+        wait_for(lambda: len(self.people) >= 20 and len(self.tracked) >= 20
+                 and len(self.ours) >= 20, 60, "20 messages on each ground-truth topic")
         with self.lock:
+            # the simulator advertises the upstream names (ros/upstream.py): the connection
+            # header, which rosbag records, names them and their dependencies
+            header = next(iter(self.people.values()))._connection_header
+            self.assertEqual(header["type"], "people_msgs/People")
+            self.assertIn("\nMSG: people_msgs/Person\n", header["message_definition"])
+            header = next(iter(self.tracked.values()))._connection_header
+            self.assertEqual(header["type"], "spencer_tracking_msgs/TrackedPersons")
+            self.assertIn("\nMSG: spencer_tracking_msgs/TrackedPerson\n",
+                          header["message_definition"])
             both = sorted(set(self.people) & set(self.tracked))
             self.assertGreater(len(both), 10)
             for t in both:

@@ -130,7 +130,8 @@ def test_walker_agent_gives_a_goal_given_up_close_by_one_new_goal_in_its_region(
     assert s.regoal and s.start is leg and s.finished is None and agent.leg is leg
     assert leg.regoals == 1 and math.hypot(leg.goal[0] - first[0], leg.goal[1] - first[1]) >= 1.0
     assert roi_polygon(by_id[leg.target_region]).contains(Point(leg.goal[:2]))
-    assert s.notes[0].startswith("leg 1: goal given up 0.60 m short (no progress for 60 s)")
+    assert s.info[0].startswith("leg 1: goal given up 0.60 m short (no progress for 60 s)")
+    assert s.notes == []          # (information, not a warning: the leg goes on)
     # the second give-up close by gets no new goal (one a leg): in its region, the leg ends
     # there as reached, and says so
     here = (leg.goal[0] + 0.3, leg.goal[1], 0.0)
@@ -139,8 +140,8 @@ def test_walker_agent_gives_a_goal_given_up_close_by_one_new_goal_in_its_region(
     assert s.finished is leg and leg.outcome == "succeeded" and leg.duration == 70.0
     assert leg.detail == "stopped 0.30 m short (the goal is taken)"
     assert leg.end_region == leg.target_region and s.pause >= agent.walker.config.dwell_min
-    assert s.notes == ["leg 1: goal given up 0.30 m short (the goal is taken), no other goal: "
-                       "it stops there, in %s" % agent.walker.label(leg.target_region)]
+    assert s.info == ["leg 1: goal given up 0.30 m short (the goal is taken), no other goal: "
+                      "it stops there, in %s" % agent.walker.label(leg.target_region)]
     # the next leg's goal keeps regoal_within clear of the goal it stopped short of
     taken = leg.goal
     t0 = 70.0 + s.pause
@@ -187,7 +188,7 @@ def test_a_goal_given_up_close_by_but_outside_its_region_is_given_up(office):
     near = next((gx + dx, gy + dy, 0.0) for dx, dy in ((0.9, 0), (-0.9, 0), (0, 0.9), (0, -0.9))
                 if agent.walker.region_at(gx + dx, gy + dy) != leg.target_region)
     s = agent.tick(20.0, near, ("aborted", "blocked"))
-    assert s.finished is leg and leg.outcome == "aborted" and s.notes == []
+    assert s.finished is leg and leg.outcome == "aborted" and s.notes == [] == s.info
 
 
 def test_walker_agent_no_leg_leaves_the_reasons_to_take(office):

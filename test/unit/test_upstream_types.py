@@ -149,3 +149,28 @@ def test_tracked_persons_packed_as_genpy_would():
     back = TrackedPersons().deserialize(data[4:])
     assert [(t.track_id, t.is_matched, t.pose.pose.position.y) for t in back.tracks] == [
         (1, True, -2.25), (2, True, 3.0)]
+
+
+def test_the_upstream_named_classes_parse_as_the_upstream_types():
+    """ros/upstream.py: the simulator's People and TrackedPersons publishers advertise the
+    upstream names; a tool that reads the message definition from a connection header (as
+    rosbags does for a bag) gets the upstream types, whose md5sum is the upstream one."""
+    pytest.importorskip("rospy")
+    typesys = pytest.importorskip("rosbags.typesys")
+    from bullet_floor_sim.msg import People, TrackedPersons
+    from bullet_floor_sim.ros.upstream import upstream_named
+
+    for ours, theirs in ((People, "people_msgs/People"),
+                         (TrackedPersons, "spencer_tracking_msgs/TrackedPersons")):
+        cls = upstream_named(ours)
+        assert cls._type == theirs and cls._md5sum == ours._md5sum == upstream_md5(theirs)
+        assert "bullet_floor_sim" not in cls._full_text
+        assert issubclass(cls, ours) and upstream_named(ours) is cls
+        store = typesys.get_typestore(typesys.Stores.EMPTY)
+        pkg, name = theirs.split("/")
+        store.register(typesys.get_types_from_msg(cls._full_text, "%s/msg/%s" % (pkg, name)))
+        text, md5 = store.generate_msgdef("%s/msg/%s" % (pkg, name), ros_version=1)
+        assert md5 == upstream_md5(theirs)
+    with pytest.raises(KeyError, match="mirrors no upstream type"):
+        from bullet_floor_sim.msg import Track
+        upstream_named(Track)

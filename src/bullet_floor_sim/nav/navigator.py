@@ -16,7 +16,10 @@ from ..geometry import wrap_angle, wrap_angles
 from .grid import PlanError, PlanningGrid, path_length
 from .pursuit import FollowerCommand, PathFollower, to_map
 
-__all__ = ["NavStatus", "Navigator", "NavigatorConfig", "give_way_point"]
+__all__ = ["GOAL_TAKEN", "NavStatus", "Navigator", "NavigatorConfig", "give_way_point"]
+
+#: how the message of a goal aborted because something stands on it begins
+GOAL_TAKEN = "the goal is taken"
 
 _BACKUP_SPEED, _BACKUP_TIME = 0.1, 1.5   # m/s, s: a stalled robot backs off 0.15 m
 #: stalls in a row, neither way clear and unable to turn, before it backs off or nudges
@@ -408,7 +411,7 @@ class Navigator:
             self._blocked_total = 0.0   # the time blocked counts since the last progress
             self._stuck = None          # and the time stalled
         if self._goal_taken(now, cmd.distance_to_goal):
-            return self._abort("the goal is taken (something the map does not show stands on "
+            return self._abort(GOAL_TAKEN + " (something the map does not show stands on "
                                "it), no progress for %.0f s, %.2f m from it"
                                % (now - self._best_t, cmd.distance_to_goal), cmd)
         if cmd.state == "blocked":

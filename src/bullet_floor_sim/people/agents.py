@@ -56,6 +56,8 @@ class WalkerStep:
         pause: the dwell (after a success) or retry delay (after a failure) that follows it.
         cancel: the navigation goal must be cancelled (the leg timed out).
         notes: the walker's warnings of this tick (a region with no acceptable goal).
+        info: what this tick did about a goal someone stands on (another goal in its region,
+            or stopping short in it): the everyday ends a log shows as information.
     """
 
     start: Optional[Leg] = None
@@ -65,6 +67,7 @@ class WalkerStep:
     pause: float = 0.0
     cancel: bool = False
     notes: List[str] = field(default_factory=list)
+    info: List[str] = field(default_factory=list)
 
 
 #: WalkerAgent's defaults (the markov_walker node's too): see its doc.
@@ -162,7 +165,8 @@ class WalkerAgent:
                                        detail)
         step.pause = self.walker.dwell() if outcome == "succeeded" else self.walker.retry_delay()
         step.finished, self.leg, self.resume_at = leg, None, t + step.pause
-        step.notes = ([short] if short else []) + self.take_notes()
+        step.info = [short] if short else []
+        step.notes = self.take_notes()
         return step
 
     def _next_leg(self, pose: Sequence[float], t: float) -> Leg:
@@ -232,9 +236,9 @@ class WalkerAgent:
                 yaw = math.atan2(y - pose[1], x - pose[0])
                 leg.goal, leg.regoals = (x, y, yaw), leg.regoals + 1
                 step.start, step.regoal = leg, True
-                step.notes = ["leg %d: goal given up %.2f m short (%s): new goal (%.2f, %.2f) "
-                              "in %s" % (leg.number, near, why, x, y,
-                                         w.label(leg.target_region))]
+                step.info = ["leg %d: goal given up %.2f m short (%s): new goal (%.2f, %.2f) "
+                             "in %s" % (leg.number, near, why, x, y,
+                                        w.label(leg.target_region))]
                 return True
         return False
 

@@ -46,7 +46,7 @@ from ..nav.planner import PlannerConfig, PlanningGrid
 from ..msg import Destination, TrackArray
 from .params import config_from_params, map_handling
 from .convert import grid_from_msg, move_base_goal, planar, yaw as yaw_of
-from .node import run_node
+from .node import StartupGrace, run_node
 
 __all__ = ["main", "FollowerNode"]
 
@@ -87,6 +87,7 @@ class FollowerNode:
         self.gt = None
         self.mode = ""
         self.goal_handle = None   # the last goal sent (actionlib ClientGoalHandle)
+        self.startup = StartupGrace()   # (no pose before the first transforms arrive)
         self.tf_buffer = tf2_ros.Buffer()
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
         self.mode_pub = rospy.Publisher("~mode", String, queue_size=1, latch=True)
@@ -139,8 +140,8 @@ class FollowerNode:
             t = self.tf_buffer.lookup_transform(self.frame, self.base_frame, rospy.Time(0),
                                                 rospy.Duration(0.1))
         except tf2_ros.TransformException as e:
-            rospy.logwarn_throttle(10.0, "follower: no pose (tf %s -> %s): %s", self.frame,
-                                   self.base_frame, e)
+            self.startup.log("pose", 10.0, "follower: no pose (tf %s -> %s): %s", self.frame,
+                             self.base_frame, e)
             return None
         return planar(t.transform)
 

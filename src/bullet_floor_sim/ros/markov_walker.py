@@ -436,6 +436,8 @@ class MarkovWalkerNode:
             return True
         for note in step.notes:
             rospy.logwarn("markov_walker: %s", note)
+        for note in step.info:
+            rospy.loginfo("markov_walker: %s", note)
         if step.start is not None:
             self._send(step.start)
         if step.finished is not None:

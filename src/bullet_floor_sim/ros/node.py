@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import logging
 import sys
-from typing import Any, Callable, Optional, Sequence
+import time
+from typing import Any, Callable, Dict, Hashable, Optional, Sequence
 
 import rospy
 
 from ..errors import BulletFloorSimError
 
-__all__ = ["run_node", "one_line", "forward_store_log", "RospyLogHandler"]
+__all__ = ["run_node", "one_line", "forward_store_log", "RospyLogHandler", "StartupGrace"]
 
 
 def one_line(e: BaseException) -> str:
@@ -79,3 +80,18 @@ def forward_store_log() -> None:
         log.addHandler(RospyLogHandler())
         log.setLevel(logging.INFO)
         log.propagate = False
+
+
+class StartupGrace:
+    """A condition expected while a system starts (the first scans before the map, or before
+    robot_state_publisher's static transforms) is logged at debug level, and as a warning
+    once it has lasted ``seconds`` of wall time since it was first seen (per ``key``)."""
+
+    def __init__(self, seconds: float = 5.0) -> None:
+        self.seconds = seconds
+        self._since: Dict[Hashable, float] = {}
+
+    def log(self, key: Hashable, period: float, fmt: str, *args: Any) -> None:
+        since = self._since.setdefault(key, time.monotonic())
+        late = time.monotonic() - since > self.seconds
+        (rospy.logwarn_throttle if late else rospy.logdebug_throttle)(period, fmt, *args)

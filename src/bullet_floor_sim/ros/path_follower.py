@@ -31,9 +31,8 @@ from __future__ import annotations
 import math
 import sys
 import threading
-import time
 from dataclasses import dataclass, fields
-from typing import Dict, List, Optional
+from typing import List, Optional
 
 import actionlib
 import numpy as np
@@ -46,6 +45,7 @@ from move_base_msgs.msg import (MoveBaseAction, MoveBaseActionGoal, MoveBaseFeed
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
 from sensor_msgs.msg import LaserScan
 
+from ..nav.navigator import GOAL_TAKEN
 from ..nav.planner import (FollowerConfig, Navigator, NavigatorConfig, PlanError,
                             PlannerConfig, PlanningGrid, PathFollower, obstacles_in_base,
                             path_length)
@@ -55,11 +55,9 @@ from ..sim.floormap import crop_known
 from ..sim.solidmap import while_mapping
 from .convert import grid_from_msg, planar, yaw as yaw_of
 from .params import check_at_least, config_from_params, map_handling
-from .node import run_node
+from .node import StartupGrace, run_node
 
 __all__ = ["main", "PathFollowerNode"]
-
-_LASER_TF_GRACE = 5.0   # wall s a laser's transform may be missing before a warning
 
 
 
@@ -127,7 +125,7 @@ class PathFollowerNode:
         self.base_frame = ""
         self.obstacles: Optional[np.ndarray] = None
         self.laser = {}  # laser frame -> (x, y, yaw) in the base frame
-        self._no_laser_since: Dict[str, float] = {}   # laser frame -> first failed look-up
+        self.startup = StartupGrace()
         self.tf_buffer = tf2_ros.Buffer()
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
         self.cmd_pub = rospy.Publisher("cmd_vel", Twist, queue_size=1)
@@ -201,11 +199,8 @@ class PathFollowerNode:
                     tf2_ros.ExtrapolationException, tf2_ros.TransformException) as e:
                 # the first scans may come before robot_state_publisher's static transforms:
                 # a warning only when the laser's stays missing
-                since = self._no_laser_since.setdefault(msg.header.frame_id, time.monotonic())
-                log = rospy.logwarn_throttle if time.monotonic() - since > _LASER_TF_GRACE \
-                    else rospy.logdebug_throttle
-                log(10.0, "path_follower: no transform %s -> %s yet: %s", self.base_frame,
-                    msg.header.frame_id, e)
+                self.startup.log(msg.header.frame_id, 10.0, "path_follower: no transform %s -> "
+                                 "%s yet: %s", self.base_frame, msg.header.frame_id, e)
                 return
             laser = planar(t.transform)
             self.laser[msg.header.frame_id] = laser
@@ -294,8 +289,10 @@ class PathFollowerNode:
                     rospy.loginfo("path_follower: goal reached in %.1f s", took)
                     self.server.set_succeeded(MoveBaseResult(), "goal reached")
                 else:
-                    rospy.logwarn("path_follower: goal aborted after %.1f s: %s", took,
-                                  st.message)
+                    # someone standing on the goal is an everyday end (the client is told
+                    # why, and the walker picks another spot): not a warning
+                    log = rospy.loginfo if st.message.startswith(GOAL_TAKEN) else rospy.logwarn
+                    log("path_follower: goal aborted after %.1f s: %s", took, st.message)
                     self.server.set_aborted(MoveBaseResult(), st.message)
                 return
             cmd = Twist()

@@ -48,7 +48,7 @@ from ..msg import Track as TrackMsg
 from ..msg import TrackArray
 from .params import config_from_params, map_handling
 from .convert import grid_from_msg, planar, yaw as yaw_of
-from .node import run_node
+from .node import StartupGrace, run_node
 
 __all__ = ["main", "PeopleTrackerNode", "POSE_SOURCES"]
 
@@ -73,6 +73,8 @@ class PeopleTrackerNode:
         self.base_frame = ""
         self.laser_in_base = {}   # laser frame -> (x, y, yaw)
         self.lock = threading.Lock()
+        # the first scans may come before the map, a pose or the laser's static transform
+        self.startup = StartupGrace()
         self.tf_buffer = tf2_ros.Buffer()
         self.tf_listener: Optional[tf2_ros.TransformListener] = tf2_ros.TransformListener(
             self.tf_buffer)
@@ -128,9 +130,9 @@ class PeopleTrackerNode:
                 return planar(t.transform)
             base = self._gt_at(msg.header.stamp)
             if base is None:
-                rospy.logwarn_throttle(10.0, "people_tracker: no base_pose_ground_truth at the "
-                                       "scan's stamp %.3f (newest %s); scan skipped",
-                                       msg.header.stamp.to_sec(), self.gt.latest)
+                self.startup.log("pose", 10.0, "people_tracker: no base_pose_ground_truth at "
+                                 "the scan's stamp %.3f (newest %s); scan skipped",
+                                 msg.header.stamp.to_sec(), self.gt.latest)
                 return None
             off = self.laser_in_base.get(frame)
             if off is None:
@@ -146,9 +148,9 @@ class PeopleTrackerNode:
                 self.tf_listener.unregister()
                 self.tf_listener = None
         except tf2_ros.TransformException as e:
-            rospy.logwarn_throttle(10.0, "people_tracker: no transform %s -> %s: %s",
-                                   self.frame if self.source == "amcl" else self.base_frame,
-                                   frame, e)
+            self.startup.log(("tf", frame), 10.0, "people_tracker: no transform %s -> %s: %s",
+                             self.frame if self.source == "amcl" else self.base_frame, frame,
+                             e)
             return None
         x, y, yaw = base
         c, s = math.cos(yaw), math.sin(yaw)
@@ -156,7 +158,7 @@ class PeopleTrackerNode:
 
     def _on_scan(self, msg: LaserScan) -> None:
         if self.agent is None:
-            rospy.logwarn_throttle(10.0, "people_tracker: waiting for the map")
+            self.startup.log("map", 10.0, "people_tracker: waiting for the map")
             return
         pose = self._laser_pose(msg)
         if pose is None:

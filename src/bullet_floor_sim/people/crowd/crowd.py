@@ -183,7 +183,8 @@ class Crowd:
             self.log.append("%s: %s" % (p.name, e))
             p.agent.resume_at = now + max(1.0, p.agent.walker.config.max_retry_delay)
             return
-        self.log.extend("%s: %s" % (p.name, line) for line in step.notes + [step.line] if line)
+        self.log.extend("%s: %s" % (p.name, line) for line in step.notes + step.info
+                        + [step.line] if line)
         if step.cancel:
             p.state = "idle"
         if step.start is not None:

@@ -29,6 +29,7 @@ from visualization_msgs.msg import MarkerArray
 
 from bullet_floor_sim.msg import People, TrackedPersons
 from ..markers import people_markers
+from ..upstream import upstream_named
 from .wire import U32
 
 __all__ = ["PeopleOutput", "pack_people", "pack_tracked"]
@@ -111,8 +112,10 @@ class PeopleOutput:
         self.crowd = crowd
         self.start_ns = start_ns
         self.frame = frame
-        self.people_pub = publisher("/ground_truth/people", People, 10)
-        self.tracked_pub = publisher("/ground_truth/tracked_persons", TrackedPersons, 10)
+        # advertised under the upstream names (ros/upstream.py): people_msgs/People, SPENCER's
+        self.people_pub = publisher("/ground_truth/people", upstream_named(People), 10)
+        self.tracked_pub = publisher("/ground_truth/tracked_persons",
+                                     upstream_named(TrackedPersons), 10)
         self.markers_pub = publisher("/ground_truth/people_markers", MarkerArray, 2)
         self.markers_wall_period = float(markers_wall_period)
         self._markers_wall = -math.inf
