@@ -65,3 +65,26 @@ def test_the_defaults_and_the_documented_zeros_pass_their_checks():
     RoiManagerParams(sync_period=0.0, save_quiet=0.0).check()         # no sync; save at once
     RecorderParams(flush_every=0.0, path_rate=0.0).check()            # every pose; no path
     assert PathFollowerParams().robot_radius == 0.34 and ViewerParams().max_poses == 100000
+
+
+def test_a_callback_that_publishes_ends_quietly_only_at_shutdown(monkeypatch):
+    """ros/node.quiet_at_shutdown: a ROSException (a publish to a closed topic) is dropped
+    once rospy is shutting down, and raised before; other exceptions always go on."""
+    import rospy
+
+    from bullet_floor_sim.ros.node import quiet_at_shutdown
+
+    calls = []
+
+    @quiet_at_shutdown
+    def callback(msg, error=rospy.ROSException("publish() to a closed topic")):
+        calls.append(msg)
+        raise error
+
+    monkeypatch.setattr(rospy, "is_shutdown", lambda: False)
+    with pytest.raises(rospy.ROSException, match="closed topic"):
+        callback(1)
+    monkeypatch.setattr(rospy, "is_shutdown", lambda: True)
+    assert callback(2) is None and calls == [1, 2]
+    with pytest.raises(ValueError):
+        callback(3, ValueError("a real fault"))

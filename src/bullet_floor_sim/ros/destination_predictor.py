@@ -46,7 +46,7 @@ from ..msg import Destination, TrackArray
 from .soma import query_rois
 from .params import config_from_params, map_handling
 from .convert import grid_from_msg
-from .node import run_node
+from .node import quiet_at_shutdown, run_node
 
 __all__ = ["main", "DestinationPredictorNode", "destination_msg"]
 
@@ -169,6 +169,7 @@ class DestinationPredictorNode:
             rospy.loginfo("destination_predictor: %d regions, model built (%.1f s)", len(good),
                           rospy.get_time() - t0)
 
+    @quiet_at_shutdown
     def _on_tracks(self, msg: TrackArray) -> None:
         with self.lock:
             agent = self.agent

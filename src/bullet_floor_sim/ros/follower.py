@@ -46,7 +46,7 @@ from ..nav.planner import PlannerConfig, PlanningGrid
 from ..msg import Destination, TrackArray
 from .params import config_from_params, map_handling
 from .convert import grid_from_msg, move_base_goal, planar, yaw as yaw_of
-from .node import StartupGrace, run_node
+from .node import StartupGrace, quiet_at_shutdown, run_node
 
 __all__ = ["main", "FollowerNode"]
 
@@ -119,6 +119,7 @@ class FollowerNode:
         p = msg.pose.pose
         self.gt = (p.position.x, p.position.y, yaw_of(p.orientation))
 
+    @quiet_at_shutdown
     def _on_tracks(self, msg: TrackArray) -> None:
         with self.lock:
             self.tracks = [_Tr(t.id, t.position.x, t.position.y, t.velocity.x, t.velocity.y)
@@ -127,6 +128,7 @@ class FollowerNode:
             live = {t.id for t in msg.tracks}
             self.destinations = {k: v for k, v in self.destinations.items() if k in live}
 
+    @quiet_at_shutdown
     def _on_destination(self, msg: Destination) -> None:
         if not msg.best:
             return

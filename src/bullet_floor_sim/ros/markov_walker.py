@@ -72,7 +72,7 @@ from ..people.walker import (GoalSampler, Leg, RegionIndex, Walker, WalkerConfig
 from .convert import move_base_goal, yaw as yaw_of
 from .params import config_from_params, map_handling
 from .soma import query_rois
-from .node import run_node
+from .node import quiet_at_shutdown, run_node
 from .markers import chain_markers
 
 __all__ = ["main", "MarkovWalkerNode"]
@@ -210,6 +210,7 @@ class MarkovWalkerNode:
 
     # -- regions ------------------------------------------------------------------------------
 
+    @quiet_at_shutdown
     def _on_rois_changed(self, msg: String) -> None:
         if not msg.data or msg.data == self.roi_config:
             self.refresh.set()
@@ -332,6 +333,7 @@ class MarkovWalkerNode:
 
     # -- pose ---------------------------------------------------------------------------------
 
+    @quiet_at_shutdown
     def _on_pose(self, msg: PoseStamped) -> None:
         p = msg.pose.position
         pose = (p.x, p.y, yaw_of(msg.pose.orientation))

@@ -9,6 +9,7 @@ evaluate_prediction) are not nodes: they exit 2 on bad arguments, as argparse do
 """
 from __future__ import annotations
 
+import functools
 import logging
 import sys
 import time
@@ -18,7 +19,8 @@ import rospy
 
 from ..errors import BulletFloorSimError
 
-__all__ = ["run_node", "one_line", "forward_store_log", "RospyLogHandler", "StartupGrace"]
+__all__ = ["run_node", "one_line", "forward_store_log", "RospyLogHandler", "StartupGrace",
+           "quiet_at_shutdown"]
 
 
 def one_line(e: BaseException) -> str:
@@ -52,6 +54,10 @@ def run_node(name: str, make: Callable[[], Any], argv: Optional[Sequence[str]] =
             rospy.spin()
     except rospy.ROSInterruptException:
         pass
+    except rospy.ROSException:
+        if not rospy.is_shutdown():
+            raise
+        # (shutting down: a publish to a closed topic; nothing to report)
     finally:
         close = getattr(node, "close", None)
         if close is not None:
@@ -95,3 +101,19 @@ class StartupGrace:
         since = self._since.setdefault(key, time.monotonic())
         late = time.monotonic() - since > self.seconds
         (rospy.logwarn_throttle if late else rospy.logdebug_throttle)(period, fmt, *args)
+
+
+def quiet_at_shutdown(callback: Callable) -> Callable:
+    """For a subscriber callback that publishes: at shutdown (Ctrl-C) the node's publishers
+    close under a callback still running, and rospy logs the ROSException ("publish() to a
+    closed topic") as a "bad callback" ERROR; this ends the callback quietly then. At any
+    other time the exception goes on."""
+    @functools.wraps(callback)
+    def run(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return callback(*args, **kwargs)
+        except rospy.ROSException:
+            if not rospy.is_shutdown():
+                raise
+            return None
+    return run

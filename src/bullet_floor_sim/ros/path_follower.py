@@ -240,6 +240,10 @@ class PathFollowerNode:
         shutdown while it runs aborts it; actionlib warns of a goal left open)."""
         try:
             self._run_goal(goal)
+        except rospy.ROSException:
+            if not rospy.is_shutdown():
+                raise   # (actionlib logs it and aborts the goal)
+            # shutting down (Ctrl-C): a publish to a closed topic ends the goal, quietly
         finally:
             if self.server.is_active():
                 try:

@@ -48,7 +48,7 @@ from ..msg import Track as TrackMsg
 from ..msg import TrackArray
 from .params import config_from_params, map_handling
 from .convert import grid_from_msg, planar, yaw as yaw_of
-from .node import StartupGrace, run_node
+from .node import StartupGrace, quiet_at_shutdown, run_node
 
 __all__ = ["main", "PeopleTrackerNode", "POSE_SOURCES"]
 
@@ -156,6 +156,7 @@ class PeopleTrackerNode:
         c, s = math.cos(yaw), math.sin(yaw)
         return x + c * off[0] - s * off[1], y + s * off[0] + c * off[1], yaw + off[2]
 
+    @quiet_at_shutdown
     def _on_scan(self, msg: LaserScan) -> None:
         if self.agent is None:
             self.startup.log("map", 10.0, "people_tracker: waiting for the map")

@@ -63,7 +63,7 @@ from ..data.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_GAP, DEFAULT_MA
                                check_max_poses, chunk_fields, chunk_id, ensure_indexes)
 from ..msg import People, Trajectory
 from .convert import chunk_to_msg, people_poses, pose_of_msg
-from .node import forward_store_log, run_node
+from .node import forward_store_log, quiet_at_shutdown, run_node
 from .params import check_at_least, config_from_params
 from .soma import query_rois
 
@@ -276,6 +276,7 @@ class RecorderNode:
         return rois
 
     # -- poses --------------------------------------------------------------------------------
+    @quiet_at_shutdown
     def _on_pose(self, msg: PoseStamped) -> None:
         if not self._frame_ok(msg.header.frame_id, self.topic):
             return
@@ -295,6 +296,7 @@ class RecorderNode:
                 self.live.append(msg)
             self.live_dirty = True
 
+    @quiet_at_shutdown
     def _on_people(self, msg: People) -> None:
         """Every person's position, each its own trajectory (stream)."""
         if not self._frame_ok(msg.header.frame_id, self.people_topic):

@@ -57,7 +57,7 @@ from ..data.trajectory import (COLLECTION, DATABASE, Chunk, Joined, chunk_from_d
 from ..msg import Trajectory
 from ..srv import SelectTrajectories, SelectTrajectoriesResponse
 from .convert import pose_msgs
-from .node import forward_store_log, run_node
+from .node import forward_store_log, quiet_at_shutdown, run_node
 from .packed_markers import PackedMarkerArray, pack_marker, time_colours
 from .params import check_at_least, config_from_params
 
@@ -275,6 +275,7 @@ class ViewerNode:
                 self.next_refresh = now + self.refresh_period
                 self._reload_or_warn()
 
+    @quiet_at_shutdown
     def _on_chunk(self, msg: Trajectory) -> None:
         with self.lock:
             sel = self.selection
