@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""demo.launch from start to Ctrl-C prints no WARN and no ERROR (see demo_log.test).
+"""demo.launch from start to Ctrl-C prints no WARN and no ERROR (see demo_log.test), no
+traceback, and no node dies while it runs or has to be killed at the end.
 
 The demo runs under its own master and ROS_HOME with every node's output on the screen
 (``roslaunch --screen``), so rospy's and roscpp's log lines of every node are in one stream.
@@ -21,8 +22,13 @@ import unittest
 import rostest
 
 SIM_SECONDS = 60.0
-# rospy: "[WARN] [wall, sim]: ..."; roscpp: "[ WARN] [wall, sim]: ..." (also ERROR, FATAL)
-_BAD = re.compile(r"^\[\s*(WARN|ERROR|FATAL)\s*\]")
+# rospy: "[WARN] [wall, sim]: ..."; roscpp: "[ WARN] [wall, sim]: ..." (also ERROR, FATAL);
+# and roslaunch's own: a node that failed to start, a Python traceback, a node that had to be
+# killed at Ctrl-C
+_BAD = re.compile(r"^\[\s*(WARN|ERROR|FATAL)\s*\]|^Traceback \(most recent call last\)|"
+                  r"^ERROR: cannot launch node|escalating to SIG(TERM|KILL)")
+# a node that died while the demo ran (at Ctrl-C every node ends, some with a signal's code)
+_DIED = re.compile(r"process has died")
 _SIM_TIME = re.compile(r"^\[\s*\w+\s*\] \[[0-9.]+, ([0-9.]+)\]")
 _COLOUR = re.compile(r"\x1b\[[0-9;]*m")   # the screen's colours
 
@@ -54,6 +60,7 @@ class DemoLog(unittest.TestCase):
                 try:
                     sim = self._wait_for_sim_time(out_path, proc, deadline=time.time() + 300)
                 finally:
+                    running = len(_lines(out_path))       # the lines before the Ctrl-C
                     os.killpg(proc.pid, signal.SIGINT)     # as Ctrl-C in its terminal
                     try:
                         proc.wait(60)
@@ -64,7 +71,8 @@ class DemoLog(unittest.TestCase):
             self.assertGreaterEqual(sim, SIM_SECONDS, "the demo did not reach %g s of sim "
                                     "time; its output ends:\n%s" % (SIM_SECONDS,
                                                                     "\n".join(lines[-30:])))
-            bad = [line for line in lines if _BAD.match(line)]
+            bad = [line for line in lines if _BAD.search(line)]
+            bad += [line for line in lines[:running] if _DIED.search(line)]
             self.assertEqual(bad, [], "the demo logged %d WARN/ERROR lines:\n%s"
                              % (len(bad), "\n".join(bad[:40])))
         finally:

@@ -88,3 +88,29 @@ def test_a_callback_that_publishes_ends_quietly_only_at_shutdown(monkeypatch):
     assert callback(2) is None and calls == [1, 2]
     with pytest.raises(ValueError):
         callback(3, ValueError("a real fault"))
+
+
+def test_startup_grace_debug_first_then_a_warning_per_key(monkeypatch):
+    """ros/node.StartupGrace: each key is debug for its first ``seconds``, then a warning;
+    each key and level is throttled on its own (one key's lines never hold back another's)."""
+    import rospy
+
+    from bullet_floor_sim.ros import node
+
+    clock = [100.0]
+    monkeypatch.setattr(node.time, "monotonic", lambda: clock[0])
+    got = []
+    monkeypatch.setattr(rospy, "logdebug", lambda fmt, *a: got.append(("debug", fmt % a)))
+    monkeypatch.setattr(rospy, "logwarn", lambda fmt, *a: got.append(("warn", fmt % a)))
+    grace = node.StartupGrace(seconds=5.0)
+    grace.log("map", 10.0, "no %s", "map")
+    grace.log("tf", 10.0, "no %s", "tf")
+    clock[0] = 103.0
+    grace.log("map", 10.0, "no %s", "map")          # throttled (3 s after its last)
+    clock[0] = 105.5
+    grace.log("map", 10.0, "no %s", "map")          # late: its first warning at once
+    grace.log("tf", 10.0, "no %s", "tf")            # and the other key's too
+    clock[0] = 110.0
+    grace.log("map", 10.0, "no %s", "map")          # throttled warning
+    assert got == [("debug", "no map"), ("debug", "no tf"), ("warn", "no map"),
+                   ("warn", "no tf")]

@@ -234,7 +234,7 @@ def test_a_walker_alone_makes_no_trajnet_scene_and_is_told_so(tmp_path, capsys):
     out = tmp_path / "w.ndjson"
     assert cli.main(["export", "--db", db, "--format", "trajnet", "--out", str(out)]) == 0
     err = capsys.readouterr().err
-    assert "0 scenes, 0 track lines (1 trajectories" in err and "no scene" in err
+    assert "0 scenes, 0 track lines (1 trajectories" in err and "no window met" in err
     assert out.read_text() == ""
     assert json.loads((tmp_path / "w.ndjson.meta.json").read_text())["ids"]["1"]["kind"] == "robot"
 
@@ -266,3 +266,24 @@ def test_csv_and_jsonl_read_with_pandas_agree_with_the_database(tmp_path, capsys
     assert list(lines["sequence_id"]) == [c.sequence_id for c in stored]
     assert [len(p) for p in lines["poses"]] == [len(c.poses) for c in stored]
     assert [p[-1][1:3] for p in lines["poses"]] == [list(c.poses[-1][1:3]) for c in stored]
+
+
+def test_trajnet_scenes_need_company_and_no_gap():
+    """TrajNet++'s rules one by one: two people walking together make scenes; the same two
+    20 m apart make none (nobody in a 5 m cell with them: the rows are enough); a gap of 2 s
+    in a walk is no sample (not a line across it), so no window spans it."""
+    a, b = _side_by_side(2, 20.0)
+    together = trajnet.sample(chunked("a", a) + chunked("b", b))
+    assert len(trajnet.trajnet_scenes(together)) == 2 * 10
+    far = [p[:2] + (p[2] + 20.0,) + p[3:] for p in b]
+    apart = trajnet.sample(chunked("a", a) + chunked("b", far))
+    assert len(apart.rows) == len(together.rows) == 100
+    assert trajnet.trajnet_scenes(apart) == []
+    holed = [p for p in a if not 106.0 < p[0] / NS < 108.0] + [p for p in b]
+    s = trajnet.sample(chunked("a", holed) + chunked("b", b))
+    frames_a = [r[0] for r in s.rows if r[1] == 1]
+    assert len(frames_a) == 50 - 4                   # 106.4 .. 107.6 s: no sample
+    assert not {16, 17, 18, 19} & set(frames_a) and {15, 20} <= set(frames_a)
+    scenes_a = [(f, e) for p, f, e in trajnet.trajnet_scenes(s) if p == 1]
+    assert scenes_a and all(e <= 15 or f >= 20 for f, e in scenes_a)   # none across it
+    assert trajnet.sidecar(trajnet.sample([]), "trajnet", {})["frame0_time"] is None

@@ -13,7 +13,7 @@ import functools
 import logging
 import sys
 import time
-from typing import Any, Callable, Dict, Hashable, Optional, Sequence
+from typing import Any, Callable, Dict, Hashable, Optional, Sequence, Tuple
 
 import rospy
 
@@ -91,16 +91,26 @@ def forward_store_log() -> None:
 class StartupGrace:
     """A condition expected while a system starts (the first scans before the map, or before
     robot_state_publisher's static transforms) is logged at debug level, and as a warning
-    once it has lasted ``seconds`` of wall time since it was first seen (per ``key``)."""
+    once it has lasted ``seconds`` of wall time since it was first seen; each ``key`` is
+    throttled on its own (at most one line per ``period`` s, the first warning at once)."""
 
     def __init__(self, seconds: float = 5.0) -> None:
         self.seconds = seconds
         self._since: Dict[Hashable, float] = {}
+        self._logged: Dict[Tuple[Hashable, bool], float] = {}
+
+    def level(self, key: Hashable, now: float) -> bool:
+        """Whether ``key`` is late at ``now`` (monotonic s): logged as a warning."""
+        return now - self._since.setdefault(key, now) > self.seconds
 
     def log(self, key: Hashable, period: float, fmt: str, *args: Any) -> None:
-        since = self._since.setdefault(key, time.monotonic())
-        late = time.monotonic() - since > self.seconds
-        (rospy.logwarn_throttle if late else rospy.logdebug_throttle)(period, fmt, *args)
+        now = time.monotonic()
+        late = self.level(key, now)
+        last = self._logged.get((key, late))
+        if last is not None and now - last < period:
+            return
+        self._logged[(key, late)] = now
+        (rospy.logwarn if late else rospy.logdebug)(fmt, *args)
 
 
 def quiet_at_shutdown(callback: Callable) -> Callable:

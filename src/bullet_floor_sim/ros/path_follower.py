@@ -237,7 +237,8 @@ class PathFollowerNode:
 
     def _execute(self, goal) -> None:
         """The action's execute callback: the goal always ends with a terminal status (a
-        shutdown while it runs aborts it; actionlib warns of a goal left open)."""
+        shutdown while it runs aborts it; actionlib warns of a goal left open, and aborts it
+        itself after any other exception)."""
         try:
             self._run_goal(goal)
         except rospy.ROSException:
@@ -245,7 +246,7 @@ class PathFollowerNode:
                 raise   # (actionlib logs it and aborts the goal)
             # shutting down (Ctrl-C): a publish to a closed topic ends the goal, quietly
         finally:
-            if self.server.is_active():
+            if self.server.is_active() and rospy.is_shutdown():
                 try:
                     self.cmd_pub.publish(Twist())
                     self.server.set_aborted(MoveBaseResult(), "path_follower stopped "

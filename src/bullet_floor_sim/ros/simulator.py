@@ -32,7 +32,10 @@ the clock goes no faster than real time, so a navigation node that cannot keep p
 sim/pacing.py), ``~wait_for_subscribers`` (true: after each send the clock holds until every
 subscriber on this machine has read it, so no node works from data queued seconds behind; Linux
 only), ``~max_command_wait`` (2.0 s of wall time: a robot late for that long, or a subscriber
-that has not read for that long, is let go, with a warning naming it, until it is back).
+that has not read for that long, is let go, with a warning naming it, until it is back),
+``~upstream_type_names`` (true: /ground_truth/people and /ground_truth/tracked_persons are
+advertised as people_msgs/People and spencer_tracking_msgs/TrackedPersons, ros/upstream.py;
+``rostopic echo`` then needs those packages installed; false: as bullet_floor_sim's types).
 Services: ``~reset``, ``~pause``, ``~unpause`` (std_srvs/Empty).
 """
 from __future__ import annotations
@@ -109,6 +112,7 @@ class SimulatorNode:
         gate: when the clock waits for the robots' controllers (sim/pacing.py; default: a
             moving robot's command may be 0.15 s of sim time old, a wait lasts at most 2 s).
         backlog: when the clock waits for subscribers to read what was sent (None: never).
+        upstream_type_names: advertise the people topics under the upstream type names.
     """
 
     def __init__(self, world: World, rtf: float, rates: dict, publish_map: bool,
@@ -117,7 +121,8 @@ class SimulatorNode:
                  clock_wall_period: float = 0.001, flush_period: float = 0.002,
                  send_share: float = 0.1, report_period: float = 10.0,
                  gate: Optional[CommandGate] = None, serve_cleaned: bool = False,
-                 backlog: Optional[BacklogGate] = None) -> None:
+                 backlog: Optional[BacklogGate] = None,
+                 upstream_type_names: bool = True) -> None:
         check_wires()
         self.world = world
         self.gate = gate or CommandGate([s.name for s in world.specs])
@@ -168,7 +173,8 @@ class SimulatorNode:
         # wall seconds spent in World.step, and in building and sending messages (the
         # publishing overhead the log and bench/ros_bench.py report)
         self.time_stepping = self.time_publishing = 0.0
-        self.people_out = (PeopleOutput(pub, world.people, world.clock.now_ns)
+        self.people_out = (PeopleOutput(pub, world.people, world.clock.now_ns,
+                                        upstream=upstream_type_names)
                            if world.people is not None else None)
         if publish_map:
             self._publish_map(serve_cleaned)
@@ -484,7 +490,9 @@ def main(argv: Optional[List[str]] = None) -> int:
                              send_share=float(rospy.get_param("~send_share", 0.1)),
                              report_period=float(rospy.get_param("~report_period", 10.0)),
                              gate=gate, backlog=backlog,
-                             serve_cleaned=bool(rospy.get_param("~serve_cleaned", False)))
+                             serve_cleaned=bool(rospy.get_param("~serve_cleaned", False)),
+                             upstream_type_names=bool(rospy.get_param("~upstream_type_names",
+                                                                      True)))
     except BulletFloorSimError as e:
         rospy.logfatal("simulator: %s", e)
         world.close()

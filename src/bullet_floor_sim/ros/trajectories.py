@@ -101,7 +101,7 @@ def _parser() -> argparse.ArgumentParser:
                         "map, start, end, poses, chunks")
     common(ls)
     e = sub.add_parser("export", help="print stored chunks as JSON lines, or write them as "
-                       "CSV, TrajNet++ text or a ROS 2 bag")
+                       "CSV, TrajNet++ ndjson, ETH/UCY text, ROS 1 MCAP or a ROS 2 bag")
     common(e)
     e.add_argument("--out", help="write to this file (mcap-ros2: this bag directory) instead of "
                    "stdout")
@@ -384,9 +384,10 @@ def _export_benchmark(args: argparse.Namespace, chunks: Iterable[Chunk],
     else:
         _note("%d scenes, %d track lines (%d trajectories at %g Hz) to %s, ids in %s.meta.json%s"
               % (scenes, n, len(sampled.ids), args.rate, args.out, args.out,
-                 "" if scenes else ": TrajNet++ keeps scenes of a person moving among others "
-                 "(someone within its 5 m cell); with nobody near, no scene (--format ethucy "
-                 "keeps every track)"))
+                 "" if scenes else ": no window met TrajNet++'s rules (21 samples in a row, "
+                 "8 s at 2.5 Hz, without a gap, of a person moving more than 0.45 m among others: "
+                 "2 x 21 rows in the window and someone in its 5 m cell at least once); "
+                 "--format ethucy keeps every track"))
 
 
 # -- import -----------------------------------------------------------------------------------

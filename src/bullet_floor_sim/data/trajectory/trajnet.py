@@ -3,7 +3,9 @@ trajnet|ethucy``), each with a sidecar that says who each id is.
 
 Both sample every trajectory at a fixed ``rate`` (2.5 Hz, the ETH/UCY and TrajNet++ rate) by
 linear interpolation between its poses, count frames from the export's first sample (frame
-0) and number the trajectories 1, 2, ... in export order.
+0) and number the trajectories 1, 2, ... in export order. A sample whose poses on either side
+are more than two sample periods apart is left out: a gap in the recording stays a gap (as in
+the real datasets, and TrajNet++'s continuity rule then sees it).
 
 * ``ethucy``: the plain text of the ETH/UCY sets as Social-GAN-style loaders read them:
   ``frame<TAB>id<TAB>x<TAB>y`` per line, ordered by frame then id.
@@ -17,8 +19,8 @@ linear interpolation between its poses, count frames from the export's first sam
   window holds at least 2 x 21 rows of all people, and in one of its frames the person shares
   a 5 m grid cell with someone else. A walker alone thus makes no scene: TrajNet++ scenes are
   of people among people. ``tag`` is 0 (TrajNet++ categorises scenes afterwards).
-* The sidecar (``<out>.meta.json``): the format, the rate, frame 0's time (ROS time, s) and
-  for each id its uuid, person or robot name, kind and map.
+* The sidecar (``<out>.meta.json``): the format, the rate, frame 0's time (ROS time, s; null
+  when nothing was sampled) and for each id its uuid, person or robot name, kind and map.
 """
 from __future__ import annotations
 
@@ -26,7 +28,8 @@ import json
 import math
 from collections import defaultdict
 from dataclasses import dataclass
-from typing import IO, Any, Dict, Iterable, Iterator, List, Mapping, Set, Tuple
+from fractions import Fraction
+from typing import IO, Any, Dict, Iterable, Iterator, List, Mapping, Optional, Set, Tuple
 
 from ...errors import BulletFloorSimError
 from .chunks import Chunk, Pose, poses_once
@@ -49,7 +52,7 @@ class Sampled:
 
     rows: List[Row]
     ids: Dict[int, str]
-    frame0_ns: int
+    frame0_ns: Optional[int]
     rate: float
 
 
@@ -71,10 +74,10 @@ def sample(chunks: Iterable[Chunk], rate: float = RATE) -> Sampled:
         ids[person] = uuid
         rows.extend((k, person, x, y) for k, x, y in _samples(poses, rate))
     if not rows:
-        return Sampled([], ids, 0, rate)
+        return Sampled([], ids, None, rate)
     first = min(r[0] for r in rows)
     rows = sorted(((k - first, p, x, y) for k, p, x, y in rows), key=lambda r: (r[0], r[1]))
-    return Sampled(rows, ids, int(round(first * _NS / rate)), rate)
+    return Sampled(rows, ids, round(Fraction(first) * _NS / Fraction(rate)), rate)
 
 
 def _samples(poses: List[Pose], rate: float) -> Iterator[Tuple[int, float, float]]:
@@ -89,8 +92,9 @@ def _samples(poses: List[Pose], rate: float) -> Iterator[Tuple[int, float, float
             j += 1
         a = poses[j]
         b = poses[min(j + 1, len(poses) - 1)]
-        f = 0.0 if b[0] == a[0] else (t - a[0]) / (b[0] - a[0])
-        yield k, a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2])
+        if b[0] - a[0] <= 2.0 * step_ns or t in (a[0], b[0]):   # (a gap: no sample)
+            f = 0.0 if b[0] == a[0] else (t - a[0]) / (b[0] - a[0])
+            yield k, a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2])
         k += 1
 
 
@@ -160,9 +164,10 @@ def sidecar(s: Sampled, fmt: str, meta: Mapping[str, Mapping[str, Any]]) -> Dict
         kind = "person" if m.get("person") else "robot" if m.get("robot") else ""
         ids[str(person)] = {"uuid": uuid, "name": str(m.get("person") or m.get("robot") or ""),
                             "kind": kind, "map": str(m.get("map", ""))}
-    secs, nsecs = divmod(s.frame0_ns, _NS)
-    return {"format": fmt, "rate": s.rate, "frame0_time": "%d.%09d" % (secs, nsecs),
-            "ids": ids}
+    frame0 = None
+    if s.frame0_ns is not None:
+        frame0 = "%d.%09d" % divmod(s.frame0_ns, _NS)
+    return {"format": fmt, "rate": s.rate, "frame0_time": frame0, "ids": ids}
 
 
 def write_sidecar(path: str, content: Dict[str, Any]) -> None:

@@ -105,17 +105,19 @@ class PeopleOutput:
         frame: their frame.
         markers_wall_period: wall seconds between marker updates at least (they are for the
             eye: 10 a second suffice, and faster than real time they cost the most).
+        upstream: advertise the upstream type names (people_msgs/People,
+            spencer_tracking_msgs/TrackedPersons; ros/upstream.py), else this package's.
     """
 
     def __init__(self, publisher, crowd, start_ns: int, frame: str = "map",
-                 markers_wall_period: float = 0.1) -> None:
+                 markers_wall_period: float = 0.1, upstream: bool = True) -> None:
         self.crowd = crowd
         self.start_ns = start_ns
         self.frame = frame
         # advertised under the upstream names (ros/upstream.py): people_msgs/People, SPENCER's
-        self.people_pub = publisher("/ground_truth/people", upstream_named(People), 10)
-        self.tracked_pub = publisher("/ground_truth/tracked_persons",
-                                     upstream_named(TrackedPersons), 10)
+        named = upstream_named if upstream else (lambda cls: cls)
+        self.people_pub = publisher("/ground_truth/people", named(People), 10)
+        self.tracked_pub = publisher("/ground_truth/tracked_persons", named(TrackedPersons), 10)
         self.markers_pub = publisher("/ground_truth/people_markers", MarkerArray, 2)
         self.markers_wall_period = float(markers_wall_period)
         self._markers_wall = -math.inf
