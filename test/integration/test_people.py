@@ -4,8 +4,9 @@
 * the ground truth arrives on subscribers that declare the upstream types (people_msgs/People,
   spencer_tracking_msgs/TrackedPersons), whose md5sums genmsg computes from the upstream
   definitions kept as test fixtures: what a subscriber of those types checks on connect; the
-  connection headers name the upstream types (what rosbag records), and a subscriber of our
-  own bullet_floor_sim/People connects too;
+  connection headers name the upstream types (what rosbag records: a bag recorded here, and
+  the ROS 2 bag converted from it, name them), and a subscriber of our own
+  bullet_floor_sim/People connects too;
 * three people, named person_1..3, inside the room, the two topics agreeing;
 * robot1's published scan (it stands still at its spawn pose, its laser 0.3 m ahead): every
   beam that ends short of the known walls and off robot2 ends within 0.31 m of a person's
@@ -116,6 +117,45 @@ class PeopleTest(unittest.TestCase):
                                                 "wall, robot or person" % (x, y))
                     on_legs += 1
         self.assertGreater(on_legs, 2 * len(stamps), "beams on legs in %d scans" % len(stamps))
+
+    def test_3_a_recorded_bag_names_the_upstream_types(self):
+        """rosbag record stores the publisher's connection header: the bag, and the ROS 2
+        bag `bag convert` makes of it, name people_msgs and spencer_tracking_msgs."""
+        import shutil
+        import subprocess
+        import tempfile
+
+        import rosbag
+
+        from bullet_floor_sim.ros.bag_tool import convert
+
+        tmp = tempfile.mkdtemp(prefix="bfs_people_bag_")
+        try:
+            path = os.path.join(tmp, "people.bag")
+            subprocess.run(["rosbag", "record", "--duration=3", "-O", path,
+                            "/ground_truth/people", "/ground_truth/tracked_persons"],
+                           check=True, timeout=60, stdout=subprocess.DEVNULL)
+            with rosbag.Bag(path) as bag:
+                info = bag.get_type_and_topic_info()
+            self.assertEqual({t: (v.msg_type, v.message_count > 5) for t, v in info.topics.items()},
+                             {"/ground_truth/people": ("people_msgs/People", True),
+                              "/ground_truth/tracked_persons":
+                                  ("spencer_tracking_msgs/TrackedPersons", True)})
+            self.assertEqual(info.msg_types["people_msgs/People"],
+                             upstream_md5("people_msgs/People"))
+            try:
+                from rosbags.rosbag2 import Reader
+            except ImportError:
+                return
+            out = os.path.join(tmp, "ros2")
+            convert([path], out)
+            with Reader(out) as reader:
+                types = {c.topic: c.msgtype for c in reader.connections}
+            self.assertEqual(types, {
+                "/ground_truth/people": "people_msgs/msg/People",
+                "/ground_truth/tracked_persons": "spencer_tracking_msgs/msg/TrackedPersons"})
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
 
 
 if __name__ == "__main__":
