@@ -169,6 +169,19 @@ def test_cli_formats(tmp_path, capsys):
         assert out.is_file() and out.read_bytes()[:8] == b"\x89MCAP0\r\n"   # exactly that file
         assert sorted(os.listdir(str(tmp_path))) == ["ann.txt", "ann.txt.meta.json", "b", "db",
                                                      "t.mcap"]
+        # both read back with their readers: the database's poses, every one
+        from mcap_ros1.reader import read_ros1_messages
+        from rosbags.rosbag2 import Reader
+        from rosbags.typesys import Stores, get_typestore
+
+        got = [(m.log_time_ns, m.ros_msg.pose.position.x, m.ros_msg.pose.position.y)
+               for m in read_ros1_messages(str(out))]
+        assert got == [p[:3] for p in a]
+        store = get_typestore(Stores.ROS2_HUMBLE)
+        with Reader(str(tmp_path / "b")) as reader:
+            got = [(t, m.pose.position.x, m.pose.position.y) for t, m in (
+                (t, store.deserialize_cdr(raw, c.msgtype)) for c, t, raw in reader.messages())]
+        assert got == [p[:3] for p in a]
     assert join_chunks(chunked("ann", a))[0].poses == a
 
 
