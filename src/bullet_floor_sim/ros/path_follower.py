@@ -55,7 +55,7 @@ from ..sim.floormap import crop_known
 from ..sim.solidmap import while_mapping
 from .convert import grid_from_msg, planar, yaw as yaw_of
 from .params import check_at_least, config_from_params, map_handling
-from .node import StartupGrace, run_node
+from .node import StartupGrace, quiet_at_shutdown, run_node
 
 __all__ = ["main", "PathFollowerNode"]
 
@@ -240,11 +240,9 @@ class PathFollowerNode:
         shutdown while it runs aborts it; actionlib warns of a goal left open, and aborts it
         itself after any other exception)."""
         try:
-            self._run_goal(goal)
-        except rospy.ROSException:
-            if not rospy.is_shutdown():
-                raise   # (actionlib logs it and aborts the goal)
-            # shutting down (Ctrl-C): a publish to a closed topic ends the goal, quietly
+            # at Ctrl-C a publish to a closed topic ends the goal quietly; any other time
+            # actionlib logs the exception and aborts the goal
+            quiet_at_shutdown(self._run_goal)(goal)
         finally:
             if self.server.is_active() and rospy.is_shutdown():
                 try:

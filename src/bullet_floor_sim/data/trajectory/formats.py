@@ -116,8 +116,8 @@ def write_ros2_bag(chunks: Iterable[Chunk], path: str, frame_id: str = "map") ->
         from rosbags.rosbag2 import StoragePlugin, Writer
         from rosbags.typesys import Stores, get_typestore
     except ImportError:
-        raise BulletFloorSimError("mcap export needs the rosbags package (Python >= 3.10; "
-                                  "make setup installs it)") from None
+        raise BulletFloorSimError("mcap-ros2 export needs the rosbags package (Python >= "
+                                  "3.10; make setup installs it)") from None
     store = get_typestore(Stores.ROS2_HUMBLE)
     types = store.types
     msgtype = "geometry_msgs/msg/PoseStamped"
