@@ -8,7 +8,7 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 BENCHES = ["sim_bench.py", "ros_bench.py", "nav_bench.py", "store_bench.py", "trajectory_bench.py",
-           "prediction_bench.py", "people_bench.py", "stage_bench.py"]
+           "prediction_bench.py", "people_bench.py", "stage_bench.py", "gym_bench.py"]
 
 
 def main() -> int:

@@ -51,6 +51,9 @@ class Ticker:
     def reset(self, world, rows) -> None:
         self.resets.append(list(rows))
 
+    def restart(self, now_ns: int) -> None:
+        self.next_ns = now_ns + self.period_ns if self.period_ns else NEVER
+
 
 @pytest.fixture
 def ticker(monkeypatch):

@@ -16,7 +16,7 @@ import pytest
 
 from bullet_floor_sim.sim.config import (DriveConfig, LaserConfig, OdometryConfig, RobotSpec,
                                           load_world_config, resolve_world)
-from bullet_floor_sim.errors import CommandError
+from bullet_floor_sim.errors import CommandError, ConfigError
 from bullet_floor_sim.paths import worlds_dir
 from bullet_floor_sim.sim.sensors import cast_rays
 from bullet_floor_sim.sim.clock import SimClock
@@ -324,6 +324,64 @@ def test_reset_returns_robots_and_odometry(one_robot):
     v = w.view(0)
     assert v.pose == (1.5, 2.0, 0.0) and v.odom_pose == (0.0, 0.0, 0.0)
     assert v.velocity == (0.0, 0.0, 0.0) and w.clock.now_ns == t   # time never goes back
+
+
+def test_set_pose_teleports_without_odometry_seeing_the_jump(one_robot):
+    w = one_robot
+    drive(w, 0, (0.5, 0.0, 0.0), 2.0)
+    odom = w.view(0).odom_pose
+    assert odom[0] == pytest.approx(0.8775)
+    w.set_pose(0, (3.0, 3.0, math.pi / 2))
+    v = w.view(0)
+    assert v.pose == pytest.approx((3.0, 3.0, math.pi / 2)) and v.velocity == (0.0, 0.0, 0.0)
+    assert v.odom_pose == pytest.approx(odom, abs=1e-12)
+    scan = w.step(10)[-1]   # the scan from there: the laser 0.3 m ahead, facing +y
+    k = int(round(-scan.angle_min / scan.angle_increment))        # the beam straight ahead
+    assert float(scan.ranges[k]) == pytest.approx(expected_range(3.0, 3.3, math.pi / 2), abs=1e-3)
+    drive(w, 0, (0.3, 0.0, 0.0), 1.0)   # odometry goes on from where it was, along +x of odom
+    assert w.view(0).odom_pose[0] > odom[0] + 0.1
+
+
+def test_set_pose_into_a_wall_or_a_robot_is_refused_and_the_robot_stays():
+    w = simple_world([RobotSpec(name="a", pose=(1.5, 2.0, 0.0)),
+                      RobotSpec(name="b", pose=(3.0, 2.0, 0.0))])
+    try:
+        with pytest.raises(ConfigError, match=r"robot 'a' would stand inside a wall at \(4\.250"):
+            w.set_pose(0, (4.25, 1.25, 0.0))
+        with pytest.raises(ConfigError, match="robot 'a' would stand overlapping robot 'b'"):
+            w.set_pose(0, (3.4, 2.0, 0.0))
+        with pytest.raises(ConfigError, match="not finite"):
+            w.set_pose(0, (float("nan"), 2.0, 0.0))
+        assert w.view(0).pose == (1.5, 2.0, 0.0)
+        w.command(0, 0.5)       # and its body is back where it stands: it drives on
+        w.step(100)
+        assert w.view(0).pose[0] > 1.7
+    finally:
+        w.close()
+
+
+def test_restart_with_a_seed_repeats_the_run_whatever_ran_before():
+    def run(w, seed):
+        w.restart(seed)
+        out = []
+        for _ in range(30):
+            w.command(0, 0.4, 0.0, 0.2)
+            out += [s.ranges.copy() for s in w.step(5)]
+        return np.array(out), w.view(0).odom_pose
+
+    w = simple_world([RobotSpec(name="r", pose=(1.5, 2.0, 0.0))])  # noisy lidar and odometry
+    try:
+        a, odom_a = run(w, 7)
+        drive(w, 0, (0.2, 0.0, -0.5), 1.37)      # something else in between, off the period
+        b, odom_b = run(w, 7)
+        assert a.shape == b.shape and len(a) == 15
+        np.testing.assert_array_equal(a, b)
+        assert odom_a == odom_b and odom_a[0] > 0.2
+        c, odom_c = run(w, 8)                    # another seed: other noise
+        assert not np.array_equal(a, c) and odom_c != odom_a
+        np.testing.assert_allclose(a, c, atol=0.1)
+    finally:
+        w.close()
 
 
 def test_sim_clock_never_zero_and_fixed_step():

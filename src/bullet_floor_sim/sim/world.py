@@ -202,21 +202,26 @@ class World:
 
     def _check_spawns(self) -> None:
         """Refuse a robot whose spawn pose is in a wall cell or overlaps a wall or a robot."""
-        for i, spec in enumerate(self.specs):
-            x, y, _ = self.pose[i]
-            if self.solid.fmap.value_at(x, y) == 100:
-                what = "a wall" if self.fmap.value_at(x, y) == 100 else "unknown space"
-                raise ConfigError("%s: robot %r spawns inside %s at (%.3f, %.3f)"
-                                  % (self.config.path, spec.name, what, x, y))
+        for i in range(self.n):
+            self._check_place(i, "spawns")
+
+    def _check_place(self, i: int, verb: str = "would stand") -> None:
+        """Raise ConfigError when robot i at its pose is in a wall or unknown cell or
+        overlaps a wall or another robot (the bodies are moved to their poses to check)."""
+        x, y, _ = self.pose[i]
+        name = self.specs[i].name
+        if self.solid.fmap.value_at(x, y) == 100:
+            what = "a wall" if self.fmap.value_at(x, y) == 100 else "unknown space"
+            raise ConfigError("%s: robot %r %s inside %s at (%.3f, %.3f)"
+                              % (self.config.path, name, verb, what, x, y))
         self._sync_bodies()
         self.client.performCollisionDetection()
-        for c in self.client.getContactPoints():
+        for c in self.client.getContactPoints(bodyA=self.bodies[i]):
             if c[8] < -collision.PENETRATION_TOL:
-                names = [self.specs[i].name for i in sorted(  # in world-file order
-                    self._body_index[b] for b in (c[1], c[2]) if b in self._body_index)]
-                raise ConfigError("%s: robot %r spawns overlapping %s (%.3f m deep)"
-                                  % (self.config.path, names[0], "robot %r" % names[1]
-                                     if len(names) > 1 else "a wall", -c[8]))
+                other = self._body_index.get(c[2])
+                raise ConfigError("%s: robot %r %s overlapping %s (%.3f m deep)"
+                                  % (self.config.path, name, verb, "robot %r" % self.specs[
+                                      other].name if other is not None else "a wall", -c[8]))
 
     def add_people(self, people: Optional["People"]) -> None:
         """Step ``people`` (people/crowd's Crowd) with the robots, and let the lidars see
@@ -258,6 +263,48 @@ class World:
         self._safe_until_ns[:] = 0
         self._check_due_ns = 0
         self._sync_bodies(rows)
+
+    def restart(self, seed: Optional[int]) -> None:
+        """Every robot back at its spawn pose, and the run started afresh from ``seed``: the
+        noise drawn anew from it and every sensor first due one period from now, so the same
+        seed and commands give the same run whatever ran before (gym episodes)."""
+        self.reset()        # (odometry catches up with the old run first: draws noise)
+        self.rng.bit_generator.state = np.random.default_rng(seed).bit_generator.state
+        self._idle = True               # at rest, nothing commanded: no step moves anything
+        self._expiry_ns = 2 ** 62
+        now = self.clock.now_ns
+        for sensor in self._sensor_list:
+            sensor.restart(now)
+        self._sensor_due_ns = self._next_sensor_ns()
+        self._set_due()
+
+    def set_pose(self, robot: int, pose: Sequence[float]) -> None:
+        """Teleport a robot: at rest at ``pose`` (x, y, yaw in the map frame). Its odometry
+        does not see the jump (as a wheel encoder would not); its lidar forgets its last scan.
+
+        Raises:
+            ConfigError: the pose is not three finite numbers, or puts the robot in a wall,
+                in unknown space or overlapping another robot; the robot stays where it was.
+        """
+        x, y, yaw = (float(v) for v in pose)
+        if not all(math.isfinite(v) for v in (x, y, yaw)):
+            raise ConfigError("robot %r: pose (%r, %r, %r) is not finite"
+                              % (self.specs[robot].name, x, y, yaw))
+        self.update_odometry()
+        old = self.pose[robot].copy()
+        self.pose[robot] = (x, y, yaw)
+        try:
+            self._check_place(robot)
+        except ConfigError:
+            self.pose[robot] = old
+            self._set_body(robot, old)
+            raise
+        self.vel[robot] = self.target[robot] = 0.0
+        self.stalled[robot] = False
+        self.odometry.moved(self, [robot])
+        self.lidar.forget([robot])
+        self._safe_until_ns[:] = 0
+        self._check_due_ns = 0
 
     def update_odometry(self) -> None:
         """Bring odometry up to the current ground truth (done at the odometry rate anyway)."""

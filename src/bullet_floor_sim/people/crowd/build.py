@@ -24,9 +24,12 @@ GOAL_CLEARANCE = 0.1
 START_TRIES = 200
 
 
-def build_crowd(world: Any, config: Optional[PeopleConfig] = None) -> Optional[Crowd]:
+def build_crowd(world: Any, config: Optional[PeopleConfig] = None,
+                routes: Optional[Routes] = None) -> Optional[Crowd]:
     """The crowd of ``world`` (a sim World), from ``config`` or its world file's section;
     None when it has no people. The warnings about regions left out are its first log lines.
+    ``routes``: the people's ``routes_for`` when already built (a crowd built again and again
+    on one world).
 
     Raises:
         ConfigError: a group has no regions to walk, or no room to start in.
@@ -34,13 +37,16 @@ def build_crowd(world: Any, config: Optional[PeopleConfig] = None) -> Optional[C
     cfg = config if config is not None else world.config.people
     if not cfg.count:
         return None
-    routes = routes_for(world, cfg.body)
+    routes = routes if routes is not None else routes_for(world, cfg.body)
     sampler = routes.sampler
-    chains: Dict[str, Tuple[MarkovChain, List[Roi]]] = {}
     warnings: List[str] = []
     people: List[Person] = []
+    files = set()
     for g, group in enumerate(cfg.groups):
-        chain, rois = _chain(world, group, sampler, chains, warnings)
+        path, (chain, rois, notes) = _chain(world, group, sampler, routes.chains)
+        if path not in files:   # the warnings of each ROI file once
+            files.add(path)
+            warnings.extend(notes)
         wcfg = WalkerConfig(dwell_min=group.dwell[0], dwell_max=group.dwell[1],
                             clearance=sampler.clearance)
         leader = len(people)
@@ -73,9 +79,10 @@ def routes_for(world: Any, body: BodyConfig) -> Routes:
 
 
 def _chain(world: Any, group: GroupConfig, sampler: GoalSampler,
-           chains: Dict[str, Tuple[MarkovChain, List[Roi]]], warnings: List[str]
-           ) -> Tuple[MarkovChain, List[Roi]]:
-    """The chain and regions of a group's ROI file (built once per file)."""
+           chains: Dict[str, Tuple[MarkovChain, List[Roi], List[str]]]
+           ) -> Tuple[str, Tuple[MarkovChain, List[Roi], List[str]]]:
+    """A group's ROI file, and its chain, regions and warnings (built once per file into
+    ``chains``, the routes' cache)."""
     path = group.rois or world.config.rois
     if not path:
         raise ConfigError("%s: people: the %s group has no regions to walk (give rois: in the "
@@ -90,9 +97,8 @@ def _chain(world: Any, group: GroupConfig, sampler: GoalSampler,
             raise ConfigError("%s: people: %s has %d region(s) people can reach; a walk needs 2"
                               % (world.config.path, path, len(rois)))
         chain = MarkovChain.from_rois(rois)
-        warnings.extend(bad + left_out + chain.warnings)
-        chains[path] = (chain, rois)
-    return chains[path]
+        chains[path] = (chain, rois, bad + left_out + chain.warnings)
+    return path, chains[path]
 
 
 def _seed(group: GroupConfig, cfg: PeopleConfig, g: int, k: int) -> Optional[int]:

@@ -11,7 +11,7 @@ from the start cell, and the last stretch to the goal point a straight line insi
 """
 from __future__ import annotations
 
-from typing import Dict, Sequence
+from typing import Any, Dict, Sequence
 
 import numpy as np
 
@@ -38,6 +38,9 @@ class Routes:
         self._graph, self._node = grid.graph()
         self._cells = np.argwhere(self._node >= 0)       # node -> (row, col)
         self._trees: Dict[str, np.ndarray] = {}
+        #: per ROI file: (its Markov chain, the regions walked, the warnings), kept by
+        #: build.build_crowd (the regions a walker reaches are this sampler's)
+        self.chains: Dict[str, Any] = {}
 
     def tree(self, roi: Roi) -> np.ndarray:
         """The predecessor of every node on its shortest path to ``roi``'s goal cells

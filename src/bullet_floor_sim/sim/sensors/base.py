@@ -29,6 +29,10 @@ class Sensor(Protocol):
     def reset(self, world: "World", rows: Sequence[int]) -> None:
         """Robots ``rows`` were put back at their spawn poses (``World.reset``)."""
 
+    def restart(self, now_ns: int) -> None:
+        """The run starts afresh at ``now_ns`` (``World.restart``): readings first due one
+        period on, as when built."""
+
 
 class SensorKind(NamedTuple):
     """A registry entry (``sensors.SENSORS``).

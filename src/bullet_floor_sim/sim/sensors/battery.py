@@ -58,6 +58,9 @@ class Battery:
         volt = c.voltage_empty + (c.voltage_full - c.voltage_empty) * pct
         return pct, volt, c.capacity_ah * pct
 
+    def restart(self, now_ns: int) -> None:
+        """Nothing is ever due (the state is computed on demand)."""
+
     def reset(self, world, rows: Sequence[int]) -> None:
         """Recharge: start discharging again from ``initial``."""
         self.t0[list(rows)] = world.clock.now_ns

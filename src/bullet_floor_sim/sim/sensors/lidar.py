@@ -159,9 +159,13 @@ class Lidar:
         """The lidars of ``world``'s robots (at their models' base_laser_link), each first
         due one period from now."""
         lidar = cls(cfgs, [m.laser_pose for m in world.models], world.rng)
-        lidar.next_scan_ns[:] = world.clock.now_ns + lidar.period_ns
-        lidar._schedule()
+        lidar.restart(world.clock.now_ns)
         return lidar
+
+    def restart(self, now_ns: int) -> None:
+        """Every lidar first due one period after ``now_ns``."""
+        self.next_scan_ns[:] = now_ns + self.period_ns
+        self._schedule()
 
     def _schedule(self) -> None:
         self.next_ns = int(_earliest(self.next_scan_ns, self.robots, NEVER))

@@ -71,7 +71,7 @@ class Odometry:
         odo = cls(cfgs, world.rng)
         every = max(1, int(round(1e9 / max(odo.rates or [1.0]) / world.clock.step_ns)))
         odo.period_ns = every * world.clock.step_ns
-        odo.next_ns = world.clock.now_ns + odo.period_ns
+        odo.restart(world.clock.now_ns)
         odo._ref, odo._motion = world.pose.copy(), world.motion
         return odo
 
@@ -139,6 +139,16 @@ class Odometry:
             out.append((p[0] + c * bx - s * by, p[1] + s * bx + c * by,
                         wrap_angle(p[2] + dth)))
         self.pose[:] = out
+
+    def restart(self, now_ns: int) -> None:
+        """Integrated first one period after ``now_ns``."""
+        self.next_ns = now_ns + self.period_ns
+
+    def moved(self, world, rows: Sequence[int]) -> None:
+        """Robots ``rows`` were teleported (``World.set_pose``, after ``catch_up``): their
+        odometry goes on from where it is, without the jump."""
+        assert self._ref is not None   # build sets it
+        self._ref[list(rows)] = world.pose[list(rows)]
 
     def reset(self, world, rows: Sequence[int]) -> None:
         """Odometry of ``rows`` back to (0, 0, 0), integrated on from their poses now (the
