@@ -7,7 +7,7 @@ VENV_PY := $(REPO)/.venv/bin/python
 ROSENV := source $(REPO)/.venv/bin/activate && source $(REPO)/.ws/devel/setup.bash &&
 WORLD ?= office
 
-.PHONY: setup test unit-test integration-test lint demo bench eval demo-legs corpus clean
+.PHONY: setup test unit-test integration-test lint demo bench eval demo-legs corpus ppo-smoke clean
 
 setup:
 	bash tools/setup.sh
@@ -57,12 +57,26 @@ corpus: setup
 	$(ROSENV) $(VENV_PY) tools/corpus.py $(if $(FROM),--from $(FROM))
 
 # The destination-prediction study on every shipped world and every corpus world built: one table,
-# an EVAL line per world
-# (LEGS legs each, seed SEED; 200 legs take 3-10 min a world).
+# an EVAL line per world and seed
+# (LEGS legs each, seeds SEED, e.g. SEED="1 2 3"; 200 legs take 3-10 min a world). WORKERS tasks
+# at a time (default: the cores; 1: one after the other, the rtf side by side); RAY=ADDRESS runs
+# them on a Ray cluster (local, auto, ray://HOST:10001); RESULTS=URI also stores each row there
+# (mongodb://HOST:PORT/ or a directory). docs/evaluation.md, "Studies on many cores".
 LEGS ?= 200
 SEED ?= 1
+WORKERS ?=
+RAY ?=
+RESULTS ?=
 eval: setup
-	$(ROSENV) $(VENV_PY) bench/eval_worlds.py --legs $(LEGS) --seed $(SEED)
+	$(ROSENV) $(VENV_PY) bench/eval_worlds.py --legs $(LEGS) --seed $(SEED) \
+	  $(if $(WORKERS),--workers $(WORKERS)) $(if $(RAY),--ray $(RAY)) $(if $(RESULTS),--results $(RESULTS))
+
+# Does learning happen on the Gymnasium environment? A short stable-baselines3 PPO run against
+# a random policy on held-out seeds (bench/ppo_smoke.py; installs requirements/rl.txt, torch
+# among them, into .venv first: about 1 GB).
+ppo-smoke: setup
+	$(VENV_PY) -m pip install -q -r requirements/rl.txt -c requirements/constraints.txt
+	$(ROSENV) $(VENV_PY) bench/ppo_smoke.py
 
 # The full ROS demo (demo.launch, embedded navigation, observer following) on every shipped
 # world, headless at rtf RTF (0 = flat out), until LEGS walker legs have ended: legs given up,

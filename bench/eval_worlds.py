@@ -2,16 +2,23 @@
 """The destination-prediction study on every shipped world, one table (``make eval``).
 
 Runs people/evaluation.py (the code ``evaluate_prediction`` runs) on each world under worlds/
-with the same legs and seed, one world after the other in this process, so the real-time
-factors are measured side by side (``rtf``: sim seconds per wall second of the run's ticks;
-``setup``: the wall seconds before them, loading the world, checking it and the predictor's
-distances). Prints one row per world and an ``EVAL world=<name> ...``
-line each (and a ``done:`` line on stderr as each world ends, so a run cut short keeps what it
-measured). ``margin`` is the predictor's least lead in top-1 over the better of the two
-baselines at any fraction from 25 % on, from tracker and from ground-truth tracks:
+and each seed with the same legs: one task per (world, seed). The tasks run ``--workers`` at a
+time on this machine (processes; default: one per core), or on a Ray cluster with ``--ray
+ADDRESS``; a task's result does not depend on where or beside what it ran (the same seed gives
+the same table), only its real-time factor does (``rtf``: sim seconds per wall second of the
+run's ticks; ``setup``: the wall seconds before them, loading the world, checking it and the
+predictor's distances). ``--workers 1`` runs them one after the other in this process, so the
+real-time factors are measured side by side. Prints one row per task and an
+``EVAL world=<name> ...`` line each (and a ``done:`` line on stderr as each ends, so a run cut
+short keeps what it measured); ``--results URI`` also stores each row in a database (a
+MongoDB or the embedded store) as it ends, so runs on many machines fill one table
+(``--show-results URI`` prints it). ``margin`` is the predictor's least lead in top-1 over the
+better of the two baselines at any fraction from 25 % on, from tracker and from ground-truth
+tracks:
 
     make eval                      # 200 legs, seed 1, every world (the corpus's too, once built)
-    .venv/bin/python bench/eval_worlds.py --legs 40 --seed 5 --worlds office malaga_campus
+    .venv/bin/python bench/eval_worlds.py --legs 40 --seed 5 6 --worlds office malaga_campus
+    .venv/bin/python bench/eval_worlds.py --legs 40 --ray auto     # on a running Ray cluster
 """
 from __future__ import annotations
 
@@ -19,7 +26,7 @@ import argparse
 import os
 import sys
 import time
-from typing import Optional
+from typing import Callable, List, Optional, Tuple
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
@@ -29,8 +36,9 @@ from bullet_floor_sim.people.evaluation import FRACTIONS, EvalConfig, run  # noq
 from bullet_floor_sim.paths import corpus_dir, corpus_worlds, worlds_dir  # noqa: E402
 from bullet_floor_sim.sim.config import world_label  # noqa: E402
 from bullet_floor_sim.people.walker import OUTCOMES  # noqa: E402
+from eval_results import ResultSink, show_results  # noqa: E402
 
-COLUMNS = ("world", "legs", "given_up", "trk25", "trk50", "trk75", "gt25", "gt50", "gt75",
+COLUMNS = ("world", "seed", "legs", "given_up", "trk25", "trk50", "trk75", "gt25", "gt50", "gt75",
            "markov50", "heading50", "margin", "tracked", "ll50", "markov_ll50", "ll_margin",
            "rtf")
 
@@ -99,7 +107,7 @@ def row(world: str, legs: int, seed: int, allow: bool = False, save: str = "") -
         save_moments(r, cache_path(save, world, legs, seed))
     tab = r.table()
     k = {f: FRACTIONS.index(f) for f in (0.25, 0.5, 0.75)}
-    out = {"world": world_label(world), "legs": len(r.legs),
+    out = {"world": world_label(world), "seed": seed, "legs": len(r.legs),
            "given_up": r.failed_legs / max(1, len(r.legs) + r.failed_legs),
            "short": r.short_legs,
            "markov50": tab["tracker"]["markov"][k[0.5]][0],
@@ -127,22 +135,124 @@ def row(world: str, legs: int, seed: int, allow: bool = False, save: str = "") -
 
 
 def _eval_line(r: dict, office: Optional[float]) -> str:
-    """The EVAL line of one world's row (with its ratio to office's rtf when known)."""
-    return ("EVAL world=%s legs=%d given_up=%.3f trk25=%.3f trk50=%.3f trk75=%.3f gt25=%.3f "
-            "gt50=%.3f gt75=%.3f markov50=%.3f heading50=%.3f margin=%.3f tracked=%.3f "
-            "ll50=%.3f markov_ll50=%.3f ll_margin=%.3f modes=%s short=%d rtf=%.1f%s setup=%.0fs"
-            % (r["world"], r["legs"], r["given_up"], r["trk25"], r["trk50"], r["trk75"],
-               r["gt25"], r["gt50"], r["gt75"], r["markov50"], r["heading50"], r["margin"],
-               r["tracked"], r["ll50"], r["markov_ll50"], r["ll_margin"], r["modes"], r["short"],
-               r["rtf"],
+    """The EVAL line of one task's row (with its ratio to office's rtf when known)."""
+    return ("EVAL world=%s seed=%d legs=%d given_up=%.3f trk25=%.3f trk50=%.3f trk75=%.3f "
+            "gt25=%.3f gt50=%.3f gt75=%.3f markov50=%.3f heading50=%.3f margin=%.3f "
+            "tracked=%.3f ll50=%.3f markov_ll50=%.3f ll_margin=%.3f modes=%s short=%d rtf=%.1f%s "
+            "setup=%.0fs"
+            % (r["world"], r["seed"], r["legs"], r["given_up"], r["trk25"], r["trk50"],
+               r["trk75"], r["gt25"], r["gt50"], r["gt75"], r["markov50"], r["heading50"],
+               r["margin"], r["tracked"], r["ll50"], r["markov_ll50"], r["ll_margin"],
+               r["modes"], r["short"], r["rtf"],
                "" if office is None else " rtf_vs_office=%.2f" % (r["rtf"] / office),
                r["setup"]))
+
+
+#: What a row holds that measures the machine, not the study (runs elsewhere differ in it).
+TIMING = ("rtf", "setup")
+
+
+def run_tasks(tasks: List[Tuple[str, int]], legs: int, allow: bool = False, save: str = "",
+              workers: int = 1, ray_address: str = "",
+              on_row: Optional[Callable[[dict], None]] = None) -> List[dict]:
+    """The row of each (world, seed) task, in the order given: one after the other in this
+    process (``workers`` 1), in ``workers`` processes, or as Ray tasks (``ray_address``:
+    "local" starts Ray on this machine, else a cluster's address, e.g. "auto").
+    ``on_row`` gets each row as its task ends (a ``done:`` line on stderr too)."""
+    jobs = [(w, legs, seed, allow, save) for w, seed in tasks]
+
+    def done(r: dict) -> dict:
+        for n in r["notes"]:
+            print("  note: %s" % n, file=sys.stderr)
+        print("  done: %s" % _eval_line(r, None), file=sys.stderr, flush=True)
+        if on_row is not None:
+            on_row(r)
+        return r
+
+    if ray_address:
+        return _on_ray(jobs, ray_address, done)
+    if workers > 1 and len(jobs) > 1:
+        return _on_processes(jobs, workers, done)
+    rows = []
+    for j in jobs:
+        print("== %s: %d legs, seed %d" % (j[0], legs, j[2]), file=sys.stderr, flush=True)
+        rows.append(done(row(*j)))
+    return rows
+
+
+def _on_processes(jobs: list, workers: int, done: Callable[[dict], dict]) -> List[dict]:
+    """``row`` of each job in a pool of ``workers`` processes (spawned: each loads its own
+    simulator)."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    out: List[Optional[dict]] = [None] * len(jobs)
+    with ProcessPoolExecutor(max_workers=min(workers, len(jobs)),
+                             mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = {pool.submit(row, *j): k for k, j in enumerate(jobs)}
+        for f in as_completed(futures):
+            k = futures[f]
+            try:
+                out[k] = done(f.result())
+            except Exception as e:
+                pool.shutdown(cancel_futures=True)
+                sys.exit("eval_worlds: %s, seed %d: %s" % (jobs[k][0], jobs[k][2], e))
+    return [r for r in out if r is not None]
+
+
+def _on_ray(jobs: list, address: str, done: Callable[[dict], dict]) -> List[dict]:
+    """``row`` of each job as a Ray task (one core each). The workers import the package and
+    this script from this checkout's paths (PYTHONPATH): on a cluster, every node has the
+    same checkout at the same path, set up with ``make setup`` (docs/evaluation.md)."""
+    try:
+        import ray
+    except ImportError:
+        sys.exit("eval_worlds: --ray needs the ray package (make setup installs it)")
+    paths = [os.path.abspath(os.path.join(HERE, "..", "src")), HERE]
+    env = {"PYTHONPATH": os.pathsep.join(paths + [os.environ.get("PYTHONPATH", "")])}
+    try:
+        ray.init(address=None if address == "local" else address, log_to_driver=True,
+                 runtime_env={"env_vars": env}, include_dashboard=False)
+    except (ConnectionError, RuntimeError) as e:
+        sys.exit("eval_worlds: --ray %s: cannot reach the Ray cluster: %s" % (address, e))
+    print("note: Ray at %s: %s CPUs" % (address, ray.cluster_resources().get("CPU", 0)),
+          file=sys.stderr, flush=True)
+    try:
+        task = ray.remote(num_cpus=1)(row)
+        refs = {task.remote(*j): k for k, j in enumerate(jobs)}
+        out: List[Optional[dict]] = [None] * len(jobs)
+        pending = list(refs)
+        while pending:
+            ready, pending = ray.wait(pending, num_returns=1)
+            k = refs[ready[0]]
+            try:
+                out[k] = done(ray.get(ready[0]))
+            except ray.exceptions.RayTaskError as e:
+                sys.exit("eval_worlds: %s, seed %d: %s" % (jobs[k][0], jobs[k][2], e))
+    finally:
+        ray.shutdown()
+    return [r for r in out if r is not None]
+
+
+def print_table(rows: List[dict]) -> None:
+    """The markdown table of the rows, then their EVAL lines (office's rtf the reference)."""
+    print("| " + " | ".join(COLUMNS) + " |")
+    print("|" + "---|" * len(COLUMNS))
+    office = next((r["rtf"] for r in rows if r["world"] == "office"), None)
+    for r in rows:
+        cells = [r["world"], "%d" % r["seed"], "%d" % r["legs"], "%.1f %%" % (100 * r["given_up"])]
+        cells += ["%.1f %%" % (100 * r[c]) for c in COLUMNS[4:14]]
+        cells += ["%.2f" % r[c] for c in COLUMNS[14:17]]
+        cells.append("%.1fx" % r["rtf"])
+        print("| " + " | ".join(cells) + " |")
+    for r in rows:
+        print(_eval_line(r, office))
 
 
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--legs", type=int, default=200)
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seed", type=int, nargs="+", default=[1], help="one task per world and seed")
     p.add_argument("--worlds", nargs="*", default=None,
                    help="names under worlds/ or world.yaml paths (default: every shipped world)")
     p.add_argument("--allow-unreachable", action="store_true",
@@ -150,29 +260,39 @@ def main() -> int:
                         "or an observer cut off (check_world); the output says so")
     p.add_argument("--save", default="", metavar="DIR",
                    help="keep each run's moments there (bench/calibrate_prediction.py --cache)")
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                   help="tasks at a time on this machine (default: the cores; 1: one after "
+                        "the other in this process, the real-time factors side by side)")
+    p.add_argument("--ray", default="", metavar="ADDRESS",
+                   help="run the tasks on Ray: 'local' (start it here), 'auto' (the cluster "
+                        "ray start made) or ray://HOST:10001")
+    p.add_argument("--results", default="", metavar="URI",
+                   help="also store each row in this database (mongodb://HOST:PORT/ or a "
+                        "directory of the embedded store), as it ends")
+    p.add_argument("--show-results", default="", metavar="URI",
+                   help="print the table of the rows stored there, and run nothing")
     args = p.parse_args()
+    if args.show_results:
+        return show_results(args.show_results)
+    if args.workers < 1:
+        p.error("--workers must be >= 1")
     worlds, notes = checked(args.worlds or shipped(), bool(args.worlds),
                             args.allow_unreachable)   # before any runs
     for n in notes:
         print("note: %s" % n, file=sys.stderr, flush=True)
-    rows = []
-    for w in worlds:
-        print("== %s: %d legs, seed %d" % (w, args.legs, args.seed), file=sys.stderr, flush=True)
-        rows.append(row(w, args.legs, args.seed, args.allow_unreachable, args.save))
-        for n in rows[-1]["notes"]:
-            print("  note: %s" % n, file=sys.stderr)
-        print("  done: %s" % _eval_line(rows[-1], None), file=sys.stderr, flush=True)
-    print("| " + " | ".join(COLUMNS) + " |")
-    print("|" + "---|" * len(COLUMNS))
-    office = next((r["rtf"] for r in rows if r["world"] == "office"), None)
-    for r in rows:
-        cells = [r["world"], "%d" % r["legs"], "%.1f %%" % (100 * r["given_up"])]
-        cells += ["%.1f %%" % (100 * r[c]) for c in COLUMNS[3:13]]
-        cells += ["%.2f" % r[c] for c in COLUMNS[13:16]]
-        cells.append("%.1fx" % r["rtf"])
-        print("| " + " | ".join(cells) + " |")
-    for r in rows:
-        print(_eval_line(r, office))
+    tasks = [(w, s) for w in worlds for s in args.seed]
+    if args.ray or (args.workers > 1 and len(tasks) > 1):
+        notes.append("the tasks ran %s: each rtf was measured beside other tasks (--workers 1 "
+                     "measures them side by side, one at a time)"
+                     % ("on Ray at %s" % args.ray if args.ray else "%d at a time" % args.workers))
+    sink = ResultSink(args.results) if args.results else None
+    try:
+        rows = run_tasks(tasks, args.legs, args.allow_unreachable, args.save, args.workers,
+                         args.ray, sink.add if sink else None)
+    finally:
+        if sink:
+            notes += sink.close()
+    print_table(rows)
     for n in notes:
         print("note: %s" % n)
     return 0
