@@ -9,6 +9,7 @@ setup(**generate_distutils_setup(
         "bullet_floor_sim.data",
         "bullet_floor_sim.data.store",
         "bullet_floor_sim.data.trajectory",
+        "bullet_floor_sim.gym",
         "bullet_floor_sim.mapping",
         "bullet_floor_sim.nav",
         "bullet_floor_sim.people",

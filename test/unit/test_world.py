@@ -679,3 +679,38 @@ def test_lidar_loops_compiled_equal_their_plain_python(monkeypatch, grid):
     for a, b in zip(compiled, plain):
         assert a.ranges.dtype == np.float32 and np.array_equal(a.ranges, b.ranges), a.robot
     assert any(np.isfinite(s.ranges).sum() > 100 for s in compiled)
+
+
+def test_robots_spawned_and_deleted_while_running_keep_the_others_state():
+    from bullet_floor_sim.sim.roster import add_robot, remove_robot, robot_index
+
+    w = simple_world([RobotSpec(name="a", pose=(1.0, 1.0, 0.0), odometry=STILL),
+                      RobotSpec(name="b", pose=(1.0, 3.0, 0.0), odometry=STILL)])
+    try:
+        drive(w, 0, (0.5, 0.0, 0.0), 2.0)
+        a_pose, a_odom = w.view(0).pose, w.view(0).odom_pose
+        i = add_robot(w, RobotSpec(name="c", pose=(3.0, 2.0, math.pi), laser=EXACT))
+        assert i == 2 and w.n == 3 and [s.name for s in w.specs] == ["a", "b", "c"]
+        assert w.view(0).pose == a_pose and w.view(0).odom_pose == a_odom
+        scans = {s.robot: s for s in w.step(10)}
+        assert set(scans) == {0, 1, 2}       # the new robot scans from its first period
+        c = scans[2]                          # facing -x from (3, 2): the laser at x = 2.7
+        k = int(round(-c.angle_min / c.angle_increment))
+        assert float(c.ranges[k]) == pytest.approx(2.7 - 0.1, abs=1e-3)
+        drive(w, 2, (0.4, 0.0, 0.0), 1.0)    # it drives: towards -x
+        assert w.view(2).pose[0] < 2.9
+        with pytest.raises(ConfigError, match="already in the world"):
+            add_robot(w, RobotSpec(name="b", pose=(5.0, 3.0, 0.0)))
+        with pytest.raises(ConfigError, match="would spawn overlapping robot 'c'"):
+            add_robot(w, RobotSpec(name="d", pose=(w.view(2).pose[0] - 0.3, 2.0, 0.0)))
+        assert w.n == 3                       # a refused spawn leaves nothing behind
+        b_pose = w.view(1).pose
+        remove_robot(w, robot_index(w, "a"))
+        assert [s.name for s in w.specs] == ["b", "c"] and w.view(0).pose == b_pose
+        assert len(w.bodies) == 2 and w.client.getNumBodies() == len(w.wall_bodies) + 2
+        with pytest.raises(ConfigError, match=r"no robot 'a' \(robots: b, c\)"):
+            robot_index(w, "a")
+        drive(w, 0, (0.3, 0.0, 0.0), 1.0)   # b (now row 0) answers its commands
+        assert w.view(0).pose[0] > b_pose[0] + 0.1
+    finally:
+        w.close()

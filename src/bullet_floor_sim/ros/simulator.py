@@ -36,7 +36,8 @@ that has not read for that long, is let go, with a warning naming it, until it i
 ``~upstream_type_names`` (true: /ground_truth/people and /ground_truth/tracked_persons are
 advertised as people_msgs/People and spencer_tracking_msgs/TrackedPersons, ros/upstream.py;
 ``rostopic echo`` then needs those packages installed; false: as bullet_floor_sim's types).
-Services: ``~reset``, ``~pause``, ``~unpause`` (std_srvs/Empty).
+Services: ``~reset``, ``~pause``, ``~unpause`` (std_srvs/Empty); ``~spawn``, ``~delete``,
+``~set_pose`` and ``~step`` (bullet_floor_sim/Spawn, Delete, SetPose, Step: ros/sim/services.py).
 """
 from __future__ import annotations
 
@@ -72,6 +73,7 @@ from .sim.people_out import PeopleOutput
 from ..people.crowd.build import build_crowd
 from .sim.signals import StopSignals, set_rostime, stop_listening_to_own_clock
 from .sim.publish import Output, Tick, robot_outputs
+from .sim.services import MainThreadJobs, RobotIO, RosterServices
 from .sim.wire import II, U32, TfWire, check_wires, quaternion, ros_time
 
 __all__ = ["main", "SimulatorNode"]
@@ -128,6 +130,7 @@ class SimulatorNode:
         self.gate = gate or CommandGate([s.name for s in world.specs])
         self.backlog = backlog
         self._flush_sim = 0.0        # sim time of the last flush
+        self.gt_setting = ground_truth_tf
         self.gt_tf = gt_tf_robots(ground_truth_tf, [s.name for s in world.specs])
         self.own_time = stop_listening_to_own_clock()
         self.rtf = rtf
@@ -148,23 +151,16 @@ class SimulatorNode:
         self.every = {k: max(1, int(round(1e9 / v / step))) for k, v in rates.items()}
         self.out = Outbox()
         pub = self.out.publisher
-        # every robot's outputs (sim/publish.py): the reading outputs by (type, robot), the
-        # periodic ones by rate, robot by robot
-        outputs: List[Output] = []
-        for i, spec in enumerate(world.specs):
-            ns = "/" + spec.name if spec.name else ""
-            outputs += robot_outputs(pub, ns, spec.prefix, i, world)
-            rospy.Subscriber(ns + "/cmd_vel", Twist, self._on_cmd, callback_args=i, queue_size=1)
-        self.reading_out: Dict[Tuple[type, int], Output] = {
-            (o.reads, o.robot): o for o in outputs if o.reads is not None}
-        self.periodic: Dict[str, List[Output]] = {
-            rate: [o for o in outputs if o.rate == rate] for rate in ("odom", "pose", "state")}
+        # every robot's outputs (sim/publish.py) and cmd_vel subscriber, by name; the reading
+        # outputs by (type, robot) and the periodic ones by rate, robot by robot (_reindex)
+        self.robot_io: Dict[str, RobotIO] = {}
+        self.rows: Dict[str, int] = {}     # robot name -> its row in the world (_reindex)
+        self.initialpose_on = initialpose
+        for spec in world.specs:
+            self._open_robot(spec)
         self.clock_pub = pub("/clock", Clock, 10)
         self.tf_pub = pub("/tf", TFMessage, 100)
-        prefixes = [spec.prefix for spec in world.specs]
-        pairs = [(p + "odom", p + "base_footprint") for p in prefixes]
-        pairs += [("map", prefixes[i] + "odom") for i in self.gt_tf]
-        self.tf_wire = TfWire(pairs)
+        self._reindex()
         self.rtf_pub = rospy.Publisher("~real_time_factor_achieved", Float64, queue_size=1)
         self.share_pub = rospy.Publisher("~publishing_share", Float64, queue_size=1)
         self._clock_wall = -math.inf      # wall time of the last /clock
@@ -178,18 +174,67 @@ class SimulatorNode:
                            if world.people is not None else None)
         if publish_map:
             self._publish_map(serve_cleaned)
-        self.initialpose = [rospy.Publisher(("/" + sp.name if sp.name else "") + "/initialpose",
-                                            PoseWithCovarianceStamped, queue_size=1, latch=True)
-                            for sp in world.specs] if initialpose else []
         self._publish_initialposes()
         rospy.Service("~reset", Empty, self._on_reset)
         rospy.Service("~pause", Empty, self._on_pause)
         rospy.Service("~unpause", Empty, self._on_unpause)
+        self.rsps: Optional[RobotStatePublishers] = None    # main() starts them
+        self.jobs = MainThreadJobs()
+        self.services = RosterServices(self)
+
+    # ------------------------------------------------------------------------- robots
+    def _open_robot(self, spec) -> None:
+        """The topics of a robot of the world (its row found by name at each use)."""
+        i = [s.name for s in self.world.specs].index(spec.name)
+        ns = "/" + spec.name if spec.name else ""
+        self.robot_io[spec.name] = RobotIO(
+            robot_outputs(self.out.publisher, ns, spec.prefix, i, self.world),
+            rospy.Subscriber(ns + "/cmd_vel", Twist, self._on_cmd, callback_args=spec.name,
+                             queue_size=1),
+            rospy.Publisher(ns + "/initialpose", PoseWithCovarianceStamped, queue_size=1,
+                            latch=True) if self.initialpose_on else None)
+
+    def close_robot(self, name: str) -> None:
+        """Unregister a robot's topics (after the world let it go; ``_reindex`` next)."""
+        io = self.robot_io.pop(name)
+        io.cmd_sub.unregister()
+        for o in io.outputs:
+            self.out.drop(o.pub)
+        if io.initialpose is not None:
+            io.initialpose.unregister()
+
+    def _reindex(self) -> None:
+        """After the world's robots changed: each output's row, the outputs by reading and
+        rate, the tf frames, the gate's robots (called with the lock held, or before spin)."""
+        w = self.world
+        names = [s.name for s in w.specs]
+        self.rows = {n: i for i, n in enumerate(names)}
+        for name, io in self.robot_io.items():
+            for o in io.outputs:
+                o.robot = self.rows[name]
+        outputs = [o for n in names for o in self.robot_io[n].outputs]
+        self.reading_out: Dict[Tuple[type, int], Output] = {
+            (o.reads, o.robot): o for o in outputs if o.reads is not None}
+        self.periodic: Dict[str, List[Output]] = {
+            rate: [o for o in outputs if o.rate == rate] for rate in ("odom", "pose", "state")}
+        setting = self.gt_setting
+        if isinstance(setting, (list, tuple)):    # robots deleted since are left out
+            setting = [n for n in setting if n in self.rows]
+        self.gt_tf = gt_tf_robots(setting, names)
+        prefixes = [spec.prefix for spec in w.specs]
+        pairs = [(p + "odom", p + "base_footprint") for p in prefixes]
+        pairs += [("map", prefixes[i] + "odom") for i in self.gt_tf]
+        self.tf_wire = TfWire(pairs)
+        if self.gate.names != [n or "<empty>" for n in names]:
+            self.gate = CommandGate(names, self.gate.max_lag, self.gate.max_wait)
 
     # ------------------------------------------------------------------------- callbacks
-    def _on_cmd(self, msg: Twist, robot: int) -> None:
+    def _on_cmd(self, msg: Twist, name: str) -> None:
         try:
             with self.lock:
+                robot = self.rows.get(name)
+                if robot is None:       # deleted since the message came
+                    return
                 self.world.command(robot, msg.linear.x, msg.linear.y, msg.angular.z)
                 self.gate.command(robot, self.world.clock.now, msg.linear.x, msg.linear.y,
                                   msg.angular.z)
@@ -206,7 +251,10 @@ class SimulatorNode:
 
     def _publish_initialposes(self) -> None:
         """Spawn poses on N/initialpose (latched), so amcl starts (and restarts) localised."""
-        for spec, pub in zip(self.world.specs, self.initialpose):
+        for spec in self.world.specs:
+            pub = self.robot_io[spec.name].initialpose
+            if pub is None:
+                continue
             m = PoseWithCovarianceStamped()
             m.header.frame_id = "map"
             m.header.stamp = ros_time(self.world.clock.now_ns)
@@ -338,6 +386,9 @@ class SimulatorNode:
         rep_wall, rep_sim = wall0, sim0
         rep_step, rep_pub = self.time_stepping, self.time_publishing
         while not (rospy.is_shutdown() or stop()):
+            if self.jobs.pending:
+                self.jobs.run()
+                wall0, sim0 = time.perf_counter(), w.clock.now
             if self.paused:
                 self.flush()
                 with self.lock:
@@ -500,7 +551,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     rsps = None
     try:
         if rospy.get_param("~robot_state_publishers", True):
-            rsps = RobotStatePublishers(world)
+            rsps = node.rsps = RobotStatePublishers(world)
         rospy.loginfo("simulator: world %s with robots %s; beams at the walls %s, other "
                       "ray tests through %s",
                       world.config.path, ", ".join(s.name or "<empty>" for s in world.specs),

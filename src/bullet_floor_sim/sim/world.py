@@ -97,6 +97,7 @@ class World:
         self.specs: List[RobotSpec] = list(config.robots)
         self.models: List[RobotModel] = [load_model(s.model) for s in self.specs]
         self._init_robots()
+        self._check_spawns()
 
     @classmethod
     def from_name(cls, world: str, **kwargs) -> "World":
@@ -180,7 +181,6 @@ class World:
         self._body_array = np.array(self.bodies, dtype=np.int64)
         self._beam_geometry = measure.beam_table(self.lidar)
         self._idle = True           # no robot moves or has a non-zero command
-        self._check_spawns()
         measure.self_exit(self)
         self._ray_radius = measure.radius_at_lasers(self)
         (self.section_index, self._section_normals, self._section_offsets,

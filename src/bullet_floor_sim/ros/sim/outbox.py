@@ -46,6 +46,15 @@ class Outbox:
         self.publishers.append(pub)
         return pub
 
+    def drop(self, pub: rospy.Publisher) -> None:
+        """Unregister a publisher made by ``publisher`` (its topic goes when no other
+        publisher of this node has it); what waited for its subscribers is dropped."""
+        if pub in self.publishers:
+            self.publishers.remove(pub)
+        for c in list(pub.impl.connections) if pub.impl is not None else []:
+            self._queues.pop(c, None)
+        pub.unregister()
+
     @staticmethod
     def wanted(pub: rospy.Publisher) -> bool:
         """Whether anyone subscribes (build nothing otherwise)."""

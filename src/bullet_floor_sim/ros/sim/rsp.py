@@ -6,7 +6,7 @@ import os
 import signal
 import subprocess
 import time
-from typing import List
+from typing import Dict, List
 
 
 import rospy
@@ -35,31 +35,50 @@ class RobotStatePublishers:
         if not exe:
             raise BulletFloorSimError("robot_state_publisher is not installed "
                                       "(set ~robot_state_publishers false to run without it)")
-        log_dir = os.path.join(rospkg.get_log_dir(), str(rospy.get_param("/run_id", "")))
-        os.makedirs(log_dir, exist_ok=True)
-        self.procs: List[subprocess.Popen] = []
+        self.exe = exe[0]
+        self.log_dir = os.path.join(rospkg.get_log_dir(), str(rospy.get_param("/run_id", "")))
+        os.makedirs(self.log_dir, exist_ok=True)
+        self.procs: Dict[str, subprocess.Popen] = {}
         for spec in world.specs:
-            ns = "/" + spec.name if spec.name else "/"
-            rospy.set_param((ns.rstrip("/") or "") + "/robot_description",
-                            expand_xacro(spec.model, spec.prefix))
-            tag = (spec.name or "") + ("-" if spec.name else "") + "robot_state_publisher"
-            env = dict(os.environ, ROS_NAMESPACE=ns)
-            with open(os.path.join(log_dir, tag + "-stdout.log"), "ab") as out:
-                self.procs.append(subprocess.Popen(
-                    [exe[0], "__name:=robot_state_publisher",
-                     "__log:=" + os.path.join(log_dir, tag + ".log")],
-                    env=env, stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
-                    close_fds=True))
+            self.start(spec)
+
+    def start(self, spec) -> None:
+        """A robot_state_publisher for the robot of ``spec`` (its robot_description set)."""
+        ns = "/" + spec.name if spec.name else "/"
+        rospy.set_param((ns.rstrip("/") or "") + "/robot_description",
+                        expand_xacro(spec.model, spec.prefix))
+        tag = (spec.name or "") + ("-" if spec.name else "") + "robot_state_publisher"
+        env = dict(os.environ, ROS_NAMESPACE=ns)
+        with open(os.path.join(self.log_dir, tag + "-stdout.log"), "ab") as out:
+            self.procs[spec.name] = subprocess.Popen(
+                [self.exe, "__name:=robot_state_publisher",
+                 "__log:=" + os.path.join(self.log_dir, tag + ".log")],
+                env=env, stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
+                close_fds=True)
+
+    def stop_robot(self, name: str, timeout: float = 1.0) -> None:
+        """Stop the robot_state_publisher of robot ``name`` and drop its robot_description."""
+        proc = self.procs.pop(name, None)
+        if proc is not None:
+            _stop([proc], timeout)
+        try:
+            rospy.delete_param(("/" + name if name else "") + "/robot_description")
+        except KeyError:
+            pass
 
     def stop(self, timeout: float = 1.0) -> None:
         """SIGINT every child still running, SIGKILL what is left after ``timeout`` s."""
-        for p in self.procs:
-            if p.poll() is None:
-                p.send_signal(signal.SIGINT)
-        deadline = time.monotonic() + timeout
-        for p in self.procs:
-            try:
-                p.wait(max(0.0, deadline - time.monotonic()))
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
+        _stop(list(self.procs.values()), timeout)
+
+
+def _stop(procs: List[subprocess.Popen], timeout: float) -> None:
+    for p in procs:
+        if p.poll() is None:
+            p.send_signal(signal.SIGINT)
+    deadline = time.monotonic() + timeout
+    for p in procs:
+        try:
+            p.wait(max(0.0, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait()

@@ -167,6 +167,10 @@ class Lidar:
         self.next_scan_ns[:] = now_ns + self.period_ns
         self._schedule()
 
+    def reschedule(self) -> None:
+        """When the next scan is due, after rows' ``next_scan_ns`` were set (sim/roster.py)."""
+        self._schedule()
+
     def _schedule(self) -> None:
         self.next_ns = int(_earliest(self.next_scan_ns, self.robots, NEVER))
 
