@@ -127,7 +127,9 @@ class PathFollowerNode:
         self.laser = {}  # laser frame -> (x, y, yaw) in the base frame
         self.startup = StartupGrace()
         self.tf_buffer = tf2_ros.Buffer()
-        self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
+        self.tf_listener: Optional[tf2_ros.TransformListener] = tf2_ros.TransformListener(
+            self.tf_buffer)
+        self.gt_only = p.localisation == "ground_truth"
         self.cmd_pub = rospy.Publisher("cmd_vel", Twist, queue_size=1)
         self.plan_pub = rospy.Publisher("move_base/GlobalPlanner/plan", Path, queue_size=1,
                                         latch=True)
@@ -204,6 +206,12 @@ class PathFollowerNode:
                 return
             laser = planar(t.transform)
             self.laser[msg.header.frame_id] = laser
+            if self.gt_only and self.tf_listener is not None:
+                # located from ground truth, the node needs tf only for a goal given in another
+                # frame (listening again then): /tf at 50 Hz of sim time per robot kept a
+                # Python thread of each follower busy flat out
+                self.tf_listener.unregister()
+                self.tf_listener = None
         self.obstacles = obstacles_in_base(msg.ranges, msg.angle_min, msg.angle_increment,
                                            msg.range_max, laser)
 
@@ -226,6 +234,8 @@ class PathFollowerNode:
                             % (q.x, q.y, q.z, q.w))
         frame = target.header.frame_id.lstrip("/")
         if frame and frame != self.global_frame:
+            if self.tf_listener is None:
+                self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
             try:
                 target = self.tf_buffer.transform(target, self.global_frame,
                                                   rospy.Duration(1.0))
