@@ -48,6 +48,7 @@ class ResultSink:
         self.uri = self.store.shown_uri
         self.source = {"commit": checkout_commit(), "host": socket.gethostname()}
         self.count = 0
+        self._waiting_before = self.store.pending   # (the journal of earlier runs, if any)
 
     def add(self, row: dict) -> None:
         doc = dict(row, finished=time.time(), **self.source)
@@ -57,7 +58,7 @@ class ResultSink:
     def close(self) -> List[str]:
         """Close the store; the notes for the run's output (where the rows went, and how many
         still wait in the journal for a database that is down)."""
-        waiting = self.store.pending
+        waiting = min(self.count, max(0, self.store.pending - self._waiting_before))
         self.store.close()
         notes = ["%d row(s) stored in %s (%s.%s)" % (self.count - waiting, self.uri, DB,
                                                       COLLECTION)]

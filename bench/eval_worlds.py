@@ -187,16 +187,25 @@ def _on_processes(jobs: list, workers: int, done: Callable[[dict], dict]) -> Lis
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     out: List[Optional[dict]] = [None] * len(jobs)
-    with ProcessPoolExecutor(max_workers=min(workers, len(jobs)),
-                             mp_context=multiprocessing.get_context("spawn")) as pool:
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)),
+                               mp_context=multiprocessing.get_context("spawn"))
+    finished = False
+    try:
         futures = {pool.submit(row, *j): k for k, j in enumerate(jobs)}
         for f in as_completed(futures):
             k = futures[f]
             try:
-                out[k] = done(f.result())
+                r = f.result()
             except Exception as e:
-                pool.shutdown(cancel_futures=True)
-                sys.exit("eval_worlds: %s, seed %d: %s" % (jobs[k][0], jobs[k][2], e))
+                sys.exit("eval_worlds: %s, seed %d: %s (the tasks still running were stopped; "
+                         "the rows above were done)" % (jobs[k][0], jobs[k][2], e))
+            out[k] = done(r)
+        finished = True
+    finally:
+        if not finished:   # an error or Ctrl-C: stop the other tasks rather than wait for them
+            for proc in list((getattr(pool, "_processes", None) or {}).values()):
+                proc.terminate()
+        pool.shutdown(wait=finished, cancel_futures=True)
     return [r for r in out if r is not None]
 
 
@@ -226,9 +235,10 @@ def _on_ray(jobs: list, address: str, done: Callable[[dict], dict]) -> List[dict
             ready, pending = ray.wait(pending, num_returns=1)
             k = refs[ready[0]]
             try:
-                out[k] = done(ray.get(ready[0]))
-            except ray.exceptions.RayTaskError as e:
+                r = ray.get(ready[0])
+            except Exception as e:   # the task's error, or the worker or node lost
                 sys.exit("eval_worlds: %s, seed %d: %s" % (jobs[k][0], jobs[k][2], e))
+            out[k] = done(r)
     finally:
         ray.shutdown()
     return [r for r in out if r is not None]

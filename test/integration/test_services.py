@@ -1,5 +1,7 @@
 #!/usr/bin/env python3
-"""rostest node: ~spawn, ~delete, ~set_pose and ~step of the simulator (srv/*.srv).
+"""rostest node: ~spawn, ~delete, ~set_pose and ~step of the simulator (srv/*.srv): robot3
+spawned and driven, robot2 deleted (robot3 moves up a row and still answers), robot3 deleted,
+robot1 and the person teleported, 10 ticks stepped while paused.
 
 worlds/simple: free interior x in [0.10, 5.90], y in [0.10, 3.90], pillar x in [4.0, 4.5],
 y in [1.0, 1.5]; robot1 spawns at (1.5, 2.0, 0), robot2 at (3.0, 3.0, pi). The Scitos laser is
@@ -20,7 +22,7 @@ import tf2_ros
 from geometry_msgs.msg import Pose2D, Twist
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import LaserScan
+from sensor_msgs.msg import BatteryState, LaserScan
 from std_srvs.srv import Empty
 
 from bullet_floor_sim.msg import People
@@ -105,13 +107,29 @@ class Services(unittest.TestCase):
             self.assertIn(why, r.message)
         self.assertEqual(topic_users("/robot4/odom"), ([], []))
 
-    def test_2_delete(self):
+    def test_2_delete_a_middle_row_then_the_new_robot(self):
+        r = self.delete(name="robot2")            # robot3 moves up a row
+        self.assertTrue(r.success, r.message)
+        wait_for(lambda: topic_users("/robot2/odom")[0] == [], 10.0, "robot2's topics to go")
+        before = msg("/robot3/base_pose_ground_truth", Odometry).pose.pose.position
+        battery = msg("/robot3/battery_state", BatteryState)
+        self.assertGreater(battery.percentage, 0.9)     # its own battery, full
+        cmd = rospy.Publisher("/robot3/cmd_vel", Twist, queue_size=1)
+        t_end = rospy.get_time() + 1.0
+        while rospy.get_time() < t_end:               # robot3 still answers its commands
+            cmd.publish(Twist(angular=_vec(0, 0, 0.5)))
+            rospy.sleep(0.1)
+        cmd.unregister()
+        gt = msg("/robot3/base_pose_ground_truth", Odometry).pose.pose
+        self.assertAlmostEqual(gt.position.x, before.x, delta=0.01)
+        self.assertGreater(yaw_of(gt.orientation), math.pi / 2 + 0.2)
         r = self.delete(name="robot3")
         self.assertTrue(r.success, r.message)
+        self.assertIn("robots now: robot1", r.message)
         wait_for(lambda: topic_users("/robot3/odom")[0] == [] and
                  topic_users("/robot3/cmd_vel")[1] == [], 10.0, "robot3's topics to go")
         self.assertFalse(rospy.has_param("/robot3/robot_description"))
-        self.assertTrue(topic_users("/robot1/odom")[0])     # the others' stay
+        self.assertTrue(topic_users("/robot1/odom")[0])     # robot1's stay
         msg("/robot1/base_scan", LaserScan)
         r = self.delete(name="robot3")
         self.assertFalse(r.success)

@@ -109,7 +109,7 @@ def test_personal_space_costs_by_depth_and_touching_a_person_ends_it():
         _, reward, terminated, _, info = env.step(np.zeros(2, np.float32))
         assert not terminated
         assert info["intrusion"] == pytest.approx(0.45 - gap, abs=0.03)
-        want = -0.1 * 0.1 - 1.0 * info["intrusion"] * 0.1 + (0.0 if info["distance"] else 0)
+        want = -0.1 * 0.1 - 1.0 * info["intrusion"] * 0.1   # standing: no progress
         assert reward == pytest.approx(want, abs=1e-9)
         crowd.pos[0] = (x + env.radius + crowd.radius[0] - 0.05, y)
         _, reward, terminated, _, info = env.step(np.zeros(2, np.float32))
@@ -135,6 +135,7 @@ def test_the_same_seed_gives_the_same_episode():
         first = episode(a, 11)
         episode(a, 12)                 # another episode between
         again, other = episode(a, 11), episode(b, 11)
+        assert len(first) == len(again) == len(other)
         for x, y, z in zip(first, again, other):
             np.testing.assert_array_equal(x, y)
             np.testing.assert_array_equal(x, z)
@@ -183,10 +184,35 @@ def test_bad_settings_are_refused_with_the_setting_named():
             env.reset(seed=1)
     finally:
         env.close()
+    with pytest.raises(ConfigError, match=r"an action holds 1\.00 s \(control_rate 1 Hz\), as "
+                       "long as the drive's cmd_timeout"):
+        FloorNavEnv(world="simple", people=0, control_rate=1.0)
     env = FloorNavEnv(world="simple", people=0)
     try:
         env.reset(seed=1)
         with pytest.raises(ValueError, match="not finite"):
             env.step(np.array([math.nan, 0.0], np.float32))
+        with pytest.raises(ValueError, match=r"goal \(x, y\) must be 2 finite numbers"):
+            env.reset(seed=1, options={"goal": (1.0, math.inf)})
+        with pytest.raises(ValueError, match="unknown option"):
+            env.reset(seed=1, options={"gaol": (1.0, 1.0)})
+    finally:
+        env.close()
+
+
+def test_episode_seed_decides_the_people_even_where_the_world_file_seeds_them(tmp_path):
+    import shutil
+    world = tmp_path / "seeded"
+    shutil.copytree(os.path.join(os.path.dirname(__file__), "..", "..", "worlds", "office"), world)
+    with open(world / "world.yaml", "a") as f:
+        f.write("people: {count: 3, seed: 123}\n")
+    env = FloorNavEnv(world=str(world / "world.yaml"), people=3)
+    try:
+        def starts(seed):
+            env.reset(seed=seed, options={"start": (3.0, 10.0, 0.0), "goal": (6.0, 10.0)})
+            return env.world.people.pos.copy()
+        a, b, a2 = starts(1), starts(2), starts(1)
+        np.testing.assert_array_equal(a, a2)
+        assert not np.array_equal(a, b)
     finally:
         env.close()

@@ -352,6 +352,8 @@ def test_set_pose_into_a_wall_or_a_robot_is_refused_and_the_robot_stays():
             w.set_pose(0, (3.4, 2.0, 0.0))
         with pytest.raises(ConfigError, match="not finite"):
             w.set_pose(0, (float("nan"), 2.0, 0.0))
+        with pytest.raises(ConfigError, match=r"robot 'a' would stand off the map at \(7\.000"):
+            w.set_pose(0, (7.0, 2.0, 0.0))
         assert w.view(0).pose == (1.5, 2.0, 0.0)
         w.command(0, 0.5)       # and its body is back where it stands: it drives on
         w.step(100)

@@ -94,7 +94,11 @@ class NavEnvConfig:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ConfigError("gym: %s must be a number >= 0, got %r" % (name, v))
-        lo, hi = self.goal_distance
+        try:
+            lo, hi = (float(v) for v in self.goal_distance)
+        except (TypeError, ValueError):
+            raise ConfigError("gym: goal_distance must be (low, high), got %r"
+                              % (self.goal_distance,)) from None
         if not 0 < lo <= hi:
             raise ConfigError("gym: goal_distance must be (low, high) with 0 < low <= high, "
                               "got %r" % (self.goal_distance,))

@@ -52,6 +52,14 @@ class FloorNavEnv(gymnasium.Env):
                               "none" % (wcfg.path, cfg.people))
         self.world = World(dataclasses.replace(wcfg, robots=[wcfg.robots[cfg.robot]]),
                            physics_rate=cfg.physics_rate, seed=0, ray_threads=cfg.ray_threads)
+        try:
+            self._setup(cfg, wcfg)
+        except BaseException:
+            self.world.close()
+            raise
+
+    def _setup(self, cfg: NavEnvConfig, wcfg: Any) -> None:
+        """The floor, the people's routes, the spaces (the world loaded)."""
         w = self.world
         self.radius = float(w.radius[0])
         grid = PlanningGrid(w.fmap, PlannerConfig(robot_radius=self.radius),
@@ -59,10 +67,16 @@ class FloorNavEnv(gymnasium.Env):
         self.floor = Floor(grid, self.radius + cfg.clearance, wcfg.path)
         self._people_cfg = wcfg.people.with_count(cfg.people)
         self._routes = routes_for(w, self._people_cfg.body) if cfg.people else None
+        drive = w.specs[0].drive
+        hold = cfg.steps_per_action * w.clock.dt
+        if hold >= drive.cmd_timeout:
+            raise ConfigError("%s: gym: an action holds %.2f s (control_rate %g Hz), as long as "
+                              "the drive's cmd_timeout (%.2f s) stops the robot: raise "
+                              "control_rate" % (wcfg.path, hold, cfg.control_rate,
+                                                drive.cmd_timeout))
         if not w.specs[0].laser.enabled:
             raise ConfigError("%s: gym: robot %d has no lidar (laser: enabled: false)"
                               % (wcfg.path, cfg.robot))
-        drive = w.specs[0].drive
         self.action_space = spaces.Box(np.array([-drive.max_linear, -drive.max_angular], np.float32),
                                        np.array([drive.max_linear, drive.max_angular], np.float32),
                                        dtype=np.float32)
@@ -78,7 +92,7 @@ class FloorNavEnv(gymnasium.Env):
         self._scan_stamp = 0
         self.goal = (0.0, 0.0)
         self._steps = 0
-        self._max_steps = int(math.ceil(cfg.max_time * cfg.control_rate))
+        self._max_steps = int(math.ceil(cfg.max_time / hold - 1e-9))
         self._distance = 0.0
 
     # ----------------------------------------------------------------------------- episodes
@@ -91,12 +105,18 @@ class FloorNavEnv(gymnasium.Env):
         w.add_people(None)
         w.restart(int(rng.integers(2 ** 31)))
         start, goal = self.floor.draw(rng, cfg.goal_distance, cfg.goal_in_sight)
-        options = options or {}
-        start = tuple(float(v) for v in options.get("start", start))
-        self.goal = tuple(float(v) for v in options.get("goal", goal))
+        options = dict(options or {})
+        unknown = sorted(set(options) - {"start", "goal"})
+        if unknown:
+            raise ValueError("FloorNavEnv.reset: unknown option(s) %s (start, goal)"
+                             % ", ".join(unknown))
+        start = _numbers(options.get("start", start), 3, "start (x, y, yaw)")
+        self.goal = _numbers(options.get("goal", goal), 2, "goal (x, y)")
         w.set_pose(0, start)
-        if cfg.people:
-            people = dataclasses.replace(self._people_cfg, seed=int(rng.integers(2 ** 31)))
+        if cfg.people:   # every walker seeded from the episode (not the world file's seeds)
+            people = dataclasses.replace(
+                self._people_cfg, seed=int(rng.integers(2 ** 31)),
+                groups=tuple(dataclasses.replace(g, seed=None) for g in self._people_cfg.groups))
             w.add_people(build_crowd(w, people, self._routes))
         self._steps = 0
         self._distance = self._goal_distance()
@@ -173,4 +193,16 @@ class FloorNavEnv(gymnasium.Env):
         return {"pose": (x, y, yaw), "goal": self.goal, "distance": self._distance,
                 "collision": collision, "intrusion": intrusion,
                 "is_success": self._distance <= self.config.goal_tolerance and not collision,
-                "time": self._steps / self.config.control_rate}
+                "time": self._steps * self.config.steps_per_action * self.world.clock.dt}
+
+
+def _numbers(value: Any, n: int, what: str) -> tuple:
+    """``value`` as a tuple of ``n`` finite floats, or ValueError naming ``what``."""
+    try:
+        out = tuple(float(v) for v in value)
+    except (TypeError, ValueError):
+        out = ()
+    if len(out) != n or not all(math.isfinite(v) for v in out):
+        raise ValueError("FloorNavEnv.reset: %s must be %d finite numbers, got %r"
+                         % (what, n, value))
+    return out

@@ -175,11 +175,11 @@ class SimulatorNode:
         if publish_map:
             self._publish_map(serve_cleaned)
         self._publish_initialposes()
+        self.jobs = MainThreadJobs()
         rospy.Service("~reset", Empty, self._on_reset)
         rospy.Service("~pause", Empty, self._on_pause)
         rospy.Service("~unpause", Empty, self._on_unpause)
         self.rsps: Optional[RobotStatePublishers] = None    # main() starts them
-        self.jobs = MainThreadJobs()
         self.services = RosterServices(self)
 
     # ------------------------------------------------------------------------- robots
@@ -242,16 +242,23 @@ class SimulatorNode:
             rospy.logwarn_throttle(2.0, str(e))
 
     def _on_reset(self, _req) -> EmptyResponse:
-        with self.lock:
-            self.world.reset()
-            self.gate.reset()
-        rospy.loginfo("simulator: robots reset to their spawn poses")
-        self._publish_initialposes()
+        def reset() -> Tuple[bool, str]:
+            with self.lock:
+                self.world.reset()
+                self.gate.reset()
+            self._publish_initialposes()
+            return True, "robots reset to their spawn poses"
+
+        ok, message = self.jobs.call(reset)     # the main loop's: robots may come and go
+        (rospy.loginfo if ok else rospy.logwarn)("simulator: %s", message)
         return EmptyResponse()
 
-    def _publish_initialposes(self) -> None:
-        """Spawn poses on N/initialpose (latched), so amcl starts (and restarts) localised."""
+    def _publish_initialposes(self, names: Optional[Sequence[str]] = None) -> None:
+        """Spawn poses on N/initialpose (latched), so amcl starts (and restarts) localised;
+        of the robots ``names`` only (None: all)."""
         for spec in self.world.specs:
+            if names is not None and spec.name not in names:
+                continue
             pub = self.robot_io[spec.name].initialpose
             if pub is None:
                 continue

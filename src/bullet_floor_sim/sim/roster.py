@@ -10,6 +10,8 @@ robot's next scan is due when it was.
 """
 from __future__ import annotations
 
+import math
+import re
 from typing import TYPE_CHECKING, List, Sequence
 
 import numpy as np
@@ -52,7 +54,7 @@ def add_robot(world: "World", spec: RobotSpec) -> int:
     names = [s.name for s in world.specs]
     if spec.name in names:
         raise ConfigError("a robot called %r is already in the world" % spec.name)
-    if not spec.name or not spec.name.replace("_", "a").isalnum() or spec.name[0].isdigit():
+    if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", spec.name or ""):
         raise ConfigError("robot name %r is not a ROS name (letters, digits and _, not "
                           "starting with a digit)" % spec.name)
     model = load_model(spec.model)
@@ -101,9 +103,12 @@ def _rebuild(world: "World", specs: Sequence[RobotSpec], models: Sequence[RobotM
     world._expiry_ns = 0
 
 
-def place_person(crowd, name: str, x: float, y: float) -> int:
+def place_person(crowd, name: str, x: float, y: float, now: float) -> int:
     """Put the person called ``name`` at (x, y), standing; a walk it was on goes on from
     there along a new path. Returns its row.
+
+    Args:
+        now: sim time (s): its progress towards its goal is timed afresh from then.
 
     Raises:
         ConfigError: no such person, or (x, y) is not floor a person fits on.
@@ -118,6 +123,7 @@ def place_person(crowd, name: str, x: float, y: float) -> int:
     crowd.pos[i] = (x, y)
     crowd.vel[i] = 0.0
     p = crowd.people[i]
+    p.best, p.best_t = math.inf, now
     if p.goal is not None and p.state == "walk":
         crowd._replan(i, p)
     return i

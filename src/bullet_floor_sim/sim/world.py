@@ -210,6 +210,11 @@ class World:
         overlaps a wall or another robot (the bodies are moved to their poses to check)."""
         x, y, _ = self.pose[i]
         name = self.specs[i].name
+        x0, y0, x1, y1 = self.fmap.bounds()
+        if not (x0 <= x <= x1 and y0 <= y <= y1):
+            raise ConfigError("%s: robot %r %s off the map at (%.3f, %.3f) (the map spans "
+                              "x %.2f..%.2f, y %.2f..%.2f)" % (self.config.path, name, verb,
+                                                               x, y, x0, x1, y0, y1))
         if self.solid.fmap.value_at(x, y) == 100:
             what = "a wall" if self.fmap.value_at(x, y) == 100 else "unknown space"
             raise ConfigError("%s: robot %r %s inside %s at (%.3f, %.3f)"

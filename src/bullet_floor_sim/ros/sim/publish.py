@@ -106,13 +106,12 @@ class BatteryOut(Output):
     rate = "state"
 
     def make(self, publisher, ns, prefix, world):
-        self.battery = world.sensors["battery"]
         self.wire = BatteryWire(world.specs[self.robot].battery.capacity_ah)
         return publisher(ns + "/battery_state", BatteryState, 2)
 
     def put(self, out, tick: Tick) -> None:
-        self.seq += 1
-        pct, volt, charge = self.battery.state(self.robot, tick.now_ns)
+        self.seq += 1   # (the world's battery sensor now: a spawn or delete builds a new one)
+        pct, volt, charge = tick.world.battery.state(self.robot, tick.now_ns)
         out.put(self.pub, self.wire.pack(self.seq, tick.secs, tick.nsecs, volt, pct, charge))
 
 

@@ -43,6 +43,8 @@ class _Job:
     def __init__(self, fn: Callable[[], Tuple[bool, str]]) -> None:
         self.fn = fn
         self.done = threading.Event()
+        self.started = False
+        self.cancelled = False
         self.result: Tuple[bool, str] = (False, "not run")
 
 
@@ -58,16 +60,25 @@ class MainThreadJobs:
 
     def call(self, fn: Callable[[], Tuple[bool, str]]) -> Tuple[bool, str]:
         """Have the main loop run ``fn`` and return its (success, message); a
-        BulletFloorSimError it raises is a failure with its message."""
+        BulletFloorSimError it raises is a failure with its message. A call the loop has not
+        started within ``_JOB_TIMEOUT`` wall seconds is withdrawn (never run); one it has
+        started is waited for to the end."""
         job = _Job(fn)
         self._queue.append(job)
         if not job.done.wait(_JOB_TIMEOUT):
-            return False, "the simulator's main loop did not take the call in %.0f s" % _JOB_TIMEOUT
+            job.cancelled = True
+            if not job.started:
+                return False, ("the simulator's main loop did not take the call in %.0f s; "
+                               "withdrawn, nothing changed" % _JOB_TIMEOUT)
+            job.done.wait()
         return job.result
 
     def run(self) -> None:
         while self._queue:
             job = self._queue.popleft()
+            if job.cancelled:
+                continue
+            job.started = True
             try:
                 job.result = job.fn()
             except BulletFloorSimError as e:
@@ -120,14 +131,25 @@ class RosterServices:
         node, w = self.node, self.node.world
         if not all(math.isfinite(v) for v in pose):
             return False, "robot %r: pose %r is not finite" % (name, pose)
+        if w.people is not None and name in [p.name for p in w.people.people]:
+            return False, "a person is called %r: a robot needs a name of its own" % name
         spec = RobotSpec(name=name, model=model, pose=pose)
         with node.lock:
             add_robot(w, spec)
-            node._open_robot(spec)
-            node._reindex()
-        if node.rsps is not None:
-            node.rsps.start(spec)
-        node._publish_initialposes()
+            try:
+                node._open_robot(spec)
+                node._reindex()
+                if node.rsps is not None:
+                    node.rsps.start(spec)
+            except Exception:   # the robot goes again, with what was opened for it
+                remove_robot(w, robot_index(w, name))
+                if name in node.robot_io:
+                    node.close_robot(name)
+                node._reindex()
+                if node.rsps is not None:
+                    node.rsps.stop_robot(name)
+                raise
+        node._publish_initialposes([name])
         return True, "robot %r (%s) at (%.3f, %.3f, %.3f): topics /%s/..." % (
             name, model, pose[0], pose[1], pose[2], name)
 
@@ -152,7 +174,7 @@ class RosterServices:
                 robot_index(w, name)        # raises: no such robot (and no people at all)
             if not all(math.isfinite(v) for v in pose[:2]):
                 return False, "person %r: position %r is not finite" % (name, pose[:2])
-            place_person(w.people, name, pose[0], pose[1])
+            place_person(w.people, name, pose[0], pose[1], w.clock.now)
         return True, "person %r at (%.3f, %.3f)" % (name, pose[0], pose[1])
 
     def step(self, ticks: int) -> Tuple[bool, str]:
@@ -163,6 +185,9 @@ class RosterServices:
             return False, "step: ticks must be in 1..%d, got %d" % (MAX_STEP_TICKS, ticks)
         before = w.clock.steps
         for _ in range(ticks):
+            if rospy.is_shutdown():
+                return False, "step: shut down after %d of %d ticks" % (
+                    w.clock.steps - before, ticks)
             with node.lock:
                 node.publish(w.step(1))
             node.flush()
