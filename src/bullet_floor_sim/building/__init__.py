@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Dict, List, Optional, Tuple
 
 from ..data.rois import Roi, load_rois
-from ..nav.grid import PlannerConfig, PlanningGrid
+from ..nav.grid import PlannerConfig, PlanningGrid, largest_part
 from ..sim.config import WorldConfig, load_world_config, resolve_world
 from ..sim.floormap import FloorMap, load_map
 from ..sim.solidmap import SolidMap, solid_map
@@ -120,14 +120,11 @@ class Building:
         straight line of sight of it on the planning grid (an observer that starts seeing
         its walker); fewer when the floor has no room for them."""
         import numpy as np
-        from scipy.ndimage import label
 
         grid = self.grid(robot_footprint().radius)
-        parts, count = label(np.isfinite(grid.cost))
-        if not count:
+        rows, cols = np.nonzero(largest_part(np.isfinite(grid.cost)))
+        if not len(rows):
             return []
-        main = int(np.argmax(np.bincount(parts.ravel())[1:])) + 1
-        rows, cols = np.nonzero(parts == main)
         order = np.argsort(-grid.clearance[rows, cols], kind="stable")
         out: List[Tuple[float, float]] = []
         for k in order:

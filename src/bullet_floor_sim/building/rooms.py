@@ -37,6 +37,7 @@ from shapely.affinity import affine_transform
 from shapely.geometry import Polygon
 
 from ..data.rois import Roi, save_rois, validate_roi
+from ..nav.grid import largest_part
 from ..sim.floormap import FloorMap
 from ..sim.solidmap import MapHandling, solid_map
 
@@ -408,7 +409,7 @@ def _room_polygons(cells: np.ndarray) -> Tuple[List[int], List[Polygon]]:
     for k, sl in enumerate(slices):
         if sl is None:
             continue
-        part = _largest_part(cells[sl] == k + 1)
+        part = largest_part(cells[sl] == k + 1)
         rows, c0, c1 = _runs(part)
         boxes = shapely.box(c0 + sl[1].start, rows + sl[0].start, c1 + sl[1].start,
                             rows + 1 + sl[0].start)
@@ -418,15 +419,6 @@ def _room_polygons(cells: np.ndarray) -> Tuple[List[int], List[Polygon]]:
             rooms.append(k + 1)
             polygons.append(shell)
     return rooms, _edge_match(polygons)
-
-
-def _largest_part(mask: np.ndarray) -> np.ndarray:
-    parts, n = ndi.label(mask)
-    if n <= 1:
-        return mask
-    sizes = np.bincount(parts.ravel())
-    sizes[0] = 0
-    return parts == int(np.argmax(sizes))
 
 
 def _runs(mask: np.ndarray) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:

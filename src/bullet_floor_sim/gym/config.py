@@ -6,6 +6,7 @@ from dataclasses import dataclass, field, fields
 from typing import Tuple
 
 from ..errors import ConfigError
+from ..sim.checks import is_number, positive
 
 __all__ = ["NavEnvConfig", "RewardConfig"]
 
@@ -86,13 +87,11 @@ class NavEnvConfig:
 
     def validate(self) -> None:
         """Raise ConfigError naming the first bad value."""
-        for name in ("control_rate", "physics_rate", "max_time", "goal_tolerance", "scan_range"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ConfigError("gym: %s must be a number > 0, got %r" % (name, v))
+        positive(self, "gym", ("control_rate", "physics_rate", "max_time", "goal_tolerance",
+                               "scan_range"))
         for name in ("clearance", "personal_space"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+            if not (is_number(v) and math.isfinite(v) and v >= 0):
                 raise ConfigError("gym: %s must be a number >= 0, got %r" % (name, v))
         try:
             lo, hi = (float(v) for v in self.goal_distance)

@@ -23,7 +23,7 @@ import numpy as np
 from gymnasium import spaces
 
 from ..errors import ConfigError
-from ..nav.grid import PlannerConfig, PlanningGrid
+from ..building import Building
 from ..paths import worlds_dir
 from ..people.crowd.build import build_crowd, routes_for
 from ..sim.config import load_world_config, resolve_world
@@ -62,9 +62,8 @@ class FloorNavEnv(gymnasium.Env):
         """The floor, the people's routes, the spaces (the world loaded)."""
         w = self.world
         self.radius = float(w.radius[0])
-        grid = PlanningGrid(w.fmap, PlannerConfig(robot_radius=self.radius),
-                            handling=wcfg.map_handling)
-        self.floor = Floor(grid, self.radius + cfg.clearance, wcfg.path)
+        self.floor = Floor(Building(wcfg, w.fmap).grid(self.radius),
+                           self.radius + cfg.clearance, wcfg.path)
         self._people_cfg = wcfg.people.with_count(cfg.people)
         self._routes = routes_for(w, self._people_cfg.body) if cfg.people else None
         drive = w.specs[0].drive

@@ -5,10 +5,8 @@ from __future__ import annotations
 from typing import Tuple
 
 import numpy as np
-from scipy.ndimage import label
-
 from ..errors import ConfigError
-from ..nav.grid import PlanningGrid
+from ..nav.grid import PlanningGrid, largest_part
 
 __all__ = ["Floor"]
 
@@ -33,11 +31,10 @@ class Floor:
     def __init__(self, grid: PlanningGrid, clearance: float, where: str) -> None:
         self.grid = grid
         self.where = where
-        parts, count = label(np.isfinite(grid.cost))
-        if not count:
+        main = largest_part(np.isfinite(grid.cost))
+        if not main.any():
             raise ConfigError("%s: gym: no floor where the robot fits" % where)
-        main = int(np.argmax(np.bincount(parts.ravel())[1:])) + 1
-        rows, cols = np.nonzero((parts == main) & (grid.clearance >= clearance))
+        rows, cols = np.nonzero(main & (grid.clearance >= clearance))
         if not len(rows):
             raise ConfigError("%s: gym: no floor with %.2f m clearance for the robot"
                               % (where, clearance))

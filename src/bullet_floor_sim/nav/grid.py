@@ -162,6 +162,19 @@ class PlannerConfig:
     path_spacing: float = 0.1
 
 
+def largest_part(mask: np.ndarray) -> np.ndarray:
+    """The largest 4-connected part of a boolean grid (the first of equal ones; all False
+    when ``mask`` has no True cell)."""
+    from scipy import ndimage as ndi
+
+    parts, n = ndi.label(mask)
+    if n <= 1:
+        return mask.astype(bool) if n else np.zeros_like(mask, dtype=bool)
+    sizes = np.bincount(parts.ravel())
+    sizes[0] = 0
+    return parts == int(np.argmax(sizes))
+
+
 class PlanningGrid:
     """An inflated cost grid over a floor map, and A* on it.
 

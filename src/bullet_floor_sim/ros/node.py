@@ -20,7 +20,7 @@ import rospy
 from ..errors import BulletFloorSimError
 
 __all__ = ["run_node", "one_line", "forward_store_log", "RospyLogHandler", "StartupGrace",
-           "quiet_at_shutdown"]
+           "TfOnDemand", "quiet_at_shutdown"]
 
 
 def one_line(e: BaseException) -> str:
@@ -127,3 +127,31 @@ def quiet_at_shutdown(callback: Callable) -> Callable:
                 raise
             return None
     return run
+
+
+class TfOnDemand:
+    """A tf2 buffer whose listener runs only while a node needs it. A node located from
+    ground truth needs tf only for a laser's offset (once) and the odd goal in another frame,
+    yet a listener reads every /tf message: 50 Hz of sim time per robot kept a Python thread
+    busy enough to delay the ground-truth poses by 10 ms of wall time a scan at rtf:=0.
+    Transforms already received (the static ones) stay in ``buffer``."""
+
+    def __init__(self) -> None:
+        import tf2_ros
+
+        self.buffer = tf2_ros.Buffer()
+        self.listener: Optional[Any] = None
+        self.listen()
+
+    def listen(self) -> None:
+        """Listen to /tf and /tf_static (again)."""
+        if self.listener is None:
+            import tf2_ros
+
+            self.listener = tf2_ros.TransformListener(self.buffer)
+
+    def stop(self) -> None:
+        """Stop listening."""
+        if self.listener is not None:
+            self.listener.unregister()
+            self.listener = None

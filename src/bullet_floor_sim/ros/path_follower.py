@@ -55,7 +55,7 @@ from ..sim.floormap import crop_known
 from ..sim.solidmap import while_mapping
 from .convert import grid_from_msg, planar, yaw as yaw_of
 from .params import check_at_least, config_from_params, map_handling
-from .node import StartupGrace, quiet_at_shutdown, run_node
+from .node import StartupGrace, TfOnDemand, quiet_at_shutdown, run_node
 
 __all__ = ["main", "PathFollowerNode"]
 
@@ -126,9 +126,8 @@ class PathFollowerNode:
         self.obstacles: Optional[np.ndarray] = None
         self.laser = {}  # laser frame -> (x, y, yaw) in the base frame
         self.startup = StartupGrace()
-        self.tf_buffer = tf2_ros.Buffer()
-        self.tf_listener: Optional[tf2_ros.TransformListener] = tf2_ros.TransformListener(
-            self.tf_buffer)
+        self.tf = TfOnDemand()
+        self.tf_buffer = self.tf.buffer
         self.gt_only = p.localisation == "ground_truth"
         self.cmd_pub = rospy.Publisher("cmd_vel", Twist, queue_size=1)
         self.plan_pub = rospy.Publisher("move_base/GlobalPlanner/plan", Path, queue_size=1,
@@ -206,12 +205,8 @@ class PathFollowerNode:
                 return
             laser = planar(t.transform)
             self.laser[msg.header.frame_id] = laser
-            if self.gt_only and self.tf_listener is not None:
-                # located from ground truth, the node needs tf only for a goal given in another
-                # frame (listening again then): /tf at 50 Hz of sim time per robot kept a
-                # Python thread of each follower busy flat out
-                self.tf_listener.unregister()
-                self.tf_listener = None
+            if self.gt_only:   # tf only for a goal given in another frame from now on
+                self.tf.stop()
         self.obstacles = obstacles_in_base(msg.ranges, msg.angle_min, msg.angle_increment,
                                            msg.range_max, laser)
 
@@ -234,8 +229,7 @@ class PathFollowerNode:
                             % (q.x, q.y, q.z, q.w))
         frame = target.header.frame_id.lstrip("/")
         if frame and frame != self.global_frame:
-            if self.tf_listener is None:
-                self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
+            self.tf.listen()
             try:
                 target = self.tf_buffer.transform(target, self.global_frame,
                                                   rospy.Duration(1.0))

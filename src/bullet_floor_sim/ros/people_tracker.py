@@ -48,7 +48,7 @@ from ..msg import Track as TrackMsg
 from ..msg import TrackArray
 from .params import config_from_params, map_handling
 from .convert import grid_from_msg, planar, yaw as yaw_of
-from .node import StartupGrace, quiet_at_shutdown, run_node
+from .node import StartupGrace, TfOnDemand, quiet_at_shutdown, run_node
 
 __all__ = ["main", "PeopleTrackerNode", "POSE_SOURCES"]
 
@@ -75,9 +75,8 @@ class PeopleTrackerNode:
         self.lock = threading.Lock()
         # the first scans may come before the map, a pose or the laser's static transform
         self.startup = StartupGrace()
-        self.tf_buffer = tf2_ros.Buffer()
-        self.tf_listener: Optional[tf2_ros.TransformListener] = tf2_ros.TransformListener(
-            self.tf_buffer)
+        self.tf = TfOnDemand()
+        self.tf_buffer = self.tf.buffer
         self.pose_pub = rospy.Publisher("~tracks", PoseArray, queue_size=5)
         self.list_pub = rospy.Publisher("~track_list", TrackArray, queue_size=5)
         self.marker_pub = rospy.Publisher("~markers", MarkerArray, queue_size=2)
@@ -136,17 +135,12 @@ class PeopleTrackerNode:
                 return None
             off = self.laser_in_base.get(frame)
             if off is None:
-                if self.tf_listener is None:  # a laser frame not seen before
-                    self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
+                self.tf.listen()         # a laser frame not seen before
                 t = self.tf_buffer.lookup_transform(self.base_frame, frame, rospy.Time(0),
                                                     rospy.Duration(0.5))
                 off = planar(t.transform)
                 self.laser_in_base[frame] = off
-                # placed from ground truth, the node needs no more tf: /tf at 50 Hz of sim
-                # time kept a Python thread busy enough to delay the ground-truth poses by
-                # 10 ms of wall time a scan at rtf:=0
-                self.tf_listener.unregister()
-                self.tf_listener = None
+                self.tf.stop()           # placed from ground truth: no more tf needed
         except tf2_ros.TransformException as e:
             self.startup.log(("tf", frame), 10.0, "people_tracker: no transform %s -> %s: %s",
                              self.frame if self.source == "amcl" else self.base_frame, frame,

@@ -95,8 +95,7 @@ def _rebuild(world: "World", specs: Sequence[RobotSpec], models: Sequence[RobotM
     world.battery.t0[:k] = charged
     world.lidar.next_scan_ns[:k] = next_scan
     world.lidar.reschedule()
-    world._sensor_due_ns = world._next_sensor_ns()
-    world._set_due()
+    world.schedule_sensors()
     world._body_at = [None] * world.n
     world._sync_bodies()
     world._idle = False          # the next step looks at every robot's command again

@@ -26,7 +26,7 @@ import contextlib
 import math
 import os
 import sys
-from typing import Dict, Iterator, List, Optional, Sequence, Tuple
+from typing import Dict, Iterable, Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -164,8 +164,7 @@ class World:
             name: kind.build(self, [s.sensors[name] for s in self.specs])
             for name, kind in SENSORS.items()}
         self._sensor_list = list(self.sensors.values())
-        self._sensor_due_ns = self._next_sensor_ns()
-        self._set_due()
+        self.schedule_sensors()
         # (what the views and ray casts use) SENSORS builds these classes under these names,
         # but its values are typed as the Sensor protocol: mypy cannot tell which is which
         self.lidar: Lidar = self.sensors["laser"]  # type: ignore[assignment]
@@ -201,13 +200,20 @@ class World:
                 p.setCollisionFilterGroupMask(self.bodies[i], link, ROBOT_GROUP, ROBOT_MASK)
 
     def _check_spawns(self) -> None:
-        """Refuse a robot whose spawn pose is in a wall cell or overlaps a wall or a robot."""
+        """Refuse a robot whose spawn pose is off the map, in a wall cell or overlaps a wall
+        or a robot."""
         for i in range(self.n):
-            self._check_place(i, "spawns")
+            self._check_cell(i, "spawns")
+        self._check_contacts(range(self.n), "spawns")
 
     def _check_place(self, i: int, verb: str = "would stand") -> None:
-        """Raise ConfigError when robot i at its pose is in a wall or unknown cell or
-        overlaps a wall or another robot (the bodies are moved to their poses to check)."""
+        """Raise ConfigError when robot i at its pose is off the map, in a wall or unknown
+        cell, or overlaps a wall or another robot."""
+        self._check_cell(i, verb)
+        self._check_contacts([i], verb)
+
+    def _check_cell(self, i: int, verb: str) -> None:
+        """Raise ConfigError when robot i's pose is off the map or in a solid cell."""
         x, y, _ = self.pose[i]
         name = self.specs[i].name
         x0, y0, x1, y1 = self.fmap.bounds()
@@ -219,14 +225,20 @@ class World:
             what = "a wall" if self.fmap.value_at(x, y) == 100 else "unknown space"
             raise ConfigError("%s: robot %r %s inside %s at (%.3f, %.3f)"
                               % (self.config.path, name, verb, what, x, y))
+
+    def _check_contacts(self, rows: Iterable[int], verb: str) -> None:
+        """Raise ConfigError when a robot of ``rows`` overlaps a wall or another robot (every
+        body moved to its pose, one collision detection for all)."""
         self._sync_bodies()
         self.client.performCollisionDetection()
-        for c in self.client.getContactPoints(bodyA=self.bodies[i]):
-            if c[8] < -collision.PENETRATION_TOL:
-                other = self._body_index.get(c[2])
-                raise ConfigError("%s: robot %r %s overlapping %s (%.3f m deep)"
-                                  % (self.config.path, name, verb, "robot %r" % self.specs[
-                                      other].name if other is not None else "a wall", -c[8]))
+        for i in rows:
+            for c in self.client.getContactPoints(bodyA=self.bodies[i]):
+                if c[8] < -collision.PENETRATION_TOL:
+                    other = self._body_index.get(c[2])
+                    raise ConfigError("%s: robot %r %s overlapping %s (%.3f m deep)" % (
+                        self.config.path, self.specs[i].name, verb,
+                        "robot %r" % self.specs[other].name if other is not None else "a wall",
+                        -c[8]))
 
     def add_people(self, people: Optional["People"]) -> None:
         """Step ``people`` (people/crowd's Crowd) with the robots, and let the lidars see
@@ -263,8 +275,7 @@ class World:
         self._robot_penetration[rows] = 0.0
         for sensor in self._sensor_list:
             sensor.reset(self, rows)
-        self._sensor_due_ns = self._next_sensor_ns()
-        self._set_due()
+        self.schedule_sensors()
         self._safe_until_ns[:] = 0
         self._check_due_ns = 0
         self._sync_bodies(rows)
@@ -280,8 +291,7 @@ class World:
         now = self.clock.now_ns
         for sensor in self._sensor_list:
             sensor.restart(now)
-        self._sensor_due_ns = self._next_sensor_ns()
-        self._set_due()
+        self.schedule_sensors()
 
     def set_pose(self, robot: int, pose: Sequence[float]) -> None:
         """Teleport a robot: at rest at ``pose`` (x, y, yaw in the map frame). Its odometry
@@ -392,9 +402,14 @@ class World:
         for sensor in self._sensor_list:
             if sensor.next_ns <= now:
                 out.extend(sensor.read(self))
+        self.schedule_sensors()
+        return out
+
+    def schedule_sensors(self) -> None:
+        """When the next sensor is due, after their ``next_ns`` changed (and the step's next
+        due time with it)."""
         self._sensor_due_ns = self._next_sensor_ns()
         self._set_due()
-        return out
 
     def _set_due(self) -> None:
         """When ``step`` next has something to do besides physics: a sensor or the people."""
