@@ -6,7 +6,12 @@ the guess is scored, then the best one is refined on a grid four times finer aro
 candidate's score:
 
 * the likelihood field of the occupied cells at each end point (a Gaussian of its distance to
-  the nearest one, ``sigma``; gmapping's scan matcher scores the same way),
+  the nearest one, ``sigma``; gmapping's scan matcher scores the same way), weighted by how
+  sure the map is of that cell: its log-odds over the clamp, to the power ``evidence`` (a
+  wall seen from many poses counts fully, a cell hit once about a fifth). A scan placed a
+  little wrong draws a second copy of a wall; weighted so, the copy does not pull the next
+  scans to it, and a corridor's walls mapped earlier hold the heading (session 42: office
+  explored in one process, seeds 1-10, occupied F1 0.25-0.95 without, 0.53-0.95 with),
 * an end point counting only where the map is free 1.5 cells before it along its beam: a
   wall's far face does not pull a beam that meets its near face,
 * less a prior on the correction, ``prior`` x points x (squared share of the search window):
@@ -45,6 +50,8 @@ class MatcherConfig:
         sigma: the likelihood field's standard deviation (gmapping's ``sigma``).
         prior: the correction's cost, in points' worth per point at the window's edge.
         min_points: fewer end points than this: the guess stands.
+        evidence: the power of a wall cell's certainty (log-odds / clamp) its field is
+            weighted by; 0: every occupied cell counts alike.
     """
 
     window: Tuple[float, float] = (0.15, 0.08)
@@ -52,6 +59,7 @@ class MatcherConfig:
     sigma: float = 0.05
     prior: float = 0.3
     min_points: int = 10
+    evidence: float = 1.0
 
 
 def match(mapper: OccupancyMapper, guess: Sequence[float],
@@ -103,9 +111,12 @@ class _Scorer:
         self.walls = bool(occupied.any())     # none near the guess: nothing to match against
         if not self.walls:
             return
-        d = distance_transform_edt(~occupied) * res
+        d, (ri, ci) = distance_transform_edt(~occupied, return_indices=True)
+        field = np.exp(-0.5 * (d * res / config.sigma) ** 2)
+        if config.evidence > 0.0:         # the nearest wall cell's certainty
+            field *= np.clip(window[ri, ci] / mapper.config.clamp_high, 0.0, 1.0) ** config.evidence
         # a rim of one cell (field 0, not free) stands for everything off the window
-        self.field = np.pad(np.exp(-0.5 * (d / config.sigma) ** 2), 1)
+        self.field = np.pad(field, 1)
         self.free = np.pad(window < logit(mapper.config.free_thresh), 1)
         self.corner = (mapper.origin[0] + (c0 - 1) * res, mapper.origin[1] + (r0 - 1) * res)
         self.prior = config.prior * len(r)
