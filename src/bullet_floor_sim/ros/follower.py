@@ -89,7 +89,9 @@ class FollowerNode:
         self.goal_handle = None   # the last goal sent (actionlib ClientGoalHandle)
         self.startup = StartupGrace()   # (no pose before the first transforms arrive)
         self.tf_buffer = tf2_ros.Buffer()
-        self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
+        # located from ground truth, the follower needs no tf (a listener reads every /tf)
+        self.tf_listener = None if self.source == "ground_truth" else \
+            tf2_ros.TransformListener(self.tf_buffer)
         self.mode_pub = rospy.Publisher("~mode", String, queue_size=1, latch=True)
         self.target_pub = rospy.Publisher("~target", PointStamped, queue_size=2)
         # The plain ActionClient, polled (as markov_walker's): SimpleActionClient logs "Got a

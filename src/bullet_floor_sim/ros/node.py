@@ -18,6 +18,7 @@ from typing import Any, Callable, Dict, Hashable, Optional, Sequence, Tuple
 import rospy
 
 from ..errors import BulletFloorSimError
+from . import sim_sleep
 
 __all__ = ["run_node", "one_line", "forward_store_log", "RospyLogHandler", "StartupGrace",
            "TfOnDemand", "quiet_at_shutdown"]
@@ -41,6 +42,7 @@ def run_node(name: str, make: Callable[[], Any], argv: Optional[Sequence[str]] =
         init: further rospy.init_node keywords.
     """
     rospy.init_node(name, argv=list(sys.argv if argv is None else argv), **init)
+    sim_sleep.install()
     try:
         node = make()
     except errors as e:
