@@ -35,8 +35,9 @@ class Timers(unittest.TestCase):
         """This process publishes /clock in 10 ms ticks from t = 200 s (one every 2 ms of
         wall time) and sleeps on it with sim_sleep's sleep: rospy.sleep(0.5), a 20 Hz
         rospy.Rate, a 0.1 s rospy.Timer each end at the first tick at or past their deadline
-        (a tick or two later: the tick must reach the process first); then the clock goes
-        back to 1 s and a sleep of 5 s raises ROSTimeMovedBackwardsException."""
+        (a few ticks later at most: the tick must reach the process first); then the clock
+        goes back to 1 s and a sleep of 5 s raises ROSTimeMovedBackwardsException. (It runs
+        before the recorder's test, whose clock starts again at 100 s.)"""
         self.assertEqual(rospy.timer.sleep.__module__, "bullet_floor_sim.ros.sim_sleep")
         clock = self.clock
         deadline = time.monotonic() + 30
@@ -75,7 +76,7 @@ class Timers(unittest.TestCase):
 
             fired = []
             timer = rospy.Timer(rospy.Duration(0.1), lambda e: fired.append(
-                (e.current_expected.to_sec(), e.current_real.to_sec())))
+                (e.current_expected.to_sec(), e.current_real.to_sec())), reset=True)
             threads = [threading.Thread(target=f) for f in (sleeper, rate)]
             for t in threads:
                 t.start()
@@ -83,15 +84,15 @@ class Timers(unittest.TestCase):
                 t.join(30)
             timer.shutdown()
             self.assertGreaterEqual(out["sleep"], 0.5)
-            self.assertLess(out["sleep"], 0.5 + 0.1)
+            self.assertLess(out["sleep"], 0.5 + 0.3)    # (ticks in flight)
             self.assertGreaterEqual(out["rate"], 0.5 - 0.05 - 1e-9)   # the first period starts
-            self.assertLess(out["rate"], 0.5 + 0.1)                  # at Rate(), not at t0
+            self.assertLess(out["rate"], 0.5 + 0.3)                  # at Rate(), not at t0
             self.assertGreaterEqual(len(fired), 4)
             for (e0, _), (e1, _) in zip(fired, fired[1:]):
                 self.assertAlmostEqual(e1 - e0, 0.1, places=6)       # expected: every 0.1 s
             for expected, real in fired:
                 self.assertGreaterEqual(real, expected - 1e-9)
-                self.assertLess(real - expected, 0.1)
+                self.assertLess(real - expected, 0.3)
         finally:
             run.clear()
             ticker.join(5)

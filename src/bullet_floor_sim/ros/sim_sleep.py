@@ -7,9 +7,10 @@ a wall second per sleeping thread; in the 20-person demo the nodes' sleeping thr
 0.1 of a core on them (session 42, per-thread CPU). :func:`install` replaces the sleep that
 rospy.sleep, Rate and Timer use (``rospy.timer.sleep``) in this process by one that wakes a
 thread only at the first /clock at or past its deadline (or when time goes back, or at
-shutdown). What a sleep returns or raises is rospy's: the same deadline (the time at the call
-plus the duration), ROSTimeMovedBackwardsException when the clock goes back,
-ROSInterruptException at shutdown. With wall-clock time rospy's own sleep runs.
+shutdown, once rospy.is_shutdown() is true). What a sleep returns or raises is rospy's: the
+same deadline (the time at the call plus the duration), ROSTimeMovedBackwardsException when
+the clock goes back, ROSInterruptException at shutdown. A node on wall-clock time at install
+keeps rospy's sleep.
 
 :class:`Deadlines` is the pure part: which sleepers a clock reading wakes.
 """
@@ -27,7 +28,9 @@ class Deadlines:
     """Sleepers' deadlines (ns of sim time), each with the event that wakes it."""
 
     def __init__(self) -> None:
-        self._lock = threading.Lock()
+        # reentrant: rospy's SIGINT handler runs the shutdown hook (wake_all) in the main
+        # thread, which may be inside add() (one heappush: the heap is whole between them)
+        self._lock = threading.RLock()
         self._heap: List[Tuple[int, int, threading.Event]] = []
         self._seq = itertools.count()
         self._last = 0
@@ -75,9 +78,12 @@ def install() -> None:
     if _installed or rospy.rostime.is_wallclock():
         return
     deadlines = Deadlines()
+    # rospy's own /clock callback (rospy.impl.simtime) was added to this topic first and the
+    # callbacks run in order on one thread: when a sleeper wakes, rospy's time has moved
     rospy.Subscriber("/clock", Clock, lambda m: deadlines.tick(m.clock.to_nsec()),
                      queue_size=1)
-    rospy.on_shutdown(deadlines.wake_all)
+    # (rospy's internal hooks run once is_shutdown() is true; on_shutdown's run before)
+    rospy.core.add_shutdown_hook(lambda _reason: deadlines.wake_all())
 
     def sleep(duration: Any) -> None:
         _sleep(rospy, deadlines, duration)
@@ -104,15 +110,18 @@ def _sleep(rospy: Any, deadlines: Deadlines, duration: Any) -> None:
         initial = now()
     until = initial + duration
     woken = threading.Event()
+    waiting = False             # on the deadlines, woken not yet set
     while not rospy.core.is_shutdown():
         t = now()
         if t >= until or t < initial:
             break
-        woken.clear()
-        deadlines.add(until.to_nsec(), woken)
-        t = now()                   # a /clock between the look and the add: not missed
-        if t >= until or t < initial:
-            break
+        if not waiting or woken.is_set():
+            woken.clear()
+            deadlines.add(until.to_nsec(), woken)
+            waiting = True
+            t = now()               # a /clock between the look and the add: not missed
+            if t >= until or t < initial or rospy.core.is_shutdown():
+                break
         woken.wait(0.5)             # (a timeout: shutdown is looked at twice a second)
     t = now()
     if t < initial:
