@@ -8,6 +8,7 @@ from bullet_floor_sim.sim.floormap import map_from_grid
 from bullet_floor_sim.people.follow import (FollowBehaviour, FollowConfig, FollowError,
                                             standoff_point)
 from bullet_floor_sim.people.search import (SearchPlan, as_plan, likely_count, in_view, patrol_points,
+                                            hub_points,
                                             pick_target, search_plan,
                                             search_point, search_points)
 from bullet_floor_sim.nav.planner import PlanError, PlanningGrid, give_way_point, path_length
@@ -972,3 +973,57 @@ def test_path_headings_are_the_way_the_robot_sets_off_not_the_straight_line():
     # out of reach of the search: NaN
     assert math.isnan(path_headings(grid, (2.0, 3.0), np.array(rows[:1]), np.array(cols[:1]),
                                     1.0)[0])
+
+
+def test_hubs_are_the_places_most_ways_between_places_go_through():
+    """Five places 4 m apart along a 3 m wide corridor, joined within 2 x 3 m: a path graph.
+    Of the ten ways between two places, the middle one (x 10) lies on four, x 6 and x 14 on
+    three each, the ends on none; x 6 and 14 are within 6 m of x 10, so x 10 is the only
+    hub. A wall across the corridor at x 8 cuts the graph in two: then x 14, the middle of
+    the three places east of it, is the hub (one way), and nothing west of it."""
+    places = np.array([[x, 1.5] for x in (2.0, 6.0, 10.0, 14.0, 18.0)])
+    grid = hall(20.0, 3.0)
+    assert hub_points(grid, places, 3.0, 1.0, 3).tolist() == [[10.0, 1.5]]
+    assert len(hub_points(grid, places, 3.0, 1.6, 3)) == 0    # the corridor's 1.4 m clearance
+    assert len(hub_points(grid, places, 1.5, 1.0, 3)) == 0    # 4 m apart: no place joined
+    g = np.zeros((int(round(3.0 / RES)), int(round(20.0 / RES))), dtype=np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+    g[:, int(round(8.0 / RES))] = 100
+    walled = PlanningGrid(map_from_grid(g, RES))
+    assert hub_points(walled, places, 3.0, 1.0, 3).tolist() == [[14.0, 1.5]]
+
+
+def test_after_the_plan_a_search_watches_at_the_hub_by_turns_with_the_patrol():
+    """Lost for good in a 20 x 3 m corridor: the plan's region for two rounds, then the hub
+    (the patrol place at x 8.05 of x 1.55, 4.05, ..., 16.05), looking round there again and
+    again for ``watch`` seconds, then patrol places for as long, then the hub again (the
+    only one). With ``watch`` 0 it patrols straight after the plan."""
+    grid = hall(20.0, 3.0)
+    hub = tuple(hub_points(grid, patrol_points(grid, 4.0, 0.6), 4.0, 3 * 0.34, 3)[0])
+    assert hub == pytest.approx((8.05, 1.45))
+    cfg = FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=2, trail=0.0,
+                       patrol_sight=0.0, watch=10.0)
+    goals = lost_and_searching(FollowBehaviour(grid, cfg), [("7", (18.0, 1.5))], ticks=60)
+    kinds = [("watch" if "watching at the place" in r else "patrol" if "patrolling" in r
+              else "search" if "searching" in r else "look" if "looking round" in r else r,
+              g) for r, g in goals]
+    first = next(i for i, (k, _) in enumerate(kinds) if k == "watch")
+    assert [k for k, _ in kinds[:first]].count("search") == 2
+    assert kinds[first][1] == hub and "hub 1 of 1" in goals[first][0]
+    # at the hub: only turns on the spot until the watch is over, at least two of them
+    looks = []
+    for k, g in kinds[first + 1:]:
+        if k != "look":
+            break
+        looks.append(g)
+    assert len(looks) >= 2 and all(g == hub for g in looks)
+    assert any("watching at hub 1: looking round" in r for r, _ in goals)
+    rest = [k for k, _ in kinds[first + 1 + len(looks):]]
+    assert rest[0] == "patrol" and goals[first + 1 + len(looks)][1] != hub   # not the hub again
+    assert "watch" in rest                     # back to the hub after patrolling
+    assert rest.count("patrol") >= 2
+    # watch 0: the patrol straight after the plan, never a hub
+    cfg.watch = 0.0
+    goals = lost_and_searching(FollowBehaviour(grid, cfg), [("7", (18.0, 1.5))], ticks=60)
+    assert not any("watching" in r for r, _ in goals)
+    assert any("patrolling" in r for r, _ in goals)

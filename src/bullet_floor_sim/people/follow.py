@@ -46,10 +46,13 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   seconds, then goes on to the next most likely region (up to ``search_regions`` of them, each
   at least ``search_min_probability``: :func:`search_plan`) and round the list again; after
   ``search_rounds`` rounds, each other region of the plan once, most likely first, and then
-  the patrol; a track seen again ends the search. (Looking in one region only, the observer
-  sat for good where the walker was not: a fifth of a 200-leg evaluation. Patrolling nearest
-  first straight after the likely regions, it went the length of office while the walker
-  dwelt in a room 6 m from where it was lost: a 255 s search.)
+  the patrol, by turns with watches at the building's hubs (``watch``: the places most ways
+  across it pass, :func:`hub_points`; it looks round there for ``watch`` seconds, then
+  patrols as long, then watches at the next hub); a track seen again ends the search.
+  (Looking in one region only, the observer sat for good where the walker was not: a
+  fifth of a 200-leg evaluation. Patrolling nearest first straight after the likely
+  regions, it went the length of office while the walker dwelt in a room 6 m from where it
+  was lost: a 255 s search.)
 * **patrol**: nothing tracked and nothing predicted (the target never seen, or lost with no
   leg to predict): the building's roomy places in turn, nearest first; a place seen on the
   way (``patrol_sight``) counts as visited (:class:`PatrolTour`).
@@ -73,7 +76,7 @@ from ..nav.planner import (PlanError, PlanningGrid, disc_points, give_way_point,
 from ..geometry import wrap_angle
 from ..nav.pockets import floor_pockets
 from .follow_config import FollowConfig, FollowDecision, FollowError
-from .search import PatrolTour, SearchPlan, as_plan
+from .search import PatrolTour, SearchPlan, as_plan, hub_points
 
 _GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps to give_way
 _MOVING = 0.15              # m/s: a target slower than this stands still
@@ -135,6 +138,9 @@ class FollowBehaviour:
         cfg = self.config
         self._tour = PatrolTour(grid, cfg.patrol_spacing, cfg.roomy, cfg.patrol_sight)
         self._search_phase = ""          # back | round | go | look | wait
+        # after the plan: ("watch" | "patrol", hub index, until when; None: not begun)
+        self._watch: Optional[Tuple[str, int, Optional[float]]] = None
+        self._hubs: Optional[np.ndarray] = None
         self._search_since = -math.inf
         # (target x, y, time, destinations) of self._route
         self._route_key: Optional[Tuple[float, float, float, List[Tuple[float, float]]]] = None
@@ -270,7 +276,7 @@ class FollowBehaviour:
                 [r for r, _ in self._search], self._search.likely):
             first_loss = self.mode != "search"
             self.mode, self._search, self._search_index, self._rounds = "search", plan, 0, 0
-            self._tour.goal = None
+            self._tour.goal, self._watch = None, None
             lx, ly = self.last_target if self.last_target is not None else (rx, ry)
             close = math.hypot(lx - rx, ly - ry) <= cfg.distance + cfg.slack
             room = self.grid.clearance_at(rx, ry) >= cfg.roomy   # to turn (not in a doorway)
@@ -311,14 +317,15 @@ class FollowBehaviour:
         if self._search_phase == "look" and goal_done:
             self._search_phase, self._search_since = "wait", t
         if self._search_phase == "wait" and t - self._search_since >= cfg.search_wait:
-            return self._search_next(rx, ry)
+            return self._search_next(t, robot)
         return FollowDecision("search")
 
-    def _search_next(self, rx: float, ry: float) -> FollowDecision:
+    def _search_next(self, t: float, robot: Sequence[float]) -> FollowDecision:
         """On from a region searched in vain: the next likely one, round after round, for
         ``search_rounds`` rounds; then each other region of the plan once, most likely
-        first; then the patrol."""
+        first; then the patrol and the watches (:meth:`_patrol_or_watch`)."""
         cfg, plan = self.config, self._search
+        rx, ry = float(robot[0]), float(robot[1])
         likely = max(1, plan.likely)
         if self._rounds < cfg.search_rounds:
             self._search_index = (self._search_index + 1) % likely
@@ -330,7 +337,58 @@ class FollowBehaviour:
             self._search_index += 1
             return self._search_go(rx, ry, "not found in %d rounds of its likely regions: "
                                    "searching the next likeliest, region" % self._rounds)
-        return self._patrol_go(rx, ry)
+        return self._patrol_or_watch(t, robot)
+
+    def _patrol_or_watch(self, t: float, robot: Sequence[float]) -> FollowDecision:
+        """The plan searched in vain: watch at a hub (looking round, waiting ``search_wait``,
+        again and again) for ``watch`` seconds from the first look there, then patrol for as
+        long, then the next hub. Patrolling alone, nearest place first, the observer toured
+        aces_austin for 24 minutes without meeting the walker, which kept walking its legs
+        elsewhere (seed 6, a quarter of the run untracked); a walker going between regions
+        passes the hubs often. Without hubs (none roomy enough) or with ``watch`` 0: the
+        patrol alone."""
+        cfg = self.config
+        rx, ry, ryaw = (float(v) for v in robot[:3])
+        hubs = self._hub_places()
+        if cfg.watch <= 0 or not len(hubs):
+            return self._patrol_go(rx, ry)
+        if self._watch is None:
+            return self._watch_go(rx, ry, 0)
+        kind, k, until = self._watch
+        if kind == "watch":
+            if until is None:
+                until = t + cfg.watch
+                self._watch = (kind, k, until)
+            if t < until:
+                self._search_phase = "look"
+                return FollowDecision("search", (rx, ry, wrap_angle(ryaw + cfg.search_turn)),
+                                      "watching at hub %d: looking round" % (k + 1))
+            self._watch = ("patrol", k, t + cfg.watch)
+            self._tour.been_at(rx, ry)    # (the hub may be a patrol place: not again now)
+            return self._patrol_go(rx, ry)
+        if until is not None and t < until:
+            return self._patrol_go(rx, ry)
+        return self._watch_go(rx, ry, (k + 1) % len(hubs))
+
+    def _watch_go(self, rx: float, ry: float, k: int) -> FollowDecision:
+        """On to hub ``k`` to watch there."""
+        hubs = self._hub_places()
+        self._watch = ("watch", k, None)
+        self._place, self._tour.goal = "hub %d" % (k + 1), None
+        return self._go(rx, ry, float(hubs[k, 0]), float(hubs[k, 1]),
+                        "not found in %d rounds of its likely regions: watching at the place "
+                        "most ways pass (hub %d of %d)" % (self._rounds, k + 1,
+                                                           len(hubs)))
+
+    def _hub_places(self) -> np.ndarray:
+        """The building's hubs (:func:`hub_points` of the patrol places; made when first
+        needed): room for the target to pass the observer there (three robot radii to the
+        walls), at most three."""
+        if self._hubs is None:
+            cfg = self.config
+            self._hubs = hub_points(self.grid, self._tour.places, cfg.patrol_spacing,
+                                    3.0 * self.grid.config.robot_radius, 3)
+        return self._hubs
 
     def _give_way(self, t: float, robot: Sequence[float], target: Sequence[float],
                   dests: List[Tuple[float, float]], goal_done: bool

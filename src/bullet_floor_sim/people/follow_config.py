@@ -108,6 +108,12 @@ class FollowConfig:
             gave up 0-5 % of its legs instead of 7-17 %, but on freiburg_079 (seed 1) the
             walker spent minutes in a 1 x 3.6 m dead-end room the observer then waited
             outside of, unable to see in: tracked 74 -> 42 % (docs/evaluation.md, session 29).
+        watch: once the search plan's regions are done, the observer watches at the
+            building's hubs (people/search.hub_points: where most ways between its roomy
+            places pass), looking round, for this long (s) from its first look there, then
+            patrols for as long, then watches at the next hub; 0: it patrols only. 60 s is
+            about one walker leg and its dwell; it was set so, not tuned (docs/evaluation.md,
+            session 43).
     """
 
     distance: float = 1.5
@@ -132,6 +138,7 @@ class FollowConfig:
     trail: float = 4.0
     unblock: float = 4.0
     snug: float = 0.0
+    watch: float = 60.0
 
     def check(self) -> None:
         """Raise FollowError naming the first bad parameter."""
@@ -146,7 +153,7 @@ class FollowConfig:
             v = getattr(self, name)
             if not (isinstance(v, int) and v >= 1):
                 raise FollowError("follower: %s must be an integer >= 1, got %r" % (name, v))
-        for name in ("pass_detour", "trail", "unblock", "snug", "patrol_sight"):
+        for name in ("pass_detour", "trail", "unblock", "snug", "patrol_sight", "watch"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise FollowError("follower: %s must be a finite number >= 0, got %r"

@@ -1,8 +1,9 @@
 """Where the observer looks: which track to follow (:func:`pick_target`), where to search for
 a lost target (:func:`search_plan`, :func:`search_point`: the destinations' points, the likely
 ones first),
-where to patrol when those gave nothing (:func:`patrol_points`, :class:`PatrolTour`), and
-whether a point is in the lidar's view (:func:`in_view`). people/follow.FollowBehaviour and
+where to patrol when those gave nothing (:func:`patrol_points`, :class:`PatrolTour`), where
+most ways across the building pass (:func:`hub_points`), and whether a point is in the
+lidar's view (:func:`in_view`). people/follow.FollowBehaviour and
 people/agents use them."""
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from ..geometry import wrap_angle, wrap_angles
 from ..nav.planner import PlanningGrid
 
 __all__ = ["pick_target", "search_point", "search_points", "search_plan", "SearchPlan", "likely_count",
-           "patrol_points", "PatrolTour", "in_view", "as_plan"]
+           "patrol_points", "hub_points", "PatrolTour", "in_view", "as_plan"]
 
 #: points (N, 2): a list of (x, y) or an array (DestinationModel.goals)
 Points = Union[Sequence[Sequence[float]], np.ndarray]
@@ -153,6 +154,55 @@ def patrol_points(grid: PlanningGrid, spacing: float, clearance: float) -> np.nd
     return np.array(out, dtype=float).reshape(-1, 2)
 
 
+def hub_points(grid: PlanningGrid, places: np.ndarray, spacing: float, clearance: float,
+               count: int) -> np.ndarray:
+    """The places most ways across the building pass, busiest first: up to ``count`` of
+    ``places`` (:func:`patrol_points`) with at least ``clearance`` to the walls, each at least
+    2 ``spacing`` from a busier one, as a (K, 2) array.
+
+    The places are joined where they lie within 2 ``spacing`` of each other with no wall
+    between (PlanningGrid.in_sight); a place's business is how many of the shortest ways
+    between two other places go through it (its betweenness). Places no way goes through
+    are never hubs."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import shortest_path
+
+    pts = np.asarray(places, dtype=float).reshape(-1, 2)
+    n, reach = len(pts), 2.0 * spacing
+    rows, cols, weights = [], [], []
+    for i in range(n):
+        d = np.hypot(pts[:, 0] - pts[i, 0], pts[:, 1] - pts[i, 1])
+        near = np.flatnonzero((d <= reach) & (np.arange(n) > i))
+        if len(near):
+            near = near[grid.in_sight(pts[near], pts[i])]
+            rows += [i] * len(near)
+            cols += near.tolist()
+            weights += d[near].tolist()
+    if not rows:
+        return np.zeros((0, 2))
+    graph = coo_matrix((weights, (rows, cols)), shape=(n, n)).tocsr()
+    dist, pred = shortest_path(graph, directed=False, return_predecessors=True)
+    ways = np.zeros(n)
+    for i in range(n):
+        # the shortest-path tree from i: a node lies on the way to each node of its subtree
+        below = np.ones(n)
+        reached = np.flatnonzero(np.isfinite(dist[i]))
+        for v in reached[np.argsort(-dist[i, reached], kind="stable")]:
+            if pred[i, v] >= 0:
+                below[pred[i, v]] += below[v]
+        below[i] = 1.0
+        ways[reached] += below[reached] - 1.0
+    out: List[np.ndarray] = []
+    for i in sorted(range(n), key=lambda k: (-ways[k], k)):
+        if ways[i] <= 0 or len(out) >= count:
+            break
+        if grid.clearance_at(float(pts[i, 0]), float(pts[i, 1])) < clearance:
+            continue
+        if all(math.hypot(pts[i, 0] - o[0], pts[i, 1] - o[1]) >= reach for o in out):
+            out.append(pts[i])
+    return np.array(out, dtype=float).reshape(-1, 2)
+
+
 class PatrolTour:
     """A tour of the building's patrol places (:func:`patrol_points`, made when first
     needed): the nearest not visited first, each once a tour. A place seen on the way
@@ -197,6 +247,12 @@ class PatrolTour:
         self.visited.append(k)
         self.goal = k
         return k, float(places[k, 0]), float(places[k, 1])
+
+    def been_at(self, x: float, y: float) -> None:
+        """Mark the places within 1 m of (x, y) visited (it has looked round there)."""
+        places = self.places
+        near = np.flatnonzero(np.hypot(places[:, 0] - x, places[:, 1] - y) < 1.0)
+        self.visited.extend(int(k) for k in near if int(k) not in self.visited)
 
     def look_over(self, t: float, pose: Sequence[float]) -> None:
         """Mark the places in view from ``pose`` (x, y, yaw) as visited, at most once a
