@@ -46,9 +46,9 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   seconds, then goes on to the next most likely region (up to ``search_regions`` of them, each
   at least ``search_min_probability``: :func:`search_plan`) and round the list again; after
   ``search_rounds`` rounds, each other region of the plan once, most likely first, and then
-  the patrol, by turns with watches at the building's hubs (``watch``: the places most ways
-  across it pass, :func:`hub_points`; it looks round there for ``watch`` seconds, then
-  patrols as long, then watches at the next hub); a track seen again ends the search.
+  the patrol (with ``watch`` set, by turns with watches at the building's hubs: the places
+  most ways across it pass, :func:`hub_points`; it looks round there for ``watch`` seconds,
+  then patrols as long, then watches at the next hub); a track seen again ends the search.
   (Looking in one region only, the observer sat for good where the walker was not: a
   fifth of a 200-leg evaluation. Patrolling nearest first straight after the likely
   regions, it went the length of office while the walker dwelt in a room 6 m from where it
@@ -344,14 +344,15 @@ class FollowBehaviour:
         again and again) for ``watch`` seconds from the first look there, then patrol for as
         long, then the next hub. Patrolling alone, nearest place first, the observer toured
         aces_austin for 24 minutes without meeting the walker, which kept walking its legs
-        elsewhere (seed 6, a quarter of the run untracked); a walker going between regions
-        passes the hubs often. Without hubs (none roomy enough) or with ``watch`` 0: the
-        patrol alone."""
+        elsewhere (seed 6, a quarter of the run untracked); with watches, 9 minutes. But a
+        walker that stays among a few neighbouring regions far from the hubs is found later
+        (intel_lab), so ``watch`` is 0 by default (FollowConfig). Without hubs (none roomy
+        enough) or with ``watch`` 0: the patrol alone, as before."""
         cfg = self.config
         rx, ry, ryaw = (float(v) for v in robot[:3])
-        hubs = self._hub_places()
-        if cfg.watch <= 0 or not len(hubs):
+        if cfg.watch <= 0 or not len(self._hub_places()):
             return self._patrol_go(rx, ry)
+        hubs = self._hub_places()
         if self._watch is None:
             return self._watch_go(rx, ry, 0)
         kind, k, until = self._watch

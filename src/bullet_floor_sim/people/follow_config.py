@@ -111,9 +111,14 @@ class FollowConfig:
         watch: once the search plan's regions are done, the observer watches at the
             building's hubs (people/search.hub_points: where most ways between its roomy
             places pass), looking round, for this long (s) from its first look there, then
-            patrols for as long, then watches at the next hub; 0: it patrols only. 60 s is
-            about one walker leg and its dwell; it was set so, not tuned (docs/evaluation.md,
-            session 43).
+            patrols for as long, then watches at the next hub; 0 (the default): it patrols
+            only. Off by default: with 60 s (about a walker's leg and its dwell), seed 4 at
+            100 legs on 16 worlds came out the same on 12, better on 3 (orebro tracked
+            56 -> 76 %, trk50 57 -> 77 %; mit_csail 69 -> 75 %, 76 -> 82 %; seattle 61 -> 63 %)
+            and worse on intel_lab (65 -> 55 %, 63 -> 50 %): the hubs of the whole building
+            lay 15-20 m from where the walker, going between neighbouring regions, stayed for
+            ten minutes, and the patrol between watches, starting at a hub each time, did not
+            get there (docs/evaluation.md, session 43).
     """
 
     distance: float = 1.5
@@ -138,7 +143,7 @@ class FollowConfig:
     trail: float = 4.0
     unblock: float = 4.0
     snug: float = 0.0
-    watch: float = 60.0
+    watch: float = 0.0
 
     def check(self) -> None:
         """Raise FollowError naming the first bad parameter."""
