@@ -1021,9 +1021,35 @@ def test_after_the_plan_a_search_watches_at_the_hub_by_turns_with_the_patrol():
     rest = [k for k, _ in kinds[first + 1 + len(looks):]]
     assert rest[0] == "patrol" and goals[first + 1 + len(looks)][1] != hub   # not the hub again
     assert "watch" in rest                     # back to the hub after patrolling
-    assert rest.count("patrol") >= 2
+    # 10 s of patrol at 1.5 s a tick and three ticks a place (go, look, wait): 3 places
+    assert [k for k in rest[:rest.index("watch")] if k == "patrol"] == ["patrol"] * 3
     # watch 0: the patrol straight after the plan, never a hub
     cfg.watch = 0.0
     goals = lost_and_searching(FollowBehaviour(grid, cfg), [("7", (18.0, 1.5))], ticks=60)
     assert not any("watching" in r for r, _ in goals)
     assert any("patrolling" in r for r, _ in goals)
+
+
+def test_a_hub_the_observer_did_not_get_to_is_not_watched():
+    """The way to the hub ends where the observer stands, 10 m short of it: it looks round
+    there once, as at any goal, but keeps no watch there; the patrol follows."""
+    grid = hall(20.0, 3.0)
+    cfg = FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=2, trail=0.0,
+                       patrol_sight=0.0, watch=10.0)
+    fb = FollowBehaviour(grid, cfg)
+    plan = [("7", (18.0, 1.5))]
+    fb.update(0.0, (2.0, 2.0, 0.0), (6.0, 2.0, 0.0, 0.0))
+    t, robot, reasons = 2.0, (2.0, 2.0, 0.0), []
+    d = fb.update(t, robot, None, plan)
+    for _ in range(30):
+        if d.goal is not None:
+            reasons.append(d.reason)
+            if "watching at the place" not in d.reason:   # never gets to the hub
+                robot = d.goal
+        t += 1.5
+        d = fb.update(t, robot, None, plan, goal_done=d.goal is not None)
+    went = reasons.index(next(r for r in reasons if "watching at the place" in r))
+    assert robot != (8.05, 1.45)
+    assert not any("watching at hub" in r for r in reasons)
+    assert "at hub 1: looking round" in reasons[went + 1]
+    assert "patrolling" in reasons[went + 2]

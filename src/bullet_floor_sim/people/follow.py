@@ -81,6 +81,7 @@ from .search import PatrolTour, SearchPlan, as_plan, hub_points
 _GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps to give_way
 _MOVING = 0.15              # m/s: a target slower than this stands still
 _DETOUR = 0.5               # m: stepping aside further from its place than this: a detour
+_AT_HUB = 1.0               # m: a watch is kept only this near its hub (else: on to the patrol)
 
 __all__ = ["FollowError", "FollowConfig", "FollowDecision", "FollowBehaviour", "standoff_point"]
 
@@ -341,10 +342,13 @@ class FollowBehaviour:
 
     def _patrol_or_watch(self, t: float, robot: Sequence[float]) -> FollowDecision:
         """The plan searched in vain: watch at a hub (looking round, waiting ``search_wait``,
-        again and again) for ``watch`` seconds from the first look there, then patrol for as
-        long, then the next hub. Patrolling alone, nearest place first, the observer toured
-        aces_austin for 24 minutes without meeting the walker, which kept walking its legs
-        elsewhere (seed 6, a quarter of the run untracked); with watches, 9 minutes. But a
+        again and again) until ``watch`` seconds have passed since its first look and wait
+        there (checked after each look and wait), then patrol until as long has passed
+        (checked as each place is done), then the next hub. A hub it did not get within
+        1 m of (no way there, or its way ended short) is not watched: the patrol follows.
+        Searching, then patrolling alone, nearest place first, the observer went 24 minutes
+        without meeting the walker in aces_austin, which kept walking its legs elsewhere
+        (seed 6, a quarter of the run untracked); with watches, 9 minutes. But a
         walker that stays among a few neighbouring regions far from the hubs is found later
         (intel_lab), so ``watch`` is 0 by default (FollowConfig). Without hubs (none roomy
         enough) or with ``watch`` 0: the patrol alone, as before."""
@@ -357,15 +361,18 @@ class FollowBehaviour:
             return self._watch_go(rx, ry, 0)
         kind, k, until = self._watch
         if kind == "watch":
+            hx, hy = float(hubs[k, 0]), float(hubs[k, 1])
             if until is None:
-                until = t + cfg.watch
+                # arrived (or its way there ended): the watch runs from here, at the hub only
+                at_hub = math.hypot(rx - hx, ry - hy) <= _AT_HUB
+                until = t + cfg.watch if at_hub else t
                 self._watch = (kind, k, until)
             if t < until:
                 self._search_phase = "look"
                 return FollowDecision("search", (rx, ry, wrap_angle(ryaw + cfg.search_turn)),
                                       "watching at hub %d: looking round" % (k + 1))
             self._watch = ("patrol", k, t + cfg.watch)
-            self._tour.been_at(rx, ry)    # (the hub may be a patrol place: not again now)
+            self._tour.been_at(hx, hy)    # the hub is a patrol place: not the first one now
             return self._patrol_go(rx, ry)
         if until is not None and t < until:
             return self._patrol_go(rx, ry)

@@ -110,8 +110,9 @@ class FollowConfig:
             outside of, unable to see in: tracked 74 -> 42 % (docs/evaluation.md, session 29).
         watch: once the search plan's regions are done, the observer watches at the
             building's hubs (people/search.hub_points: where most ways between its roomy
-            places pass), looking round, for this long (s) from its first look there, then
-            patrols for as long, then watches at the next hub; 0 (the default): it patrols
+            places pass), looking round, for at least this long (s) after its first look
+            and wait there, then patrols at least as long, then watches at the next hub
+            (a hub it cannot get within 1 m of is skipped); 0 (the default): it patrols
             only. Off by default: with 60 s (about a walker's leg and its dwell), seed 4 at
             100 legs on 16 worlds came out the same on 12, better on 3 (orebro tracked
             56 -> 76 %, trk50 57 -> 77 %; mit_csail 69 -> 75 %, 76 -> 82 %; seattle 61 -> 63 %)

@@ -158,12 +158,13 @@ def hub_points(grid: PlanningGrid, places: np.ndarray, spacing: float, clearance
                count: int) -> np.ndarray:
     """The places most ways across the building pass, busiest first: up to ``count`` of
     ``places`` (:func:`patrol_points`) with at least ``clearance`` to the walls, each at least
-    2 ``spacing`` from a busier one, as a (K, 2) array.
+    2 ``spacing`` from every busier hub chosen, as a (K, 2) array.
 
     The places are joined where they lie within 2 ``spacing`` of each other with no wall
     between (PlanningGrid.in_sight); a place's business is how many of the shortest ways
-    between two other places go through it (its betweenness). Places no way goes through
-    are never hubs."""
+    between two other places go through it (its betweenness): one shortest way per ordered
+    pair (so each pair counts twice), of equal ones the one scipy's shortest_path gives.
+    Places no way goes through are never hubs."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import shortest_path
 
