@@ -354,9 +354,9 @@ class FollowBehaviour:
         enough) or with ``watch`` 0: the patrol alone, as before."""
         cfg = self.config
         rx, ry, ryaw = (float(v) for v in robot[:3])
-        if cfg.watch <= 0 or not len(self._hub_places()):
+        hubs = self._hub_places() if cfg.watch > 0 else np.zeros((0, 2))
+        if not len(hubs):
             return self._patrol_go(rx, ry)
-        hubs = self._hub_places()
         if self._watch is None:
             return self._watch_go(rx, ry, 0)
         kind, k, until = self._watch

@@ -240,7 +240,8 @@ class PatrolTour:
         places = self.places
         d = np.hypot(places[:, 0] - x, places[:, 1] - y)
         if len(self.visited) >= len(places):
-            self.visited = [int(k) for k in np.flatnonzero(d < 1.0)]
+            self.visited = []
+            self.been_at(x, y)      # a new tour, but not the place it stands at
             if len(self.visited) >= len(places):
                 self.visited = []
         d[self.visited] = np.inf
