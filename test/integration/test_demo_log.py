@@ -30,12 +30,19 @@ _BAD = re.compile(r"^\[\s*(WARN|ERROR|FATAL)\s*\]|^Traceback \(most recent call 
 # a node that died while the demo ran (at Ctrl-C every node ends, some with a signal's code)
 _DIED = re.compile(r"process has died")
 _SIM_TIME = re.compile(r"^\[\s*\w+\s*\] \[[0-9.]+, ([0-9.]+)\]")
+_CONTEXT = 12
 _COLOUR = re.compile(r"\x1b\[[0-9;]*m")   # the screen's colours
 
 
 def _lines(path: str):
     with open(path, errors="replace") as f:
         return [_COLOUR.sub("", line.rstrip("\n")) for line in f]
+
+
+def _with_context(lines, indices) -> str:
+    """The lines at ``indices``, each with the _CONTEXT lines after it (a "bad callback"
+    ERROR's traceback follows it on lines of its own)."""
+    return "\n----\n".join("\n".join(lines[i:i + 1 + _CONTEXT]) for i in indices)
 
 
 def _free_port() -> int:
@@ -71,10 +78,11 @@ class DemoLog(unittest.TestCase):
             self.assertGreaterEqual(sim, SIM_SECONDS, "the demo did not reach %g s of sim "
                                     "time; its output ends:\n%s" % (SIM_SECONDS,
                                                                     "\n".join(lines[-30:])))
-            bad = [line for line in lines if _BAD.search(line)]
-            bad += [line for line in lines[:running] if _DIED.search(line)]
-            self.assertEqual(bad, [], "the demo logged %d WARN/ERROR lines:\n%s"
-                             % (len(bad), "\n".join(bad[:40])))
+            bad = [i for i, line in enumerate(lines) if _BAD.search(line)]
+            bad += [i for i, line in enumerate(lines[:running]) if _DIED.search(line)]
+            self.assertEqual(bad, [], "the demo logged %d WARN/ERROR lines (each with the %d "
+                             "lines after it, where a traceback goes):\n%s"
+                             % (len(bad), _CONTEXT, _with_context(lines, bad[:10])))
         finally:
             shutil.rmtree(home, ignore_errors=True)
 

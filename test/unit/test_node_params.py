@@ -68,8 +68,9 @@ def test_the_defaults_and_the_documented_zeros_pass_their_checks():
 
 
 def test_a_callback_that_publishes_ends_quietly_only_at_shutdown(monkeypatch):
-    """ros/node.quiet_at_shutdown: a ROSException (a publish to a closed topic) is dropped
-    once rospy is shutting down, and raised before; other exceptions always go on."""
+    """ros/node.quiet_at_shutdown: a ROSException (a publish to a closed topic) or an
+    AttributeError (the publisher closed inside its publish) is dropped once rospy is shutting
+    down, and raised before; other exceptions always go on."""
     import rospy
 
     from bullet_floor_sim.ros.node import quiet_at_shutdown
@@ -86,8 +87,13 @@ def test_a_callback_that_publishes_ends_quietly_only_at_shutdown(monkeypatch):
         callback(1)
     monkeypatch.setattr(rospy, "is_shutdown", lambda: True)
     assert callback(2) is None and calls == [1, 2]
+    closed_inside = AttributeError("'NoneType' object has no attribute 'tell'")
+    assert callback(3, closed_inside) is None and calls == [1, 2, 3]
     with pytest.raises(ValueError):
-        callback(3, ValueError("a real fault"))
+        callback(4, ValueError("a real fault"))
+    monkeypatch.setattr(rospy, "is_shutdown", lambda: False)
+    with pytest.raises(AttributeError):
+        callback(5, closed_inside)
 
 
 def test_startup_grace_debug_first_then_a_warning_per_key(monkeypatch):

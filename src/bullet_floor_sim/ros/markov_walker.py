@@ -72,7 +72,7 @@ from ..people.walker import (GoalSampler, Leg, RegionIndex, Walker, WalkerConfig
 from .convert import move_base_goal, yaw as yaw_of
 from .params import config_from_params, map_handling
 from .soma import query_rois
-from .node import quiet_at_shutdown, run_node
+from .node import STARTUP_SECONDS, quiet_at_shutdown, run_node
 from .markers import chain_markers
 
 __all__ = ["main", "MarkovWalkerNode"]
@@ -354,12 +354,13 @@ class MarkovWalkerNode:
     # -- the walk -----------------------------------------------------------------------------
 
     def _wait(self, what: str, ready: Any, hint: str) -> bool:
-        """Wait until ready() is true, saying what is missing every 10 s. False on shutdown."""
+        """Wait until ready() is true, saying what is missing every 10 s once it has waited
+        STARTUP_SECONDS. False on shutdown."""
         start = time.monotonic()
         while not rospy.is_shutdown():
             if ready():
                 return True
-            if time.monotonic() - start > 5.0:
+            if time.monotonic() - start > STARTUP_SECONDS:
                 self.complain("wait", "markov_walker: waiting for %s: %s" % (what, hint),
                               rospy.logwarn)
             time.sleep(0.2)

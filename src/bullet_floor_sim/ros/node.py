@@ -21,7 +21,12 @@ from ..errors import BulletFloorSimError
 from . import sim_sleep
 
 __all__ = ["run_node", "one_line", "forward_store_log", "RospyLogHandler", "StartupGrace",
-           "TfOnDemand", "quiet_at_shutdown"]
+           "TfOnDemand", "quiet_at_shutdown", "STARTUP_SECONDS"]
+
+# wall s a node waits quietly for what a system sends as it starts (the map, the first
+# transforms, the robot's pose): a simulator loading a real building's map among a dozen
+# starting nodes on two cores took over 5 s to publish it
+STARTUP_SECONDS = 10.0
 
 
 def one_line(e: BaseException) -> str:
@@ -56,10 +61,11 @@ def run_node(name: str, make: Callable[[], Any], argv: Optional[Sequence[str]] =
             rospy.spin()
     except rospy.ROSInterruptException:
         pass
-    except rospy.ROSException:
+    except (rospy.ROSException, AttributeError):
         if not rospy.is_shutdown():
             raise
-        # (shutting down: a publish to a closed topic; nothing to report)
+        # (shutting down: a publish to a closed topic, or one closed inside the publish, as
+        # in quiet_at_shutdown; nothing to report)
     finally:
         close = getattr(node, "close", None)
         if close is not None:
@@ -96,7 +102,7 @@ class StartupGrace:
     once it has lasted ``seconds`` of wall time since it was first seen; each ``key`` is
     throttled on its own (at most one line per ``period`` s, the first warning at once)."""
 
-    def __init__(self, seconds: float = 5.0) -> None:
+    def __init__(self, seconds: float = STARTUP_SECONDS) -> None:
         self.seconds = seconds
         self._since: Dict[Hashable, float] = {}
         self._logged: Dict[Tuple[Hashable, bool], float] = {}
@@ -117,14 +123,16 @@ class StartupGrace:
 
 def quiet_at_shutdown(callback: Callable) -> Callable:
     """For a subscriber callback that publishes: at shutdown (Ctrl-C) the node's publishers
-    close under a callback still running, and rospy logs the ROSException ("publish() to a
-    closed topic") as a "bad callback" ERROR; this ends the callback quietly then. At any
-    other time the exception goes on."""
+    close under a callback still running, and rospy logs what its publish raises then as a
+    "bad callback" ERROR: a ROSException ("publish() to a closed topic"), or an
+    AttributeError when the close lands inside the publish (rospy's _PublisherImpl.close
+    sets its buffer to None, and publish reads ``buff.tell()`` after its closed check). This
+    ends the callback quietly then. At any other time the exception goes on."""
     @functools.wraps(callback)
     def run(*args: Any, **kwargs: Any) -> Any:
         try:
             return callback(*args, **kwargs)
-        except rospy.ROSException:
+        except (rospy.ROSException, AttributeError):
             if not rospy.is_shutdown():
                 raise
             return None
