@@ -145,13 +145,16 @@ def test_the_clock_is_thinned_only_when_the_asked_pace_would_outrun_the_wall_bou
     assert clock_wall_bound(100.0, 0.0, 0.001) == 0.001      # as fast as possible
 
 
-def test_tcp_unread_keeps_only_the_peers_of_one_port():
+def test_tcp_unread_looks_up_the_sockets_asked_for_and_leaves_out_what_is_gone():
+    """tcp_unread(keys): each socket looked up by its addresses gives the dump's count; one
+    not asked for is not in the answer; a closed one, or addresses only a listening socket
+    has, is left out."""
     import socket
     import time
 
     servers, pairs = [], []
     try:
-        for _ in range(2):
+        for _ in range(3):
             srv = socket.socket()
             srv.bind(("127.0.0.1", 0))
             srv.listen(1)
@@ -162,23 +165,31 @@ def test_tcp_unread_keeps_only_the_peers_of_one_port():
         # the server side writes, the client side reads: as the simulator's publishers do
         for k, (client, accepted) in enumerate(pairs):
             accepted.sendall(b"y" * (100 + k))
-        port = servers[0].getsockname()[1]
         keys = [(c.getsockname(), c.getpeername()) for c, _ in pairs]
+        gone = keys[2]
+        pairs[2][0].close()
         deadline = time.time() + 2.0
         while tcp_unread().get(keys[1], 0) < 101 and time.time() < deadline:
             time.sleep(0.01)
-        everything, mine = tcp_unread(), tcp_unread(port)
+        everything = tcp_unread()
         assert everything[keys[0]] == 100 and everything[keys[1]] == 101
-        assert mine == {keys[0]: 100}                  # the other port's reader left out
-        assert all(peer[1] == port for _, peer in mine)
+        listener = (servers[0].getsockname(), ("127.0.0.1", 1))
+        asked = tcp_unread([keys[0], gone, listener, keys[1]])
+        assert asked == {keys[0]: 100, keys[1]: 101}
+        assert tcp_unread([keys[1]]) == {keys[1]: 101}
+        assert tcp_unread([]) == {}
+        pairs[0][0].recv(60)
+        assert tcp_unread([keys[0]]) == {keys[0]: 40}
+        many = [keys[0]] * 150      # more than one send's worth of look-ups
+        assert tcp_unread(many) == {keys[0]: 40}
     finally:
         for s in servers + [s for p in pairs for s in p]:
             s.close()
 
 
-def test_the_outbox_finds_its_subscribers_unread_bytes_through_its_port():
-    """Outbox.local_port (the port its connections share) filters tcp_unread to them, and
-    unread() reads each subscriber's backlog from it; real sockets, as a publisher's."""
+def test_the_outbox_looks_up_its_subscribers_unread_bytes():
+    """Outbox.unread asks tcp_unread for its subscribers' sockets only, once for all, and
+    reads each subscriber's backlog from the answer; real sockets, as a publisher's."""
     import socket
     import time
     from types import SimpleNamespace
@@ -202,15 +213,19 @@ def test_the_outbox_finds_its_subscribers_unread_bytes_through_its_port():
         out = Outbox()
         out.publishers.append(SimpleNamespace(impl=SimpleNamespace(connections=conns),
                                               resolved_name="/t"))
-        assert out.local_port() is None                  # no connection looked at yet
-        assert out.unread(tcp_unread()) == {("/a", "/t"): 0, ("/b", "/t"): 0}
-        assert out.local_port() == server.getsockname()[1]
+        asked = []
+
+        def lookup(keys):
+            asked.append(sorted(keys))
+            return tcp_unread(keys)
+
+        assert out.unread(lookup) == {("/a", "/t"): 0, ("/b", "/t"): 0}
+        assert asked == [sorted((r.getsockname(), r.getpeername()) for r in readers)]
         conns[1].socket.sendall(b"z" * 77)
         deadline = time.time() + 2.0
-        while out.unread(tcp_unread(out.local_port()))[("/b", "/t")] < 77 \
-                and time.time() < deadline:
+        while out.unread(tcp_unread)[("/b", "/t")] < 77 and time.time() < deadline:
             time.sleep(0.01)
-        assert out.unread(tcp_unread(out.local_port())) == {("/a", "/t"): 0, ("/b", "/t"): 77}
+        assert out.unread(tcp_unread) == {("/a", "/t"): 0, ("/b", "/t"): 77}
     finally:
         for s in [server] + readers + [c.socket for c in conns]:
             s.close()

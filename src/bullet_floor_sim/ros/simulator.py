@@ -469,7 +469,7 @@ class SimulatorNode:
         if self.backlog is None or not self.out.sent:
             return False
         try:
-            unread = self.out.unread(tcp_unread(self.out.local_port()))
+            unread = self.out.unread(tcp_unread)
         except (OSError, struct.error) as e:
             rospy.logwarn("simulator: cannot see what subscribers have read (%s); not waiting "
                           "for them", e)

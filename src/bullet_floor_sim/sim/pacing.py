@@ -23,13 +23,15 @@ for the simulator's periodic report: wall time spent waiting, and for which robo
 commands. It too lets the clock go on at real time (a callback that waits on sim time, a tf
 look-up with a timeout, finishes) and lets a connection go after ``max_wait``.
 :func:`tcp_unread` reads every local TCP socket's unread byte count from the kernel
-(sock_diag netlink, one request for all of them: about 0.1 ms).
+(sock_diag netlink: the subscribers' sockets looked up by their addresses, all in one
+send).
 
 Plain data in and out; the simulator node is the glue (``~max_command_lag``,
 ``~max_command_wait``, ``~wait_for_subscribers``).
 """
 from __future__ import annotations
 
+import functools
 import math
 import socket
 import struct
@@ -191,63 +193,116 @@ class BacklogGate(_Gate[Hashable]):
 _NETLINK_SOCK_DIAG = 4
 _SOCK_DIAG_BY_FAMILY = 20
 _NLMSG_ERROR, _NLMSG_DONE = 2, 3
-_NLM_F_REQUEST_DUMP = 0x301
-_TCP_ESTABLISHED = 1
+_NLM_F_REQUEST, _NLM_F_REQUEST_DUMP = 0x1, 0x301
+_TCP_ESTABLISHED, _TCP_LISTEN = 1, 10
 _NLMSGHDR = struct.Struct("=IHHII")
-_RTATTR = struct.Struct("=HH")          # an attribute's length and type
-_BC_OP = struct.Struct("=BBH")          # struct inet_diag_bc_op: code, yes, no
-_INET_DIAG_REQ_BYTECODE = 1
-_INET_DIAG_BC_D_GE, _INET_DIAG_BC_D_LE = 4, 5
+_NOCOOKIE = b"\xff" * 8               # INET_DIAG_NOCOOKIE: any socket of the 4-tuple
+_LOOKUPS_PER_SEND = 64                # replies of one send stay well inside the rcvbuf
 
 
-def _port_filter(port: int) -> bytes:
-    """sock_diag bytecode keeping the sockets whose peer port is ``port``: "destination port
-    >= port" then "<= port" (the tests every kernel has; "equals" came in Linux 4.16). Each
-    test is an op and an op holding the port; a pass goes on to the next op (the end: kept),
-    a failure jumps past the end (dropped)."""
-    ops = (_BC_OP.pack(_INET_DIAG_BC_D_GE, 8, 20) + _BC_OP.pack(0, 0, port)
-           + _BC_OP.pack(_INET_DIAG_BC_D_LE, 8, 12) + _BC_OP.pack(0, 0, port))
-    return _RTATTR.pack(_RTATTR.size + len(ops), _INET_DIAG_REQ_BYTECODE) + ops
+def _request(flags: int, seq: int, states: int, sockid: bytes = bytes(48)) -> bytes:
+    """A SOCK_DIAG_BY_FAMILY message: struct inet_diag_req_v2 for IPv4 TCP."""
+    req = struct.pack("=BBBBI", socket.AF_INET, socket.IPPROTO_TCP, 0, 0, states) + sockid
+    return _NLMSGHDR.pack(_NLMSGHDR.size + len(req), _SOCK_DIAG_BY_FAMILY, flags, seq, 0) + req
 
 
-def tcp_unread(peer_port: Optional[int] = None) -> Dict[Tuple[Endpoint, Endpoint], int]:
-    """Unread bytes in the receive queue of every established IPv4 TCP socket of this machine
-    (network namespace), keyed by (its own address, its peer's address).
+def _sockid(key: Tuple[Endpoint, Endpoint]) -> bytes:
+    """struct inet_diag_sockid of the socket whose own end is key[0], its peer's key[1]."""
+    (src, sport), (dst, dport) = key
+    return (struct.pack(">HH", sport, dport) + socket.inet_aton(src) + bytes(12)
+            + socket.inet_aton(dst) + bytes(12) + bytes(4) + _NOCOOKIE)
+
+
+def _diag_key(data: bytes, m: int) -> Tuple[Endpoint, Endpoint]:
+    """The (own end, peer) of the struct inet_diag_msg at ``m``."""
+    sport, dport = struct.unpack_from(">HH", data, m + 4)
+    return ((socket.inet_ntoa(data[m + 8:m + 12]), sport),
+            (socket.inet_ntoa(data[m + 24:m + 28]), dport))
+
+
+def tcp_unread(keys: Optional[Sequence[Tuple[Endpoint, Endpoint]]] = None
+               ) -> Dict[Tuple[Endpoint, Endpoint], int]:
+    """Unread bytes in the receive queue of local IPv4 TCP sockets, keyed by (the socket's
+    own address, its peer's address).
 
     Args:
-        peer_port: only the sockets whose peer has this port (the kernel filters them: the
-            subscribers of a node's publishers all connect to its one TCPROS port); None:
-            every socket.
+        keys: the sockets to look at, each looked up by its addresses (one netlink request
+            each, sent together: microseconds, where a dump walks the kernel's whole table
+            of established sockets, 262 144 buckets here, in about a millisecond); a socket
+            that no longer exists, or is not on this machine, is left out. None: every
+            established socket (a dump).
 
     Raises:
         OSError: sock_diag is not available (not Linux, or no netlink in this sandbox), or
-            it refused the filter.
+            it refused the request.
     """
-    req = struct.pack("=BBBBI", socket.AF_INET, socket.IPPROTO_TCP, 0, 0,
-                      1 << _TCP_ESTABLISHED) + bytes(48)
-    if peer_port is not None:
-        req += _port_filter(peer_port)
-    out = {}  # type: Dict[Tuple[Endpoint, Endpoint], int]
     with socket.socket(socket.AF_NETLINK, socket.SOCK_DGRAM, _NETLINK_SOCK_DIAG) as s:
-        s.send(_NLMSGHDR.pack(_NLMSGHDR.size + len(req), _SOCK_DIAG_BY_FAMILY,
-                              _NLM_F_REQUEST_DUMP, 1, 0) + req)
-        while True:
-            data = s.recv(1 << 16)
-            off = 0
-            while off + _NLMSGHDR.size <= len(data):
-                length, kind = _NLMSGHDR.unpack_from(data, off)[:2]
-                if kind == _NLMSG_DONE or length < _NLMSGHDR.size:
-                    return out
-                if kind == _NLMSG_ERROR:
-                    raise OSError("sock_diag refused the TCP socket dump")
-                m = off + _NLMSGHDR.size   # struct inet_diag_msg
-                sport, dport = struct.unpack_from(">HH", data, m + 4)
-                src = socket.inet_ntoa(data[m + 8:m + 12])
-                dst = socket.inet_ntoa(data[m + 24:m + 28])
-                out[((src, sport), (dst, dport))] = struct.unpack_from("=I", data, m + 56)[0]
-                off += (length + 3) & ~3
-            if not data:
+        if keys is None:
+            s.send(_request(_NLM_F_REQUEST_DUMP, 1, 1 << _TCP_ESTABLISHED))
+            return _dumped(s)
+        keys = tuple(keys)
+        out = {}  # type: Dict[Tuple[Endpoint, Endpoint], int]
+        for first, request in enumerate(_lookups(keys)):
+            batch = keys[first * _LOOKUPS_PER_SEND:(first + 1) * _LOOKUPS_PER_SEND]
+            s.send(request)
+            out.update(_looked_up(s, batch))
+        return out
+
+
+@functools.lru_cache(maxsize=8)
+def _lookups(keys: Tuple[Tuple[Endpoint, Endpoint], ...]) -> List[bytes]:
+    """The look-up requests of ``keys``, _LOOKUPS_PER_SEND to a send; the k-th of a send has
+    sequence number k + 1 (the same sockets are looked up step after step: built once)."""
+    return [b"".join(_request(_NLM_F_REQUEST, k + 1, 0xFFFFFFFF, _sockid(key))
+                     for k, key in enumerate(keys[first:first + _LOOKUPS_PER_SEND]))
+            for first in range(0, len(keys), _LOOKUPS_PER_SEND)]
+
+
+def _dumped(s: socket.socket) -> Dict[Tuple[Endpoint, Endpoint], int]:
+    """The replies to a dump: every socket's unread bytes."""
+    out = {}  # type: Dict[Tuple[Endpoint, Endpoint], int]
+    while True:
+        data = s.recv(1 << 16)
+        off = 0
+        while off + _NLMSGHDR.size <= len(data):
+            length, kind = _NLMSGHDR.unpack_from(data, off)[:2]
+            if kind == _NLMSG_DONE or length < _NLMSGHDR.size:
                 return out
+            if kind == _NLMSG_ERROR:
+                raise OSError("sock_diag refused the TCP socket dump")
+            m = off + _NLMSGHDR.size   # struct inet_diag_msg
+            out[_diag_key(data, m)] = struct.unpack_from("=I", data, m + 56)[0]
+            off += (length + 3) & ~3
+        if not data:
+            return out
+
+
+def _looked_up(s: socket.socket, batch: Sequence[Tuple[Endpoint, Endpoint]]
+               ) -> Dict[Tuple[Endpoint, Endpoint], int]:
+    """The replies to one send of look-ups of ``batch`` (one message each, by its sequence
+    number: the socket, or an error such as ENOENT for a socket gone); a listening socket
+    (what the kernel falls back to when no connection has the addresses) is left out."""
+    out = {}  # type: Dict[Tuple[Endpoint, Endpoint], int]
+    answered = 0
+    while answered < len(batch):
+        data = s.recv(1 << 16)
+        if not data:
+            break
+        off = 0
+        while off + _NLMSGHDR.size <= len(data):
+            length, kind, _flags, seq = _NLMSGHDR.unpack_from(data, off)[:4]
+            if length < _NLMSGHDR.size:
+                break
+            answered += 1
+            m = off + _NLMSGHDR.size
+            if kind == _SOCK_DIAG_BY_FAMILY:
+                if data[m + 1] != _TCP_LISTEN and 0 < seq <= len(batch):
+                    out[batch[seq - 1]] = struct.unpack_from("=I", data, m + 56)[0]
+            elif kind != _NLMSG_ERROR:
+                raise OSError("sock_diag answered a TCP socket look-up with message type %d"
+                              % kind)
+            off += (length + 3) & ~3
+    return out
 
 
 def waits_line(commands: Dict[str, float], subscribers: Optional[Dict[Tuple[str, str], float]],

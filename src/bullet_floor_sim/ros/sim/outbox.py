@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import socket
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Callable, Dict, List, Tuple
 
 
 import rospy
@@ -96,27 +96,26 @@ class Outbox:
                 self._send(c, q)
         self.sent = sent
 
-    def unread(self, unread_by_socket: Dict[Any, int]) -> Dict[Tuple[str, str], int]:
+    def unread(self, lookup: Callable[[List[Any]], Dict[Any, int]]
+               ) -> Dict[Tuple[str, str], int]:
         """Unread bytes per (subscriber, topic) of every connection on this machine, from
-        the kernel's count per socket (sim/pacing.tcp_unread)."""
+        the kernel's count for each subscriber's socket: ``lookup`` (sim/pacing.tcp_unread)
+        gets those sockets' keys, once for all."""
         for c in [c for c in self._peers if getattr(c, "done", True)]:
             del self._peers[c]
-        out = {}  # type: Dict[Tuple[str, str], int]
+        peers = []
         for pub in self.publishers:
             for c in pub.impl.connections:
                 peer = self._peers.get(c)
                 if peer is None:
                     peer = self._peers[c] = peer_key(c, pub.resolved_name)
-                if peer[0] is not None:
-                    out[peer[1]] = max(out.get(peer[1], 0), unread_by_socket.get(peer[0], 0))
+                peers.append(peer)
+        counts = lookup([key for key, _ in peers if key is not None])
+        out = {}  # type: Dict[Tuple[str, str], int]
+        for key, label in peers:
+            if key is not None:
+                out[label] = max(out.get(label, 0), counts.get(key, 0))
         return out
-
-    def local_port(self) -> Optional[int]:
-        """This node's port at its end of the subscriber connections seen by ``unread`` when
-        they share one (rospy serves every topic of a node on one TCPROS port), else None:
-        sim/pacing.tcp_unread then asks the kernel for those connections only."""
-        ports = {key[1][1] for key, _ in self._peers.values() if key is not None}
-        return ports.pop() if len(ports) == 1 else None
 
     def flush(self) -> None:
         """Send what each connection's socket takes now; keep the rest for the next flush."""
