@@ -67,10 +67,28 @@ def test_the_defaults_and_the_documented_zeros_pass_their_checks():
     assert PathFollowerParams().robot_radius == 0.34 and ViewerParams().max_poses == 100000
 
 
+def _closed_inside_a_publish() -> AttributeError:
+    """What rospy's publish raises when its topic is closed between its closed check and
+    its use of the buffer: a real _PublisherImpl, closed, caught in that window."""
+    import rospy.topics
+    from std_msgs.msg import String
+
+    impl = rospy.topics._PublisherImpl("/bfs_test", String)
+    impl.close()
+    impl.closed, impl.connections = False, [object()]   # (the check passed before the close)
+    try:
+        impl.publish(String("x"))
+    except AttributeError as e:
+        return e
+    raise AssertionError("rospy's publish did not fail on a closed buffer")
+
+
 def test_a_callback_that_publishes_ends_quietly_only_at_shutdown(monkeypatch):
     """ros/node.quiet_at_shutdown: a ROSException (a publish to a closed topic) or an
-    AttributeError (the publisher closed inside its publish) is dropped once rospy is shutting
-    down, and raised before; other exceptions always go on."""
+    AttributeError raised inside rospy's topics.py (the topic closed inside the publish) is
+    dropped once a shutdown has been asked for (rospy closes its topics in a pre-shutdown
+    hook, before is_shutdown() is true), and raised before; an AttributeError of our own and
+    any other exception always go on."""
     import rospy
 
     from bullet_floor_sim.ros.node import quiet_at_shutdown
@@ -82,18 +100,20 @@ def test_a_callback_that_publishes_ends_quietly_only_at_shutdown(monkeypatch):
         calls.append(msg)
         raise error
 
+    closed_inside = _closed_inside_a_publish()
     monkeypatch.setattr(rospy, "is_shutdown", lambda: False)
+    monkeypatch.setattr(rospy.core, "is_shutdown_requested", lambda: False)
     with pytest.raises(rospy.ROSException, match="closed topic"):
         callback(1)
-    monkeypatch.setattr(rospy, "is_shutdown", lambda: True)
-    assert callback(2) is None and calls == [1, 2]
-    closed_inside = AttributeError("'NoneType' object has no attribute 'tell'")
-    assert callback(3, closed_inside) is None and calls == [1, 2, 3]
-    with pytest.raises(ValueError):
-        callback(4, ValueError("a real fault"))
-    monkeypatch.setattr(rospy, "is_shutdown", lambda: False)
     with pytest.raises(AttributeError):
-        callback(5, closed_inside)
+        callback(2, closed_inside)
+    monkeypatch.setattr(rospy.core, "is_shutdown_requested", lambda: True)  # the hooks run
+    assert callback(3) is None and callback(4, closed_inside) is None
+    assert calls == [1, 2, 3, 4]
+    with pytest.raises(AttributeError, match="ours"):
+        callback(5, AttributeError("ours"))          # not raised in rospy: a real fault
+    with pytest.raises(ValueError):
+        callback(6, ValueError("a real fault"))
 
 
 def test_startup_grace_debug_first_then_a_warning_per_key(monkeypatch):

@@ -180,10 +180,38 @@ def test_tcp_unread_looks_up_the_sockets_asked_for_and_leaves_out_what_is_gone()
         assert tcp_unread([]) == {}
         pairs[0][0].recv(60)
         assert tcp_unread([keys[0]]) == {keys[0]: 40}
-        many = [keys[0]] * 150      # more than one send's worth of look-ups
-        assert tcp_unread(many) == {keys[0]: 40}
     finally:
         for s in servers + [s for p in pairs for s in p]:
+            s.close()
+
+
+def test_tcp_unread_looks_up_more_sockets_than_one_send_holds():
+    """150 look-ups (more than one send's worth): each distinct socket's own count, a closed
+    one and a listener's addresses past the first send left out."""
+    import socket
+    import time
+
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(150)
+    pairs = []
+    try:
+        for k in range(140):
+            client = socket.create_connection(srv.getsockname())
+            accepted, _ = srv.accept()
+            accepted.sendall(b"q" * (10 + k))
+            pairs.append((client, accepted))
+        keys = [(c.getsockname(), c.getpeername()) for c, _ in pairs]
+        deadline = time.time() + 2.0
+        while tcp_unread([keys[-1]]).get(keys[-1], 0) < 149 and time.time() < deadline:
+            time.sleep(0.01)
+        pairs[100][0].close()
+        listener = (srv.getsockname(), ("127.0.0.1", 1))
+        asked = keys[:90] + [listener] + keys[90:] + [keys[5]] * 9
+        want = {key: 10 + k for k, key in enumerate(keys) if k != 100}
+        assert tcp_unread(asked) == want
+    finally:
+        for s in [srv] + [s for p in pairs for s in p]:
             s.close()
 
 

@@ -38,7 +38,7 @@ from ..mapping.matcher import MatcherConfig
 from ..mapping.occupancy import MapperConfig
 from ..mapping.slam import ScanMatchingMapper, SlamConfig
 from .convert import occupancy_grid, planar
-from .node import run_node
+from .node import quiet_at_shutdown, run_node
 from .params import check_at_least, config_from_params
 
 __all__ = ["main", "MapperParams"]
@@ -134,6 +134,7 @@ class MapperNode:
             fmap = self.slam.mapper.floor_map()
         return occupancy_grid(fmap, self.params.map_frame, rospy.Time.now())
 
+    @quiet_at_shutdown
     def _publish(self, _event=None) -> None:
         grid = self._grid()
         if grid is not None:
@@ -146,6 +147,7 @@ class MapperNode:
             raise rospy.ServiceException("mapper: no scan mapped yet")
         return GetMapResponse(map=grid)
 
+    @quiet_at_shutdown
     def _broadcast(self, _event=None) -> None:
         """map -> odom, the correction, stamped one period ahead (as gmapping's tf_delay)."""
         stamp = rospy.Time.now() + rospy.Duration(self.params.transform_publish_period)

@@ -347,6 +347,7 @@ class MarkovWalkerNode:
             self.region = region
             self.pub_current.publish(String(region))
 
+    @quiet_at_shutdown
     def _publish_region(self, _event: Any = None) -> None:
         if self.region is not None:
             self.pub_current.publish(String(self.region))

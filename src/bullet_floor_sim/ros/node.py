@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import logging
+import os
 import sys
 import time
 from typing import Any, Callable, Dict, Hashable, Optional, Sequence, Tuple
@@ -21,7 +22,7 @@ from ..errors import BulletFloorSimError
 from . import sim_sleep
 
 __all__ = ["run_node", "one_line", "forward_store_log", "RospyLogHandler", "StartupGrace",
-           "TfOnDemand", "quiet_at_shutdown", "STARTUP_SECONDS"]
+           "TfOnDemand", "quiet_at_shutdown", "closed_at_shutdown", "STARTUP_SECONDS"]
 
 # wall s a node waits quietly for what a system sends as it starts (the map, the first
 # transforms, the robot's pose): a simulator loading a real building's map among a dozen
@@ -61,11 +62,10 @@ def run_node(name: str, make: Callable[[], Any], argv: Optional[Sequence[str]] =
             rospy.spin()
     except rospy.ROSInterruptException:
         pass
-    except (rospy.ROSException, AttributeError):
-        if not rospy.is_shutdown():
+    except (rospy.ROSException, AttributeError) as e:
+        if not closed_at_shutdown(e):
             raise
-        # (shutting down: a publish to a closed topic, or one closed inside the publish, as
-        # in quiet_at_shutdown; nothing to report)
+        # (shutting down: a publish to a closed topic; nothing to report)
     finally:
         close = getattr(node, "close", None)
         if close is not None:
@@ -121,19 +121,36 @@ class StartupGrace:
         (rospy.logwarn if late else rospy.logdebug)(fmt, *args)
 
 
+def closed_at_shutdown(e: BaseException) -> bool:
+    """Whether ``e`` is what a publish raises when rospy's shutdown closes its topic: a
+    ROSException ("publish() to a closed topic"), or an AttributeError raised inside rospy's
+    topics.py when the close lands inside the publish (_PublisherImpl.close sets the buffer
+    and the lock to None, which publish, acquire and release read after their checks), once
+    a shutdown has been asked for. rospy closes the topics in a pre-shutdown hook, before
+    ``rospy.is_shutdown()`` turns true, so the test is ``is_shutdown_requested``."""
+    if not rospy.core.is_shutdown_requested():
+        return False
+    if isinstance(e, rospy.ROSException):
+        return True
+    tb = e.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    return (isinstance(e, AttributeError) and tb is not None
+            and tb.tb_frame.f_code.co_filename.endswith(os.path.join("rospy", "topics.py")))
+
+
 def quiet_at_shutdown(callback: Callable) -> Callable:
-    """For a subscriber callback that publishes: at shutdown (Ctrl-C) the node's publishers
-    close under a callback still running, and rospy logs what its publish raises then as a
-    "bad callback" ERROR: a ROSException ("publish() to a closed topic"), or an
-    AttributeError when the close lands inside the publish (rospy's _PublisherImpl.close
-    sets its buffer to None, and publish reads ``buff.tell()`` after its closed check). This
-    ends the callback quietly then. At any other time the exception goes on."""
+    """For a subscriber or timer callback that publishes: at shutdown (Ctrl-C) the node's
+    publishers close under a callback still running, and rospy logs what its publish raises
+    then (closed_at_shutdown) as a "bad callback" ERROR, or a Timer's thread dies with a
+    traceback; this ends the callback quietly then. Any other exception, or at any other
+    time, goes on."""
     @functools.wraps(callback)
     def run(*args: Any, **kwargs: Any) -> Any:
         try:
             return callback(*args, **kwargs)
-        except (rospy.ROSException, AttributeError):
-            if not rospy.is_shutdown():
+        except (rospy.ROSException, AttributeError) as e:
+            if not closed_at_shutdown(e):
                 raise
             return None
     return run

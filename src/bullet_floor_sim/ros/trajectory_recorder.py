@@ -326,6 +326,7 @@ class RecorderNode:
         rospy.logwarn_throttle(10.0, "trajectory_recorder: %s: not recorded (%d so far)",
                                why, self.rejected)
 
+    @quiet_at_shutdown
     def _tick(self, event) -> None:
         with self.lock:
             if self.finished:

@@ -57,7 +57,7 @@ from ..data.trajectory import (COLLECTION, DATABASE, Chunk, Joined, chunk_from_d
 from ..msg import Trajectory
 from ..srv import SelectTrajectories, SelectTrajectoriesResponse
 from .convert import pose_msgs
-from .node import forward_store_log, quiet_at_shutdown, run_node
+from .node import closed_at_shutdown, forward_store_log, quiet_at_shutdown, run_node
 from .packed_markers import PackedMarkerArray, pack_marker, time_colours
 from .params import check_at_least, config_from_params
 
@@ -267,6 +267,7 @@ class ViewerNode:
         else:
             self._show_if_due()
 
+    @quiet_at_shutdown
     def _tick(self, event) -> None:
         with self.lock:
             now = rospy.get_rostime().to_sec()
@@ -324,7 +325,9 @@ class ViewerNode:
             try:
                 with self.lock:
                     self._show_if_due()
-            except rospy.ROSException:   # (shutting down: the publisher is closed)
+            except (rospy.ROSException, AttributeError) as e:
+                if not closed_at_shutdown(e):
+                    raise
                 return
 
     # -- output -------------------------------------------------------------------------------

@@ -31,8 +31,10 @@ Plain data in and out; the simulator node is the glue (``~max_command_lag``,
 """
 from __future__ import annotations
 
+import errno
 import functools
 import math
+import os
 import socket
 import struct
 from typing import Any, Dict, Generic, Hashable, List, Optional, Sequence, Set, Tuple, TypeVar
@@ -197,7 +199,8 @@ _NLM_F_REQUEST, _NLM_F_REQUEST_DUMP = 0x1, 0x301
 _TCP_ESTABLISHED, _TCP_LISTEN = 1, 10
 _NLMSGHDR = struct.Struct("=IHHII")
 _NOCOOKIE = b"\xff" * 8               # INET_DIAG_NOCOOKIE: any socket of the 4-tuple
-_LOOKUPS_PER_SEND = 64                # replies of one send stay well inside the rcvbuf
+_REPLY_ROOM = 4096   # bytes of receive buffer per look-up of a send (a reply takes 0.8-1.3 kB)
+_MAX_PER_SEND = 64
 
 
 def _request(flags: int, seq: int, states: int, sockid: bytes = bytes(48)) -> bytes:
@@ -236,26 +239,31 @@ def tcp_unread(keys: Optional[Sequence[Tuple[Endpoint, Endpoint]]] = None
         OSError: sock_diag is not available (not Linux, or no netlink in this sandbox), or
             it refused the request.
     """
+    if keys is not None and not keys:
+        return {}
     with socket.socket(socket.AF_NETLINK, socket.SOCK_DGRAM, _NETLINK_SOCK_DIAG) as s:
+        s.settimeout(1.0)       # the kernel answers at once; never hang the main loop
         if keys is None:
             s.send(_request(_NLM_F_REQUEST_DUMP, 1, 1 << _TCP_ESTABLISHED))
             return _dumped(s)
         keys = tuple(keys)
+        # as many look-ups a send as their replies fit in the receive buffer, with room
+        per_send = max(1, min(_MAX_PER_SEND,
+                              s.getsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF) // _REPLY_ROOM))
         out = {}  # type: Dict[Tuple[Endpoint, Endpoint], int]
-        for first, request in enumerate(_lookups(keys)):
-            batch = keys[first * _LOOKUPS_PER_SEND:(first + 1) * _LOOKUPS_PER_SEND]
+        for first, request in zip(range(0, len(keys), per_send), _lookups(keys, per_send)):
             s.send(request)
-            out.update(_looked_up(s, batch))
+            out.update(_looked_up(s, keys, first, min(per_send, len(keys) - first)))
         return out
 
 
 @functools.lru_cache(maxsize=8)
-def _lookups(keys: Tuple[Tuple[Endpoint, Endpoint], ...]) -> List[bytes]:
-    """The look-up requests of ``keys``, _LOOKUPS_PER_SEND to a send; the k-th of a send has
-    sequence number k + 1 (the same sockets are looked up step after step: built once)."""
-    return [b"".join(_request(_NLM_F_REQUEST, k + 1, 0xFFFFFFFF, _sockid(key))
-                     for k, key in enumerate(keys[first:first + _LOOKUPS_PER_SEND]))
-            for first in range(0, len(keys), _LOOKUPS_PER_SEND)]
+def _lookups(keys: Tuple[Tuple[Endpoint, Endpoint], ...], per_send: int) -> List[bytes]:
+    """The look-up requests of ``keys``, ``per_send`` to a send; the look-up of keys[i] has
+    sequence number i + 1 (the same sockets are looked up step after step: built once)."""
+    return [b"".join(_request(_NLM_F_REQUEST, i + 1, 0xFFFFFFFF, _sockid(keys[i]))
+                     for i in range(first, min(first + per_send, len(keys))))
+            for first in range(0, len(keys), per_send)]
 
 
 def _dumped(s: socket.socket) -> Dict[Tuple[Endpoint, Endpoint], int]:
@@ -277,17 +285,18 @@ def _dumped(s: socket.socket) -> Dict[Tuple[Endpoint, Endpoint], int]:
             return out
 
 
-def _looked_up(s: socket.socket, batch: Sequence[Tuple[Endpoint, Endpoint]]
-               ) -> Dict[Tuple[Endpoint, Endpoint], int]:
-    """The replies to one send of look-ups of ``batch`` (one message each, by its sequence
-    number: the socket, or an error such as ENOENT for a socket gone); a listening socket
-    (what the kernel falls back to when no connection has the addresses) is left out."""
+def _looked_up(s: socket.socket, keys: Sequence[Tuple[Endpoint, Endpoint]], first: int,
+               n: int) -> Dict[Tuple[Endpoint, Endpoint], int]:
+    """The replies to one send of the look-ups of keys[first:first + n], one message each
+    (matched by its sequence number): the socket; or an error, ENOENT for a socket gone
+    (left out), any other raised. A listening socket (what the kernel falls back to when no
+    connection has the addresses) is left out."""
     out = {}  # type: Dict[Tuple[Endpoint, Endpoint], int]
     answered = 0
-    while answered < len(batch):
+    while answered < n:
         data = s.recv(1 << 16)
         if not data:
-            break
+            raise OSError("sock_diag closed the look-up before answering it")
         off = 0
         while off + _NLMSGHDR.size <= len(data):
             length, kind, _flags, seq = _NLMSGHDR.unpack_from(data, off)[:4]
@@ -296,9 +305,14 @@ def _looked_up(s: socket.socket, batch: Sequence[Tuple[Endpoint, Endpoint]]
             answered += 1
             m = off + _NLMSGHDR.size
             if kind == _SOCK_DIAG_BY_FAMILY:
-                if data[m + 1] != _TCP_LISTEN and 0 < seq <= len(batch):
-                    out[batch[seq - 1]] = struct.unpack_from("=I", data, m + 56)[0]
-            elif kind != _NLMSG_ERROR:
+                if data[m + 1] != _TCP_LISTEN and first < seq <= first + n:
+                    out[keys[seq - 1]] = struct.unpack_from("=I", data, m + 56)[0]
+            elif kind == _NLMSG_ERROR:
+                err = -struct.unpack_from("=i", data, m)[0]
+                if err != errno.ENOENT:
+                    raise OSError(err, "sock_diag refused a TCP socket look-up: %s"
+                                  % os.strerror(err))
+            else:
                 raise OSError("sock_diag answered a TCP socket look-up with message type %d"
                               % kind)
             off += (length + 3) & ~3
