@@ -102,13 +102,13 @@ def test_tcp_unread_counts_what_the_peer_has_not_read():
         key = (reader.getsockname(), reader.getpeername())   # as the simulator keys a peer
         sender.sendall(b"x" * 1234)
         deadline = time.time() + 2.0
-        while tcp_unread().get(key, 0) < 1234 and time.time() < deadline:
+        while tcp_unread([key]).get(key, 0) < 1234 and time.time() < deadline:
             time.sleep(0.01)
-        assert tcp_unread()[key] == 1234
+        assert tcp_unread([key])[key] == 1234
         assert len(reader.recv(1000)) == 1000
-        assert tcp_unread()[key] == 234
+        assert tcp_unread([key])[key] == 234
         reader.recv(1000)
-        assert tcp_unread()[key] == 0
+        assert tcp_unread([key])[key] == 0
     finally:
         for s in (sender, reader, srv):
             s.close()
@@ -146,8 +146,8 @@ def test_the_clock_is_thinned_only_when_the_asked_pace_would_outrun_the_wall_bou
 
 
 def test_tcp_unread_looks_up_the_sockets_asked_for_and_leaves_out_what_is_gone():
-    """tcp_unread(keys): each socket looked up by its addresses gives the dump's count; one
-    not asked for is not in the answer; a closed one, or addresses only a listening socket
+    """tcp_unread(keys): each socket looked up by its addresses gives the bytes sent to it
+    and not read; one not asked for is not in the answer; a closed one, or addresses only a listening socket
     has, is left out."""
     import socket
     import time
@@ -169,10 +169,10 @@ def test_tcp_unread_looks_up_the_sockets_asked_for_and_leaves_out_what_is_gone()
         gone = keys[2]
         pairs[2][0].close()
         deadline = time.time() + 2.0
-        while tcp_unread().get(keys[1], 0) < 101 and time.time() < deadline:
+        while tcp_unread(keys[:2]).get(keys[1], 0) < 101 and time.time() < deadline:
             time.sleep(0.01)
-        everything = tcp_unread()
-        assert everything[keys[0]] == 100 and everything[keys[1]] == 101
+        both = tcp_unread(keys[:2])
+        assert both[keys[0]] == 100 and both[keys[1]] == 101
         listener = (servers[0].getsockname(), ("127.0.0.1", 1))
         asked = tcp_unread([keys[0], gone, listener, keys[1]])
         assert asked == {keys[0]: 100, keys[1]: 101}

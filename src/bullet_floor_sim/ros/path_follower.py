@@ -55,7 +55,7 @@ from ..sim.floormap import crop_known
 from ..sim.solidmap import while_mapping
 from .convert import grid_from_msg, planar, yaw as yaw_of
 from .params import check_at_least, config_from_params, map_handling
-from .node import StartupGrace, TfOnDemand, quiet_at_shutdown, run_node
+from .node import StartupGrace, TfOnDemand, closed_at_shutdown, quiet_at_shutdown, run_node
 
 __all__ = ["main", "PathFollowerNode"]
 
@@ -253,8 +253,9 @@ class PathFollowerNode:
                     self.cmd_pub.publish(Twist())
                     self.server.set_aborted(MoveBaseResult(), "path_follower stopped "
                                             "(shutdown) before the goal ended")
-                except rospy.ROSException:   # (too late: the publishers are closed)
-                    pass
+                except (rospy.ROSException, AttributeError) as e:
+                    if not closed_at_shutdown(e):   # (else too late: the publishers are closed)
+                        raise
 
     def _run_goal(self, goal) -> None:
         stop = Twist()

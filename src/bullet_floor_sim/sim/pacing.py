@@ -22,9 +22,8 @@ for the simulator's periodic report: wall time spent waiting, and for which robo
 (the socket's receive queue holds the rest) acts on a world 2 s old, however fresh its
 commands. It too lets the clock go on at real time (a callback that waits on sim time, a tf
 look-up with a timeout, finishes) and lets a connection go after ``max_wait``.
-:func:`tcp_unread` reads every local TCP socket's unread byte count from the kernel
-(sock_diag netlink: the subscribers' sockets looked up by their addresses, all in one
-send).
+:func:`tcp_unread` reads the subscribers' sockets' unread byte counts from the kernel
+(sock_diag netlink: each socket looked up by its addresses, up to 64 look-ups a send).
 
 Plain data in and out; the simulator node is the glue (``~max_command_lag``,
 ``~max_command_wait``, ``~wait_for_subscribers``).
@@ -194,19 +193,21 @@ class BacklogGate(_Gate[Hashable]):
 
 _NETLINK_SOCK_DIAG = 4
 _SOCK_DIAG_BY_FAMILY = 20
-_NLMSG_ERROR, _NLMSG_DONE = 2, 3
-_NLM_F_REQUEST, _NLM_F_REQUEST_DUMP = 0x1, 0x301
-_TCP_ESTABLISHED, _TCP_LISTEN = 1, 10
+_NLMSG_ERROR = 2
+_NLM_F_REQUEST = 0x1
+_TCP_LISTEN = 10
 _NLMSGHDR = struct.Struct("=IHHII")
 _NOCOOKIE = b"\xff" * 8               # INET_DIAG_NOCOOKIE: any socket of the 4-tuple
 _REPLY_ROOM = 4096   # bytes of receive buffer per look-up of a send (a reply takes 0.8-1.3 kB)
 _MAX_PER_SEND = 64
 
 
-def _request(flags: int, seq: int, states: int, sockid: bytes = bytes(48)) -> bytes:
-    """A SOCK_DIAG_BY_FAMILY message: struct inet_diag_req_v2 for IPv4 TCP."""
-    req = struct.pack("=BBBBI", socket.AF_INET, socket.IPPROTO_TCP, 0, 0, states) + sockid
-    return _NLMSGHDR.pack(_NLMSGHDR.size + len(req), _SOCK_DIAG_BY_FAMILY, flags, seq, 0) + req
+def _request(seq: int, sockid: bytes) -> bytes:
+    """A SOCK_DIAG_BY_FAMILY look-up: struct inet_diag_req_v2 for the IPv4 TCP socket
+    ``sockid``, in any state."""
+    req = struct.pack("=BBBBI", socket.AF_INET, socket.IPPROTO_TCP, 0, 0, 0xFFFFFFFF) + sockid
+    return (_NLMSGHDR.pack(_NLMSGHDR.size + len(req), _SOCK_DIAG_BY_FAMILY, _NLM_F_REQUEST, seq,
+                           0) + req)
 
 
 def _sockid(key: Tuple[Endpoint, Endpoint]) -> bytes:
@@ -216,15 +217,7 @@ def _sockid(key: Tuple[Endpoint, Endpoint]) -> bytes:
             + socket.inet_aton(dst) + bytes(12) + bytes(4) + _NOCOOKIE)
 
 
-def _diag_key(data: bytes, m: int) -> Tuple[Endpoint, Endpoint]:
-    """The (own end, peer) of the struct inet_diag_msg at ``m``."""
-    sport, dport = struct.unpack_from(">HH", data, m + 4)
-    return ((socket.inet_ntoa(data[m + 8:m + 12]), sport),
-            (socket.inet_ntoa(data[m + 24:m + 28]), dport))
-
-
-def tcp_unread(keys: Optional[Sequence[Tuple[Endpoint, Endpoint]]] = None
-               ) -> Dict[Tuple[Endpoint, Endpoint], int]:
+def tcp_unread(keys: Sequence[Tuple[Endpoint, Endpoint]]) -> Dict[Tuple[Endpoint, Endpoint], int]:
     """Unread bytes in the receive queue of local IPv4 TCP sockets, keyed by (the socket's
     own address, its peer's address).
 
@@ -232,21 +225,17 @@ def tcp_unread(keys: Optional[Sequence[Tuple[Endpoint, Endpoint]]] = None
         keys: the sockets to look at, each looked up by its addresses (one netlink request
             each, sent together: microseconds, where a dump walks the kernel's whole table
             of established sockets, 262 144 buckets here, in about a millisecond); a socket
-            that no longer exists, or is not on this machine, is left out. None: every
-            established socket (a dump).
+            that no longer exists, or is not on this machine, is left out.
 
     Raises:
         OSError: sock_diag is not available (not Linux, or no netlink in this sandbox), or
             it refused the request.
     """
-    if keys is not None and not keys:
+    if not keys:
         return {}
+    keys = tuple(keys)
     with socket.socket(socket.AF_NETLINK, socket.SOCK_DGRAM, _NETLINK_SOCK_DIAG) as s:
         s.settimeout(1.0)       # the kernel answers at once; never hang the main loop
-        if keys is None:
-            s.send(_request(_NLM_F_REQUEST_DUMP, 1, 1 << _TCP_ESTABLISHED))
-            return _dumped(s)
-        keys = tuple(keys)
         # as many look-ups a send as their replies fit in the receive buffer, with room
         per_send = max(1, min(_MAX_PER_SEND,
                               s.getsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF) // _REPLY_ROOM))
@@ -261,28 +250,9 @@ def tcp_unread(keys: Optional[Sequence[Tuple[Endpoint, Endpoint]]] = None
 def _lookups(keys: Tuple[Tuple[Endpoint, Endpoint], ...], per_send: int) -> List[bytes]:
     """The look-up requests of ``keys``, ``per_send`` to a send; the look-up of keys[i] has
     sequence number i + 1 (the same sockets are looked up step after step: built once)."""
-    return [b"".join(_request(_NLM_F_REQUEST, i + 1, 0xFFFFFFFF, _sockid(keys[i]))
+    return [b"".join(_request(i + 1, _sockid(keys[i]))
                      for i in range(first, min(first + per_send, len(keys))))
             for first in range(0, len(keys), per_send)]
-
-
-def _dumped(s: socket.socket) -> Dict[Tuple[Endpoint, Endpoint], int]:
-    """The replies to a dump: every socket's unread bytes."""
-    out = {}  # type: Dict[Tuple[Endpoint, Endpoint], int]
-    while True:
-        data = s.recv(1 << 16)
-        off = 0
-        while off + _NLMSGHDR.size <= len(data):
-            length, kind = _NLMSGHDR.unpack_from(data, off)[:2]
-            if kind == _NLMSG_DONE or length < _NLMSGHDR.size:
-                return out
-            if kind == _NLMSG_ERROR:
-                raise OSError("sock_diag refused the TCP socket dump")
-            m = off + _NLMSGHDR.size   # struct inet_diag_msg
-            out[_diag_key(data, m)] = struct.unpack_from("=I", data, m + 56)[0]
-            off += (length + 3) & ~3
-        if not data:
-            return out
 
 
 def _looked_up(s: socket.socket, keys: Sequence[Tuple[Endpoint, Endpoint]], first: int,
