@@ -112,6 +112,62 @@ class SimInterface(unittest.TestCase):
                          ("robot2/odom", "robot2/base_footprint"))
         self.assertEqual(msg("/robot2/base_pose_ground_truth", Odometry).header.frame_id, "map")
 
+    def test_2a_same_transforms_as_robot_state_publisher(self):
+        """The simulator's built-in robot_state_publisher output for robot1 against Debian's
+        robot_state_publisher on the same URDF (robot1's robot_description) and the same
+        joint_states, its /tf and /tf_static remapped under /rsp_check: the same fixed
+        transforms, and the same wheel transforms at each joint_states stamp while robot1
+        turns on the spot (its wheels turning opposite ways)."""
+        import subprocess
+
+        from roslib.packages import find_node
+
+        rospy.set_param("/rsp_check/robot_description", rospy.get_param("/robot1/robot_description"))
+        wheels = ("robot1/left_wheel", "robot1/right_wheel")
+        ours, theirs = {}, {}
+
+        def keep(into):
+            def on_tf(m):
+                for t in m.transforms:
+                    if t.child_frame_id in wheels:
+                        into[(t.child_frame_id, t.header.stamp.to_nsec())] = t
+            return on_tf
+
+        subs = [rospy.Subscriber("/tf", TFMessage, keep(ours)),
+                rospy.Subscriber("/rsp_check/tf", TFMessage, keep(theirs))]
+        rsp = subprocess.Popen(
+            [find_node("robot_state_publisher", "robot_state_publisher")[0],
+             "__name:=robot_state_publisher", "joint_states:=/robot1/joint_states",
+             "/tf:=/rsp_check/tf", "/tf_static:=/rsp_check/tf_static"],
+            env=dict(os.environ, ROS_NAMESPACE="/rsp_check"))
+        try:
+            theirs_static = msg("/rsp_check/tf_static", TFMessage, 20.0)
+            self.drive(0.0, 0.8, 3.0)
+        finally:
+            rsp.terminate()
+            rsp.wait(10)
+            for s in subs:
+                s.unregister()
+        ours_static = msg("/tf_static", TFMessage)
+
+        def robot1(m):
+            return {t.child_frame_id: t for t in m.transforms if t.child_frame_id.startswith("robot1/")}
+
+        a, b = robot1(ours_static), robot1(theirs_static)
+        self.assertEqual(sorted(a), sorted(b))
+        self.assertIn("robot1/base_laser_link", a)
+        for child in a:
+            self.assertEqual(a[child].header.frame_id, b[child].header.frame_id, child)
+            _same_transform(self, a[child].transform, b[child].transform, child)
+        both = sorted(set(ours) & set(theirs))
+        self.assertGreater(len(both), 30, "%d of ours, %d of theirs" % (len(ours), len(theirs)))
+        turned = 0
+        for key in both:
+            self.assertEqual(ours[key].header.frame_id, theirs[key].header.frame_id)
+            _same_transform(self, ours[key].transform, theirs[key].transform, key)
+            turned += abs(ours[key].transform.rotation.w) < 0.99
+        self.assertGreater(turned, 5)       # the wheels were at angles other than ~0
+
     def test_3_cmd_vel_moves_robot_and_odom_follows(self):
         gt0, od0 = msg("/robot1/base_pose_ground_truth", Odometry), msg("/robot1/odom", Odometry)
         self.drive(0.4, 0.2, 2.0)
@@ -228,6 +284,17 @@ def _vec(x, y, z):
     from geometry_msgs.msg import Vector3
 
     return Vector3(x, y, z)
+
+
+def _same_transform(case, a, b, what):
+    """Translations equal, rotations equal up to the quaternion's sign, to 1e-9."""
+    ta, tb = a.translation, b.translation
+    for u, v in ((ta.x, tb.x), (ta.y, tb.y), (ta.z, tb.z)):
+        case.assertAlmostEqual(u, v, delta=1e-9, msg=str(what))
+    qa, qb = a.rotation, b.rotation
+    sign = 1.0 if qa.x * qb.x + qa.y * qb.y + qa.z * qb.z + qa.w * qb.w >= 0.0 else -1.0
+    for u, v in ((qa.x, qb.x), (qa.y, qb.y), (qa.z, qb.z), (qa.w, qb.w)):
+        case.assertAlmostEqual(u, sign * v, delta=1e-9, msg=str(what))
 
 
 def _dist(a, b):

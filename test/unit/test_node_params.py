@@ -140,3 +140,20 @@ def test_startup_grace_debug_first_then_a_warning_per_key(monkeypatch):
     grace.log("map", 10.0, "no %s", "map")          # throttled warning
     assert got == [("debug", "no map"), ("debug", "no tf"), ("warn", "no map"),
                    ("warn", "no tf")]
+
+
+@pytest.mark.parametrize("value, mode", [
+    ("builtin", "builtin"), ("process", "process"), ("none", "none"), (True, "builtin"),
+    (False, "none"), ("true", "builtin"), ("False", "none"), (1, "builtin"), (" Process ", "process")])
+def test_robot_state_publishers_modes(value, mode):
+    from bullet_floor_sim.ros.sim.rsp import state_publisher_mode
+
+    assert state_publisher_mode(value) == mode
+
+
+def test_an_unknown_robot_state_publishers_mode_is_named():
+    from bullet_floor_sim.ros.sim.rsp import state_publisher_mode
+
+    with pytest.raises(ConfigError, match=r"~robot_state_publishers: 'kdl' is none of builtin, "
+                                          r"process, none \(or true, false\)"):
+        state_publisher_mode("kdl")

@@ -22,8 +22,11 @@ that maps in mapping.launch), ``~serve_cleaned`` (false: /map with the world's m
 applied), ``~check_world`` (true: log the map check, building/check.py, at start),
 ``~publish_initialpose`` (false: true publishes each spawn pose, latched, on ``N/initialpose``
 at start and after ``~reset``, so amcl starts localised whatever the world),
-``~robot_state_publishers`` (true: one robot_state_publisher per robot, started by this node
-with the robot's prefixed URDF, so any number of robots works from one launch file),
+``~robot_state_publishers`` (builtin: this node publishes what one robot_state_publisher per
+robot would, from the robot's prefixed URDF: ``robot_description``, the fixed joints on
+/tf_static, the wheels on /tf with joint_states; process: one Debian robot_state_publisher
+per robot, started by this node; none; ros/sim/rsp.py), so any number of robots works from
+one launch file,
 ``~ray_threads`` (0: PyBullet threads for lidar batches of 1000 rays or more, 0 = all cores;
 1 leaves the other cores to the rest of the ROS graph),
 ``~max_command_lag`` (0.15 s of sim time: while a moving robot's last ``cmd_vel`` is older,
@@ -68,13 +71,13 @@ from ..sim.world import World
 from .params import set_map_handling
 from .sim.frames import gt_tf_robots, map_to_odom
 from .sim.outbox import Outbox
-from .sim.rsp import RobotStatePublishers
+from .sim.rsp import BuiltinStatePublisher, RobotStatePublishers, state_publisher_mode
 from .sim.people_out import PeopleOutput
 from ..people.crowd.build import build_crowd
 from .sim.signals import StopSignals, set_rostime, stop_listening_to_own_clock
 from .sim.publish import Output, Tick, robot_outputs
 from .sim.services import MainThreadJobs, RobotIO, RosterServices
-from .sim.wire import II, U32, TfWire, check_wires, quaternion, ros_time
+from .sim.wire import II, U32, LinkTfWire, TfWire, check_wires, quaternion, ros_time
 
 __all__ = ["main", "SimulatorNode"]
 
@@ -89,7 +92,8 @@ class SimulatorNode:
     Args:
         world: the core world.
         rtf: real-time factor to hold (0 = as fast as possible).
-        rates: Hz of "clock", "odom" (and tf), "pose" (ground truth), "state" (battery, joints).
+        rates: Hz of "clock", "odom" (and tf), "pose" (ground truth), "state" (battery, joints
+            and, with ``wheel_tf``, the wheels' tf).
         publish_map: publish the world's map, latched, on /map and /map_metadata.
         serve_cleaned: publish it with the world's map handling's changes made
             (sim/solidmap.cleaned_map), so that amcl and move_base see the building the
@@ -124,8 +128,9 @@ class SimulatorNode:
                  send_share: float = 0.1, report_period: float = 10.0,
                  gate: Optional[CommandGate] = None, serve_cleaned: bool = False,
                  backlog: Optional[BacklogGate] = None,
-                 upstream_type_names: bool = True) -> None:
+                 upstream_type_names: bool = True, wheel_tf: bool = False) -> None:
         check_wires()
+        self.wheel_tf = wheel_tf
         self.world = world
         self.gate = gate or CommandGate([s.name for s in world.specs])
         self.backlog = backlog
@@ -179,7 +184,7 @@ class SimulatorNode:
         rospy.Service("~reset", Empty, self._on_reset)
         rospy.Service("~pause", Empty, self._on_pause)
         rospy.Service("~unpause", Empty, self._on_unpause)
-        self.rsps: Optional[RobotStatePublishers] = None    # main() starts them
+        self.rsps: Union[RobotStatePublishers, BuiltinStatePublisher, None] = None  # by main()
         self.services = RosterServices(self)
 
     # ------------------------------------------------------------------------- robots
@@ -225,6 +230,8 @@ class SimulatorNode:
         pairs = [(p + "odom", p + "base_footprint") for p in prefixes]
         pairs += [("map", prefixes[i] + "odom") for i in self.gt_tf]
         self.tf_wire = TfWire(pairs)
+        self.wheel_wire = LinkTfWire([x.prefixed(s.prefix) for s, m in zip(w.specs, w.models)
+                                      for x in m.wheel_links])
         if self.gate.names != [n or "<empty>" for n in names]:
             self.gate = CommandGate(names, self.gate.max_lag, self.gate.max_wait)
 
@@ -369,6 +376,9 @@ class SimulatorNode:
             if self.gt_tf:
                 poses = odom + [map_to_odom(snap.pose[i], odom[i]) for i in self.gt_tf]
             out.put(self.tf_pub, self.tf_wire.pack(secs, nsecs, poses))
+        if state_due and self.wheel_tf and wanted(self.tf_pub):
+            out.put(self.tf_pub, self.wheel_wire.pack(
+                secs, nsecs, [a for pair in snap.wheel_positions for a in pair]))
 
     def flush(self) -> None:
         """Send the queued messages (and the latest /clock if the wall-rate bound held it)."""
@@ -537,6 +547,7 @@ def main(argv: Optional[List[str]] = None) -> int:
              for k, d in (("clock", 100.0), ("odom", 50.0), ("pose", 20.0), ("state", 10.0),
                           ("people", 10.0))}
     try:
+        mode = state_publisher_mode(rospy.get_param("~robot_state_publishers", "builtin"))
         wait = float(rospy.get_param("~max_command_wait", 2.0))
         gate = CommandGate([s.name for s in world.specs],
                            float(rospy.get_param("~max_command_lag", 0.15)), wait)
@@ -550,15 +561,17 @@ def main(argv: Optional[List[str]] = None) -> int:
                              gate=gate, backlog=backlog,
                              serve_cleaned=bool(rospy.get_param("~serve_cleaned", False)),
                              upstream_type_names=bool(rospy.get_param("~upstream_type_names",
-                                                                      True)))
+                                                                      True)),
+                             wheel_tf=mode == "builtin")
     except BulletFloorSimError as e:
         rospy.logfatal("simulator: %s", e)
         world.close()
         return 1
     rsps = None
     try:
-        if rospy.get_param("~robot_state_publishers", True):
-            rsps = node.rsps = RobotStatePublishers(world)
+        if mode != "none":
+            rsps = node.rsps = (BuiltinStatePublisher(world) if mode == "builtin"
+                                else RobotStatePublishers(world))
         rospy.loginfo("simulator: world %s with robots %s; beams at the walls %s, other "
                       "ray tests through %s",
                       world.config.path, ", ".join(s.name or "<empty>" for s in world.specs),

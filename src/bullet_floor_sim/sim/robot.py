@@ -26,6 +26,7 @@ from typing import Any, Dict, List, Tuple, Type
 import numpy as np
 
 from .config import DriveConfig
+from .links import Link, link_from_dict, link_to_dict, model_links
 from ..files import atomic_file
 from ..errors import CommandError, RobotModelError
 from ..paths import package_root
@@ -55,6 +56,8 @@ class RobotModel:
         wheel_radius: drive wheel radius, metres.
         wheel_separation: distance between the drive wheels, metres.
         wheel_joints: (left, right) joint names without prefix.
+        fixed_links: the fixed joints, what robot_state_publisher puts on /tf_static.
+        wheel_links: the (left, right) wheel joints, what it puts on /tf from joint_states.
     """
 
     name: str
@@ -63,6 +66,8 @@ class RobotModel:
     wheel_radius: float
     wheel_separation: float
     wheel_joints: Tuple[str, str]
+    fixed_links: Tuple[Link, ...] = ()
+    wheel_links: Tuple[Link, ...] = ()
 
 
 def expand_xacro(model: str, prefix: str = "", urdf_dir: str = "") -> str:
@@ -135,7 +140,9 @@ def _cached_model(cache: str, model: str, key: str):
                           laser_pose=tuple(float(v) for v in d["laser_pose"]),  # type: ignore[arg-type]
                           wheel_radius=float(d["wheel_radius"]),
                           wheel_separation=float(d["wheel_separation"]),
-                          wheel_joints=(str(d["wheel_joints"][0]), str(d["wheel_joints"][1])))
+                          wheel_joints=(str(d["wheel_joints"][0]), str(d["wheel_joints"][1])),
+                          fixed_links=tuple(link_from_dict(x) for x in d["fixed_links"]),
+                          wheel_links=tuple(link_from_dict(x) for x in d["wheel_links"]))
     except (OSError, ValueError, KeyError, TypeError, IndexError):
         return None  # absent or unreadable: expand again
 
@@ -206,14 +213,21 @@ def load_model(model: str, urdf_dir: str = "") -> RobotModel:
         raise RobotModelError("robot model %r: needs exactly two continuous *wheel* joints with "
                               "cylinder visuals, found %d" % (model, len(wheels)))
     wheels.sort(reverse=True)  # left (+y) first
+    try:
+        fixed, turning = model_links(urdf)
+    except ValueError as e:
+        raise RobotModelError("robot model %r: %s" % (model, e)) from None
     out = RobotModel(name=model, urdf_path=path, laser_pose=laser_pose,
                      wheel_radius=wheels[0][2], wheel_separation=wheels[0][0] - wheels[1][0],
-                     wheel_joints=(wheels[0][1], wheels[1][1]))
+                     wheel_joints=(wheels[0][1], wheels[1][1]), fixed_links=tuple(fixed),
+                     wheel_links=(turning[wheels[0][1]], turning[wheels[1][1]]))
     if stored:
         fields: Dict[str, Any] = {
             "laser_pose": list(out.laser_pose), "wheel_radius": out.wheel_radius,
             "wheel_separation": out.wheel_separation,
-            "wheel_joints": list(out.wheel_joints), "urdf_dir": os.path.abspath(urdf_dir)}
+            "wheel_joints": list(out.wheel_joints), "urdf_dir": os.path.abspath(urdf_dir),
+            "fixed_links": [link_to_dict(x) for x in out.fixed_links],
+            "wheel_links": [link_to_dict(x) for x in out.wheel_links]}
         try:   # the JSON last: its presence means the URDF beside it is whole
             _write_atomic(os.path.join(cache, "%s-%s.json" % (model, key)), json.dumps(fields))
             _prune(cache, model, key, fields["urdf_dir"])

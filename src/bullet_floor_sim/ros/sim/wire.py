@@ -17,8 +17,8 @@ from sensor_msgs.msg import BatteryState, JointState, LaserScan
 from tf2_msgs.msg import TFMessage
 
 
-__all__ = ["BatteryWire", "II", "JointsWire", "OdomWire", "PoseWire", "ScanWire", "TfWire", "U32",
-           "check_wires", "quaternion", "ros_time"]
+__all__ = ["BatteryWire", "II", "JointsWire", "LinkTfWire", "OdomWire", "PoseWire", "ScanWire",
+           "TfWire", "U32", "check_wires", "quaternion", "ros_time", "static_links_message"]
 
 
 def ros_time(ns: int) -> rospy.Time:
@@ -55,6 +55,24 @@ def _transform(parent: str, child: str, pose, stamp) -> TransformStamped:
     return t
 
 
+def _link_transform(link, quat, stamp) -> TransformStamped:
+    """The transform of a URDF joint (sim/links.Link) with its child's rotation ``quat``."""
+    t = TransformStamped()
+    t.header.stamp = stamp
+    t.header.frame_id = link.parent
+    t.child_frame_id = link.child
+    tr = t.transform.translation
+    tr.x, tr.y, tr.z = link.xyz
+    r = t.transform.rotation
+    r.x, r.y, r.z, r.w = quat
+    return t
+
+
+def static_links_message(links, stamp) -> TFMessage:
+    """/tf_static's message of fixed joints (sim/links.Link), all stamped ``stamp``."""
+    return TFMessage(transforms=[_link_transform(x, x.quat, stamp) for x in links])
+
+
 # ------------------------------------------------------------------------------ wire format
 # A robot costs ~270 messages per sim second. Through rospy each is a genpy build and
 # serialisation (15-20 us) and, per subscriber, a hand-off to that connection's writer thread
@@ -68,6 +86,7 @@ II = struct.Struct("<II")
 _HDR = struct.Struct("<III")        # std_msgs/Header seq, stamp.secs, stamp.nsecs
 _D7 = struct.Struct("<7d")          # Pose: position xyz, orientation xyzw
 _D6 = struct.Struct("<6d")          # Twist: linear xyz, angular xyz
+_D4 = struct.Struct("<4d")          # Quaternion xyzw
 _D2 = struct.Struct("<2d")
 _F7 = struct.Struct("<7f")
 _SENTINELS = (1234.5678125, 2345.6789125)   # unlikely values; each slot must be unique
@@ -147,6 +166,29 @@ class TfWire:
             h = 0.5 * pose[2]
             II.pack_into(b, 4, secs, nsecs)          # the header's seq (0) comes first
             _D7.pack_into(b, at, pose[0], pose[1], 0.0, 0.0, 0.0, math.sin(h), math.cos(h))
+            out.append(bytes(b))
+        return b"".join(out)
+
+
+class LinkTfWire:
+    """tf2_msgs/TFMessage of turning joints (sim/links.Link: the wheels) at given angles, one
+    stamp for all: what robot_state_publisher publishes from a joint_states message."""
+
+    def __init__(self, links) -> None:
+        self.links = list(links)
+        self.parts = []
+        for link in self.links:
+            b = io.BytesIO()
+            _link_transform(link, (_SENTINELS[0], 0.0, 0.0, 1.0), rospy.Time(1, 0)).serialize(b)
+            t = b.getvalue()
+            self.parts.append((bytearray(t), _at(t, "<d", _SENTINELS[0])))
+        self.head = U32.pack(4 + sum(len(t) for t, _ in self.parts)) + U32.pack(len(self.links))
+
+    def pack(self, secs: int, nsecs: int, angles) -> bytes:
+        out = [self.head]
+        for (b, at), link, angle in zip(self.parts, self.links, angles):
+            II.pack_into(b, 4, secs, nsecs)          # the header's seq (0) comes first
+            _D4.pack_into(b, at, *link.turned(angle))
             out.append(bytes(b))
         return b"".join(out)
 
@@ -248,7 +290,16 @@ def check_wires() -> None:
     pairs = [("odom", "base_footprint"), ("map", "r2/odom")]
     same(TfWire(pairs).pack(stamp.secs, stamp.nsecs, [pose, vel]),
          TFMessage(transforms=[_transform(a, b, p, stamp) for (a, b), p in zip(pairs, [pose, vel])]))
+    from ...sim.links import Link
     from ...sim.sensors import Scan
+
+    wheels = [Link("l", "a/base_link", "a/left_wheel", (0.0, 0.25, 0.04), (0.0, 0.0, 0.0, 1.0),
+                   (0.0, 1.0, 0.0)),
+              Link("r", "a/base_link", "a/right_wheel", (0.1, -0.25, 0.04),
+                   (0.5, 0.5, 0.5, 0.5), (0.6, 0.8, 0.0))]
+    same(LinkTfWire(wheels).pack(stamp.secs, stamp.nsecs, (1.25, -7.5)),
+         TFMessage(transforms=[_link_transform(x, x.turned(a), stamp)
+                               for x, a in zip(wheels, (1.25, -7.5))]))
 
     ranges = np.array([0.5, np.inf, -np.inf, 2.25], dtype=np.float32)
     scan = Scan(robot=0, stamp_ns=stamp.to_nsec(), ranges=ranges, angle_min=-1.5,
