@@ -142,12 +142,13 @@ class SimInterface(unittest.TestCase):
             env=dict(os.environ, ROS_NAMESPACE="/rsp_check"))
         try:
             theirs_static = msg("/rsp_check/tf_static", TFMessage, 20.0)
-            self.drive(0.0, 0.8, 3.0)
+            self.drive(0.0, 0.8, 6.0)
         finally:
             rsp.terminate()
             rsp.wait(10)
             for s in subs:
                 s.unregister()
+            rospy.delete_param("/rsp_check/robot_description")
         ours_static = msg("/tf_static", TFMessage)
 
         def robot1(m):
@@ -160,7 +161,9 @@ class SimInterface(unittest.TestCase):
             self.assertEqual(a[child].header.frame_id, b[child].header.frame_id, child)
             _same_transform(self, a[child].transform, b[child].transform, child)
         both = sorted(set(ours) & set(theirs))
-        self.assertGreater(len(both), 30, "%d of ours, %d of theirs" % (len(ours), len(theirs)))
+        # 6 s at joint_states' 10 Hz: 60 stamps, of which robot_state_publisher's queue of
+        # one may drop a few
+        self.assertGreater(len(both), 40, "%d of ours, %d of theirs" % (len(ours), len(theirs)))
         turned = 0
         for key in both:
             self.assertEqual(ours[key].header.frame_id, theirs[key].header.frame_id)

@@ -103,3 +103,15 @@ def test_an_axis_of_no_length_is_refused(tmp_path):
         <axis xyz="0 0 0"/></joint>""")
     with pytest.raises(ValueError, match="joint 'w': its axis"):
         model_links(urdf)
+
+
+def test_planar_joints_are_fixed_and_floating_ones_left_out(tmp_path):
+    """As robot_state_publisher: kdl_parser makes both fixed, and its tree skips a floating
+    joint's segment."""
+    urdf = _urdf(tmp_path, """
+      <joint name="pl" type="planar"><parent link="a"/><child link="b"/>
+        <origin xyz="0 1 0"/><axis xyz="0 0 1"/></joint>
+      <joint name="fl" type="floating"><parent link="a"/><child link="c"/></joint>""")
+    fixed, turning = model_links(urdf)
+    assert [(x.joint, x.xyz) for x in fixed] == [("pl", (0.0, 1.0, 0.0))]
+    assert turning == {}

@@ -376,7 +376,7 @@ class SimulatorNode:
             if self.gt_tf:
                 poses = odom + [map_to_odom(snap.pose[i], odom[i]) for i in self.gt_tf]
             out.put(self.tf_pub, self.tf_wire.pack(secs, nsecs, poses))
-        if state_due and self.wheel_tf and wanted(self.tf_pub):
+        if state_due and self.wheel_tf and self.wheel_wire.links and wanted(self.tf_pub):
             out.put(self.tf_pub, self.wheel_wire.pack(
                 secs, nsecs, [a for pair in snap.wheel_positions for a in pair]))
 
@@ -516,6 +516,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     stop = StopSignals().install()  # see StopSignals: never shut down inside a handler
     seed = int(rospy.get_param("~seed", -1))
     try:
+        mode = state_publisher_mode(rospy.get_param("~robot_state_publishers", "builtin"))
         config = load_world_config(resolve_world(str(rospy.get_param("~world", "office")),
                                                  worlds_dir()))
         only = str(rospy.get_param("~only", ""))
@@ -547,7 +548,6 @@ def main(argv: Optional[List[str]] = None) -> int:
              for k, d in (("clock", 100.0), ("odom", 50.0), ("pose", 20.0), ("state", 10.0),
                           ("people", 10.0))}
     try:
-        mode = state_publisher_mode(rospy.get_param("~robot_state_publishers", "builtin"))
         wait = float(rospy.get_param("~max_command_wait", 2.0))
         gate = CommandGate([s.name for s in world.specs],
                            float(rospy.get_param("~max_command_lag", 0.15)), wait)

@@ -2,8 +2,11 @@
 
 Fixed joints go on /tf_static once; a revolute or continuous joint goes on /tf with every
 joint_states message, as its origin followed by a rotation of the joint's angle about its
-axis (what kdl_parser and KDL's ``Segment::pose`` compute). Floating and planar joints count
-as fixed, as kdl_parser makes them. Quaternions are (x, y, z, w). Pure: plain data in and out.
+axis (what kdl_parser and KDL's ``Segment::pose`` compute). Planar joints count as fixed, as
+kdl_parser makes them; floating joints are left out, as robot_state_publisher leaves them.
+Mimic joints are not followed (robot_state_publisher publishes a mimic of a joint in
+joint_states; the simulator's joint_states has the wheels only, and no model here mimics
+them). Quaternions are (x, y, z, w). Pure: plain data in and out.
 """
 from __future__ import annotations
 
@@ -15,8 +18,9 @@ import numpy as np
 
 __all__ = ["Link", "model_links", "link_to_dict", "link_from_dict"]
 
-#: URDF joint types robot_state_publisher publishes as fixed (kdl_parser's Joint::None).
-FIXED_TYPES = ("fixed", "floating", "planar")
+#: URDF joint types robot_state_publisher publishes as fixed (kdl_parser's Joint::None; it
+#: skips floating joints).
+FIXED_TYPES = ("fixed", "planar")
 #: URDF joint types turned by an angle about their axis.
 TURNING_TYPES = ("revolute", "continuous")
 

@@ -43,6 +43,8 @@ __all__ = [
 ]
 
 _PKG_URL = "package://bullet_floor_sim/"
+#: What a cache entry holds (in the key: an entry written by older code is expanded again).
+_CACHE_SCHEMA = b"model-v2: laser, wheels, links\n"
 
 
 @dataclass(frozen=True)
@@ -114,6 +116,7 @@ def _model_key(model: str, urdf_dir: str) -> str:
     from importlib.metadata import PackageNotFoundError, version
 
     h = hashlib.sha1()
+    h.update(_CACHE_SCHEMA)
     for dist in ("xacro", "yourdfpy"):
         try:
             h.update(("%s %s\n" % (dist, version(dist))).encode())

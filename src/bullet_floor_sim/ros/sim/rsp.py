@@ -110,7 +110,7 @@ class RobotStatePublishers:
         exe = find_node("robot_state_publisher", "robot_state_publisher")
         if not exe:
             raise BulletFloorSimError("robot_state_publisher is not installed "
-                                      "(set ~robot_state_publishers false to run without it)")
+                                      "(set ~robot_state_publishers builtin, or none)")
         self.exe = exe[0]
         self.log_dir = os.path.join(rospkg.get_log_dir(), str(rospy.get_param("/run_id", "")))
         os.makedirs(self.log_dir, exist_ok=True)
