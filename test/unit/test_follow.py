@@ -154,6 +154,34 @@ def test_a_target_lost_close_by_is_looked_for_behind_first():
     assert d.goal[:2] == pytest.approx((8.0, 3.0)) and "region 7" in d.reason
 
 
+def test_a_target_lost_close_by_in_front_is_trailed_not_turned_to():
+    """Lost close by but within 75 degrees of the observer's heading, in its lidar's view:
+    it went behind something, and turning to where it was shows nothing (mit_csail: the
+    walker left a room by its door and went down the corridor behind the wall while the
+    observer, facing the door, turned to it and waited). A moving target is trailed; one that
+    stood still is looked for from its stand-off point, facing it."""
+    grid = hall()
+    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5, slack=0.7, trail=4.0))
+    fb.update(0.0, (2.0, 2.0, 0.0), (3.5, 2.5, 0.0, 0.6))     # 1.58 m off, 18 degrees left
+    d = fb.update(1.5, (2.0, 2.0, 0.0), None, [("7", (8.0, 3.0))])
+    assert d.mode == "search" and "trailing" in d.reason
+    gx, gy, gyaw = d.goal
+    assert gx == pytest.approx(3.5) and 2.5 < gy <= 4.0 - fb.config.roomy
+    assert gyaw == pytest.approx(0.5 * math.pi)
+    # the same target standing still: from the stand-off point 1.5 m from it, facing it
+    still = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5, slack=0.7))
+    still.update(0.0, (2.0, 2.0, 0.0), (3.5, 2.5, 0.0, 0.0))
+    d = still.update(1.5, (2.0, 2.0, 0.0), None, [("7", (8.0, 3.0))])
+    assert "look where it was" in d.reason
+    assert math.hypot(d.goal[0] - 3.5, d.goal[1] - 2.5) == pytest.approx(1.5, abs=1e-9)
+    assert d.goal[2] == pytest.approx(math.atan2(2.5 - d.goal[1], 3.5 - d.goal[0]), abs=1e-9)
+    # 80 degrees off the heading (past 75): behind the lidar's edge, turned to as before
+    side = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5, slack=0.7))
+    side.update(0.0, (2.0, 2.0, 0.0), (2.0 + 1.5 * math.cos(math.radians(80)),
+                                       2.0 + 1.5 * math.sin(math.radians(80)), 0.0, 0.6))
+    assert "looking back" in side.update(1.5, (2.0, 2.0, 0.0), None, [("7", (8.0, 3.0))]).reason
+
+
 def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
     grid = hall()                                   # 10 x 4 m
     fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=4.0))
@@ -779,9 +807,20 @@ def test_a_target_lost_while_stepping_aside_is_looked_for_once_there():
     for t in (5.0, 7.0, 10.0, 15.0):          # unseen, on the way: no new goal
         d = fb.update(t, (4.8, 2.3, 2.5), None, dest)
         assert d.mode == "give_way" and d.goal is None
-    d = fb.update(16.0, step.goal, None, dest, goal_done=True)    # there: look back at it
-    assert d.mode == "search" and d.goal is not None
-    gx, gy = step.goal[:2]
+    # there, facing where it stood (in view, so turning shows nothing): it goes to look
+    # where it was, from 1.5 m off, facing it
+    d = fb.update(16.0, step.goal, None, dest, goal_done=True)
+    assert d.mode == "search" and "look where it was" in d.reason
+    assert math.hypot(d.goal[0] - 5.9, d.goal[1] - 2.0) == pytest.approx(1.5, abs=1e-9)
+    assert d.goal[2] == pytest.approx(math.atan2(2.0 - d.goal[1], 5.9 - d.goal[0]), abs=1e-9)
+    # facing away from it there: it looks back at it, where it stands
+    fb = FollowBehaviour(grid, cfg)
+    for t in (0.0, 1.0, 2.0, 3.0, 4.0):
+        step = fb.update(t, robot, target, dest, goal_done=True)
+    gx, gy, gyaw = step.goal
+    fb.update(5.0, (4.8, 2.3, 2.5), None, dest)
+    d = fb.update(16.0, (gx, gy, gyaw + math.pi), None, dest, goal_done=True)
+    assert d.mode == "search" and "looking back" in d.reason
     assert d.goal[:2] == pytest.approx((gx, gy))
     assert d.goal[2] == pytest.approx(math.atan2(2.0 - gy, 5.9 - gx), abs=1e-9)
     # nor one it drives away from (the navigation took the long way round)

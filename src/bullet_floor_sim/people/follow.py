@@ -30,19 +30,20 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   seconds is stepped away from, on no prediction (it may be going where the observer
   stands), and waited for the same way.
 * **search**: when no track has been seen for ``lost_after`` seconds, the observer first
-  turns to where a target lost within ``distance + slack`` was last seen, moving or not,
-  where it has ``roomy`` clearance to turn (turning towards its own goal, it had turned its
-  back on it; most targets lost so walked past behind the observer at a leg's start, when
-  their velocity is seldom the way they go on; turning in a doorway instead of trailing,
-  it blocked the walker: seattle). A target lost further off while moving, or close by
-  with no room to turn, is trailed: the observer drives to the point
-  ``trail`` seconds on from where it was last seen, at its last velocity, short of a wall,
-  facing that way (it had stood in a room while the walker it lost in the doorway went off
-  down the corridor). One that stood still, or is not trailed (no roomy point on its way),
-  is looked for from the stand-off point of where it was last seen, facing it. Then it goes
-  to the
-  predicted destination region (the predictor's arg-max; the point of the region nearest to
-  where the target was last seen), turns on the spot to look around, waits ``search_wait``
+  turns to where a target lost within ``distance + slack`` and more than 75 degrees off its
+  heading was last seen, moving or not, where it has ``roomy`` clearance to turn (one lost as
+  near in front went behind something, and is looked for as one lost further off; turning
+  towards its own goal, the observer had turned its back on it; most targets lost so
+  walked past behind the observer at a leg's start, when their velocity is seldom the way
+  they go on; turning in a doorway instead of trailing, it blocked the walker: seattle).
+  A target lost further off while moving, or close by with no room to turn, is trailed:
+  the observer drives to the point ``trail`` seconds on from where it was last seen, at
+  its last velocity, short of a wall, facing that way (it had stood in a room while the
+  walker it lost in the doorway went off down the corridor). One that stood still, or is
+  not trailed (no roomy point on its way), is looked for from the stand-off point of where
+  it was last seen, facing it. Then it goes to the predicted destination region (the
+  predictor's arg-max; the point of the region nearest to where the target was last
+  seen), turns on the spot to look around, waits ``search_wait``
   seconds, then goes on to the next most likely region (up to ``search_regions`` of them, each
   at least ``search_min_probability``: :func:`search_plan`) and round the list again; after
   ``search_rounds`` rounds, each other region of the plan once, most likely first, and then
@@ -82,6 +83,8 @@ _GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps t
 _MOVING = 0.15              # m/s: a target slower than this stands still
 _DETOUR = 0.5               # m: stepping aside further from its place than this: a detour
 _AT_HUB = 1.0               # m: a watch is kept only this near its hub (else: on to the patrol)
+_AHEAD = math.radians(75.0)  # a point this near the heading is in view (180-degree lidar,
+                             # less a body's width at the stand-off distance)
 
 __all__ = ["FollowError", "FollowConfig", "FollowDecision", "FollowBehaviour", "standoff_point"]
 
@@ -279,7 +282,10 @@ class FollowBehaviour:
             self.mode, self._search, self._search_index, self._rounds = "search", plan, 0, 0
             self._tour.goal, self._watch = None, None
             lx, ly = self.last_target if self.last_target is not None else (rx, ry)
-            close = math.hypot(lx - rx, ly - ry) <= cfg.distance + cfg.slack
+            # lost close by and behind: turned to; close by but ahead (it went behind a
+            # wall or through a door, and turning shows nothing): trailed as if further off
+            ahead = abs(wrap_angle(math.atan2(ly - ry, lx - rx) - ryaw)) <= _AHEAD
+            close = math.hypot(lx - rx, ly - ry) <= cfg.distance + cfg.slack and not ahead
             room = self.grid.clearance_at(rx, ry) >= cfg.roomy   # to turn (not in a doorway)
             trail = self._trail_point() if first_loss and not (close and room) else None
             if first_loss and close and (room or trail is None):

@@ -76,8 +76,10 @@ class FollowConfig:
             from where it was last seen at its last velocity (stopped short of a wall),
             facing the way it went; one that stood still, or is not trailed, from the
             stand-off point of where it was last seen; then the likely regions (a target
-            lost nearer is turned to, moving or not, where the observer has ``roomy``
-            clearance; with less, a moving one is trailed). 0: it only turns to where a
+            lost nearer, and more than 75 degrees off the observer's heading, is turned to,
+            moving or not, where the observer has ``roomy`` clearance; with less, a moving
+            one is trailed; one lost nearer in front, in the lidar's view, went behind
+            something and is looked for as one lost further off). 0: it only turns to where a
             target lost close by was last seen.
         unblock: a target that came nearer than ``distance`` - 0.2 m and has stayed within
             ``distance`` of the observer, and within ``give_way`` of where it was, this long
