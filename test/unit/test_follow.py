@@ -161,25 +161,39 @@ def test_a_target_lost_close_by_in_front_is_trailed_not_turned_to():
     observer, facing the door, turned to it and waited). A moving target is trailed; one that
     stood still is looked for from its stand-off point, facing it."""
     grid = hall()
-    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5, slack=0.7, trail=4.0))
-    fb.update(0.0, (2.0, 2.0, 0.0), (3.5, 2.5, 0.0, 0.6))     # 1.58 m off, 18 degrees left
-    d = fb.update(1.5, (2.0, 2.0, 0.0), None, [("7", (8.0, 3.0))])
-    assert d.mode == "search" and "trailing" in d.reason
-    gx, gy, gyaw = d.goal
-    assert gx == pytest.approx(3.5) and 2.5 < gy <= 4.0 - fb.config.roomy
-    assert gyaw == pytest.approx(0.5 * math.pi)
-    # the same target standing still: from the stand-off point 1.5 m from it, facing it
+    plan = [("7", (8.0, 3.0))]
+    for side in (1.0, -1.0):            # 18 degrees to the left, then to the right
+        fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5, slack=0.7,
+                                                trail=4.0))
+        fb.update(0.0, (2.0, 2.0, 0.0), (3.5, 2.0 + side * 0.5, 0.0, side * 0.6))   # 1.58 m
+        d = fb.update(1.5, (2.0, 2.0, 0.0), None, plan)
+        assert d.mode == "search" and "trailing" in d.reason
+        gx, gy, gyaw = d.goal
+        assert gx == pytest.approx(3.5) and gyaw == pytest.approx(side * 0.5 * math.pi)
+        assert 0.5 < side * (gy - 2.0) <= 2.0 - fb.config.roomy     # on, short of the wall
+    # the same target standing still: from the stand-off point 1.5 m from it on the
+    # observer's side, facing it
     still = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5, slack=0.7))
     still.update(0.0, (2.0, 2.0, 0.0), (3.5, 2.5, 0.0, 0.0))
-    d = still.update(1.5, (2.0, 2.0, 0.0), None, [("7", (8.0, 3.0))])
+    d = still.update(1.5, (2.0, 2.0, 0.0), None, plan)
     assert "look where it was" in d.reason
-    assert math.hypot(d.goal[0] - 3.5, d.goal[1] - 2.5) == pytest.approx(1.5, abs=1e-9)
-    assert d.goal[2] == pytest.approx(math.atan2(2.5 - d.goal[1], 3.5 - d.goal[0]), abs=1e-9)
-    # 80 degrees off the heading (past 75): behind the lidar's edge, turned to as before
-    side = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5, slack=0.7))
-    side.update(0.0, (2.0, 2.0, 0.0), (2.0 + 1.5 * math.cos(math.radians(80)),
-                                       2.0 + 1.5 * math.sin(math.radians(80)), 0.0, 0.6))
-    assert "looking back" in side.update(1.5, (2.0, 2.0, 0.0), None, [("7", (8.0, 3.0))]).reason
+    back = math.atan2(-0.5, -1.5)
+    assert d.goal == pytest.approx((3.5 + 1.5 * math.cos(back), 2.5 + 1.5 * math.sin(back),
+                                    back + math.pi), abs=1e-9)
+
+    def lost_at(degrees: float, trail: float = 4.0) -> str:
+        fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5, slack=0.7,
+                                                trail=trail))
+        a = math.radians(degrees)
+        fb.update(0.0, (2.0, 2.0, 0.0), (2.0 + 1.2 * math.cos(a), 2.0 + 1.2 * math.sin(a),
+                                         0.6, 0.0))     # 1.2 m off, walking east
+        return fb.update(1.5, (2.0, 2.0, 0.0), None, plan).reason
+
+    # within 75 degrees of the heading on either side: trailed; past it: turned to
+    assert all("trailing" in lost_at(a) for a in (70.0, -70.0))
+    assert all("looking back" in lost_at(a) for a in (80.0, -80.0))
+    # with trail 0 a target lost close by is turned to wherever it was
+    assert "looking back" in lost_at(18.0, trail=0.0)
 
 
 def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
@@ -793,7 +807,8 @@ def test_a_target_dwelling_at_the_stand_off_distance_is_not_stepped_away_from():
 def test_a_target_lost_while_stepping_aside_is_looked_for_once_there():
     """Driving to the place it steps aside to, the observer turns its back on the target:
     it keeps going (no search goal) until that goal is done or ``give_way_hold`` is up, then
-    looks back to where the target was."""
+    looks for it where it was (from its stand-off point when the target is in front; turned
+    to where it stood otherwise)."""
     grid = hall()
     cfg = FollowConfig(distance=1.5, slack=0.7, give_way=0.9, unblock=4.0, lost_after=2.0,
                        give_way_hold=20.0)

@@ -83,8 +83,8 @@ _GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps t
 _MOVING = 0.15              # m/s: a target slower than this stands still
 _DETOUR = 0.5               # m: stepping aside further from its place than this: a detour
 _AT_HUB = 1.0               # m: a watch is kept only this near its hub (else: on to the patrol)
-_AHEAD = math.radians(75.0)  # a point this near the heading is in view (180-degree lidar,
-                             # less a body's width at the stand-off distance)
+_AHEAD = math.radians(75.0)  # a point this near the heading is in view (the Scitos's
+                             # 180-degree lidar, less a body's width; as give_way_view)
 
 __all__ = ["FollowError", "FollowConfig", "FollowDecision", "FollowBehaviour", "standoff_point"]
 
@@ -283,9 +283,12 @@ class FollowBehaviour:
             self._tour.goal, self._watch = None, None
             lx, ly = self.last_target if self.last_target is not None else (rx, ry)
             # lost close by and behind: turned to; close by but ahead (it went behind a
-            # wall or through a door, and turning shows nothing): trailed as if further off
-            ahead = abs(wrap_angle(math.atan2(ly - ry, lx - rx) - ryaw)) <= _AHEAD
-            close = math.hypot(lx - rx, ly - ry) <= cfg.distance + cfg.slack and not ahead
+            # wall or through a door, and turning shows nothing): looked for as one lost
+            # further off (with ``trail`` 0, or no sighting to tell: turned to, as before)
+            near = math.hypot(lx - rx, ly - ry)
+            ahead = (cfg.trail > 0 and near > 1e-6
+                     and abs(wrap_angle(math.atan2(ly - ry, lx - rx) - ryaw)) <= _AHEAD)
+            close = near <= cfg.distance + cfg.slack and not ahead
             room = self.grid.clearance_at(rx, ry) >= cfg.roomy   # to turn (not in a doorway)
             trail = self._trail_point() if first_loss and not (close and room) else None
             if first_loss and close and (room or trail is None):

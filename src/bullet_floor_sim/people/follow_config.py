@@ -80,7 +80,7 @@ class FollowConfig:
             moving or not, where the observer has ``roomy`` clearance; with less, a moving
             one is trailed; one lost nearer in front, in the lidar's view, went behind
             something and is looked for as one lost further off). 0: it only turns to where a
-            target lost close by was last seen.
+            target lost close by was last seen, in front or not.
         unblock: a target that came nearer than ``distance`` - 0.2 m and has stayed within
             ``distance`` of the observer, and within ``give_way`` of where it was, this long
             (s) is taken to be blocked by it,
