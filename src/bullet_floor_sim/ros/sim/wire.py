@@ -148,17 +148,25 @@ class PoseWire:
         return bytes(b)
 
 
+def _tf_templates(transforms: List[TransformStamped]) -> Tuple[List[Tuple[bytearray, int]], bytes]:
+    """A TFMessage's parts: each transform's bytes (with ``_SENTINELS[0]`` in the one slot
+    that changes) and that slot's offset, and the message's head (its length and count)."""
+    parts = []
+    for tr in transforms:
+        b = io.BytesIO()
+        tr.serialize(b)
+        t = b.getvalue()
+        parts.append((bytearray(t), _at(t, "<d", _SENTINELS[0])))
+    return parts, U32.pack(4 + sum(len(t) for t, _ in parts)) + U32.pack(len(parts))
+
+
 class TfWire:
     """tf2_msgs/TFMessage of planar transforms between fixed frame pairs, one stamp for all."""
 
     def __init__(self, pairs: List[Tuple[str, str]]) -> None:
-        self.parts = []
-        for parent, child in pairs:
-            b = io.BytesIO()
-            _transform(parent, child, (_SENTINELS[0], 0.0, 0.0), rospy.Time(1, 0)).serialize(b)
-            t = b.getvalue()
-            self.parts.append((bytearray(t), _at(t, "<d", _SENTINELS[0])))
-        self.head = U32.pack(4 + sum(len(t) for t, _ in self.parts)) + U32.pack(len(pairs))
+        self.parts, self.head = _tf_templates(
+            [_transform(parent, child, (_SENTINELS[0], 0.0, 0.0), rospy.Time(1, 0))
+             for parent, child in pairs])
 
     def pack(self, secs: int, nsecs: int, poses) -> bytes:
         out = [self.head]
@@ -176,13 +184,9 @@ class LinkTfWire:
 
     def __init__(self, links) -> None:
         self.links = list(links)
-        self.parts = []
-        for link in self.links:
-            b = io.BytesIO()
-            _link_transform(link, (_SENTINELS[0], 0.0, 0.0, 1.0), rospy.Time(1, 0)).serialize(b)
-            t = b.getvalue()
-            self.parts.append((bytearray(t), _at(t, "<d", _SENTINELS[0])))
-        self.head = U32.pack(4 + sum(len(t) for t, _ in self.parts)) + U32.pack(len(self.links))
+        self.parts, self.head = _tf_templates(
+            [_link_transform(x, (_SENTINELS[0], 0.0, 0.0, 1.0), rospy.Time(1, 0))
+             for x in self.links])
 
     def pack(self, secs: int, nsecs: int, angles) -> bytes:
         out = [self.head]
