@@ -75,9 +75,11 @@ class StoreOutage(unittest.TestCase):
             server.start(60)
             time.sleep(15.0)            # the next chunk (5 s) replays the journal first
             # the simulator is required: roslaunch then stops every node, the recorder storing
-            # its open chunk as it goes
+            # its open chunk as it goes. It sends SIGINT to this test's process group too
+            # (rospy takes it); rosnode runs in its own session so that it cannot die of it
+            # before it exits (CI, session 45: "rosnode kill died with SIGINT")
             subprocess.run(["rosnode", "kill", "/simulator"], check=True, timeout=60,
-                           stdout=subprocess.DEVNULL)
+                           stdout=subprocess.DEVNULL, start_new_session=True)
             time.sleep(2.0)
             sub.unregister()
             with open_store(server.uri, journal_dir=os.path.join(home, "check")) as store:
