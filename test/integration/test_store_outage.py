@@ -77,7 +77,8 @@ class StoreOutage(unittest.TestCase):
             # the simulator is required: roslaunch then stops every node, the recorder storing
             # its open chunk as it goes. It sends SIGINT to this test's process group too
             # (rospy takes it); rosnode runs in its own session so that it cannot die of it
-            # before it exits (CI, session 45: "rosnode kill died with SIGINT")
+            # before it exits (CI, session 45: "rosnode kill died with SIGINT"). roslaunch
+            # kills this node 17 s after that SIGINT: the reads below must finish by then
             subprocess.run(["rosnode", "kill", "/simulator"], check=True, timeout=60,
                            stdout=subprocess.DEVNULL, start_new_session=True)
             time.sleep(2.0)
