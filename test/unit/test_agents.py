@@ -262,6 +262,32 @@ def test_predictor_agent_predicts_per_track_with_search_plans(corridor_model):
     assert back.went_back == pytest.approx(3.9) and back.destinations[1][0].leg == 1
 
 
+def test_predictor_agent_searches_a_corridor_from_its_lookouts_not_its_end():
+    model = DestinationModel(PlanningGrid(corridor_map()), corridor_rois(), corridor_chain())
+    agent = PredictorAgent(model)                    # search_sight 8 m
+    goals, looks = model.goals("corridor"), agent.lookouts("corridor")
+    # the 28 m corridor's goal points run along it; its lookouts are those with 8 m of
+    # it on both sides (a point nearer an end sees fewer of them)
+    lo, hi = goals[:, 0].min(), goals[:, 0].max()
+    assert hi - lo > 20.0 and 0 < len(looks) < len(goals)
+    assert looks[:, 0].min() >= lo + 8.0 - 1.5 and looks[:, 0].max() <= hi - 8.0 + 1.5
+    with pytest.raises(ValueError):
+        looks[0, 0] = 0.0                            # the cache is read-only
+    # a track at the corridor's west end: the corridor's search point is the nearest
+    # lookout, several metres east of the nearest goal point
+    step = None
+    for k in range(20):
+        step = agent.tick(0.1 * k, [(1, 1.0 + 0.05 * k, 5.75, 0.5, 0.0)])
+    _, plan = step.destinations[1]
+    point = dict(plan)["corridor"]
+    near = looks[np.argmin(np.hypot(looks[:, 0] - 1.95, looks[:, 1] - 5.75))]
+    assert point == pytest.approx(tuple(near), abs=0.06)
+    assert point[0] > goals[:, 0].min() + 5.0
+    # search_sight 0: every goal point is a lookout (the nearest goal point, as before)
+    assert len(PredictorAgent(model, FollowConfig(search_sight=0.0)).lookouts("corridor")) \
+        == len(goals)
+
+
 # --------------------------------------------------------------------------------------------
 # the follower
 # --------------------------------------------------------------------------------------------

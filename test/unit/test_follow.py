@@ -8,7 +8,7 @@ from bullet_floor_sim.sim.floormap import map_from_grid
 from bullet_floor_sim.people.follow import (FollowBehaviour, FollowConfig, FollowError,
                                             standoff_point)
 from bullet_floor_sim.people.search import (SearchPlan, as_plan, likely_count, in_view, patrol_points,
-                                            hub_points,
+                                            hub_points, lookout_points,
                                             pick_target, search_plan,
                                             search_point, search_points)
 from bullet_floor_sim.nav.planner import PlanError, PlanningGrid, give_way_point, path_length
@@ -104,6 +104,37 @@ def test_patrol_points_are_the_roomiest_place_of_each_block():
         assert x0 <= x < x0 + 4.0 and abs(y - 2.0) <= grid.resolution
         assert grid.clearance_at(x, y) >= 1.8
     assert len(patrol_points(grid, 4.0, 2.5)) == 0   # nowhere that roomy
+
+
+def test_lookouts_of_a_corridor_leave_out_its_ends_and_a_room_keeps_every_point():
+    corridor = hall(30.0, 2.0)
+    pts = [(x + 0.5, 1.0) for x in range(30)]            # its axis, every metre
+    # within 8 m of a point: 17 points from x = 8.5 to 21.5 (8 each way and itself),
+    # fewer nearer the ends
+    got = lookout_points(corridor, pts, 8.0)
+    assert got[:, 0].tolist() == [x + 0.5 for x in range(8, 22)]
+    assert np.all(got[:, 1] == 1.0)
+    # lost at the west end: the region's search point is the nearest lookout, 8 m in
+    plan = search_plan({"c": 1.0}, lambda r: got, (1.0, 1.0))
+    assert plan[0] == ("c", (8.5, 1.0))
+    room = hall(6.0, 4.0)
+    pts = [(x, y) for x in (1.0, 3.0, 5.0) for y in (1.0, 3.0)]   # all within 8 m of each other
+    assert lookout_points(room, pts, 8.0).tolist() == [list(p) for p in pts]
+    # a lattice 1 m apart from x = 0.6: differences of exactly 8 m come out 8 + 1e-15 in
+    # floats for some pairs; they count, so the 8 kept are those 8 m in from either end
+    lattice = [(0.6 + k, 1.0) for k in range(24)]
+    got = lookout_points(corridor, lattice, 8.0)
+    assert got[:, 0] == pytest.approx([8.6 + k for k in range(8)])
+    # sight 0: each point sees only itself, so all of them are kept
+    assert len(lookout_points(corridor, [(x + 0.5, 1.0) for x in range(30)], 0.0)) == 30
+    # a wall across the room at x = 2: the 4 points east of it see each other, the 2 west
+    # of it only each other, so the east side is kept
+    g = np.zeros((80, 120), dtype=np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+    g[:, 40] = 100
+    walled = PlanningGrid(map_from_grid(g, RES))
+    got = lookout_points(walled, pts, 8.0)
+    assert sorted(got.tolist()) == [[3.0, 1.0], [3.0, 3.0], [5.0, 1.0], [5.0, 3.0]]
 
 
 def test_a_target_never_found_again_gets_a_patrol_of_the_building_nearest_first():

@@ -25,7 +25,7 @@ import numpy as np
 from ..data.rois import RoiError
 from ..errors import BulletFloorSimError
 from .follow import FollowBehaviour, FollowConfig, FollowDecision
-from .search import SearchPlan, TrackLike, pick_target, search_plan
+from .search import SearchPlan, TrackLike, lookout_points, pick_target, search_plan
 from .prediction import DestinationModel, Prediction, PredictorPool
 from .tracking import StaticMap, Track, Tracker, TrackerConfig, detect, scan_points
 from .walker import Leg, Walker, WalkerError
@@ -333,6 +333,13 @@ class PredictorAgent:
         self.follow.check()
         self.pool = PredictorPool(model)
         self.last_t = -math.inf
+        # each region's lookouts, made here (the ROS node builds the agent in its model
+        # thread, not in a track callback): 24 goal points take about 4 ms a region
+        self._lookouts: Dict[str, np.ndarray] = {}
+        for region in model.chain.ids:
+            pts = lookout_points(model.grid, model.goals(region), self.follow.search_sight)
+            pts.setflags(write=False)
+            self._lookouts[region] = pts
 
     def tick(self, t: float, tracks: Sequence[TrackTuple]) -> PredictorStep:
         """Predict on one track update: ``tracks`` as (id, x, y, vx, vy) at time ``t``."""
@@ -346,10 +353,15 @@ class PredictorAgent:
         for tid, x, y, _vx, _vy in tracks:
             p = preds.get(tid)
             if p is not None:
-                out[tid] = (p, search_plan(p.probabilities, self.model.goals, (x, y),
+                out[tid] = (p, search_plan(p.probabilities, self.lookouts, (x, y),
                                            fc.search_regions, fc.search_min_probability, p.best,
                                            rest=True))
         return PredictorStep(out, list(self.pool.errors.values()), went_back)
+
+    def lookouts(self, region: str) -> np.ndarray:
+        """Where a search of ``region`` looks from: of its goal points, those with the most of
+        them in view (people/search.lookout_points, within ``search_sight``); read-only."""
+        return self._lookouts[region]
 
     @property
     def handovers(self) -> int:

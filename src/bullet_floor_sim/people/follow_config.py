@@ -47,6 +47,15 @@ class FollowConfig:
             9.5 m).
             Going to each place in turn, it patrolled a 3600 m^2 hall for 690 s before it
             first saw the walker. 0: only the places it goes to count.
+        search_sight: a region's search point is, of its goal points with the most of them
+            in view within this many metres (no wall between: people/search.lookout_points),
+            the one nearest to where the target was last seen; 0: of all its goal points.
+            The predictor makes the points (agents.PredictorAgent): set it on the
+            destination_predictor node (``~search_sight``); the follower node has no use for
+            it. 8 m, as ``patrol_sight``. At a long corridor's end
+            the nearest goal point looked down one way of it only (aces_austin: the walker,
+            8-18 m down the corridor, went unseen for 24 minutes). Seeds 4-8 on six corpus
+            worlds: docs/evaluation.md, session 47.
         patrol_after: a target not seen this long from the start, with nothing predicted, is
             looked for on patrol (it may come by: a crowd's person, a walker dwelling).
         search_min_probability: ... each at least this likely (the most likely one always).
@@ -134,6 +143,7 @@ class FollowConfig:
     search_regions: int = 3
     search_min_probability: float = 0.05
     search_rounds: int = 2
+    search_sight: float = 8.0
     patrol_spacing: float = 4.0
     patrol_after: float = 10.0
     patrol_sight: float = 8.0
@@ -161,7 +171,8 @@ class FollowConfig:
             v = getattr(self, name)
             if not (isinstance(v, int) and v >= 1):
                 raise FollowError("follower: %s must be an integer >= 1, got %r" % (name, v))
-        for name in ("pass_detour", "trail", "unblock", "snug", "patrol_sight", "watch"):
+        for name in ("pass_detour", "trail", "unblock", "snug", "patrol_sight", "search_sight",
+                     "watch"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise FollowError("follower: %s must be a finite number >= 0, got %r"

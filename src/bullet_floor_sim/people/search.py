@@ -1,6 +1,6 @@
 """Where the observer looks: which track to follow (:func:`pick_target`), where to search for
 a lost target (:func:`search_plan`, :func:`search_point`: the destinations' points, the likely
-ones first),
+ones first; :func:`lookout_points`: the points of a region with the widest view of it),
 where to patrol when those gave nothing (:func:`patrol_points`, :class:`PatrolTour`), where
 most ways across the building pass (:func:`hub_points`), and whether a point is in the
 lidar's view (:func:`in_view`). people/follow.FollowBehaviour and
@@ -16,6 +16,7 @@ from ..geometry import wrap_angle, wrap_angles
 from ..nav.planner import PlanningGrid
 
 __all__ = ["pick_target", "search_point", "search_points", "search_plan", "SearchPlan", "likely_count",
+           "lookout_points",
            "patrol_points", "hub_points", "PatrolTour", "in_view", "as_plan"]
 
 #: points (N, 2): a list of (x, y) or an array (DestinationModel.goals)
@@ -48,9 +49,10 @@ def pick_target(tracks: Sequence, current: Optional[int],
 
 
 def search_point(points: Points, xy: Sequence[float]) -> Tuple[float, float]:
-    """Where to look for a lost target heading for a region: of the region's goal points
-    (``points``, e.g. DestinationModel.goals), the one nearest to where it was last seen
-    (``xy`` itself when the region has none)."""
+    """Where to look for a lost target heading for a region: of the region's candidate
+    points (``points``: its goal points, DestinationModel.goals, or their lookouts,
+    PredictorAgent.lookouts), the one nearest to where it was last seen (``xy`` itself when
+    the region has none)."""
     return search_points([points], xy)[0]
 
 
@@ -76,6 +78,27 @@ def search_points(regions: Sequence[Points], xy: Sequence[float]
         else:
             out.append((x, y))
     return out
+
+
+def lookout_points(grid: PlanningGrid, points: Points, sight: float) -> np.ndarray:
+    """Of a region's points (its goal points, DestinationModel.goals), those from which the
+    most of them are in view: within ``sight`` metres (and a micrometre, so that points of
+    a lattice exactly ``sight`` apart count whatever the rounding) with no wall between
+    (PlanningGrid.in_sight), each counting itself; (M, 2), in the given order. All of them
+    where every two are within ``sight`` of each other with no wall between (a small
+    room); along a corridor that runs on more than ``sight`` past a point, that point is
+    left out (from near its ends the observer looks down one way of it only: aces_austin,
+    docs/evaluation.md session 47); in a room wider than ``sight``, the points near its
+    middle; in a region a wall cuts in two, those of the side that has more of them."""
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    if len(pts) < 3:   # (one or two: each sees all the others or none, so all are kept)
+        return pts
+    seen = np.zeros(len(pts), dtype=np.int64)
+    for i in range(len(pts)):
+        d = np.hypot(pts[:, 0] - pts[i, 0], pts[:, 1] - pts[i, 1])
+        near = np.flatnonzero(d <= sight + 1e-6)
+        seen[i] = int(np.count_nonzero(grid.in_sight(pts[near], pts[i])))
+    return pts[seen == seen.max()]
 
 
 class SearchPlan(list):
@@ -105,7 +128,8 @@ def search_plan(probabilities: Mapping[str, float], goals: Callable[[str], Point
     """Where to search for a lost target: the ``count`` most likely destination regions with
     probability at least ``min_probability`` (the most likely one always), most likely first
     (of equal ones ``best`` first, e.g. the predictor's arg-max, then by region id), each with
-    its :func:`search_point` (``goals(region)``: the region's goal points) nearest to ``xy``,
+    its :func:`search_point` (``goals(region)``: the region's candidate points, e.g.
+    PredictorAgent.lookouts) nearest to ``xy``,
     where the target was last seen; with ``rest``, every other region after them: those of
     at least ``min_probability`` in the same order, then the unlikelier ones nearest first
     (their search point's distance from ``xy``: near-nil probabilities order nothing, and by

@@ -20,7 +20,9 @@ from ``~map_topic`` (``/map``, latched).
 Parameters: ``~config`` ("1"), ``~rois_yaml`` (""), ``~tol`` (0.2), ``~mode`` (vertex),
 ``~robot_radius`` (0.34, planning grid inflation), ``~beta`` and the other core
 PredictionConfig fields as ``~<field>``, ``~query_service``, ``~rois_changed_topic``,
-``~map_topic``. Every region gets a search point in ``points`` (people/search.search_plan); the
+``~map_topic``, ``~search_sight`` (FollowConfig.search_sight, 8 m). Every region gets a search
+point in ``points`` (people/search.search_plan: of its goal points with the most of them in
+view within ``~search_sight``, ``lookout_points``, the one nearest to the track); the
 follower's ``~search_regions`` and ``~search_min_probability`` say which are the likely ones.
 """
 from __future__ import annotations
@@ -37,6 +39,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from ..errors import BulletFloorSimError
 from ..people.agents import PredictorAgent
+from ..people.follow import FollowConfig
 from ..people.markov import MarkovChain, usable_rois
 from ..nav.planner import PlannerConfig, PlanningGrid
 from ..people.prediction import DestinationModel, PredictionConfig
@@ -91,6 +94,9 @@ class DestinationPredictorNode:
         self.query_service = str(gp("~query_service", "/soma/query_rois"))
         self.planner_cfg = PlannerConfig(robot_radius=float(gp("~robot_radius", PlannerConfig.robot_radius)))
         self.config = config_from_params(PredictionConfig())
+        self.follow = FollowConfig(search_sight=float(gp("~search_sight",
+                                                         FollowConfig.search_sight)))
+        self.follow.check()   # a bad ~search_sight: one line at start, not in the model thread
         self.lock = threading.Lock()
         self.grid: Optional[PlanningGrid] = None
         self.rois: Optional[List[Roi]] = None
@@ -165,7 +171,7 @@ class DestinationPredictorNode:
                 rospy.logerr("destination_predictor: cannot build the model: %s", e)
                 continue
             with self.lock:
-                self.rois, self.agent = good, PredictorAgent(model)
+                self.rois, self.agent = good, PredictorAgent(model, self.follow)
             rospy.loginfo("destination_predictor: %d regions, model built (%.1f s)", len(good),
                           rospy.get_time() - t0)
 
