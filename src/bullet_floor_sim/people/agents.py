@@ -360,8 +360,12 @@ class PredictorAgent:
 
     def lookouts(self, region: str) -> np.ndarray:
         """Where a search of ``region`` looks from: of its goal points, those with the most of
-        them in view (people/search.lookout_points, within ``search_sight``); read-only."""
-        return self._lookouts[region]
+        them in view (people/search.lookout_points, within ``search_sight``); read-only.
+
+        Raises:
+            PredictionError: an unknown region (as DestinationModel.goals)."""
+        pts = self._lookouts.get(region)
+        return pts if pts is not None else self.model.goals(region)
 
     @property
     def handovers(self) -> int:

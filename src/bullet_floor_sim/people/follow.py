@@ -43,8 +43,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   not trailed (no roomy point on its way), is looked for from the stand-off point of where
   it was last seen, facing it. Then it goes to the predicted destination region (the
   predictor's arg-max; of the region's goal points with the most of them in view within
-  ``search_sight`` (:func:`lookout_points`), the one nearest to where the target was last
-  seen), turns on the spot to look around, waits ``search_wait``
+  the predictor's ``search_sight`` (:func:`lookout_points`), the one nearest to where the
+  target was last seen), turns on the spot to look around, waits ``search_wait``
   seconds, then goes on to the next most likely region (up to ``search_regions`` of them, each
   at least ``search_min_probability``: :func:`search_plan`) and round the list again; after
   ``search_rounds`` rounds, each other region of the plan once, most likely first, and then

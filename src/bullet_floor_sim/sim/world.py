@@ -451,13 +451,13 @@ class World:
             vel = self.vel.tolist()
             self._travel[:] = [(tr[0] + v[0] * dt, tr[1] + v[2] * dt)
                                for tr, v in zip(self._travel.tolist(), vel)]
-            moving = any(map(any, vel))   # as vel.any(), without numpy's call on a few numbers
+            any_moving = any(map(any, vel))   # as vel.any(), without numpy's call on a few numbers
         else:
             self._travel[:, 0] += self.vel[:, 0] * dt
             self._travel[:, 1] += self.vel[:, 2] * dt
-            moving = bool(self.vel.any())
+            any_moving = bool(self.vel.any())
         self.motion += 1
-        if not (moving or self.target.any()):   # all at rest, nothing commanded
+        if not (any_moving or self.target.any()):   # all at rest, nothing commanded
             self._idle = True
 
     def _set_body(self, i: int, pose) -> None:
