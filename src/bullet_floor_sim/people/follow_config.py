@@ -52,10 +52,10 @@ class FollowConfig:
             the one nearest to where the target was last seen; 0: of all its goal points.
             The predictor makes the points (agents.PredictorAgent): set it on the
             destination_predictor node (``~search_sight``); the follower node has no use for
-            it. 8 m, as ``patrol_sight``. At a long corridor's end
-            the nearest goal point looked down one way of it only (aces_austin: the walker,
-            8-18 m down the corridor, went unseen for 24 minutes). Seeds 4-8 on six corpus
-            worlds: docs/evaluation.md, session 47.
+            it. 8 m, as ``patrol_sight``, fixed before any run. At a long corridor's end the
+            nearest goal point looked down one way of it only (aces_austin: the walker, 8-18
+            m down the corridor, went unseen for 24 minutes). Seeds 4-8 on six corpus
+            worlds, within the noise: docs/evaluation.md, session 47.
         patrol_after: a target not seen this long from the start, with nothing predicted, is
             looked for on patrol (it may come by: a crowd's person, a walker dwelling).
         search_min_probability: ... each at least this likely (the most likely one always).
