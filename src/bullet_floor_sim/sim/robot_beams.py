@@ -6,11 +6,12 @@ with the robots in place where no checked section exists. ``world`` is the stepp
 """
 from __future__ import annotations
 
+import math
 from typing import Any, Optional, Tuple
 
 import numpy as np
 
-from .sections import clip_beams
+from .sections import cyrus_beck_one
 from .sensors import cast_rays, ray_chunk
 
 __all__ = ["candidates", "circle_candidates", "cast_at_robots", "ray_owner"]
@@ -46,24 +47,28 @@ def ray_owner(plan: Any, g: np.ndarray) -> np.ndarray:
 def _clip(world: Any, plan: Any, reach: np.ndarray, g: np.ndarray, j: np.ndarray,
                     sec: np.ndarray, dist: np.ndarray, hit: np.ndarray) -> None:
     """Beams ``g`` against robots ``j``'s measured sections ``sec`` (see sections.py)."""
-    tyaw = world.pose[j, 2]
-    c, s = np.cos(tyaw), np.sin(tyaw)
-    o, d = plan.origins[g, :2], plan.dirs[g]
-    ox, oy = o[:, 0] - world.pose[j, 0], o[:, 1] - world.pose[j, 1]
-    lo = np.column_stack((c * ox + s * oy, c * oy - s * ox))          # in robot j's frame
-    ld = np.column_stack((c * d[:, 0] + s * d[:, 1], c * d[:, 1] - s * d[:, 0]))
-    t_in, t_out = clip_beams(lo, ld, world._section_normals[sec], world._section_offsets[sec])
-    start = plan.start[g]
-    t = np.maximum(t_in, start)     # a beam that starts inside another robot meets it at once
-    meet = (t_in <= t_out) & (t_out > start) & (t < reach[g])
-    if not meet.any():
-        return
-    g, t = g[meet], t[meet]
-    best = np.full(len(dist), np.inf)
-    np.minimum.at(best, g, t)
-    at = np.flatnonzero(best < np.where(hit, dist, np.inf))
-    dist[at] = best[at]
-    hit[at] = True
+    tyaw = world.pose[:, 2]
+    _clip_pairs(g, j, sec, world.pose, np.cos(tyaw), np.sin(tyaw), plan.origins, plan.dirs,
+                plan.start, reach, world._section_normals, world._section_offsets, dist, hit)
+
+
+def _clip_pairs(g, j, sec, pose, cos_yaw, sin_yaw, origins, dirs, start, reach, normals,
+                offsets, dist, hit):  # type: ignore
+    """``_clip``'s loop: beam g[p] in robot j[p]'s frame (its yaw's numpy cosine and sine,
+    as numpy computed them before), clipped to section sec[p]; where it meets the section
+    after its start and before ``reach``, ``dist`` and ``hit`` take the nearest meeting (a
+    beam that starts inside another robot meets it at once)."""
+    for p in range(g.shape[0]):
+        k, r = g[p], j[p]
+        c, s = cos_yaw[r], sin_yaw[r]
+        ox, oy = origins[k, 0] - pose[r, 0], origins[k, 1] - pose[r, 1]
+        dx, dy = dirs[k, 0], dirs[k, 1]
+        t_in, t_out = cyrus_beck_one(c * ox + s * oy, c * oy - s * ox, c * dx + s * dy,
+                                     c * dy - s * dx, normals[sec[p]], offsets[sec[p]])
+        t = max(t_in, start[k])
+        if t_in <= t_out and t_out > start[k] and t < reach[k] and (not hit[k] or t < dist[k]):
+            dist[k], hit[k] = t, True
+
 
 def _cast_in_bullet(world: Any, plan: Any, reach: np.ndarray, g: np.ndarray, t_in: np.ndarray,
                            t_out: np.ndarray, dist: np.ndarray, hit: np.ndarray) -> None:
@@ -111,7 +116,8 @@ def circle_candidates(world: Any, plan: Any, reach: np.ndarray, centres: np.ndar
                       radii: np.ndarray, skip: Optional[np.ndarray] = None
                       ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The (ray, circle) pairs where the ray's line passes within a circle nearer than
-    ``reach``: for each scan, only the beams whose angles fall in the circle's angular window.
+    ``reach``: for each scan, only the beams whose angles fall in the circle's angular window
+    (widened by one beam each side, so that rounding in the window never drops a beam).
 
     Args:
         centres: (N, 2) map-frame circle centres.
@@ -121,48 +127,80 @@ def circle_candidates(world: Any, plan: Any, reach: np.ndarray, centres: np.ndar
     Returns:
         (ray indices, circle indices, distance where the circle is entered, where it is
         left), distances from the laser origin (the entry is d - r: a bound, not the exact
-        meeting point).
+        meeting point); scan by scan, circle by circle, beams in window order.
     """
-    none = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0),
-            np.zeros(0))
     q_robot = plan.robots
-    offs = plan.first
-    o = plan.origins[offs, :2]                                   # (Q, 2) laser origins
-    rel = centres[None, :, :] - o[:, None, :]                     # (Q, N, 2)
-    d = np.hypot(rel[..., 0], rel[..., 1])
-    r = radii                                                     # (Q, N) at each laser's height
-    entry = d - r
-    far = np.maximum.reduceat(reach, offs)
-    pair = entry < far[:, None]
-    if skip is not None:
-        pair &= ~skip
-    qs, js = np.nonzero(pair)
-    if not len(qs):
-        return none
-    geo = world._beam_geometry[q_robot[qs]]                       # amin, inc, beams, circle
-    inc = geo[:, 1]
-    dq, rq = d[qs, js], r[qs, js]
-    half = np.where(dq > rq, np.arcsin(np.minimum(1.0, rq / np.maximum(dq, 1e-12))), np.pi)
-    yaw = world.pose[q_robot[qs], 2] + world.lidar.yaw[q_robot[qs]]
-    phi = np.arctan2(rel[qs, js, 1], rel[qs, js, 0]) - yaw - geo[:, 0]
-    vc = np.remainder(phi, 2.0 * np.pi) / inc                     # beam index of the centre
+    if skip is None:
+        skip = np.zeros(np.shape(radii), dtype=bool)
+    yaw = world.pose[q_robot, 2] + world.lidar.yaw[q_robot]
+    return _circle_pairs(plan.origins, plan.first, np.ascontiguousarray(centres, dtype=float),
+                         np.ascontiguousarray(radii, dtype=float),
+                         np.ascontiguousarray(skip, dtype=np.bool_), reach,
+                         world._beam_geometry[q_robot], yaw)
+
+
+def _window(d, rx, ry, r, yaw, geo_q):  # type: ignore
+    """A scan's beams (beam table row ``geo_q``, laser yaw ``yaw``) whose angles fall in
+    the angular window of a circle of radius ``r`` whose centre is ``rx``, ``ry`` (distance
+    ``d``) from the laser: (first beam, count, beams in a circle), to walk modulo the last;
+    every beam when 2 pi is no whole number of beams."""
+    amin, inc, beams, circle = geo_q[0], geo_q[1], int(geo_q[2]), int(geo_q[3])
+    if circle == 0:
+        return 0, beams, 1 << 40
+    half = math.asin(min(1.0, r / max(d, 1e-12))) if d > r else math.pi
+    vc = ((math.atan2(ry, rx) - yaw - amin) % (2.0 * math.pi)) / inc   # the centre's beam
     w = half / inc + 1.0
-    circle = geo[:, 3].astype(np.int64)
-    lo = np.floor(vc - w).astype(np.int64)
-    n_v = np.minimum(np.ceil(vc + w).astype(np.int64) - lo + 1, circle)
-    whole = circle == 0
-    lo[whole], n_v[whole], circle[whole] = 0, geo[whole, 2].astype(np.int64), 1 << 40
-    total = int(n_v.sum())
-    rep = np.repeat(np.arange(len(qs)), n_v)
-    v = np.repeat(lo - np.concatenate(([0], np.cumsum(n_v)[:-1])), n_v) + np.arange(total)
-    v = np.remainder(v, circle[rep])
-    keep = v < geo[rep, 2]
-    rep, v = rep[keep], v[keep]
-    g = offs[qs[rep]] + v
-    pe = entry[qs, js][rep]
-    keep = reach[g] > pe
-    if not keep.any():
-        return none
-    g, rep, pe = g[keep], rep[keep], pe[keep]
-    px = (dq + rq)[rep]                                         # where the circle is left
-    return g, js[rep], pe, px
+    lo = int(math.floor(vc - w))
+    return lo, min(int(math.ceil(vc + w)) - lo + 1, circle), circle
+
+
+def _circle_pairs(origins, first, centres, radii, skip, reach, geo, yaw):  # type: ignore
+    """``circle_candidates``' loops: scan q (its rays from ``first[q]``, laser at
+    ``origins[first[q]]``, beam table row ``geo[q]``, yaw ``yaw[q]``) against each circle j
+    it does not ``skip`` whose nearest point is nearer than the scan's farthest ``reach``:
+    a first pass finds each pair's window, a second lists its beams. Compiled by numba (a
+    few dozen numpy calls on (Q, N) arrays cost more than the arithmetic at 10 robots)."""
+    nq, nc = radii.shape
+    m = reach.shape[0]
+    lo = np.zeros((nq, nc), dtype=np.int64)
+    count = np.zeros((nq, nc), dtype=np.int64)
+    period = np.ones((nq, nc), dtype=np.int64)
+    dist = np.zeros((nq, nc))
+    total = 0
+    for q in range(nq):
+        s = first[q]
+        far = -math.inf
+        for k in range(s, first[q + 1] if q + 1 < nq else m):
+            far = max(far, reach[k])
+        for j in range(nc):
+            rx, ry = centres[j, 0] - origins[s, 0], centres[j, 1] - origins[s, 1]
+            d = math.hypot(rx, ry)
+            if skip[q, j] or not d - radii[q, j] < far:
+                continue
+            lo[q, j], count[q, j], period[q, j] = _window(d, rx, ry, radii[q, j], yaw[q], geo[q])
+            dist[q, j] = d
+            total += count[q, j]
+    g_out = np.empty(total, dtype=np.int64)
+    j_out = np.empty(total, dtype=np.int64)
+    in_out = np.empty(total)
+    out_out = np.empty(total)
+    n = 0
+    for q in range(nq):
+        s, beams = first[q], int(geo[q, 2])
+        for j in range(nc):
+            entry, leave = dist[q, j] - radii[q, j], dist[q, j] + radii[q, j]
+            for t in range(count[q, j]):
+                v = (lo[q, j] + t) % period[q, j]
+                if v < beams and reach[s + v] > entry:
+                    g_out[n], j_out[n], in_out[n], out_out[n] = s + v, j, entry, leave
+                    n += 1
+    return g_out[:n], j_out[:n], in_out[:n], out_out[:n]
+
+
+try:   # as sim/grid_rays.py: compiled where numba is installed (the venv's requirements)
+    import numba
+    _window = numba.njit(cache=True)(_window)
+    _clip_pairs = numba.njit(cache=True)(_clip_pairs)
+    _circle_pairs = numba.njit(cache=True)(_circle_pairs)
+except ImportError:   # pragma: no cover
+    pass

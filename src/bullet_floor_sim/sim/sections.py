@@ -151,23 +151,31 @@ def _cyrus_beck(origins, dirs, normals, offsets, t_in, t_out):  # type: ignore
     """``clip_beams``'s loop, into ``t_in`` and ``t_out`` (compiled by numba where it is
     installed: the same arithmetic as numpy's on (P, K) arrays, without their temporaries)."""
     for i in range(origins.shape[0]):
-        lo, hi = -math.inf, math.inf
-        outside = False
-        for k in range(normals.shape[1]):
-            nd = normals[i, k, 0] * dirs[i, 0] + normals[i, k, 1] * dirs[i, 1]
-            num = offsets[i, k] - (normals[i, k, 0] * origins[i, 0]
-                                   + normals[i, k, 1] * origins[i, 1])
-            if nd < 0.0:
-                lo = max(lo, num / nd)
-            elif nd > 0.0:
-                hi = min(hi, num / nd)
-            elif num < 0.0:     # parallel to an edge, outside it
-                outside = True
-        t_in[i], t_out[i] = lo, (-math.inf if outside else hi)
+        t_in[i], t_out[i] = cyrus_beck_one(origins[i, 0], origins[i, 1], dirs[i, 0], dirs[i, 1],
+                                           normals[i], offsets[i])
+
+
+def cyrus_beck_one(ox, oy, dx, dy, normals, offsets):  # type: ignore
+    """Where the beam from (ox, oy) along the unit (dx, dy) enters and leaves the convex
+    polygon of half-planes ``normals`` (K, 2), ``offsets`` (K,) (compiled with numba as
+    ``_cyrus_beck``, which it serves, and robot_beams' clipping)."""
+    lo, hi = -math.inf, math.inf
+    outside = False
+    for k in range(normals.shape[0]):
+        nd = normals[k, 0] * dx + normals[k, 1] * dy
+        num = offsets[k] - (normals[k, 0] * ox + normals[k, 1] * oy)
+        if nd < 0.0:
+            lo = max(lo, num / nd)
+        elif nd > 0.0:
+            hi = min(hi, num / nd)
+        elif num < 0.0:     # parallel to an edge, outside it
+            outside = True
+    return lo, (-math.inf if outside else hi)
 
 
 try:   # as sim/grid_rays.py: compiled where numba is installed (the venv's requirements)
     import numba
+    cyrus_beck_one = numba.njit(cache=True)(cyrus_beck_one)
     _cyrus_beck = numba.njit(cache=True)(_cyrus_beck)
 except ImportError:   # pragma: no cover
     pass
