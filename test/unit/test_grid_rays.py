@@ -46,6 +46,24 @@ def test_simple_room_ranges_match_the_known_geometry():
         w.close()
 
 
+def test_rays_exactly_along_the_axes_meet_the_walls():
+    # a direction with a component exactly 0 (a lidar turned by a whole quarter gives one):
+    # the crossing along that axis is never, not a corner (it read +inf through the wall)
+    w = _world("simple")
+    try:
+        g = grid_rays.GridRays(w.solid.fmap)
+        points = [(1.0, 1.0), (3.0, 2.0), (2.3, 1.8)]
+        d = np.array([(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)])
+        o = np.array([p for p in points for _ in d], dtype=float)
+        dirs = np.tile(d, (len(points), 1))
+        got = g.cast(o, dirs, np.zeros(len(o)), np.full(len(o), 20.0))
+        want = [expected_range(x, y, math.atan2(v, u)) for (x, y), (u, v) in zip(o, dirs)]
+        assert np.isfinite(got).all()
+        np.testing.assert_allclose(got, want, atol=1e-9)
+    finally:
+        w.close()
+
+
 @pytest.mark.parametrize("name", ["simple", "office"])
 def test_the_grid_meets_the_walls_where_the_mesh_does(name):
     """2000 rays from free cells in every direction: the same hits and, but for rays that

@@ -76,7 +76,7 @@ def _first_crossing(solid, room, frame, o, d, start, end, out):  # type: ignore
                 ty += here
                 continue
             side = prev
-            if abs(tx - ty) <= 1e-9 * (1.0 + tx):
+            if abs(tx - ty) <= 1e-9 * (1.0 + min(tx, ty)):   # (inf: a ray along an axis)
                 # through a cell corner: the two cells beside it are touched too (the mesh's
                 # faces meet there, and the ray test counts a ray through their end a hit)
                 t = tx
