@@ -88,6 +88,7 @@ def _cast_in_bullet(world: Any, plan: Any, reach: np.ndarray, g: np.ndarray, t_i
     froms[:, :2] += d * t_in[:, None]
     tos = o.copy()
     tos[:, :2] += d * t_out[:, None]
+    world._sync_bodies()     # every robot where it stands (cast_beams leaves them stale)
     frac, ids = cast_rays(world.client, froms, tos, world.threads(len(idx)), chunk=ray_chunk())
     robot = np.isin(ids, world._body_array)
     at = idx[robot]

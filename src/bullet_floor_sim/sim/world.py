@@ -513,7 +513,8 @@ class World:
                 self.rays_reused += len(plan.full) - len(cast)
             else:   # no lidar where it was (robots on the move): every ray is cast
                 dist, hit = self._cast_lifted(plan, None)
-            self._sync_bodies()
+            if self._grid_rays is None:   # the bodies were lifted out: back in place (on
+                self._sync_bodies()       # the grid, only robot_beams' Bullet cast needs them)
         else:   # every beam in the full scene (GUI: moving bodies out would show)
             self._sync_bodies()
             dist, hit = self._cast(plan, np.arange(len(plan.froms)))

@@ -132,6 +132,9 @@ class Lidar:
             n = c.beams
             amin = -half if c.fov < 360.0 - 1e-9 else -math.pi
             self.angles.append(amin + inc * np.arange(n))
+        # each beam's direction in the laser's frame: a scan turns them by its heading
+        self._cos = [np.cos(a) for a in self.angles]
+        self._sin = [np.sin(a) for a in self.angles]
         self.period_ns = np.array([int(round(1e9 / c.rate)) for c in self.cfgs], dtype=np.int64)
         self.self_exit: List[Optional[np.ndarray]] = [None] * len(self.cfgs)
         self._range_max = np.array([c.range_max for c in self.cfgs], dtype=float)
@@ -241,10 +244,12 @@ class Lidar:
         for qs in groups.values():   # robots with one lidar geometry: their beams at once
             rows = robots[qs] if len(groups) > 1 else robots
             yaw = poses[rows, 2]
-            ang = (yaw + self.yaw[rows])[:, None] + self.angles[int(rows[0])][None, :]
+            heading = yaw + self.yaw[rows]
             origin = self._origins(rows, poses, yaw)
             pred = self._predict(rows, origin, yaw) if predict else _NO_PREDICTION
-            _beams(origin, np.cos(ang), np.sin(ang), self._exits, self._range_max, rows,
+            r0 = int(rows[0])
+            _beams(origin, np.cos(heading), np.sin(heading), self._cos[r0], self._sin[r0],
+                   self._exits, self._range_max, rows,
                    firsts[qs] if len(groups) > 1 else firsts, pred, xmin, ymin, xmax, ymax,
                    o, d, start, end, full, length, cut, f, t)
         return RayPlan(robots=robots, counts=counts, origins=o, dirs=d, froms=f, tos=t,
@@ -404,23 +409,26 @@ def _remember(prev_dist, prev_meta, prev_ok, rows, first, beams, poses, origins,
         prev_ok[r] = True
 
 
-def _beams(origin, cos_a, sin_a, exits, rmax, rows, first, pred, xmin, ymin, xmax, ymax,
-           o, d, start, end, full, length, cut, f, t):  # type: ignore
+def _beams(origin, cos_h, sin_h, cos_b, sin_b, exits, rmax, rows, first, pred, xmin, ymin,
+           xmax, ymax, o, d, start, end, full, length, cut, f, t):  # type: ignore
     """The rays of robots ``rows`` (one lidar geometry), in place from each robot's
-    ``first`` ray: origin ``o``, unit direction ``d`` (the beam angles' cosines and sines,
-    (Q, n)), ``start`` where the beam leaves the robot (``exits``), ``full`` the nearer of
-    the robot's ``rmax`` and where the ray leaves the box (xmin, ymin, xmax, ymax), ``end``
-    the predicted end (``pred`` (Q, n); none: ``full``), start and end clipped to full (an
-    end less than 1e-6 m past its start moves to ``full``: nothing left to cast, cast it
-    all), ``length`` end - start, ``cut`` end < full, and the segment's ends ``f``, ``t``.
-    One loop over the rays (compiled by numba: the same arithmetic as numpy's, a tenth of
-    its per-call cost on a 360-beam scan)."""
+    ``first`` ray: origin ``o``; unit direction ``d``, the beams' directions in the laser's
+    frame (``cos_b``, ``sin_b``, (n,)) turned by each laser's heading (``cos_h``, ``sin_h``,
+    (Q,)), within a few units in the last place of the cosine and sine of the sum;
+    ``start`` where the beam leaves the robot (``exits``); ``full`` the nearer of the
+    robot's ``rmax`` and where the ray leaves the box (xmin, ymin, xmax, ymax); ``end`` the
+    predicted end (``pred`` (Q, n); none: ``full``), start and end clipped to full (an end
+    less than 1e-6 m past its start moves to ``full``: nothing left to cast, cast it all);
+    ``length`` end - start, ``cut`` end < full, and the segment's ends ``f``, ``t``.
+    One loop over the rays (compiled by numba: a tenth of numpy's per-call cost on a
+    360-beam scan)."""
     for q in range(rows.shape[0]):
         r = rows[q]
         ox, oy, oz = origin[q, 0], origin[q, 1], origin[q, 2]
-        for j in range(cos_a.shape[1]):
+        ch, sh = cos_h[q], sin_h[q]
+        for j in range(cos_b.shape[0]):
             k = first[q] + j
-            a, b = cos_a[q, j], sin_a[q, j]
+            a, b = ch * cos_b[j] - sh * sin_b[j], sh * cos_b[j] + ch * sin_b[j]
             tx = (xmax - ox) / a if a > 0 else ((xmin - ox) / a if a < 0 else math.inf)
             ty = (ymax - oy) / b if b > 0 else ((ymin - oy) / b if b < 0 else math.inf)
             fk = min(rmax[r], max(min(tx, ty), 0.0))
