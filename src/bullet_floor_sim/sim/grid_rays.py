@@ -31,16 +31,17 @@ def _axis(p, cell, rate, per_cell):  # type: ignore
     return 0, math.inf, math.inf
 
 
-def _first_crossing(solid, room, frame, o, d, start, end, out):  # type: ignore
+def _first_crossing(room, frame, o, d, start, end, jump, out):  # type: ignore
     """For each ray i from ``o[i]`` + ``start[i]`` along the unit direction ``d[i]`` (map
     frame, metres), ``start[i]`` plus the metres to its first crossing between a solid and
     a free cell (outside the grid is free) before ``end[i]``; inf where there is none.
     ``frame``: the grid's origin x, y, the cos and sin of its yaw, and cells per metre.
-    ``room``: per cell, the distance (cells) between its centre and the nearest solid
-    cell's; a ray in a free cell with ``_JUMP`` cells of room or more jumps ``room - 1.5``
-    cells at once (no solid cell's point is that near any point of the cell: sqrt(2) < 1.5)
-    instead of walking them, unless it runs along a grid line (``_AXIAL``)."""
-    h, w = solid.shape
+    ``room``: per cell, 0 for a solid cell, else the distance (cells) between its centre
+    and the nearest solid cell's, rounded down (at least 1); a ray in a free cell with
+    ``jump`` cells of room or more jumps ``room - 1.5`` cells at once (no solid cell's
+    point is that near any point of the cell: sqrt(2) < 1.5) instead of walking them,
+    unless it runs along a grid line (``_AXIAL``)."""
+    h, w = room.shape
     gx, gy, gc, gs, k = frame[0], frame[1], frame[2], frame[3], frame[4]
     metres = 1.0 / k    # a cell's side
     for i in range(o.shape[0]):
@@ -54,7 +55,7 @@ def _first_crossing(solid, room, frame, o, d, start, end, out):  # type: ignore
         lim = end[i] - start[i]
         cx, cy = int(math.floor(u)), int(math.floor(v))
         inside = 0 <= cx < w and 0 <= cy < h
-        prev = solid[cy, cx] if inside else False
+        prev = room[cy, cx] == 0 if inside else False
         sx, tx, dx = _axis(u, cx, a, ia)
         sy, ty, dy = _axis(v, cy, b, ib)
         hit = math.inf
@@ -65,7 +66,7 @@ def _first_crossing(solid, room, frame, o, d, start, end, out):  # type: ignore
         jumps = min(abs(a), abs(b)) > _AXIAL * max(abs(a), abs(b))
         while True:
             if (jumps and not prev and 0 <= cx < w and 0 <= cy < h
-                    and room[cy, cx] >= _JUMP):
+                    and room[cy, cx] >= jump):
                 here += (room[cy, cx] - 1.5) * metres
                 if here > lim:
                     break
@@ -81,9 +82,9 @@ def _first_crossing(solid, room, frame, o, d, start, end, out):  # type: ignore
                 # faces meet there, and the ray test counts a ray through their end a hit)
                 t = tx
                 a1, b1 = cx + sx, cy + sy
-                if 0 <= a1 < w and 0 <= cy < h and solid[cy, a1] != prev:
+                if 0 <= a1 < w and 0 <= cy < h and (room[cy, a1] == 0) != prev:
                     side = not prev
-                if 0 <= cx < w and 0 <= b1 < h and solid[b1, cx] != prev:
+                if 0 <= cx < w and 0 <= b1 < h and (room[b1, cx] == 0) != prev:
                     side = not prev
                 cx, cy = a1, b1
                 tx += dx
@@ -99,7 +100,7 @@ def _first_crossing(solid, room, frame, o, d, start, end, out):  # type: ignore
             if t > lim:
                 break
             here = t
-            cur = solid[cy, cx] if (0 <= cx < w and 0 <= cy < h) else False
+            cur = room[cy, cx] == 0 if (0 <= cx < w and 0 <= cy < h) else False
             if cur != prev or side != prev:
                 hit = t
                 break
@@ -135,19 +136,23 @@ class GridRays:
     """
 
     def __init__(self, solid: Any) -> None:
-        self.solid = np.ascontiguousarray(solid.occupied)
+        occupied = np.asarray(solid.occupied, dtype=bool)
         self.resolution = float(solid.resolution)
         ox, oy, yaw = (float(v) for v in solid.origin)
         self.frame = np.array([ox, oy, math.cos(yaw), math.sin(yaw), 1.0 / self.resolution])
-        if self.solid.any():
+        #: cells a ray must have in view to jump (``_first_crossing``; inf: walk every cell)
+        self.jump = _JUMP
+        if occupied.any():
             from scipy.ndimage import distance_transform_edt
 
-            # float32: half of float64's cache (a 400 x 600 map: 1 MB, not 2), and its
-            # rounding (1e-7 of the room) is far inside the jump's 0.09-cell spare
-            self.room = np.ascontiguousarray(distance_transform_edt(~self.solid),
-                                             dtype=np.float32)
+            room = distance_transform_edt(~occupied)   # 0 on solid cells, >= 1 elsewhere
         else:
-            self.room = np.full(self.solid.shape, 1e9, dtype=np.float32)
+            room = np.full(occupied.shape, np.inf)
+        # one byte a cell, 0 = solid (the walk reads one array: a 400 x 600 map is 240 kB,
+        # where a bool grid and a float room were 2.2 MB, and other work evicted them from
+        # the cache between scans); the room rounded down and capped at 255 cells, so a
+        # jump never goes further than the exact room allows
+        self.room = np.ascontiguousarray(np.minimum(np.floor(room), 255.0).astype(np.uint8))
 
     def cast(self, origins: np.ndarray, dirs: np.ndarray, start: np.ndarray,
              end: np.ndarray) -> np.ndarray:
@@ -156,7 +161,6 @@ class GridRays:
         o = np.ascontiguousarray(origins, dtype=float)
         d = np.ascontiguousarray(dirs, dtype=float)
         out = np.empty(len(o))
-        _first_crossing(self.solid, self.room, self.frame, o, d,
-                        np.ascontiguousarray(start, dtype=float),
-                        np.ascontiguousarray(end, dtype=float), out)
+        _first_crossing(self.room, self.frame, o, d, np.ascontiguousarray(start, dtype=float),
+                        np.ascontiguousarray(end, dtype=float), float(self.jump), out)
         return out
