@@ -60,7 +60,7 @@ def _first_crossing(room, frame, o, d, start, end, jump, out):  # type: ignore
         sy, ty, dy = _axis(v, cy, b, ib)
         hit = math.inf
         here = 0.0      # metres along the ray to where it entered its cell (or jumped to)
-        # a ray along a grid line (a beam at 0 or 90 degrees: cos gives 1e-16, not 0) walks:
+        # a ray along a grid line (a beam at 0 or 90 degrees: 0 or 1e-16 across it) walks:
         # which side of the line it runs on is the walk's rounding, and a jump would take
         # it afresh from the jumped-to point (a beam grazing a wall's end then differs)
         jumps = min(abs(a), abs(b)) > _AXIAL * max(abs(a), abs(b))
@@ -161,6 +161,7 @@ class GridRays:
         o = np.ascontiguousarray(origins, dtype=float)
         d = np.ascontiguousarray(dirs, dtype=float)
         out = np.empty(len(o))
+        # (a jump of room - 1.5 cells must move on: at least half a cell from 2 cells of room)
         _first_crossing(self.room, self.frame, o, d, np.ascontiguousarray(start, dtype=float),
-                        np.ascontiguousarray(end, dtype=float), float(self.jump), out)
+                        np.ascontiguousarray(end, dtype=float), max(float(self.jump), 2.0), out)
         return out

@@ -1,7 +1,8 @@
 """Lidar beams against the other robots: after the beams were cast at the walls alone (robot
-bodies out of the scene), the beams that can reach another robot before their wall are
-clipped to that robot's measured cross-section in numpy (sections.py), or cast again in Bullet
-with the robots in place where no checked section exists. ``world`` is the stepping
+bodies out of the scene, or the walls walked on the solid grid), the beams that can reach
+another robot before their wall are clipped to that robot's measured cross-section
+(sections.py, compiled by numba), or cast again in Bullet with the robots in place where no
+checked section exists. ``world`` is the stepping
 :class:`~.world.World` (see World.cast_beams).
 """
 from __future__ import annotations
@@ -11,7 +12,7 @@ from typing import Any, Optional, Tuple
 
 import numpy as np
 
-from .sections import cyrus_beck_one
+from .sections import clip_to_sections
 from .sensors import cast_rays, ray_chunk
 
 __all__ = ["candidates", "circle_candidates", "cast_at_robots", "ray_owner"]
@@ -22,7 +23,8 @@ def cast_at_robots(world: Any, plan: Any, dist: np.ndarray, hit: np.ndarray) -> 
     (``dist``/``hit`` updated in place).
 
     A beam against a robot whose cross-section at the beam's height was measured and
-    checked (measure.sections) is clipped to that polygon in numpy. Any other is cast
+    checked (measure.sections) is clipped to that polygon (sections.clip_to_sections). Any
+    other is cast
     again in Bullet, with the robots in place, over the stretch where it is inside some
     other robot's bounding circle (and beyond its own robot's body), so the ray usually
     starts outside its own robot's bounding box."""
@@ -48,26 +50,9 @@ def _clip(world: Any, plan: Any, reach: np.ndarray, g: np.ndarray, j: np.ndarray
                     sec: np.ndarray, dist: np.ndarray, hit: np.ndarray) -> None:
     """Beams ``g`` against robots ``j``'s measured sections ``sec`` (see sections.py)."""
     tyaw = world.pose[:, 2]
-    _clip_pairs(g, j, sec, world.pose, np.cos(tyaw), np.sin(tyaw), plan.origins, plan.dirs,
-                plan.start, reach, world._section_normals, world._section_offsets, dist, hit)
-
-
-def _clip_pairs(g, j, sec, pose, cos_yaw, sin_yaw, origins, dirs, start, reach, normals,
-                offsets, dist, hit):  # type: ignore
-    """``_clip``'s loop: beam g[p] in robot j[p]'s frame (its yaw's numpy cosine and sine,
-    as numpy computed them before), clipped to section sec[p]; where it meets the section
-    after its start and before ``reach``, ``dist`` and ``hit`` take the nearest meeting (a
-    beam that starts inside another robot meets it at once)."""
-    for p in range(g.shape[0]):
-        k, r = g[p], j[p]
-        c, s = cos_yaw[r], sin_yaw[r]
-        ox, oy = origins[k, 0] - pose[r, 0], origins[k, 1] - pose[r, 1]
-        dx, dy = dirs[k, 0], dirs[k, 1]
-        t_in, t_out = cyrus_beck_one(c * ox + s * oy, c * oy - s * ox, c * dx + s * dy,
-                                     c * dy - s * dx, normals[sec[p]], offsets[sec[p]])
-        t = max(t_in, start[k])
-        if t_in <= t_out and t_out > start[k] and t < reach[k] and (not hit[k] or t < dist[k]):
-            dist[k], hit[k] = t, True
+    clip_to_sections(g, j, sec, world.pose, np.cos(tyaw), np.sin(tyaw), plan.origins,
+                     plan.dirs, plan.start, reach, world._section_normals,
+                     world._section_offsets, dist, hit)
 
 
 def _cast_in_bullet(world: Any, plan: Any, reach: np.ndarray, g: np.ndarray, t_in: np.ndarray,
@@ -131,8 +116,12 @@ def circle_candidates(world: Any, plan: Any, reach: np.ndarray, centres: np.ndar
         meeting point); scan by scan, circle by circle, beams in window order.
     """
     q_robot = plan.robots
+    shape = (len(q_robot), len(centres))      # (the compiled loops do not check indices)
+    if np.shape(radii) != shape or (skip is not None and np.shape(skip) != shape):
+        raise ValueError("circle_candidates: radii %s and skip %s must be %s (scans, circles)"
+                         % (np.shape(radii), None if skip is None else np.shape(skip), shape))
     if skip is None:
-        skip = np.zeros(np.shape(radii), dtype=bool)
+        skip = np.zeros(shape, dtype=bool)
     yaw = world.pose[q_robot, 2] + world.lidar.yaw[q_robot]
     return _circle_pairs(plan.origins, plan.first, np.ascontiguousarray(centres, dtype=float),
                          np.ascontiguousarray(radii, dtype=float),
@@ -201,7 +190,6 @@ def _circle_pairs(origins, first, centres, radii, skip, reach, geo, yaw):  # typ
 try:   # as sim/grid_rays.py: compiled where numba is installed (the venv's requirements)
     import numba
     _window = numba.njit(cache=True)(_window)
-    _clip_pairs = numba.njit(cache=True)(_clip_pairs)
     _circle_pairs = numba.njit(cache=True)(_circle_pairs)
 except ImportError:   # pragma: no cover
     pass

@@ -22,7 +22,8 @@ from typing import Callable, Optional, Tuple
 
 import numpy as np
 
-__all__ = ["Section", "measure_section", "check_section", "clip_beams", "pad_sections"]
+__all__ = ["Section", "measure_section", "check_section", "clip_beams", "clip_to_sections",
+           "pad_sections"]
 
 #: A probe: (ray starts (M, 2), unit directions (M, 2), length) -> (distance (M,), inf for no
 #: hit; unit 2-D normals (M, 2) at the hits), in the body's own frame.
@@ -158,7 +159,7 @@ def _cyrus_beck(origins, dirs, normals, offsets, t_in, t_out):  # type: ignore
 def cyrus_beck_one(ox, oy, dx, dy, normals, offsets):  # type: ignore
     """Where the beam from (ox, oy) along the unit (dx, dy) enters and leaves the convex
     polygon of half-planes ``normals`` (K, 2), ``offsets`` (K,) (compiled with numba as
-    ``_cyrus_beck``, which it serves, and robot_beams' clipping)."""
+    ``_cyrus_beck``, which it serves, and ``clip_to_sections``)."""
     lo, hi = -math.inf, math.inf
     outside = False
     for k in range(normals.shape[0]):
@@ -173,10 +174,31 @@ def cyrus_beck_one(ox, oy, dx, dy, normals, offsets):  # type: ignore
     return lo, (-math.inf if outside else hi)
 
 
+def clip_to_sections(g, j, sec, pose, cos_yaw, sin_yaw, origins, dirs, start, reach, normals,
+                offsets, dist, hit):  # type: ignore
+    """robot_beams' clipping: beam g[p] (``origins``, ``dirs``, ``start``) in robot j[p]'s
+    frame (``pose``, its yaw's cosine and sine), clipped to section sec[p] (padded
+    ``normals``, ``offsets``); where it meets the section after its start and before
+    ``reach``, ``dist`` and ``hit`` take the nearest meeting (a beam that starts inside
+    another robot meets it at once). In this module with ``cyrus_beck_one``: numba's cache
+    sees changes to the caller's own file only."""
+    for p in range(g.shape[0]):
+        k, r = g[p], j[p]
+        c, s = cos_yaw[r], sin_yaw[r]
+        ox, oy = origins[k, 0] - pose[r, 0], origins[k, 1] - pose[r, 1]
+        dx, dy = dirs[k, 0], dirs[k, 1]
+        t_in, t_out = cyrus_beck_one(c * ox + s * oy, c * oy - s * ox, c * dx + s * dy,
+                                     c * dy - s * dx, normals[sec[p]], offsets[sec[p]])
+        t = max(t_in, start[k])
+        if t_in <= t_out and t_out > start[k] and t < reach[k] and (not hit[k] or t < dist[k]):
+            dist[k], hit[k] = t, True
+
+
 try:   # as sim/grid_rays.py: compiled where numba is installed (the venv's requirements)
     import numba
     cyrus_beck_one = numba.njit(cache=True)(cyrus_beck_one)
     _cyrus_beck = numba.njit(cache=True)(_cyrus_beck)
+    clip_to_sections = numba.njit(cache=True)(clip_to_sections)
 except ImportError:   # pragma: no cover
     pass
 

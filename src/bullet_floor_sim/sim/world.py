@@ -494,12 +494,14 @@ class World:
 
         PyBullet pays for every robot whose bounding box a ray passes through, even a robot
         the ray's collision filter excludes, and every beam starts inside its own robot's box.
-        So the beams are first cast at the walls alone, with every robot body moved out of the
-        scene (a lidar that has not moved since its last scan reuses that scan's wall
-        distances); then the robots are put back and only the beams that can reach another
-        robot before their wall (their line passes that robot's cross-section circle nearer
-        than the wall) are cast again. Every step is exact, so the ranges are those of
-        casting every beam in the full scene.
+        So the beams are first cast at the walls alone: walked on the solid grid, or in Bullet
+        with every robot body moved out of the scene (a lidar that has not moved since its
+        last scan reuses that scan's wall distances); then only the beams that can reach
+        another robot before their wall (their line passes that robot's cross-section circle
+        nearer than the wall) are clipped to its section or cast again with the robots in
+        place (robot_beams.py puts the bodies where the robots stand before a Bullet cast;
+        on the grid nothing else moves them here). Every step is exact, so the ranges are
+        those of casting every beam in the full scene.
         """
         lift = self._lift_for_rays and self.n > 0
         if lift:
