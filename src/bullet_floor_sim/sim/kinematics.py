@@ -32,28 +32,44 @@ def integrate(pose: np.ndarray, vel: np.ndarray, dt: float) -> np.ndarray:
 
 
 def advance_small(world: Any, dt: float) -> None:
-    """Drive limits and pose integration of World._physics_step in plain floats, robot by
-    robot: the same formulas as ``Drive.apply`` and ``integrate``
-    (for a few robots numpy's per-call cost dominates)."""
+    """Drive limits and pose integration of World._physics_step for a few robots: the same
+    formulas as ``Drive.apply`` and ``integrate``, robot by robot in one compiled loop
+    (``_advance``; for a few robots numpy's per-call cost dominates). The velocities change
+    in place; the poses are a new array, as ``integrate`` gives."""
     lim = world._limits_small
     if lim is None or lim[0] != dt:
         vmax = np.zeros((world.n, 3))
         amax = np.zeros((world.n, 3))
         for rows, drive in world._drives:
             vmax[rows], amax[rows] = drive.vmax, drive.amax
-        lim = world._limits_small = (dt, vmax.tolist(), (amax * dt).tolist())
+        lim = world._limits_small = (dt, vmax, amax * dt)
     _, vmax, step = lim
-    vel, pose = [], []
-    for t, v, p, vm, st in zip(world.target.tolist(), world.vel.tolist(), world.pose.tolist(),
-                               vmax, step):
-        nv = [min(max(min(max(t[k], -vm[k]), vm[k]), v[k] - st[k]), v[k] + st[k])
-              for k in (0, 1, 2)]
-        half = nv[2] * (0.5 * dt)
+    pose = np.empty_like(world.pose)
+    _advance(world.target, world.vel, world.pose, vmax, step, float(dt), pose)
+    world.pose = pose
+
+
+def _advance(target, vel, pose, vmax, step, dt, out):  # type: ignore
+    """``advance_small``'s loop: each velocity toward its ``target`` within +-``vmax`` and
+    +-``step`` of where it was (in place), then ``out`` the pose after ``dt`` along the arc,
+    as ``integrate`` (math's sine and cosine, which numba calls too: the plain-Python loop
+    this replaced gave the same bits)."""
+    for i in range(pose.shape[0]):
+        for k in range(3):
+            vel[i, k] = min(max(min(max(target[i, k], -vmax[i, k]), vmax[i, k]),
+                                vel[i, k] - step[i, k]), vel[i, k] + step[i, k])
+        half = vel[i, 2] * (0.5 * dt)
         kk = (math.sin(half) / half if half else 1.0) * dt
-        a = p[2] + half
+        a = pose[i, 2] + half
         c, s = math.cos(a), math.sin(a)
-        vx, vy = nv[0] * kk, nv[1] * kk
-        vel.append(nv)
-        pose.append((p[0] + c * vx - s * vy, p[1] + s * vx + c * vy, a + half))
-    world.vel[:] = vel
-    world.pose = np.array(pose)
+        vx, vy = vel[i, 0] * kk, vel[i, 1] * kk
+        out[i, 0] = pose[i, 0] + c * vx - s * vy
+        out[i, 1] = pose[i, 1] + s * vx + c * vy
+        out[i, 2] = a + half
+
+
+try:   # as sim/grid_rays.py: compiled where numba is installed (the venv's requirements)
+    import numba
+    _advance = numba.njit(cache=True)(_advance)
+except ImportError:   # pragma: no cover
+    pass

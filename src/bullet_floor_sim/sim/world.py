@@ -130,7 +130,7 @@ class World:
         self._check_due_ns = 0              # next step whose poses need a collision check
         self._safe_until_ns = np.zeros(n, dtype=np.int64)   # per robot: no contact before
         self._window_consts = None          # for collision._window_small
-        self._limits_small = None           # (dt, vmax, amax * dt) lists for _advance_small
+        self._limits_small = None           # (dt, vmax, amax * dt) for kinematics.advance_small
         # one drive object per drive type, each over its own rows
         self._drives = []
         for kind, cls in DRIVES.items():
