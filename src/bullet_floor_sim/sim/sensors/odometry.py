@@ -10,7 +10,7 @@ import numpy as np
 from .. import small
 from ..checks import positive
 from ...errors import ConfigError
-from ...geometry import wrap_angle, wrap_angles
+from ...geometry import wrap_angles
 from .base import NEVER, SensorKind
 
 __all__ = ["OdometryConfig", "Odometry", "KIND"]
@@ -55,10 +55,9 @@ class Odometry:
         self.k_rot = np.array([c.noise_rot for c in cfgs])
         self.k_rot_m = np.array([c.noise_rot_per_m for c in cfgs])
         self.drift = np.array([c.drift_yaw for c in cfgs])
-        # the same four per robot as Python floats, for _update_small (numpy's scalars made
-        # every product in its loop a numpy call: 5.6 us a robot, one robot at 50 Hz)
-        self._k_small = list(zip(self.k_trans.tolist(), self.k_rot.tolist(),
-                                 self.k_rot_m.tolist(), self.drift.tolist()))
+        # the same four as one (N, 4) array, for _update_small's compiled loop
+        self._k_small = np.column_stack((self.k_trans, self.k_rot, self.k_rot_m,
+                                         self.drift)).reshape(len(cfgs), 4)
         self.noisy = bool(np.any(self.k_trans) or np.any(self.k_rot) or np.any(self.k_rot_m)
                           or np.any(self.drift))
         self.pose = np.zeros((len(cfgs), 3))
@@ -98,7 +97,7 @@ class Odometry:
     def update(self, old: np.ndarray, new: np.ndarray) -> None:
         """Integrate the motion from ground-truth poses ``old`` to ``new`` (N, 3)."""
         if len(old) <= small.SMALL_N:
-            self._update_small(old.tolist(), new.tolist())
+            self._update_small(old, new)
             return
         dxw = new[:, 0] - old[:, 0]
         dyw = new[:, 1] - old[:, 1]
@@ -121,28 +120,12 @@ class Odometry:
         self.pose[:, 1] += s * bx + c * by
         self.pose[:, 2] = wrap_angles(yaw + dth)
 
-    def _update_small(self, old: list, new: list) -> None:
-        """``update`` in plain floats, robot by robot (for a few robots numpy's per-call cost
-        dominates); the same formulas and the same random draws."""
-        noise = self.rng.standard_normal((len(old), 2)).tolist() if self.noisy else None
-        out = []
-        for i, (o, nw, p, k) in enumerate(zip(old, new, self.pose.tolist(), self._k_small)):
-            dxw, dyw = nw[0] - o[0], nw[1] - o[1]
-            c, s = math.cos(o[2]), math.sin(o[2])
-            bx, by = c * dxw + s * dyw, -s * dxw + c * dyw
-            dth = wrap_angle(nw[2] - o[2])
-            if noise is not None:
-                k_trans, k_rot, k_rot_m, drift = k
-                dist = math.hypot(bx, by)
-                if dist > 0:
-                    scale = 1.0 + noise[i][0] * k_trans * math.sqrt(dist) / max(dist, 1e-12)
-                    bx, by = bx * scale, by * scale
-                dth = dth + noise[i][1] * math.sqrt(k_rot ** 2 * abs(dth) + k_rot_m ** 2 * dist) \
-                    + drift * dist
-            c, s = math.cos(p[2]), math.sin(p[2])
-            out.append((p[0] + c * bx - s * by, p[1] + s * bx + c * by,
-                        wrap_angle(p[2] + dth)))
-        self.pose[:] = out
+    def _update_small(self, old: np.ndarray, new: np.ndarray) -> None:
+        """``update`` robot by robot in one compiled loop (``_integrate_small``; for a few
+        robots numpy's per-call cost dominates); the same formulas and the same random
+        draws."""
+        noise = self.rng.standard_normal((len(old), 2)) if self.noisy else _NO_NOISE
+        _integrate_small(old, new, self.pose, noise, self._k_small)
 
     def restart(self, now_ns: int) -> None:
         """Integrated first one period after ``now_ns``."""
@@ -161,6 +144,41 @@ class Odometry:
         self.pose[rows] = 0.0
         assert self._ref is not None   # build sets it
         self._ref[rows] = world.pose[rows]
+
+
+#: ``_update_small``'s noise when the odometry is exact: no draws
+_NO_NOISE = np.zeros((0, 2))
+
+
+def _integrate_small(old, new, pose, noise, k):  # type: ignore
+    """``Odometry.update``'s formulas robot by robot: the body-frame motion from ground truth
+    ``old`` to ``new``, scaled and turned by ``noise`` (N, 2) standard normal draws (none:
+    exact) with gains ``k`` (N, 4: noise_trans, noise_rot, noise_rot_per_m, drift_yaw),
+    added to ``pose`` in place. Compiled by numba (math's functions, and Python's float
+    modulo for the wrap: the plain-Python loop this replaced gave the same bits)."""
+    pi, two_pi = math.pi, 2.0 * math.pi
+    for i in range(old.shape[0]):
+        dxw, dyw = new[i, 0] - old[i, 0], new[i, 1] - old[i, 1]
+        c, s = math.cos(old[i, 2]), math.sin(old[i, 2])
+        bx, by = c * dxw + s * dyw, -s * dxw + c * dyw
+        dth = (new[i, 2] - old[i, 2] + pi) % two_pi - pi
+        if noise.shape[0]:
+            dist = math.hypot(bx, by)
+            if dist > 0:
+                scale = 1.0 + noise[i, 0] * k[i, 0] * math.sqrt(dist) / max(dist, 1e-12)
+                bx, by = bx * scale, by * scale
+            dth = dth + noise[i, 1] * math.sqrt(k[i, 1] ** 2 * abs(dth) + k[i, 2] ** 2 * dist) \
+                + k[i, 3] * dist
+        c, s = math.cos(pose[i, 2]), math.sin(pose[i, 2])
+        x, y = pose[i, 0] + c * bx - s * by, pose[i, 1] + s * bx + c * by
+        pose[i, 0], pose[i, 1], pose[i, 2] = x, y, (pose[i, 2] + dth + pi) % two_pi - pi
+
+
+try:   # as sim/grid_rays.py: compiled where numba is installed (the venv's requirements)
+    import numba
+    _integrate_small = numba.njit(cache=True)(_integrate_small)
+except ImportError:   # pragma: no cover
+    pass
 
 
 KIND = SensorKind(OdometryConfig, Odometry.build)
