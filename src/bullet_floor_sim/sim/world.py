@@ -448,10 +448,7 @@ class World:
             self._safe_until_ns[due] = after + (t_safe * 1e9).astype(np.int64)
             self._check_due_ns = int(self._safe_until_ns.min())
         if self.n <= small.SMALL_N:   # wheels turn with the velocity kept (0 for a refused move)
-            vel = self.vel.tolist()
-            self._travel[:] = [(tr[0] + v[0] * dt, tr[1] + v[2] * dt)
-                               for tr, v in zip(self._travel.tolist(), vel)]
-            any_moving = any(map(any, vel))   # as vel.any(), without numpy's call on a few numbers
+            any_moving = kinematics.travel_small(self._travel, self.vel, dt)
         else:
             self._travel[:, 0] += self.vel[:, 0] * dt
             self._travel[:, 1] += self.vel[:, 2] * dt
