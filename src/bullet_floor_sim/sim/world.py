@@ -53,6 +53,10 @@ __all__ = ["SimClock", "World", "RobotView", "Snapshot", "People"]
 _THREADED_RAYS = 160
 
 
+#: ``cast_beams``' rays to cast when every lidar is where it was
+_NO_RAYS = np.zeros(0, dtype=np.int64)
+
+
 class World:
     """A floor map extruded into PyBullet walls, with robots.
 
@@ -504,9 +508,10 @@ class World:
         if lift:
             # a lidar that has not moved since its last scan sees the same walls
             same = self.lidar.unmoved(plan, self.pose)
-            if same.any():
+            unmoved = same.tolist()   # (numpy's any() and repeat() on a few robots cost more)
+            if any(unmoved):
                 dist, hit = self.lidar.previous(plan)
-                cast = np.flatnonzero(~np.repeat(same, plan.counts))
+                cast = _NO_RAYS if all(unmoved) else np.flatnonzero(~np.repeat(same, plan.counts))
                 if len(cast):
                     dist[cast], hit[cast] = self._cast_lifted(plan, cast)
                 self.rays_reused += len(plan.full) - len(cast)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -139,6 +139,7 @@ class Lidar:
         self.self_exit: List[Optional[np.ndarray]] = [None] * len(self.cfgs)
         self._range_max = np.array([c.range_max for c in self.cfgs], dtype=float)
         self._n_beams = [len(a) for a in self.angles]         # (a list: read per robot in Python)
+        self._layouts: Dict[Tuple[int, ...], Any] = {}        # see _layout
         self._n_beams_array = np.array(self._n_beams, dtype=np.int64)
         # where each beam starts (set_self_exit), one row per robot; ragged if geometries differ
         width = max((len(a) for a in self.angles), default=0)
@@ -226,34 +227,48 @@ class Lidar:
         exactly that of the full ray. Without ``predict`` no ray is cut (the walls' grid
         caster stops at the first wall anyway: the prediction only cost time).
         """
-        robots = np.asarray(robots, dtype=np.int64).reshape(-1)
-        listed = robots.tolist()
-        counts = [self._n_beams[i] for i in listed]
-        first = [0] * len(listed)            # each robot's first ray
-        groups: Dict[int, List[int]] = {}
-        m = 0
-        for q, (i, k) in enumerate(zip(listed, counts)):
-            first[q] = m
-            m += k
-            groups.setdefault(self._kind[i], []).append(q)
+        robots, counts, firsts, m, groups = self._layout(robots)
         o, d, f, t = np.empty((m, 3)), np.empty((m, 2)), np.empty((m, 3)), np.empty((m, 3))
         start, end, full, length = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
         cut = np.empty(m, dtype=bool)
-        firsts = np.array(first, dtype=np.int64)
         xmin, ymin, xmax, ymax = (float(v) for v in bounds)
-        for qs in groups.values():   # robots with one lidar geometry: their beams at once
-            rows = robots[qs] if len(groups) > 1 else robots
+        for rows, first in groups:   # robots with one lidar geometry: their beams at once
             yaw = poses[rows, 2]
             heading = yaw + self.yaw[rows]
-            origin = self._origins(rows, poses, yaw)
-            pred = self._predict(rows, origin, yaw) if predict else _NO_PREDICTION
+            if predict:
+                pred = self._predict(rows, self._origins(rows, poses, yaw), yaw)
+            else:
+                pred = _NO_PREDICTION
             r0 = int(rows[0])
-            _beams(origin, np.cos(heading), np.sin(heading), self._cos[r0], self._sin[r0],
-                   self._exits, self._range_max, rows,
-                   firsts[qs] if len(groups) > 1 else firsts, pred, xmin, ymin, xmax, ymax,
-                   o, d, start, end, full, length, cut, f, t)
+            _beams(poses, self.offsets, np.cos(yaw), np.sin(yaw), np.cos(heading),
+                   np.sin(heading), self._cos[r0], self._sin[r0], self._exits, self._range_max,
+                   rows, first, pred, xmin, ymin, xmax, ymax, o, d, start, end, full, length,
+                   cut, f, t)
         return RayPlan(robots=robots, counts=counts, origins=o, dirs=d, froms=f, tos=t,
                        start=start, length=length, full=full, cut=cut, first=firsts)
+
+    def _layout(self, robots: Union[Sequence[int], np.ndarray]
+                ) -> Tuple[np.ndarray, List[int], np.ndarray, int,
+                           List[Tuple[np.ndarray, np.ndarray]]]:
+        """Where each of these robots' rays go in a plan: the robots (int64), their beam
+        counts, each one's first ray, the rays in all, and per lidar geometry its robots
+        and their first rays. Kept per set of robots (a scan tick repeats the last one)."""
+        listed = tuple(np.asarray(robots, dtype=np.int64).reshape(-1).tolist())
+        layout = self._layouts.get(listed)
+        if layout is None:
+            counts = [self._n_beams[i] for i in listed]
+            firsts = np.concatenate(([0], np.cumsum(counts, dtype=np.int64)[:-1])) \
+                if listed else np.zeros(0, dtype=np.int64)
+            kinds: Dict[int, List[int]] = {}
+            for q, i in enumerate(listed):
+                kinds.setdefault(self._kind[i], []).append(q)
+            rows = np.array(listed, dtype=np.int64)
+            groups = [(rows[qs], firsts[qs]) for qs in kinds.values()]
+            if len(self._layouts) >= 64:   # (robots due at many different ticks)
+                self._layouts.clear()
+            layout = self._layouts[listed] = (rows, counts, firsts.astype(np.int64),
+                                              int(sum(counts)), groups)
+        return layout
 
     def _origins(self, rows: np.ndarray, poses: np.ndarray, yaw: np.ndarray) -> np.ndarray:
         """(Q, 3) the laser origins of robots ``rows`` at ``poses`` (map frame)."""
@@ -347,11 +362,14 @@ def _laser_origins(poses, rows, c, sn, offsets, out):  # type: ignore
     """``out[q]``: the laser origin of robot ``rows[q]`` at ``poses`` (map frame), its yaw's
     cosine and sine ``c[q]``, ``sn[q]`` (numpy's: numba's own differ in the last bit)."""
     for q in range(rows.shape[0]):
-        r = rows[q]
-        ox, oy = offsets[r, 0], offsets[r, 1]
-        out[q, 0] = poses[r, 0] + c[q] * ox - sn[q] * oy
-        out[q, 1] = poses[r, 1] + sn[q] * ox + c[q] * oy
-        out[q, 2] = offsets[r, 2]
+        out[q, 0], out[q, 1], out[q, 2] = _laser_origin(poses, rows[q], c[q], sn[q], offsets)
+
+
+def _laser_origin(poses, r, c, sn, offsets):  # type: ignore
+    """Robot r's laser origin (x, y, z, map frame) at ``poses``, its yaw's cosine ``c`` and
+    sine ``sn``."""
+    ox, oy = offsets[r, 0], offsets[r, 1]
+    return poses[r, 0] + c * ox - sn * oy, poses[r, 1] + sn * ox + c * oy, offsets[r, 2]
 
 
 def _take_due(next_scan_ns, robots, period_ns, now, never, due):  # type: ignore
@@ -409,12 +427,15 @@ def _remember(prev_dist, prev_meta, prev_ok, rows, first, beams, poses, origins,
         prev_ok[r] = True
 
 
-def _beams(origin, cos_h, sin_h, cos_b, sin_b, exits, rmax, rows, first, pred, xmin, ymin,
-           xmax, ymax, o, d, start, end, full, length, cut, f, t):  # type: ignore
+def _beams(poses, offsets, cos_y, sin_y, cos_h, sin_h, cos_b, sin_b, exits, rmax, rows, first,
+           pred, xmin, ymin, xmax, ymax, o, d, start, end, full, length, cut, f,
+           t):  # type: ignore
     """The rays of robots ``rows`` (one lidar geometry), in place from each robot's
-    ``first`` ray: origin ``o``; unit direction ``d``, the beams' directions in the laser's
-    frame (``cos_b``, ``sin_b``, (n,)) turned by each laser's heading (``cos_h``, ``sin_h``,
-    (Q,)), within a few units in the last place of the cosine and sine of the sum;
+    ``first`` ray: origin ``o``, the laser's (``_laser_origin``: ``poses``, ``offsets`` and
+    the yaws' cosines and sines ``cos_y``, ``sin_y``); unit direction ``d``, the beams'
+    directions in the laser's frame (``cos_b``, ``sin_b``, (n,)) turned by each laser's
+    heading (``cos_h``, ``sin_h``, (Q,)), within a few units in the last place of the cosine
+    and sine of the sum;
     ``start`` where the beam leaves the robot (``exits``); ``full`` the nearer of the
     robot's ``rmax`` and where the ray leaves the box (xmin, ymin, xmax, ymax); ``end`` the
     predicted end (``pred`` (Q, n); none: ``full``), start and end clipped to full (an end
@@ -424,7 +445,7 @@ def _beams(origin, cos_h, sin_h, cos_b, sin_b, exits, rmax, rows, first, pred, x
     360-beam scan)."""
     for q in range(rows.shape[0]):
         r = rows[q]
-        ox, oy, oz = origin[q, 0], origin[q, 1], origin[q, 2]
+        ox, oy, oz = _laser_origin(poses, r, cos_y[q], sin_y[q], offsets)
         ch, sh = cos_h[q], sin_h[q]
         for j in range(cos_b.shape[0]):
             k = first[q] + j
@@ -447,6 +468,7 @@ def _beams(origin, cos_h, sin_h, cos_b, sin_b, exits, rmax, rows, first, pred, x
 try:   # as sim/grid_rays.py: compiled where numba is installed (the venv's requirements)
     import numba
     _beams = numba.njit(cache=True)(_beams)
+    _laser_origin = numba.njit(cache=True)(_laser_origin)
     _laser_origins = numba.njit(cache=True)(_laser_origins)
     _unmoved = numba.njit(cache=True)(_unmoved)
     _rep117 = numba.njit(cache=True)(_rep117)
