@@ -547,8 +547,9 @@ def test_scans_equal_every_beam_cast_in_the_full_scene(lift, grid):
 
 def test_small_worlds_step_in_floats_exactly_as_numpy_does(monkeypatch):
     # up to small.SMALL_N robots, drives, integration, wheels and odometry step in plain
-    # floats, and collision windows of up to collision._SMALL_PAIRS pairs are computed in them;
-    # the result must be the numpy paths' (same formulas, same random draws)
+    # floats or compiled loops, and collision windows of up to collision._SMALL_PAIRS pairs
+    # are computed in floats; the result must be the numpy paths' (same formulas, same
+    # random draws)
     from bullet_floor_sim.sim import collision, small
 
     noisy = OdometryConfig(noise_trans=0.05, noise_rot=0.05, noise_rot_per_m=0.02, drift_yaw=0.01)
