@@ -46,14 +46,18 @@ def frontiers(fmap: FloorMap, min_cells: int = 4) -> List[Frontier]:
     near_unknown = binary_dilation(unknown, structure=np.array([[0, 1, 0], [1, 1, 1],
                                                                 [0, 1, 0]], dtype=bool))
     cells = (g == 0) & near_unknown
-    labels, n = label(cells, structure=np.ones((3, 3), dtype=bool))
+    labels, _n = label(cells, structure=np.ones((3, 3), dtype=bool))
+    # every cluster's cells in one pass (row-major within a cluster, as argwhere gives them)
+    rc = np.argwhere(labels > 0)
+    k = labels[rc[:, 0], rc[:, 1]]
+    order = np.argsort(k, kind="stable")
+    sizes = np.bincount(k)[1:]
     out = []
-    for k in range(1, n + 1):
-        rc = np.argwhere(labels == k)
-        if len(rc) < min_cells:
+    for part in np.split(rc[order], np.cumsum(sizes)[:-1]):
+        if len(part) < min_cells:
             continue
-        x, y = fmap.cell_to_world(rc[:, 1].mean(), rc[:, 0].mean())
-        out.append(Frontier(rc, (float(x), float(y))))
+        x, y = fmap.cell_to_world(part[:, 1].mean(), part[:, 0].mean())
+        out.append(Frontier(part, (float(x), float(y))))
     out.sort(key=lambda f: -f.size)
     return out
 
