@@ -49,6 +49,8 @@ def frontiers(fmap: FloorMap, min_cells: int = 4) -> List[Frontier]:
     labels, _n = label(cells, structure=np.ones((3, 3), dtype=bool))
     # every cluster's cells in one pass (row-major within a cluster, as argwhere gives them)
     rc = np.argwhere(labels > 0)
+    if not len(rc):
+        return []
     k = labels[rc[:, 0], rc[:, 1]]
     order = np.argsort(k, kind="stable")
     sizes = np.bincount(k)[1:]

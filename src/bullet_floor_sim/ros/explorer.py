@@ -7,16 +7,16 @@ the nearest reachable frontier (mapping/frontiers.py) from the robot's pose (tf
 (move_base_msgs/MoveBaseAction: the embedded path follower or stock move_base, either with
 unknown space passable). A goal's place is ruled out once it is sent (reached or not, it is
 done with). By default the next goal is picked once the last has ended, on the map as it is
-then, from where the robot stands (about 0.2 s of wall time on office's map). With
+then, from where the robot stands (0.15-0.34 s of wall time on office's map). With
 ``~lookahead`` > 0, it is picked once the robot is within that distance of its goal, on the
 map as it is then, as if from the goal, and goes out the moment the goal is reached (a goal
 not reached is followed by a pick from where the robot stands): the robot does not stand,
 but the pick misses what the robot sees on its last metres and at the goal, and in one
 process office took 300-480 s instead of 180-240 s to reach the map explore.test asks for
-(docs/mapping.md, session 49). When no
-reachable frontier is left on a map built after the last goal ended (or ``~finish_wait``
-seconds after it: gmapping builds no new map while the robot stands still), it logs so,
-publishes ``~finished`` (std_msgs/Bool, latched) true and sends no more goals.
+(docs/mapping.md, session 49). When no reachable frontier is left on a map built after the
+last goal ended (or ``~finish_wait`` seconds after it: gmapping builds no new map while the
+robot stands still), it logs so, publishes ``~finished`` (std_msgs/Bool, latched) true and
+sends no more goals.
 
 Parameters: ``~global_frame`` (map), ``~base_frame`` (base_footprint), ``~robot_radius``
 (0.34), ``~min_frontier`` (0.75 m), ``~reach`` (1.0 m), ``~blacklist_radius`` (0.5 m),
