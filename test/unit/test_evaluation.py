@@ -52,6 +52,39 @@ def test_scoring_picks_the_latest_prediction_at_each_fraction_and_counts_gaps_as
     assert [c for c, _, _ in s.scores["tracker"]["predictor"]] == [False] * 5
 
 
+def test_a_prediction_of_the_coming_leg_made_while_the_walker_stood_is_carried_into_it():
+    def rec(t, under_way):
+        r = record(t, {"A": 0.2, "B": 0.5, "C": 0.3})
+        r.prediction.under_way = under_way
+        return r
+    ended = 5.0   # the previous leg ended then; the walker stood until the next started
+    assert ev.carried([], ended) == []
+    # the last record is of the next leg, made during the stand: carried, alone
+    recs = [rec(3.0, True), rec(6.0, False), rec(8.0, False)]
+    assert ev.carried(recs, ended) == recs[2:]
+    # made before the stand (the walker lost during the last leg): not carried
+    assert ev.carried([rec(3.0, False)], ended) == []
+    # of a leg under way (the predictor had not yet seen it stand dwell_time): not carried
+    assert ev.carried([rec(6.0, False), rec(7.0, True)], ended) == []
+
+
+def test_a_carried_prediction_scores_every_fraction_until_a_newer_one():
+    leg = Leg(1, "A", "B", (5.0, 0.0, 0.0), started=10.0, ended=20.0, outcome="succeeded")
+    uniform = {"A": 1 / 3, "B": 1 / 3, "C": 1 / 3}
+    before = record(8.0, {"A": 0.2, "B": 0.5, "C": 0.3})   # the next leg's, at t = 8
+    before.prediction.under_way = False
+    later = record(18.0, {"A": 0.1, "B": 0.1, "C": 0.8})
+    trk = ev.carried([before], 7.0) + [later]
+    s = ev.score_leg(leg, [later], trk, FakeModel(), uniform)
+    # fractions 10 25 50 75 -> t = 11, 12.5, 15, 17.5: the carried record; 90 % (t = 19): later
+    assert [c for c, _, _ in s.scores["tracker"]["predictor"]] == [True] * 4 + [False]
+    lls = [ll for _, ll, _ in s.scores["tracker"]["predictor"]]
+    assert lls[:4] == [pytest.approx(-math.log(0.5))] * 4
+    assert lls[4] == pytest.approx(-math.log(0.1))
+    # the ground truth's only record is the later one: no prediction until 90 %
+    assert [h for _, _, h in s.scores["ground_truth"]["predictor"]] == [False] * 4 + [True]
+
+
 def test_result_table_averages_over_legs():
     legs = []
     for k, (correct, to) in enumerate(((True, "B"), (False, "A"), (True, "A"), (True, "B"))):

@@ -21,8 +21,10 @@ report.py (:func:`format_table`, :func:`plot`).
 For each leg the walker completes, at 10/25/50/75/90 % of its duration, the latest prediction
 of each pipeline (tracker, ground truth) is scored against the leg's destination region for
 the predictor and two baselines (the Markov prior alone; the nearest region along the current
-heading): top-1 accuracy and log-loss. A leg moment without any prediction of the current leg
-(the target was not tracked since the leg began) counts as a miss, with the uniform
+heading): top-1 accuracy and log-loss. A prediction of the current leg is one made since the
+leg began, or the last one made while the walker stood before it, if that one predicts the
+leg to come (scoring.carried: the observer saw it stand, then lost it as it set off). A leg
+moment without any prediction of the current leg counts as a miss, with the uniform
 distribution over the chain's regions for the log-loss.
 
 Tracking is scored on every control tick: recall while the walker is visible to the observer
@@ -34,8 +36,8 @@ from .report import format_table, plot
 from .result import (FRACTIONS, LEG_KINDS, METHODS, PIPELINES, EvalConfig, EvalResult,
                      EvaluationError, LegScore)
 from .scenario import run, world_model
-from .scoring import Record, rescore, score_leg
+from .scoring import Record, carried, rescore, score_leg
 
 __all__ = ["EvalConfig", "EvalResult", "LegScore", "EvaluationError", "run", "world_model",
-           "rescore", "score_leg", "Record", "format_table", "plot", "FRACTIONS", "METHODS",
-           "PIPELINES", "LEG_KINDS"]
+           "rescore", "score_leg", "carried", "Record", "format_table", "plot", "FRACTIONS",
+           "METHODS", "PIPELINES", "LEG_KINDS"]

@@ -35,7 +35,7 @@ from ..tracking import TrackerConfig
 from .mot import ClearMot
 from .result import FRACTIONS, EvaluationError, LegScore
 from .scenario import ObserverDrive, _laser_in_map, _regions
-from .scoring import Record, score_leg
+from .scoring import Record, carried, score_leg
 
 __all__ = ["CrowdEvalConfig", "CrowdEvalResult", "run_crowd", "format_crowd", "plot_crowd",
            "LEG_CENTRE_OFFSET"]
@@ -170,6 +170,7 @@ class _CrowdRun:
         self.gt_records: List[List[Record]] = [[] for _ in crowd.people]
         self.trk_records: List[List[Record]] = [[] for _ in crowd.people]
         self.current: List[Optional[object]] = [None] * crowd.n
+        self.dwell_since = [world.clock.now] * crowd.n   # when each one's last leg ended
         self.legs: Dict[str, List[LegScore]] = {n: [] for n in self.names}
         self.failed: Dict[str, int] = {n: 0 for n in self.names}
         self.mot = ClearMot(cfg.match_distance)
@@ -216,14 +217,15 @@ class _CrowdRun:
             last = self.current[i]
             if last is not None and leg is not last:
                 self._leg_ended(i, last)
+                self.dwell_since[i] = t
             if leg is not None and leg is not last:
-                self.gt_records[i], self.trk_records[i] = [], []
+                self.gt_records[i] = carried(self.gt_records[i], self.dwell_since[i])
+                self.trk_records[i] = carried(self.trk_records[i], self.dwell_since[i])
             self.current[i] = leg
             g = truth[i]
-            # the predictor sees the dwells too (it cuts legs at the stops, as on a track)
+            # the predictor sees the dwells too (it cuts legs at the stops, as on a track);
+            # a dwell's records are kept for the next leg's carry (scoring.carried)
             pred = self.gt_pred[i].update(t, g.x, g.y, g.vx, g.vy)
-            if leg is None:
-                continue
             if pred is not None:
                 self.gt_records[i].append(Record(t, pred, (g.x, g.y), (g.vx, g.vy)))
             track = pairs.get(p.name)

@@ -20,7 +20,7 @@ from ..tracking import TrackerConfig
 from ..walker import Walker, WalkerConfig, WalkerError
 from ...building import Building, robot_footprint
 from .result import EvalConfig, EvalResult, EvaluationError, LegScore
-from .scoring import Record, score_leg
+from .scoring import Record, carried, score_leg
 
 __all__ = ["run", "world_model", "ObserverDrive", "refuse_unreachable"]
 
@@ -134,6 +134,7 @@ class _Scenario:
         self.err_sum = 0.0
         self.completed: List[LegScore] = []
         self.t0 = world.clock.now
+        self.dwell_since = self.t0   # when the walker's last leg ended (it stands since)
         self.setup_time = time.time() - t_wall   # world, map check, the predictor's distances
 
     def tick(self, steps: int) -> None:
@@ -183,7 +184,7 @@ class _Scenario:
     def _send(self, t: float, pose: Sequence[float], leg, new_leg: bool) -> bool:
         """Start the navigation to the leg's goal; a goal it cannot plan to is aborted (the
         walker may give it another goal; else the leg ends). A new leg's predictions start
-        afresh."""
+        afresh, but for one of this leg made while the walker stood (scoring.carried)."""
         try:
             self.nav_walker.start(pose, leg.goal, t)
         except PlanError as e:   # path_follower aborts such a goal (a new goal may follow)
@@ -193,11 +194,13 @@ class _Scenario:
             self._leg_ended(t, step)
             return False
         if new_leg:
-            self.gt_records, self.trk_records = [], []
+            self.gt_records = carried(self.gt_records, self.dwell_since)
+            self.trk_records = carried(self.trk_records, self.dwell_since)
         return True
 
     def _leg_ended(self, t: float, step) -> None:
         leg = step.finished
+        self.dwell_since = t
         if leg.outcome == "succeeded" and leg.way < self.cfg.min_leg_path:
             self.short += 1
             where = " (not scored: a way of %.2f m)" % leg.way

@@ -11,7 +11,7 @@ import numpy as np
 from ..prediction import DestinationModel, log_loss, posterior_or_prior, top1
 from .result import FRACTIONS, METHODS, PIPELINES, EvalResult, LegScore, Moment
 
-__all__ = ["Record", "score_leg", "moment", "score_pipeline", "rescore"]
+__all__ = ["Record", "score_leg", "moment", "score_pipeline", "rescore", "carried"]
 
 
 class Record:
@@ -21,6 +21,19 @@ class Record:
 
     def __init__(self, t, prediction, xy, velocity) -> None:
         self.t, self.prediction, self.xy, self.velocity = t, prediction, xy, velocity
+
+
+def carried(records: List[Record], since: float) -> List[Record]:
+    """The records a new leg starts with: the latest one made at or after ``since`` (when the
+    walker's previous leg ended, so while it stood where this leg starts) if it predicts the
+    leg to come (``under_way`` False: the chain's row of where the entity stands), else none.
+
+    The observer that saw the walker stand and lost it as it set off has predicted this leg
+    before the leg began; without the carry that prediction scored as none at all. A record
+    of a leg under way then is of the leg that just ended, and is not carried."""
+    if records and records[-1].t >= since and not records[-1].prediction.under_way:
+        return [records[-1]]
+    return []
 
 
 def score_leg(leg, gt: List[Record], trk: List[Record], model: DestinationModel,
