@@ -64,6 +64,9 @@ def test_a_prediction_of_the_coming_leg_made_while_the_walker_stood_is_carried_i
     assert ev.carried(recs, ended) == recs[2:]
     # made before the stand (the walker lost during the last leg): not carried
     assert ev.carried([rec(3.0, False)], ended) == []
+    # made at the moment the last leg ended: carried (at or after it)
+    at_end = [rec(ended, False)]
+    assert ev.carried(at_end, ended) == at_end
     # of a leg under way (the predictor had not yet seen it stand dwell_time): not carried
     assert ev.carried([rec(6.0, False), rec(7.0, True)], ended) == []
 

@@ -23,7 +23,7 @@ of each pipeline (tracker, ground truth) is scored against the leg's destination
 the predictor and two baselines (the Markov prior alone; the nearest region along the current
 heading): top-1 accuracy and log-loss. A prediction of the current leg is one made since the
 leg began, or the last one made while the walker stood before it, if that one predicts the
-leg to come (scoring.carried: the observer saw it stand, then lost it as it set off). A leg
+leg to come (scoring.carried: the observer saw it stand, then lost it before it set off). A leg
 moment without any prediction of the current leg counts as a miss, with the uniform
 distribution over the chain's regions for the log-loss.
 

@@ -13,8 +13,9 @@ Scored per control tick against the ground truth:
 * tracking: CLEAR MOT (mot.py) over the people in view (``visible_beams`` of the observer's
   beams on a person's legs), with the same match distance as the one-walker study;
 * prediction: every completed leg of every person, at each fraction of the leg, the latest
-  prediction of the track matched to that person (the tracker pipeline) and of the predictor
-  run on the person's own ground truth, as the one-walker study scores its walker's legs.
+  prediction of the track matched to that person (the tracker pipeline; the last one from its
+  stand before the leg counts, as scoring.carried says) and of the predictor run on the
+  person's own ground truth, as the one-walker study scores its walker's legs.
 """
 from __future__ import annotations
 
@@ -100,7 +101,8 @@ class CrowdEvalResult:
                  fraction: float = 0.5, seen: bool = False) -> float:
         """Share of completed legs (of one person, or all) whose destination the predictor
         had right at ``fraction`` of the leg; with ``seen``, of the legs the pipeline had a
-        prediction of by then (the person was tracked during the leg). nan: no such leg."""
+        prediction of by then (the person was tracked during the leg, or predicted while it stood
+        before it: scoring.carried). nan: no such leg."""
         k = FRACTIONS.index(fraction)
         legs = self.legs[name] if name is not None else [x for v in self.legs.values() for x in v]
         scores = [leg.scores[pipeline]["predictor"][k] for leg in legs]
@@ -287,7 +289,7 @@ def format_crowd(result: CrowdEvalResult) -> str:
                      sum(r.failed_legs.values()), seen, m.switches, None))
     lines.append("* followed. tracked: share of the ticks in view with a track matched; "
                  "acc50: legs whose destination was right at 50 %; acc50seen: of the legs "
-                 "tracked by then; acc50gt: the predictor on the person's own ground truth")
+                 "predicted by then; acc50gt: the predictor on the person's own ground truth")
     lines.append("MOTA %.3f  MOTP %.3f m  misses %d  false positives %d  switches %d  "
                  "in view %d person-ticks of %d ticks" % (m.mota, m.motp, m.misses,
                                                           m.false_positives, m.switches,
@@ -297,7 +299,7 @@ def format_crowd(result: CrowdEvalResult) -> str:
 
 def plot_crowd(result: CrowdEvalResult, path: str) -> None:
     """Destination accuracy vs fraction of the leg observed, as a PNG: every person's legs
-    from the tracks (all legs, and the legs tracked by then), from ground truth, and the
+    from the tracks (all legs, and the legs predicted by then), from ground truth, and the
     followed person's from the tracks."""
     from ..plotting import pyplot
 
@@ -308,7 +310,7 @@ def plot_crowd(result: CrowdEvalResult, path: str) -> None:
     xs = [100 * f for f in FRACTIONS]
     for label, style, acc in (
             ("all people, tracks (all legs)", "-", lambda f: r.accuracy(fraction=f)),
-            ("all people, tracks (legs tracked by then)", "-.",
+            ("all people, tracks (legs predicted by then)", "-.",
              lambda f: r.accuracy(fraction=f, seen=True)),
             ("all people, ground truth", "--",
              lambda f: r.accuracy(pipeline="ground_truth", fraction=f)),

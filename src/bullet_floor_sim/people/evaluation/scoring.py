@@ -28,9 +28,10 @@ def carried(records: List[Record], since: float) -> List[Record]:
     walker's previous leg ended, so while it stood where this leg starts) if it predicts the
     leg to come (``under_way`` False: the chain's row of where the entity stands), else none.
 
-    The observer that saw the walker stand and lost it as it set off has predicted this leg
+    The observer that saw the walker stand and lost it before it set off has predicted this leg
     before the leg began; without the carry that prediction scored as none at all. A record
-    of a leg under way then is of the leg that just ended, and is not carried."""
+    of a leg under way then (the one that just ended, or one the track's jitter started
+    during the stand) is not carried."""
     if records and records[-1].t >= since and not records[-1].prediction.under_way:
         return [records[-1]]
     return []
