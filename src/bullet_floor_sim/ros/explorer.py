@@ -142,14 +142,10 @@ class ExplorerNode:
                 ahead = self._go(ahead)
                 ended = rospy.Time.now()
                 continue
-            start = time.monotonic()
-            msg, pose = self._latest_map(), self._pose()
-            if msg is None or pose is None:
+            msg, fmap, goal = self._pick()
+            if msg is None:
                 rospy.sleep(0.5)
                 continue
-            fmap = grid_from_msg(msg)
-            goal = self.explorer.next_goal(fmap, pose)
-            self.pick_wall = time.monotonic() - start
             if (goal is None and msg.header.stamp < ended
                     and rospy.Time.now() - ended < rospy.Duration(self.params.finish_wait)):
                 rospy.sleep(0.5)               # done, unless the next map shows more
@@ -198,7 +194,7 @@ class ExplorerNode:
         picked = False
         while gh.get_comm_state() != CommState.DONE and not rospy.is_shutdown():
             if not picked and self._near(goal):
-                ahead, picked = self._pick_from(goal), True
+                ahead, picked = self._pick(goal)[2], True
                 continue
             if rospy.Time.now() > deadline:
                 gh.cancel()
@@ -226,15 +222,20 @@ class ExplorerNode:
         return pose is not None and math.hypot(goal[0] - pose[0],
                                                goal[1] - pose[1]) <= self.params.lookahead
 
-    def _pick_from(self, goal: Sequence[float]) -> Optional[Tuple[float, float, float]]:
-        """The next goal on the latest map as seen from ``goal`` (None: none, or no map)."""
+    def _pick(self, origin: Optional[Sequence[float]] = None):
+        """The latest map (the message and its FloorMap) and the next goal on it as seen from
+        ``origin`` (None: from where the robot stands); (None, None, None) with no map or no
+        pose. ``pick_wall`` gets the wall time the fetch and the search took."""
         start = time.monotonic()
         msg = self._latest_map()
-        if msg is None:
-            return None
-        ahead = self.explorer.next_goal(grid_from_msg(msg), goal)
+        if origin is None:
+            origin = self._pose()
+        if msg is None or origin is None:
+            return None, None, None
+        fmap = grid_from_msg(msg)
+        goal = self.explorer.next_goal(fmap, origin)
         self.pick_wall = time.monotonic() - start
-        return ahead
+        return msg, fmap, goal
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
