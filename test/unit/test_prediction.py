@@ -451,6 +451,52 @@ def test_predictor_pool_hands_a_leg_over_to_the_track_seen_again(model):
     assert [p for p in again if p is not None][0].start_xy != s
 
 
+def test_predictor_pool_same_entity_takes_over_a_leg_however_long_it_was_lost(model):
+    s, goal = (7.05, 5.75), (14.05, 9.55)
+    samples = stream([("stand", s, 2.0), ("walk", s, (12.05, 5.75), 0.5),
+                      ("walk", (12.05, 5.75), (14.05, 5.75), 0.5),
+                      ("walk", (14.05, 5.75), goal, 0.5)])
+    one = OnlinePredictor(model)
+    whole = [one.update(*row) for row in samples][-1]
+    # lost for 8 s (twice handover_time), seen again 4 m on: no hand-over by place ...
+    lost = [k for k, row in enumerate(samples) if 4.0 < row[0] <= 12.0]
+    assert samples[lost[-1] + 1][0] - samples[lost[0] - 1][0] > 2 * model.config.handover_time
+    pool = PredictorPool(model)
+    first_of_2 = None
+    for k, (t, x, y, vx, vy) in enumerate(samples):
+        if k in lost:
+            continue
+        ident = 1 if k < lost[0] else 2
+        res = pool.update(t, [(ident, x, y, vx, vy)])
+        if ident == 2 and first_of_2 is None:
+            first_of_2 = res[2]
+            assert pool.handovers == 0 and first_of_2.start_xy != s
+            # ... a track alive while 1 was is another entity; 1 gone, 2 takes its leg
+            assert not pool.same_entity(2, 2) and not pool.same_entity(7, 2)
+            assert pool.same_entity(1, 2) and pool.handovers == 1
+            assert not pool.same_entity(1, 2)    # 1 is gone: nothing more to take
+    last = pool.predictors[2].last
+    assert (last.leg, last.start_region, last.start_xy) == (1, "corridor", s)
+    assert last.best == whole.best == "B"
+    assert last.probabilities == pytest.approx(whole.probabilities, abs=1e-9)
+
+
+def test_predictor_pool_same_entity_refuses_two_tracks_seen_at_once(model):
+    pool = PredictorPool(model)
+    pool.update(0.0, [(1, 5.0, 5.75, 0.5, 0.0), (2, 20.0, 5.75, 0.0, 0.0)])
+    kept = pool.predictors[2]
+    pool.update(0.1, [(2, 20.0, 5.75, 0.0, 0.0)])
+    assert not pool.same_entity(1, 2) and pool.predictors[2] is kept
+    assert 1 in pool.predictors and pool.handovers == 0
+    # past handover_time (4 s), no hand-over by place; track 3, 5 s after 1 was last seen,
+    # 9 m from it: farther than 0.5 + 1.5 x 5 = 8 m, as far as 1 could have walked
+    pool.update(5.0, [(3, 14.0, 5.75, 0.0, 0.0)])
+    assert not pool.same_entity(1, 3) and pool.handovers == 0
+    # track 4, 5.5 s after, 5 m from it, could be 1
+    pool.update(5.5, [(4, 10.0, 5.75, 0.0, 0.0)])
+    assert pool.same_entity(1, 4) and pool.handovers == 1 and 1 not in pool.predictors
+
+
 def test_predictor_pool_hands_over_only_to_a_near_new_track_soon_enough(model):
     cfg = model.config   # handover_time 4 s, handover_speed 1.5 m/s, plus 0.5 m
     pool = PredictorPool(model, forget_after=10.0)

@@ -367,6 +367,11 @@ class PredictorAgent:
         pts = self._lookouts.get(region)
         return pts if pts is not None else self.model.goals(region)
 
+    def same_entity(self, old: int, new: int) -> bool:
+        """The follower took track ``new`` for the target ``old`` it lost: ``new`` takes over
+        ``old``'s leg (PredictorPool.same_entity). Returns whether it did."""
+        return self.pool.same_entity(old, new)
+
     @property
     def handovers(self) -> int:
         """Legs a new track took over from a lost one (PredictorPool.handovers)."""

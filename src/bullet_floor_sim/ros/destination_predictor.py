@@ -3,7 +3,9 @@
 On every track update (``tracks``, bullet_floor_sim/TrackArray from people_tracker) it feeds
 each track's position and velocity to an online predictor (people/prediction.py; a new track
 that appears soon after and near where another was lost takes over that track's leg:
-PredictorPool, ``~handover_time``, ``~handover_speed``): the track's legs are segmented by
+PredictorPool, ``~handover_time``, ``~handover_speed``; so does a new track the follower takes
+for the target it lost, ``target_id`` (std_msgs/UInt32), lost up to 30 s before and no farther
+off than ``~handover_speed`` allows): the track's legs are segmented by
 its dwells, and for the current leg a posterior over destination regions
 is computed: the Markov chain row of the region the leg started in (prior) times how well the
 observed motion agrees with an efficient path to each region (cost-to-go on the inflated map).
@@ -34,7 +36,7 @@ from typing import List, Optional, Sequence
 import rospy
 from geometry_msgs.msg import Point
 from nav_msgs.msg import OccupancyGrid
-from std_msgs.msg import ColorRGBA, String
+from std_msgs.msg import ColorRGBA, String, UInt32
 from visualization_msgs.msg import Marker, MarkerArray
 
 from ..errors import BulletFloorSimError
@@ -110,6 +112,8 @@ class DestinationPredictorNode:
         rospy.Subscriber(str(gp("~rois_changed_topic", "/soma/rois_changed")), String,
                          lambda _m: self.rebuild.set(), queue_size=1)
         rospy.Subscriber("tracks", TrackArray, self._on_tracks, queue_size=5)
+        self.target_id: Optional[int] = None
+        rospy.Subscriber("target_id", UInt32, self._on_target_id, queue_size=5)
         threading.Thread(target=self._model_loop, daemon=True).start()
 
     def _on_map(self, msg: OccupancyGrid) -> None:
@@ -174,6 +178,17 @@ class DestinationPredictorNode:
                 self.rois, self.agent = good, PredictorAgent(model, self.follow)
             rospy.loginfo("destination_predictor: %d regions, model built (%.1f s)", len(good),
                           rospy.get_time() - t0)
+
+    def _on_target_id(self, msg: UInt32) -> None:
+        """The follower's target changed: a new track it took for the one it lost takes over
+        that one's leg (PredictorPool.same_entity)."""
+        with self.lock:
+            lost, self.target_id = self.target_id, int(msg.data)
+            took = (self.agent is not None and lost is not None
+                    and self.agent.same_entity(lost, self.target_id))
+        if took:
+            rospy.loginfo("destination_predictor: track %d goes on with track %d's leg (the "
+                          "follower's target)", msg.data, lost)
 
     @quiet_at_shutdown
     def _on_tracks(self, msg: TrackArray) -> None:

@@ -13,7 +13,9 @@ people/agents.FollowerAgent (people/follow.py) makes the decisions, as in the ev
 Topics: ``tracks`` (in, bullet_floor_sim/TrackArray), ``destination`` (in,
 bullet_floor_sim/Destination), ``base_pose_ground_truth`` (in, with ``~pose_source``
 ground_truth), ``~mode`` (std_msgs/String, latched: follow | give_way | search | patrol | idle, on change),
-``~target`` (geometry_msgs/PointStamped: the followed track's position).
+``~target`` (geometry_msgs/PointStamped: the followed track's position), ``~target_id``
+(std_msgs/UInt32, latched: the followed track's id, on change; destination_predictor takes a
+new id for the target it replaces and hands that target's leg over to it).
 
 Parameters: ``~pose_source`` (amcl: tf ``<global_frame> -> <base_frame>``; ground_truth),
 ``~global_frame`` (map), ``~base_frame`` (base_footprint, prefixed by the tf_prefix of the
@@ -36,7 +38,7 @@ from actionlib.action_client import CommState
 from geometry_msgs.msg import PointStamped
 from move_base_msgs.msg import MoveBaseAction
 from nav_msgs.msg import OccupancyGrid, Odometry
-from std_msgs.msg import String
+from std_msgs.msg import String, UInt32
 
 from ..errors import BulletFloorSimError
 from ..people.agents import FollowerAgent
@@ -94,6 +96,7 @@ class FollowerNode:
             tf2_ros.TransformListener(self.tf_buffer)
         self.mode_pub = rospy.Publisher("~mode", String, queue_size=1, latch=True)
         self.target_pub = rospy.Publisher("~target", PointStamped, queue_size=2)
+        self.target_id_pub = rospy.Publisher("~target_id", UInt32, queue_size=1, latch=True)
         # The plain ActionClient, polled (as markov_walker's): SimpleActionClient logs "Got a
         # transition callback on a goal handle that we're not tracking" at ERROR when the
         # server's status of a goal it replaced arrives after the next send_goal.
@@ -162,6 +165,7 @@ class FollowerNode:
         target, dec = step.target, step.decision
         if step.new:
             rospy.loginfo("follower: following track %d", target.id)
+            self.target_id_pub.publish(UInt32(target.id))
         if dec.mode != self.mode:
             self.mode = dec.mode
             self.mode_pub.publish(String(dec.mode))

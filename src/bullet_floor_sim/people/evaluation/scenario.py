@@ -238,6 +238,7 @@ class _Scenario:
             near = np.hypot(pts[:, 0] - x, pts[:, 1] - y) < self.body + 0.1 if len(pts) else []
             visible = int(np.count_nonzero(near)) >= cfg.visible_beams
         pstep = self.predictor.tick(t, [(tr.id, tr.x, tr.y, tr.vx, tr.vy) for tr in tracks])
+        lost = self.follower.target_id
         if cfg.follow:
             plans = {tid: plan for tid, (_p, plan) in pstep.destinations.items()}
             fstep = self.follower.tick(t, pose_o, tracks, plans, self.drive.goal_done)
@@ -246,6 +247,8 @@ class _Scenario:
             fstep = self.follower.pick(tracks)
             self.world.command(OBS, 0.0, 0.0, 0.0)
         target = fstep.target
+        if fstep.switched and lost is not None and target is not None:
+            self.predictor.same_entity(lost, target.id)   # as destination_predictor's
         self.switches += 1 if fstep.switched else 0
         if target is not None and target.id in pstep.destinations:
             self.trk_records.append(Record(t, pstep.destinations[target.id][0],

@@ -229,7 +229,9 @@ class PredictorPool:
     the walked part of the leg missing. A track id seen for the first time takes over the
     predictor of a track that is gone (not in this update), last updated at most
     ``handover_time`` seconds ago within 0.5 m + ``handover_speed`` x the gap (the nearest
-    such). Predictors of tracks gone for ``forget_after`` seconds are dropped.
+    such). Predictors of tracks gone for ``forget_after`` seconds are dropped. A track the
+    observer's follower took for the one it lost takes over that one's leg however long it was
+    gone (:meth:`same_entity`).
 
     Args:
         model: the destination model.
@@ -243,6 +245,7 @@ class PredictorPool:
         self.forget_after = float(forget_after)
         self.predictors = {}  # type: Dict[int, OnlinePredictor]
         self._last = {}  # type: Dict[int, Tuple[float, float, float]]
+        self._first = {}  # type: Dict[int, float]
         self.handovers = 0
         self.errors = {}  # type: Dict[int, str]
 
@@ -272,10 +275,39 @@ class PredictorPool:
                     del self.predictors[k]
                 continue
             self._last[k] = (t, x, y)
+            self._first.setdefault(k, t)
         for k in [k for k, (tl, _, _) in self._last.items() if t - tl > self.forget_after]:
             self.predictors.pop(k, None)
             del self._last[k]
+            self._first.pop(k, None)
         return out
+
+    def same_entity(self, old: int, new: int) -> bool:
+        """Track ``new`` is the entity that track ``old`` was (the follower, having lost
+        ``old``, took ``new`` as its target: agents.FollowerAgent.pick): ``new`` takes over
+        ``old``'s predictor, its leg and where it started, when ``old`` was last updated
+        before ``new`` first was (two tracks seen at once are two entities), within
+        ``forget_after``, and ``new`` is now within 0.5 m + ``handover_speed`` x the time
+        since of where ``old`` was last (no faster than a person walks). Returns whether it
+        took over.
+
+        ``handover_time`` keeps the hand-over by place short, as among many people a new
+        track far from a lost one is likely someone else; the follower's choice says who it
+        is. The observer that gave way with its back to the walker lost it for 5-15 s while
+        the walker went on with its leg: its new track started a leg from where it was seen
+        again, in the middle of the old one."""
+        if old == new or old not in self._last or new not in self._first:
+            return False
+        tl, xl, yl = self._last[old]
+        t, x, y = self._last[new]
+        if tl >= self._first[new] or math.hypot(x - xl, y - yl) > (
+                self._NEAR + self.model.config.handover_speed * (t - tl)):
+            return False
+        self.predictors[new] = self.predictors.pop(old)
+        del self._last[old]
+        self._first.pop(old, None)
+        self.handovers += 1
+        return True
 
     def _take_over(self, t: float, x: float, y: float, alive: set,
                    cfg: PredictionConfig) -> Optional[OnlinePredictor]:
@@ -290,5 +322,6 @@ class PredictorPool:
         if best is None:
             return None
         del self._last[best]
+        self._first.pop(best, None)
         self.handovers += 1
         return self.predictors.pop(best)
