@@ -471,7 +471,7 @@ def test_predictor_pool_same_entity_takes_over_a_leg_however_long_it_was_lost(mo
         if ident == 2 and first_of_2 is None:
             first_of_2 = res[2]
             assert pool.handovers == 0 and first_of_2.start_xy != s
-            # ... a track alive while 1 was is another entity; 1 gone, 2 takes its leg
+            # ... not from itself, nor from a track never seen; from 1, gone, it takes the leg
             assert not pool.same_entity(2, 2) and not pool.same_entity(7, 2)
             assert pool.same_entity(1, 2) and pool.handovers == 1
             assert not pool.same_entity(1, 2)    # 1 is gone: nothing more to take
@@ -483,9 +483,11 @@ def test_predictor_pool_same_entity_takes_over_a_leg_however_long_it_was_lost(mo
 
 def test_predictor_pool_same_entity_refuses_two_tracks_seen_at_once(model):
     pool = PredictorPool(model)
-    pool.update(0.0, [(1, 5.0, 5.75, 0.5, 0.0), (2, 20.0, 5.75, 0.0, 0.0)])
+    # track 2 0.3 m from track 1, near enough in time and place: refused only because both
+    # were seen in the same update
+    pool.update(0.0, [(1, 5.0, 5.75, 0.5, 0.0), (2, 5.3, 5.75, 0.0, 0.0)])
     kept = pool.predictors[2]
-    pool.update(0.1, [(2, 20.0, 5.75, 0.0, 0.0)])
+    pool.update(0.1, [(2, 5.3, 5.75, 0.0, 0.0)])
     assert not pool.same_entity(1, 2) and pool.predictors[2] is kept
     assert 1 in pool.predictors and pool.handovers == 0
     # past handover_time (4 s), no hand-over by place; track 3, 5 s after 1 was last seen,
@@ -495,6 +497,19 @@ def test_predictor_pool_same_entity_refuses_two_tracks_seen_at_once(model):
     # track 4, 5.5 s after, 5 m from it, could be 1
     pool.update(5.5, [(4, 10.0, 5.75, 0.0, 0.0)])
     assert pool.same_entity(1, 4) and pool.handovers == 1 and 1 not in pool.predictors
+
+
+def test_predictor_pool_same_entity_keeps_a_leg_taken_over_by_place(model):
+    pool = PredictorPool(model)
+    pool.update(0.0, [(1, 8.0, 5.75, 0.5, 0.0), (5, 9.0, 5.75, 0.5, 0.0)])
+    walker, other = pool.predictors[1], pool.predictors[5]
+    # both lost; 1 s later track 6 appears 0.3 m from where 5 was, 1.3 m from 1 (both within
+    # 0.5 + 1.5 x 1 m): it takes the nearer one's, 5's, leg by place
+    pool.update(1.0, [(6, 9.3, 5.75, 0.5, 0.0)])
+    assert pool.handovers == 1 and pool.predictors[6] is other
+    # the follower takes 6 for its lost target 1: 6 keeps the leg it took by place
+    assert not pool.same_entity(1, 6) and pool.predictors[6] is other
+    assert pool.predictors[1] is walker and pool.knows(1) and pool.handovers == 1
 
 
 def test_predictor_pool_hands_over_only_to_a_near_new_track_soon_enough(model):

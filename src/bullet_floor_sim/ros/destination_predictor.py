@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import sys
 import threading
-from typing import List, Optional, Sequence
+from typing import List, Optional, Sequence, Tuple
 
 import rospy
 from geometry_msgs.msg import Point
@@ -113,7 +113,10 @@ class DestinationPredictorNode:
                          lambda _m: self.rebuild.set(), queue_size=1)
         rospy.Subscriber("tracks", TrackArray, self._on_tracks, queue_size=5)
         self.target_id: Optional[int] = None
+        self._pending: Optional[Tuple[int, int]] = None   # (lost, new): a hand-over to try
         rospy.Subscriber("target_id", UInt32, self._on_target_id, queue_size=5)
+        rospy.loginfo("destination_predictor: the follower's new target goes on with the lost "
+                      "target's leg, by %s", rospy.resolve_name("target_id"))
         threading.Thread(target=self._model_loop, daemon=True).start()
 
     def _on_map(self, msg: OccupancyGrid) -> None:
@@ -181,14 +184,26 @@ class DestinationPredictorNode:
 
     def _on_target_id(self, msg: UInt32) -> None:
         """The follower's target changed: a new track it took for the one it lost takes over
-        that one's leg (PredictorPool.same_entity)."""
+        that one's leg (PredictorPool.same_entity), now or, when the track update that brings
+        the new track has not come in yet (the two topics are not in step), on that update."""
         with self.lock:
             lost, self.target_id = self.target_id, int(msg.data)
-            took = (self.agent is not None and lost is not None
-                    and self.agent.same_entity(lost, self.target_id))
-        if took:
+            self._pending = None if lost is None or lost == self.target_id else (
+                lost, self.target_id)
+            self._hand_over()
+
+    def _hand_over(self) -> None:
+        """The pending hand-over, tried once the new track has had an update (the caller
+        holds the lock)."""
+        if self._pending is None or self.agent is None:
+            return
+        lost, new = self._pending
+        if not self.agent.pool.knows(new):
+            return
+        self._pending = None
+        if self.agent.same_entity(lost, new):
             rospy.loginfo("destination_predictor: track %d goes on with track %d's leg (the "
-                          "follower's target)", msg.data, lost)
+                          "follower's target)", new, lost)
 
     @quiet_at_shutdown
     def _on_tracks(self, msg: TrackArray) -> None:
@@ -199,6 +214,7 @@ class DestinationPredictorNode:
             step = agent.tick(msg.header.stamp.to_sec(),
                               [(tr.id, tr.position.x, tr.position.y, tr.velocity.x,
                                 tr.velocity.y) for tr in msg.tracks])
+            self._hand_over()
         if step.went_back:
             rospy.loginfo("destination_predictor: time went back %.1f s: legs forgotten",
                           step.went_back)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Dict, Mapping, Optional, Sequence, Tuple
+from typing import Any, Dict, Mapping, Optional, Sequence, Set, Tuple
 
 from .config import XY, PredictionConfig, PredictionError, _is_number
 from .model import _SLACK, DestinationModel
@@ -230,8 +230,8 @@ class PredictorPool:
     predictor of a track that is gone (not in this update), last updated at most
     ``handover_time`` seconds ago within 0.5 m + ``handover_speed`` x the gap (the nearest
     such). Predictors of tracks gone for ``forget_after`` seconds are dropped. A track the
-    observer's follower took for the one it lost takes over that one's leg however long it was
-    gone (:meth:`same_entity`).
+    observer's follower took for the one it lost takes over that one's leg when it was lost
+    longer, up to ``forget_after`` (:meth:`same_entity`).
 
     Args:
         model: the destination model.
@@ -246,6 +246,7 @@ class PredictorPool:
         self.predictors = {}  # type: Dict[int, OnlinePredictor]
         self._last = {}  # type: Dict[int, Tuple[float, float, float]]
         self._first = {}  # type: Dict[int, float]
+        self._by_place: Set[int] = set()   # tracks that took a leg over by place
         self.handovers = 0
         self.errors = {}  # type: Dict[int, str]
 
@@ -265,7 +266,11 @@ class PredictorPool:
             k, x, y, vx, vy = int(tr[0]), float(tr[1]), float(tr[2]), tr[3], tr[4]
             pred = self.predictors.get(k)
             if pred is None:
-                pred = self._take_over(t, x, y, ids, cfg) or OnlinePredictor(self.model)
+                pred = self._take_over(t, x, y, ids, cfg)
+                if pred is None:
+                    pred = OnlinePredictor(self.model)
+                else:
+                    self._by_place.add(k)
                 self.predictors[k] = pred
             try:
                 out[k] = pred.update(t, x, y, vx, vy)
@@ -273,13 +278,13 @@ class PredictorPool:
                 self.errors[k] = "track %d: %s" % (k, e)
                 if k not in self._last:   # never updated: nothing to keep
                     del self.predictors[k]
+                    self._by_place.discard(k)
                 continue
             self._last[k] = (t, x, y)
             self._first.setdefault(k, t)
         for k in [k for k, (tl, _, _) in self._last.items() if t - tl > self.forget_after]:
+            self._drop(k)
             self.predictors.pop(k, None)
-            del self._last[k]
-            self._first.pop(k, None)
         return out
 
     def same_entity(self, old: int, new: int) -> bool:
@@ -287,16 +292,17 @@ class PredictorPool:
         ``old``, took ``new`` as its target: agents.FollowerAgent.pick): ``new`` takes over
         ``old``'s predictor, its leg and where it started, when ``old`` was last updated
         before ``new`` first was (two tracks seen at once are two entities), within
-        ``forget_after``, and ``new`` is now within 0.5 m + ``handover_speed`` x the time
-        since of where ``old`` was last (no faster than a person walks). Returns whether it
-        took over.
+        ``forget_after``, ``new`` is now within 0.5 m + ``handover_speed`` x the time since
+        of where ``old`` was last (no faster than a person walks), and ``new`` did not take
+        over another track's leg by place (that one is kept). Returns whether it took over.
 
         ``handover_time`` keeps the hand-over by place short, as among many people a new
         track far from a lost one is likely someone else; the follower's choice says who it
         is. The observer that gave way with its back to the walker lost it for 5-15 s while
         the walker went on with its leg: its new track started a leg from where it was seen
         again, in the middle of the old one."""
-        if old == new or old not in self._last or new not in self._first:
+        if old == new or old not in self._last or new not in self._first \
+                or new in self._by_place:
             return False
         tl, xl, yl = self._last[old]
         t, x, y = self._last[new]
@@ -304,10 +310,19 @@ class PredictorPool:
                 self._NEAR + self.model.config.handover_speed * (t - tl)):
             return False
         self.predictors[new] = self.predictors.pop(old)
-        del self._last[old]
-        self._first.pop(old, None)
+        self._drop(old)
         self.handovers += 1
         return True
+
+    def knows(self, track: int) -> bool:
+        """Whether ``track`` has been updated (and not forgotten)."""
+        return track in self._last
+
+    def _drop(self, k: int) -> None:
+        """Forget track ``k``'s times (its predictor is the caller's to drop or move)."""
+        del self._last[k]
+        self._first.pop(k, None)
+        self._by_place.discard(k)
 
     def _take_over(self, t: float, x: float, y: float, alive: set,
                    cfg: PredictionConfig) -> Optional[OnlinePredictor]:
@@ -321,7 +336,6 @@ class PredictorPool:
                 best, best_d = k, d
         if best is None:
             return None
-        del self._last[best]
-        self._first.pop(best, None)
+        self._drop(best)
         self.handovers += 1
         return self.predictors.pop(best)
