@@ -60,8 +60,9 @@ class PredictionConfig:
             the one under way. 10 s gained the one-walker study about a point of top-1,
             with no better log-loss held out, and lost a 20-person crowd 3-8 points: a new
             track then can take over someone else's leg (docs/evaluation.md, session 50).
-            The follower's target has no such limit: a new track the follower takes for it
-            goes on with its leg (PredictorPool.same_entity; session 51).
+            The follower's target has a looser one: a new track the follower takes for it
+            goes on with its leg when it was lost up to 30 s, within the same distance
+            (PredictorPool.same_entity; session 51).
         handover_speed: ... near enough: within 0.5 m + this speed (m/s) x the gap.
         temperature, prior_mix: calibration (prediction/calibration.py): the evidence
             tempered by 1/temperature, then the prior mixed back in with weight prior_mix.
