@@ -200,7 +200,8 @@ def main() -> int:
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--timeout", type=float, default=3600.0, help="wall seconds per world")
     p.add_argument("--worlds", nargs="*", default=None,
-                   help="names under worlds/ or world.yaml paths (default: every shipped world)")
+                   help="names under worlds/ or world.yaml paths (default: the buildings under "
+                        "worlds/, then the corpus built: make corpus)")
     p.add_argument("--people", type=int, default=-1,
                    help="people walking the regions (-1 = as each world file says)")
     p.add_argument("--memory-every", type=float, default=0.0, metavar="S",

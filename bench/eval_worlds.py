@@ -264,7 +264,8 @@ def main() -> int:
     p.add_argument("--legs", type=int, default=200)
     p.add_argument("--seed", type=int, nargs="+", default=[1], help="one task per world and seed")
     p.add_argument("--worlds", nargs="*", default=None,
-                   help="names under worlds/ or world.yaml paths (default: every shipped world)")
+                   help="names under worlds/ or world.yaml paths (default: the buildings under "
+                        "worlds/, then the corpus built: make corpus)")
     p.add_argument("--allow-unreachable", action="store_true",
                    help="run a world whose map check finds a region the walker cannot reach "
                         "or an observer cut off (check_world); the output says so")

@@ -262,6 +262,25 @@ def test_predictor_agent_predicts_per_track_with_search_plans(corridor_model):
     assert back.went_back == pytest.approx(3.9) and back.destinations[1][0].leg == 1
 
 
+def test_predictor_agent_hands_the_leg_over_only_when_the_follower_switched(corridor_model):
+    from bullet_floor_sim.people.agents import FollowerStep
+    agent = PredictorAgent(corridor_model)
+    for k in range(20):                      # track 1 walks east, then is lost
+        agent.tick(0.1 * k, [(1, 7.05 + 0.05 * k, 5.75, 0.5, 0.0)])
+    walker = agent.pool.predictors[1]
+    # 10 s later (past handover_time), 3 m on: track 2 is new, with a leg of its own
+    agent.tick(12.0, [(2, 11.0, 5.75, 0.5, 0.0)])
+    new2 = SimpleNamespace(id=2, x=11.0, y=5.75, vx=0.5, vy=0.0)
+    # a first pick (nothing lost) or a step that kept its target hands nothing over
+    assert not agent.follower_switched(None, FollowerStep(target=new2, switched=False, new=True))
+    assert not agent.follower_switched(1, FollowerStep(target=new2, switched=False))
+    assert not agent.follower_switched(1, FollowerStep(target=None, switched=True, new=True))
+    assert agent.handovers == 0 and agent.pool.predictors[2] is not walker
+    # the follower switched from 1 to 2: 2 goes on with 1's leg
+    assert agent.follower_switched(1, FollowerStep(target=new2, switched=True, new=True))
+    assert agent.handovers == 1 and agent.pool.predictors[2] is walker
+
+
 def test_predictor_agent_searches_a_corridor_from_its_lookouts_not_its_end():
     model = DestinationModel(PlanningGrid(corridor_map()), corridor_rois(), corridor_chain())
     agent = PredictorAgent(model)                    # search_sight 8 m

@@ -91,6 +91,18 @@ def test_the_study_refuses_to_start_unless_allowed(tmp_path):
     assert len(notes) == 3 and 'region(s) "2"' in notes[0] and "robot2" in notes[2]
 
 
+def test_a_floor_no_doorway_divides_is_one_auto_room_and_the_study_says_so(tmp_path):
+    path = two_rooms(tmp_path, door=2.3)         # an opening wider than a door (2 m)
+    yml = tmp_path / "world.yaml"
+    yml.write_text(yml.read_text().replace("rois: rois.yaml", "rois: auto"))
+    report = check_building(Building(load_world_config(path)))
+    assert len(report.regions) == 1
+    problems = study_problems(report, "robot1", "robot2")
+    assert len(problems) == 1 and problems[0].startswith("the world has 1 region(s) in all")
+    with pytest.raises(EvaluationError, match=r"1 region\(s\) in all.*draw more regions"):
+        run(EvalConfig(world=path, legs=1))
+
+
 def test_specks_in_a_door_block_it_until_cleaned(tmp_path):
     blocked = check_building(Building(load_world_config(two_rooms(tmp_path, 1.2, speck=True))))
     assert blocked.footprint("robot").starts[0].unreachable == ["2"]

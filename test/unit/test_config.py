@@ -37,8 +37,9 @@ def test_world_by_path_and_unknown_world(tmp_path):
     p = write_world(tmp_path, "map: map.yaml\nrobots: []\n")
     assert resolve_world(p, worlds_dir()) == p
     with pytest.raises(ConfigError, match=r"world 'nowhere': no such world file .*known worlds: "
-                                          r"corridor, malaga_campus, malaga_corridor, malaga_faculty, "
-                                          r"office, simple"):
+                                          r"corridor, malaga_campus, malaga_campus_auto, "
+                                          r"malaga_corridor, malaga_corridor_auto, malaga_faculty, "
+                                          r"malaga_faculty_auto, office, simple"):
         resolve_world("nowhere", worlds_dir())
 
 

@@ -372,6 +372,14 @@ class PredictorAgent:
         ``old``'s leg (PredictorPool.same_entity). Returns whether it did."""
         return self.pool.same_entity(old, new)
 
+    def follower_switched(self, lost: Optional[int], step: "FollowerStep") -> bool:
+        """After the follower's tick: when it switched from target ``lost`` to another
+        track, that track takes over ``lost``'s leg (:meth:`same_entity`, as
+        destination_predictor does on ``target_id``). Returns whether it did."""
+        if not step.switched or lost is None or step.target is None:
+            return False
+        return self.same_entity(lost, step.target.id)
+
     @property
     def handovers(self) -> int:
         """Legs a new track took over from a lost one (PredictorPool.handovers)."""

@@ -258,8 +258,7 @@ class _CrowdRun:
         plans = {tid: plan for tid, (_p, plan) in pstep.destinations.items()}
         lost = self.follower.target_id
         fstep = self.follower.tick(t, pose_o, mine, plans, self.drive.goal_done)
-        if fstep.switched and lost is not None and fstep.target is not None:
-            self.predictor.same_entity(lost, fstep.target.id)   # as destination_predictor's
+        self.predictor.follower_switched(lost, fstep)
         self.drive(t, pose_o, fstep.decision, self.scan)
 
     def result(self) -> CrowdEvalResult:

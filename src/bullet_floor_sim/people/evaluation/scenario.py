@@ -247,8 +247,7 @@ class _Scenario:
             fstep = self.follower.pick(tracks)
             self.world.command(OBS, 0.0, 0.0, 0.0)
         target = fstep.target
-        if fstep.switched and lost is not None and target is not None:
-            self.predictor.same_entity(lost, target.id)   # as destination_predictor's
+        self.predictor.follower_switched(lost, fstep)
         self.switches += 1 if fstep.switched else 0
         if target is not None and target.id in pstep.destinations:
             self.trk_records.append(Record(t, pstep.destinations[target.id][0],

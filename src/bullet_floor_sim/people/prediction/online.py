@@ -306,8 +306,8 @@ class PredictorPool:
             return False
         tl, xl, yl = self._last[old]
         t, x, y = self._last[new]
-        if tl >= self._first[new] or math.hypot(x - xl, y - yl) > (
-                self._NEAR + self.model.config.handover_speed * (t - tl)):
+        if tl >= self._first[new] or not self._within_reach(
+                math.hypot(x - xl, y - yl), t - tl, self.model.config):
             return False
         self.predictors[new] = self.predictors.pop(old)
         self._drop(old)
@@ -324,6 +324,11 @@ class PredictorPool:
         self._first.pop(k, None)
         self._by_place.discard(k)
 
+    def _within_reach(self, d: float, gap: float, cfg: PredictionConfig) -> bool:
+        """Whether a person could have walked ``d`` metres in ``gap`` seconds: 0.5 m (the
+        tracker's noise) + ``handover_speed`` x the gap."""
+        return d <= self._NEAR + cfg.handover_speed * gap
+
     def _take_over(self, t: float, x: float, y: float, alive: set,
                    cfg: PredictionConfig) -> Optional[OnlinePredictor]:
         best, best_d = None, math.inf
@@ -332,7 +337,7 @@ class PredictorPool:
             if k in alive or gap < 0.0 or gap > cfg.handover_time:
                 continue
             d = math.hypot(x - xl, y - yl)
-            if d <= self._NEAR + cfg.handover_speed * gap and d < best_d:
+            if self._within_reach(d, gap, cfg) and d < best_d:
                 best, best_d = k, d
         if best is None:
             return None
