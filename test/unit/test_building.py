@@ -99,7 +99,8 @@ def test_a_floor_no_doorway_divides_is_one_auto_room_and_the_study_says_so(tmp_p
     assert len(report.regions) == 1
     problems = study_problems(report, "robot1", "robot2")
     assert len(problems) == 1 and problems[0].startswith("the world has 1 region(s) in all")
-    with pytest.raises(EvaluationError, match=r"1 region\(s\) in all.*draw more regions"):
+    assert 'in all ("1"): a walk between regions needs 2; draw more' in problems[0]
+    with pytest.raises(EvaluationError, match=r"1 region\(s\) in all.*copy the ROI file"):
         run(EvalConfig(world=path, legs=1))
 
 

@@ -33,9 +33,7 @@ __all__ = ["Passage", "StartReach", "FootprintCheck", "WorldCheck", "check_build
 FIXES = ("remove furniture specks from the map (world.yaml clean: {speckle: 0.05}, in m^2)",
          "close one-cell slits (clean: {close_gaps: ...})",
          "a smaller footprint (the planner's robot_radius)",
-         "move the robot's start pose, or the region, onto the connected floor",
-         "draw more regions (rois: FILE; the file rois: auto writes can be copied and edited "
-         "in rviz, docs/rooms.md)")
+         "move the robot's start pose, or the region, onto the connected floor")
 
 
 @dataclass
@@ -273,10 +271,11 @@ def study_problems(report: WorldCheck, walker: str, observer: Optional[str]) -> 
                    % (", ".join('"%s" (%s)' % (i, report.regions[i]) for i in fc.no_goal),
                       fc.footprint.clearance, walker))
     if len(report.regions) < 2:
-        out.append("the world has %d region(s) in all (%s): a walk between regions needs 2 "
-                   "(rois: auto finds a room where doorways close a part of the floor off, and "
-                   "keeps the rooms the robot reaches)" % (len(report.regions),
-                                                          ", ".join(report.regions) or "none"))
+        out.append("the world has %d region(s) in all%s: a walk between regions needs 2; draw "
+                   "more (a rois file; with rois: auto, only parts of the floor that doorways "
+                   "close off and the robot reaches are rooms: copy the ROI file it wrote and "
+                   "edit it in rviz, docs/rooms.md)"
+                   % (len(report.regions), "".join(' ("%s")' % i for i in report.regions)))
     elif len(w.reachable) < 2:
         out.append("%s reaches %d region(s) (%s): a walk between regions needs 2"
                    % (walker, len(w.reachable), ", ".join(w.reachable) or "none"))
