@@ -87,6 +87,66 @@ def test_obstacle_points_are_planned_around():
     assert path_length(path) > 2.4 + 0.5
 
 
+def test_obstacle_points_stamp_the_cells_within_the_radius_whole_or_in_a_window():
+    grid = PlanningGrid(two_rooms())
+    rad = grid.config.robot_radius + 0.5 * grid.resolution
+    start = (0.8, 2.0)
+    pts = np.array([(2.0, 1.3), (2.03, 2.71), (0.9, 2.05), (3.96, 0.12), (50.0, 50.0)])
+    cost = grid.cost.copy()
+    got = grid._stamp_obstacles(cost, pts, start)
+    # by hand: every grid cell whose centre lies within rad of a point, but for the point
+    # inside the robot's own footprint at start (0.1 m off) and the one off the map
+    rows, cols = np.mgrid[0:grid.height, 0:grid.width]
+    x, y = grid.centres(cols, rows)
+    want = np.zeros(cost.shape, dtype=bool)
+    for px, py in pts[[0, 1, 3]]:
+        want |= np.hypot(x - px, y - py) <= rad
+    assert got == set(np.flatnonzero(want).tolist()) and len(got) > 40
+    assert np.isinf(cost[want]).all()
+    assert np.array_equal(cost[~want], grid.cost[~want])
+    # a window of the costs (cols 10-29, rows 5-24) gets the same cells, cut to it
+    window = grid.cost[5:25, 10:30].copy()
+    grid._stamp_obstacles(window, pts, start, corner=(10, 5))
+    assert np.array_equal(np.isinf(window), np.isinf(cost[5:25, 10:30]))
+    assert not grid._stamp_obstacles(grid.cost.copy(), pts[[2]], start)
+
+
+def test_plans_after_many_plans_are_a_fresh_grids_and_a_copy_plans_alike():
+    import copy
+    import pickle
+
+    grid = PlanningGrid(load_map_of("office"))
+    rng = np.random.default_rng(5)
+    free = np.argwhere(np.isfinite(grid.cost))
+    pairs = [tuple(grid.to_world(c, r) for r, c in free[rng.integers(len(free), size=2)])
+             for _ in range(12)]
+    body = np.array([(15.0, 10.0), (15.05, 10.1)])          # an obstacle for every other plan
+    used = [_plan_or_none(grid, a, b, body if k % 2 else None) for k, (a, b) in
+            enumerate(pairs)]
+    assert sum(p is not None for p in used) >= 8
+    for k, (a, b) in enumerate(pairs):   # each again on a grid that never planned
+        want = _plan_or_none(PlanningGrid(grid.fmap), a, b, body if k % 2 else None)
+        assert (want is None) == (used[k] is None)
+        assert want is None or np.array_equal(want, used[k])
+    for twin in (copy.deepcopy(grid), pickle.loads(pickle.dumps(grid))):
+        a, b = pairs[0]
+        assert np.array_equal(twin.plan(a, b), grid.plan(a, b))
+    with pytest.raises(PlanError, match=r"obstacles: \(N, 2\) map-frame points expected"):
+        grid.plan(pairs[0][0], pairs[0][1], obstacles=np.zeros((4, 3)))
+
+
+def _plan_or_none(grid, a, b, obstacles):
+    try:
+        return grid.plan(a, b, obstacles=obstacles)
+    except PlanError:
+        return None
+
+
+def load_map_of(world):
+    from bullet_floor_sim.sim.floormap import load_map
+    return load_map(load_world_config(resolve_world(world, worlds_dir())).map_yaml)
+
+
 def test_follower_stops_for_an_obstacle_ahead_but_not_beside():
     f = PathFollower(FollowerConfig(robot_radius=0.34, stop_distance=0.3, side_margin=0.03))
     f.set_path(np.array([[0.0, 0.0], [5.0, 0.0]]))
@@ -515,7 +575,8 @@ def _compiled_office_grid() -> PlanningGrid:
 def test_compiled_astar_takes_the_same_cells_as_plain_python():
     """nav/grid._search compiled by numba and run as plain Python (lists, as without numba)
     expand alike: the same cells from the start to the goal on the real office, walls and a
-    blocked disc included, and the same answer for an unreachable goal."""
+    blocked disc included, and the same answer for an unreachable goal; buffers left by
+    earlier searches (a search's own number marks its cells) answer as fresh ones do."""
     grid = _compiled_office_grid()
     W = grid.width + 2
     flat = grid._padded()
@@ -524,26 +585,35 @@ def test_compiled_astar_takes_the_same_cells_as_plain_python():
     rng = np.random.default_rng(3)
     walled = flat.copy()
     walled[(np.arange(grid.height) + 1) * W + grid.width // 2 + 1] = np.inf  # a wall across
+
+    def buffers(n, arr):
+        if arr:
+            return np.full(n, np.inf), np.full(n, -1, dtype=np.int64), np.zeros(n, np.int64)
+        return [math.inf] * n, [-1] * n, [0] * n
+
+    kept = {arr: buffers(len(flat), arr) for arr in (True, False)}
+    gen = 0
     for cells in (flat, walled):
         for _ in range(6):
             (r0, c0), (r1, c1) = free[rng.integers(len(free), size=2)]
             s, g = (r0 + 1) * W + c0 + 1, (r1 + 1) * W + c1 + 1
             out = []
+            gen += 1
             for search, arr in ((G._search, True), (py, False)):
-                best = np.full(len(cells), np.inf) if arr else [math.inf] * len(cells)
-                parent = np.full(len(cells), -1, dtype=np.int64) if arr else [-1] * len(cells)
                 moves = G._moves(W) if arr else tuple(m.tolist() for m in G._moves(W))
-                found = search(cells if arr else cells.tolist(), W, s, g, 1.5, *moves, best,
-                               parent)
-                chain, u = [], g
-                while found and u != -1:
-                    chain.append(int(u))
-                    u = parent[u]
-                out.append((found, chain, float(best[g])))
-            assert out[0] == out[1]
+                for (best, parent, seen), number in ((buffers(len(cells), arr), 1),
+                                                     (kept[arr], gen)):
+                    found = search(cells if arr else cells.tolist(), W, s, g, 1.5, *moves,
+                                   best, parent, seen, number)
+                    chain, u = [], g
+                    while found and u != -1:
+                        chain.append(int(u))
+                        u = parent[u]
+                    out.append((found, chain, float(best[g]) if found else None))
+            assert out[0] == out[1] == out[2] == out[3]
             if cells is walled and out[0][0]:   # never across the wall
                 assert (c0 < grid.width // 2) == (c1 < grid.width // 2)
-            assert out[0][0] == (out[0][2] < math.inf)
+            assert not out[0][0] or (out[0][2] < math.inf and out[0][1][-1] == s)
 
 
 def test_compiled_segment_check_and_shortcut_match_plain_python():

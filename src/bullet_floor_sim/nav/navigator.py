@@ -64,11 +64,12 @@ def give_way_point(grid: PlanningGrid, route: np.ndarray, robot: Sequence[float]
     rows = np.arange(max(0, r0 - n), min(grid.height, r0 + n + 1))
     if not len(cols) or not len(rows):
         return None
-    cost = grid.cost
+    window = grid.cost[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1]
     if obstacles is not None and len(obstacles):
-        cost = cost.copy()
-        grid._stamp_obstacles(cost, np.asarray(obstacles, dtype=float).reshape(-1, 2), (rx, ry))
-    free = np.isfinite(cost[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1])
+        window = window.copy()
+        grid._stamp_obstacles(window, np.asarray(obstacles, dtype=float).reshape(-1, 2),
+                              (rx, ry), corner=(int(cols[0]), int(rows[0])))
+    free = np.isfinite(window)
     # 4-connected: the planner's 8-connected A* cuts no corner, so it joins no more than
     # that (8-connected parts offered places it could not plan to, and the observer stood
     # where it was, in the walker's way, for good)
