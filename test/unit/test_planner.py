@@ -182,6 +182,29 @@ def test_follower_stopped_beside_something_new_goes_on_unless_the_path_takes_it_
     assert cmd.v == 0.0 and cmd.state in ("rotating", "blocked")
 
 
+def test_free_along_path_measures_along_the_line_to_the_first_point_near_it():
+    # robot at the origin facing +x; the line runs (0, 0) -> (1, 0) -> (1, 4); half-width
+    # 0.34 + 0.03 = 0.37; sweep 1.5 m: the second segment begins within it and counts whole
+    f = PathFollower(FollowerConfig(robot_radius=0.34, stop_distance=0.3, side_margin=0.03,
+                                    sweep=1.5))
+    f.set_path(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 4.0]]))
+    pose = (0.0, 0.0, 0.0)
+    # 0.2 m beside the second segment, 0.5 m along it: 1.0 + 0.5 m along the line
+    assert f.free_along_path(pose, np.array([[1.2, 0.5]])) == pytest.approx(1.5 - 0.34)
+    # a point 0.1 m beside the first segment, 0.8 m along, comes first
+    got = f.free_along_path(pose, np.array([[1.2, 0.5], [0.8, 0.1], [5.0, 0.1]]))
+    assert got == pytest.approx(0.8 - 0.34)
+    # 3 m along the long second segment (which begins within the sweep): 4.0 m along
+    assert f.free_along_path(pose, np.array([[1.1, 3.0]])) == pytest.approx(4.0 - 0.34)
+    # near no segment, or behind the robot: nothing
+    assert f.free_along_path(pose, np.array([[5.0, 0.1], [0.5, 0.6], [-0.2, 0.0]])) == math.inf
+    # turned half round, the same map point (0.8, 0.1) is behind: nothing ahead
+    assert f.free_along_path((0.0, 0.0, math.pi), np.array([[-0.8, -0.1]])) == math.inf
+    # with the robot at the path's end there is no line left
+    f.set_path(np.array([[0.0, 0.0]]))
+    assert f.free_along_path(pose, np.array([[0.5, 0.0]])) == math.inf
+
+
 def test_scan_points_land_in_the_base_frame():
     pts = obstacles_in_base([1.0, float("inf"), 2.0], -math.pi / 2, math.pi / 2, 30.0,
                             (0.3, 0.0, 0.0))

@@ -159,6 +159,43 @@ def test_posterior_along_the_corridor_by_hand(world, beta, q):
                                           rel=0.02)
 
 
+def test_posterior_from_many_starts_reads_each_starts_own_values(world):
+    """The model keeps the values of the last few leg starts: from Q = (10.05, 5.75), the
+    evidence for A against the corridor is -6 m (walked east from 7.05) or +4 m (walked west
+    from 12.05; A's way runs west through Q, the corridor goal's east), however many other
+    starts were asked about in between (more than it keeps)."""
+    grid, rois, chain = world
+    m = DestinationModel(grid, rois, chain,
+                         PredictionConfig(prior_mix=0.0, beta=1.0, length_exponent=0.0),
+                         goal_points=GOALS)
+    q = (10.05, 5.75)
+
+    def evidence(start):
+        post = m.posterior("corridor", start, q)
+        return (math.log(post["A"] / PRIOR["A"])
+                - math.log(post["corridor"] / PRIOR["corridor"]))
+
+    for _ in range(2):
+        assert evidence((7.05, 5.75)) == pytest.approx(-6.0, abs=0.01)
+        assert evidence((12.05, 5.75)) == pytest.approx(4.0, abs=0.01)
+        for k in range(10):   # other starts along the centre line, west of Q
+            assert evidence((4.05 + 0.5 * k, 5.75)) == pytest.approx(
+                -2.0 * (10.05 - 4.05 - 0.5 * k), abs=0.01)
+
+
+def test_logsumexp_is_scipys_to_the_bit():
+    from scipy.special import logsumexp
+    from bullet_floor_sim.people.prediction.model import _logsumexp
+    rng = np.random.default_rng(5)
+    for n in (1, 2, 3, 7, 40):
+        for _ in range(200):
+            a = rng.normal(0.0, 30.0, size=n)
+            assert _logsumexp(a) == float(logsumexp(a))
+    for a in ([-np.inf, -np.inf], [np.inf, 1.0], [-np.inf, 2.0], [1e300, 1e300]):
+        want, got = float(logsumexp(np.array(a))), _logsumexp(np.array(a))
+        assert got == want or (math.isnan(got) and math.isnan(want)), a
+
+
 def test_nothing_observed_gives_the_prior_exactly(model):
     post = model.posterior("corridor", (7.05, 5.75), (7.05, 5.75))
     assert post == pytest.approx(PRIOR, rel=1e-12)

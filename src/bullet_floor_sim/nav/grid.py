@@ -519,8 +519,8 @@ class PlanningGrid:
         return self._fine_at(*self.fmap.world_to_cell(pts[:, 0], pts[:, 1]))
 
     def _fine_at(self, col: np.ndarray, row: np.ndarray) -> np.ndarray:
-        return self._fine[np.clip(row, 0, self._fine.shape[0] - 1),
-                          np.clip(col, 0, self._fine.shape[1] - 1)]
+        h, w = self._fine.shape   # (np.clip costs several times minimum and maximum)
+        return self._fine[np.minimum(np.maximum(row, 0), h - 1), np.minimum(np.maximum(col, 0), w - 1)]
 
     def _frame(self) -> Tuple[float, float, float, float, float, float]:
         """The map frame as :func:`_segment_worst` reads it."""

@@ -154,26 +154,38 @@ class PathFollower:
         base = base[base[:, 0] > 0.0]
         if not len(base):
             return math.inf
-        pts = to_map(pose, base)
         here = np.asarray(pose[:2], dtype=float)
         line = np.vstack([here[None, :], self.path[self._index + 1:]])
-        half, best, s0 = cfg.robot_radius + cfg.side_margin, math.inf, 0.0
+        ab = np.diff(line, axis=0)
+        seg = np.hypot(ab[:, 0], ab[:, 1])
+        s0 = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
+        # the segments that begin within the sweep (a prefix), but for points
+        n = int(np.count_nonzero(s0 < cfg.sweep))
+        long = np.flatnonzero(seg[:n] > 1e-9)
+        ab, seg, s0, a = ab[long], seg[long], s0[long], line[long]
+        if not len(seg):
+            return math.inf
+        # a point further from the robot than the end of the last of them, plus the
+        # half-width, is near none of them
+        dist = np.hypot(base[:, 0], base[:, 1])
+        half = cfg.robot_radius + cfg.side_margin
+        keep = dist < s0[-1] + seg[-1] + half + 1e-6
+        base, dist = base[keep], dist[keep]
+        if not len(base):
+            return math.inf
+        pts = to_map(pose, base)
         beside = (base[:, 0] < _BESIDE) & (np.abs(base[:, 1]) >= cfg.robot_radius)
-        near = np.where(beside, np.minimum(half, np.hypot(base[:, 0], base[:, 1]) - _NEARER),
-                        half)
-        for a, b in zip(line[:-1], line[1:]):
-            ab = b - a
-            seg = float(np.hypot(*ab))
-            if seg > 1e-9:
-                t = np.clip(((pts - a) @ ab) / (seg * seg), 0.0, 1.0)
-                d = np.hypot(*(pts - a - t[:, None] * ab).T)
-                hit = d < near
-                if hit.any():
-                    best = min(best, s0 + float((t[hit] * seg).min()))
-            s0 += seg
-            if s0 >= cfg.sweep or s0 >= best:
-                break
-        return best - cfg.robot_radius
+        near = np.where(beside, np.minimum(half, dist - _NEARER), half)
+        # each point (rows) against each segment (columns): where along it it comes nearest
+        px = pts[:, :1] - a[None, :, 0]
+        py = pts[:, 1:] - a[None, :, 1]
+        t = np.minimum(np.maximum((px * ab[:, 0] + py * ab[:, 1]) / (seg * seg), 0.0), 1.0)
+        hit = np.hypot(px - t * ab[:, 0], py - t * ab[:, 1]) < near[:, None]
+        first = np.flatnonzero(hit.any(axis=0))
+        if not len(first):
+            return math.inf
+        j = first[0]    # the first segment something is near: what is on it comes first
+        return float(s0[j] + (t[hit[:, j], j] * seg[j]).min()) - cfg.robot_radius
 
     def compute(self, pose: Sequence[float], obstacles: Optional[np.ndarray] = None,
                 known: Optional[np.ndarray] = None) -> FollowerCommand:

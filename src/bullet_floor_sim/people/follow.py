@@ -152,6 +152,7 @@ class FollowBehaviour:
         self._pass_key: Optional[tuple] = None   # _passes_by's last answer, and for what
         self._pass_ok = False
         self._route: Optional[np.ndarray] = None
+        self._route_lengths: List[Optional[float]] = []   # the whole of each path of it
         self._yield: Optional[Tuple[float, float, float]] = None  # target x, y, t when it began
         self._standing = True            # no goal under way (the last one finished)
         self._last_velocity = (0.0, 0.0)  # the target's, when last seen
@@ -530,15 +531,33 @@ class FollowBehaviour:
         self._route_key = (target[0], target[1], t, list(dests))
         keep = cfg.distance + cfg.slack + cfg.give_way_reach
         parts = [np.zeros((0, 2))]
+        self._route_lengths = []
         for dest in dests:
             try:
                 path = self.grid.plan(target, dest)
             except PlanError:
+                self._route_lengths.append(None)
                 continue
             steps = np.hypot(*np.diff(path, axis=0).T) if len(path) > 1 else np.zeros(0)
+            self._route_lengths.append(float(steps.sum()))
             parts.append(path[np.concatenate([[0.0], np.cumsum(steps)]) <= keep])
         self._route = np.vstack(parts)
         return self._route
+
+    def _free_lengths(self, target: Tuple[float, float],
+                      dests: List[Tuple[float, float]]) -> List[Optional[float]]:
+        """The length of the target's planned path to each of ``dests`` (None: no path):
+        :meth:`_target_routes`' when it planned from this very point to these, else planned."""
+        key = self._route_key
+        if key is not None and (key[0], key[1]) == tuple(target) and key[3] == dests:
+            return self._route_lengths
+        out: List[Optional[float]] = []
+        for dest in dests:
+            try:
+                out.append(path_length(self.grid.plan(target, dest)))
+            except PlanError:
+                out.append(None)
+        return out
 
     def _passes_by(self, target: Tuple[float, float], robot: Tuple[float, float],
                    dests: List[Tuple[float, float]]) -> bool:
@@ -550,10 +569,8 @@ class FollowBehaviour:
             return self._pass_ok
         body = disc_points(robot[0], robot[1], self.grid.config.robot_radius)
         ok = True
-        for dest in dests:
-            try:
-                free = path_length(self.grid.plan(target, dest))
-            except PlanError:
+        for dest, free in zip(dests, self._free_lengths(target, dests)):
+            if free is None:
                 continue
             try:
                 round_it = path_length(self.grid.plan(target, dest, obstacles=body))

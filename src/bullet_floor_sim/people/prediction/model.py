@@ -25,7 +25,20 @@ _SLACK = 1e-9  # metres: 0.3 m walked in decimal steps must count as 0.3 m
 _EDGES = ((1, 0, 1.0), (0, 1, 1.0), (1, 1, _SQRT2), (-1, 1, _SQRT2))
 _AROUND = tuple((dc, dr) for dr in (-1, 0, 1) for dc in (-1, 0, 1))
 
+_STARTS_KEPT = 8   # leg starts whose values DestinationModel keeps
 _FORK_GRAPH = None   # the graph a forked Dijkstra worker reads (DestinationModel._dijkstra)
+
+
+def _logsumexp(a: np.ndarray) -> float:
+    """log(sum(exp(a))) of a 1-D array, computed as scipy.special.logsumexp computes it (the
+    largest term taken out first; the same float), without its checks of the input, which
+    took a tenth of a study's time called for every region at every step."""
+    m = a.max()
+    if m == -math.inf:
+        return -math.inf
+    if not np.isfinite(m):
+        m = 0.0
+    return float(np.log(np.exp(a - m).sum()) + m)
 
 
 def _fields(graph, sources: np.ndarray) -> np.ndarray:
@@ -95,6 +108,7 @@ class DestinationModel:
                 c, row = grid.to_cell(x, y)
                 nodes.append(int(self._node[row, c]))
         self._fields = self._dijkstra(np.array(nodes, dtype=np.intp))
+        self._start_cache: Dict[Tuple[float, float], np.ndarray] = {}
         self.precompute_seconds = time.perf_counter() - t0
 
     # ---- precomputation --------------------------------------------------------------------
@@ -258,6 +272,17 @@ class DestinationModel:
         _check_xy((x, y), "position")
         return self._values(float(x), float(y))[self._slices[region]].copy()
 
+    def _start_values(self, x: float, y: float) -> np.ndarray:
+        """:meth:`_values` at a leg's start, kept for the last few starts (a leg asks at every
+        step from the same start; read only)."""
+        cache = self._start_cache
+        v = cache.get((x, y))
+        if v is None:
+            if len(cache) >= _STARTS_KEPT:
+                cache.clear()
+            v = cache[(x, y)] = self._values(x, y)
+        return v
+
     def _values(self, x: float, y: float) -> np.ndarray:
         """V of every goal point at (x, y), refined between cell centres (float64)."""
         nodes, extra = self._access(x, y)
@@ -275,13 +300,17 @@ class DestinationModel:
         c, r = grid.to_cell(x, y)
         nodes, extra = [], []
         if grid.inside(c, r) and self._free[r, c]:
+            steps = []
             for dc, dr in _AROUND:
                 cn, rn = c + dc, r + dr
                 if not (grid.inside(cn, rn) and self._free[rn, cn]):
                     continue
                 if dc and dr and not (self._free[r, cn] and self._free[rn, c]):
                     continue
-                wx, wy = grid.to_world(cn, rn)
+                steps.append((cn, rn))
+            cols, rows = np.array(steps, dtype=np.int64).reshape(-1, 2).T
+            wxs, wys = grid.centres(cols, rows)   # (one call: a call per cell cost 8 times it)
+            for (cn, rn), wx, wy in zip(steps, wxs.tolist(), wys.tolist()):
                 nodes.append(self._node[rn, cn])
                 extra.append(math.hypot(wx - x, wy - y)
                              * (1.0 + weight * 0.5 * (cost[r, c] + cost[rn, cn])))
@@ -329,12 +358,10 @@ class DestinationModel:
         Raises:
             PredictionError: as :meth:`posterior`.
         """
-        from scipy.special import logsumexp
-
         prior = self.prior(r0)
         sx, sy = _check_xy(start_xy, "start_xy")
         qx, qy = _check_xy(current_xy, "current_xy")
-        vs = self._values(sx, sy)
+        vs = self._start_values(sx, sy)
         vq = vs if (qx, qy) == (sx, sy) else self._values(qx, qy)
         beta, alpha = self.config.beta, self.config.length_exponent
         floor = self.config.goal_spacing
@@ -354,7 +381,7 @@ class DestinationModel:
                 continue
             a, b = a[ok], b[ok]
             terms = -beta * (b - a) - alpha * np.log(np.maximum(a, floor))
-            logw[g] = math.log(p) + float(logsumexp(terms)) - math.log(int(ok.sum()))
+            logw[g] = math.log(p) + _logsumexp(terms) - math.log(int(ok.sum()))
         if not logw:
             where = ["%s (%.2f, %.2f)" % (what, x, y) for what, x, y
                      in (("start", sx, sy), ("current", qx, qy)) if not len(self._access(x, y)[0])]
@@ -363,7 +390,7 @@ class DestinationModel:
                                       % (" and ".join(where), self.config.snap_distance))
             raise PredictionError("prediction: no region of %s's row is reachable: %s"
                                   % (_quote(r0), "; ".join(reasons.values())))
-        total = float(logsumexp(list(logw.values())))
+        total = _logsumexp(np.array(list(logw.values())))
         probs = {g: (math.exp(logw[g] - total) if g in logw else 0.0) for g in prior}
         return calibrate(probs, prior, self.config.temperature, self.config.prior_mix), reasons
 
