@@ -200,6 +200,16 @@ def test_free_along_path_measures_along_the_line_to_the_first_point_near_it():
     assert f.free_along_path(pose, np.array([[5.0, 0.1], [0.5, 0.6], [-0.2, 0.0]])) == math.inf
     # turned half round, the same map point (0.8, 0.1) is behind: nothing ahead
     assert f.free_along_path((0.0, 0.0, math.pi), np.array([[-0.8, -0.1]])) == math.inf
+    # a segment that begins beyond the sweep is not looked along: (1.1, 1.8) lies 0.1 m
+    # beside (1, 1) -> (1, 2), which begins 2 m along, and 0.81 m from the segment before
+    f.set_path(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [1.0, 2.0]]))
+    assert f.free_along_path(pose, np.array([[1.1, 1.8]])) == math.inf
+    f.config.sweep = 2.5
+    assert f.free_along_path(pose, np.array([[1.1, 1.8]])) == pytest.approx(2.8 - 0.34)
+    # a repeated path point (a zero-length segment) adds nothing along the line: 0.36 m
+    # beside the last segment, 0.8 m along (0.47 m from the first one's end)
+    f.set_path(np.array([[0.0, 0.0], [0.5, 0.0], [0.5, 0.0], [1.0, 0.0]]))
+    assert f.free_along_path(pose, np.array([[0.8, 0.36]])) == pytest.approx(0.8 - 0.34)
     # with the robot at the path's end there is no line left
     f.set_path(np.array([[0.0, 0.0]]))
     assert f.free_along_path(pose, np.array([[0.5, 0.0]])) == math.inf

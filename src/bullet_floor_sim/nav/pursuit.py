@@ -146,7 +146,9 @@ class PathFollower:
         though going on takes it no nearer (a SLAM map's door jamb 0.2 m off, seen as new,
         held the explorer there for 1100 s in CI, we think). A point further ahead, or
         nearer the side, counts within the half-width however near: pure pursuit's arc
-        leaves along the heading, not the line. inf when there is none."""
+        leaves along the heading, not the line. inf when there is none. (All segments at
+        once: the same as walking them in turn to the last bit but for the dot product's
+        rounding.)"""
         if obstacles is None or len(obstacles) == 0:
             return math.inf
         cfg = self.config
@@ -159,14 +161,15 @@ class PathFollower:
         ab = np.diff(line, axis=0)
         seg = np.hypot(ab[:, 0], ab[:, 1])
         s0 = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
-        # the segments that begin within the sweep (a prefix), but for points
-        n = int(np.count_nonzero(s0 < cfg.sweep))
+        # the segments that begin within the sweep (a prefix; the first always), but
+        # zero-length ones
+        n = max(1, int(np.count_nonzero(s0 < cfg.sweep)))
         long = np.flatnonzero(seg[:n] > 1e-9)
         ab, seg, s0, a = ab[long], seg[long], s0[long], line[long]
         if not len(seg):
             return math.inf
-        # a point further from the robot than the end of the last of them, plus the
-        # half-width, is near none of them
+        # a point further from the robot than the path's length to the last one's end, plus
+        # the half-width, is near none of them
         dist = np.hypot(base[:, 0], base[:, 1])
         half = cfg.robot_radius + cfg.side_margin
         keep = dist < s0[-1] + seg[-1] + half + 1e-6

@@ -152,7 +152,9 @@ class FollowBehaviour:
         self._pass_key: Optional[tuple] = None   # _passes_by's last answer, and for what
         self._pass_ok = False
         self._route: Optional[np.ndarray] = None
-        self._route_lengths: List[Optional[float]] = []   # the whole of each path of it
+        # the full length of the target's path to each destination of self._route_key, in
+        # its order (None: no path)
+        self._route_lengths: List[Optional[float]] = []
         self._yield: Optional[Tuple[float, float, float]] = None  # target x, y, t when it began
         self._standing = True            # no goal under way (the last one finished)
         self._last_velocity = (0.0, 0.0)  # the target's, when last seen
@@ -520,7 +522,8 @@ class FollowBehaviour:
         """The points of the target's planned paths to each of ``dests``, their first
         ``distance + slack + give_way_reach`` metres; planned again when the target moved
         ``replan_distance`` or the destinations changed, at most every ``goal_period`` s (an
-        A* on a big floor is 0.1-0.4 s)."""
+        A* on a big floor is 0.1-0.4 s). Each whole path's length goes to
+        ``_route_lengths``."""
         cfg = self.config
         key = self._route_key
         if key is not None and (t - key[2] < cfg.goal_period or (

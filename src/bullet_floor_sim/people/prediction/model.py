@@ -30,9 +30,10 @@ _FORK_GRAPH = None   # the graph a forked Dijkstra worker reads (DestinationMode
 
 
 def _logsumexp(a: np.ndarray) -> float:
-    """log(sum(exp(a))) of a 1-D array, computed as scipy.special.logsumexp computes it (the
-    largest term taken out first; the same float), without its checks of the input, which
-    took a tenth of a study's time called for every region at every step."""
+    """log(sum(exp(a))) of a 1-D array, the largest term taken out first, as
+    scipy.special.logsumexp computes it up to scipy 1.14 (the same float; Debian 12 has
+    1.10), without its checks of the input, which took a tenth of a study's time called
+    for every region at every step."""
     m = a.max()
     if m == -math.inf:
         return -math.inf
@@ -108,7 +109,7 @@ class DestinationModel:
                 c, row = grid.to_cell(x, y)
                 nodes.append(int(self._node[row, c]))
         self._fields = self._dijkstra(np.array(nodes, dtype=np.intp))
-        self._start_cache: Dict[Tuple[float, float], np.ndarray] = {}
+        self._start_cache: Dict[Tuple[float, float, float], np.ndarray] = {}
         self.precompute_seconds = time.perf_counter() - t0
 
     # ---- precomputation --------------------------------------------------------------------
@@ -273,14 +274,18 @@ class DestinationModel:
         return self._values(float(x), float(y))[self._slices[region]].copy()
 
     def _start_values(self, x: float, y: float) -> np.ndarray:
-        """:meth:`_values` at a leg's start, kept for the last few starts (a leg asks at every
-        step from the same start; read only)."""
+        """:meth:`_values` at a leg's start (a leg asks at every step from the same start),
+        kept for up to ``_STARTS_KEPT`` starts (all forgotten when that many are kept) and
+        the ``snap_distance`` they were read with; read only."""
         cache = self._start_cache
-        v = cache.get((x, y))
+        key = (x, y, self.config.snap_distance)
+        v = cache.get(key)
         if v is None:
             if len(cache) >= _STARTS_KEPT:
                 cache.clear()
-            v = cache[(x, y)] = self._values(x, y)
+            v = self._values(x, y)
+            v.flags.writeable = False
+            cache[key] = v
         return v
 
     def _values(self, x: float, y: float) -> np.ndarray:
