@@ -535,10 +535,8 @@ class FollowBehaviour:
         keep = cfg.distance + cfg.slack + cfg.give_way_reach
         parts = [np.zeros((0, 2))]
         self._route_lengths = []
-        for dest in dests:
-            try:
-                path = self.grid.plan(target, dest)
-            except PlanError:
+        for path in self._plans(target, dests):
+            if path is None:
                 self._route_lengths.append(None)
                 continue
             steps = np.hypot(*np.diff(path, axis=0).T) if len(path) > 1 else np.zeros(0)
@@ -554,10 +552,15 @@ class FollowBehaviour:
         key = self._route_key
         if key is not None and (key[0], key[1]) == tuple(target) and key[3] == dests:
             return self._route_lengths
-        out: List[Optional[float]] = []
+        return [None if p is None else path_length(p) for p in self._plans(target, dests)]
+
+    def _plans(self, target: Tuple[float, float],
+               dests: List[Tuple[float, float]]) -> List[Optional[np.ndarray]]:
+        """The target's planned path to each of ``dests`` (None: it cannot be planned)."""
+        out: List[Optional[np.ndarray]] = []
         for dest in dests:
             try:
-                out.append(path_length(self.grid.plan(target, dest)))
+                out.append(self.grid.plan(target, dest))
             except PlanError:
                 out.append(None)
         return out
