@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from bullet_floor_sim.sim.floormap import map_from_grid
-from bullet_floor_sim.people.follow import (FollowBehaviour, FollowConfig, FollowError,
+from bullet_floor_sim.people.follow import (FollowBehaviour, FollowConfig, FollowError, _past,
                                             standoff_point)
 from bullet_floor_sim.people.search import (SearchPlan, as_plan, likely_count, in_view, patrol_points,
                                             hub_points, lookout_points,
@@ -694,6 +694,41 @@ def test_an_observer_the_target_can_go_round_stays_where_it_sees_it():
                                                                    give_way=0.9))
     assert corridor.update(0.0, (6.3, 1.6, math.pi), (4.8, 1.6, 0.0, 0.0),
                            [("east", (10.5, 1.6))]).mode == "give_way"
+
+
+def test_the_stretch_past_the_observer_is_where_the_path_first_gets_that_far_beyond_it():
+    path = np.column_stack([np.arange(101) * 0.1, np.zeros(101)])     # x 0..10 m along y 0
+    # nearest to the observer at x 5 (0.2 m off); from there the first point 2.68 m from it:
+    # hypot(x - 5, 0.2) >= 2.68 first at x 7.7 (2.6 m would be 2.608)
+    assert _past(path, (1.0, 0.0), (5.0, 0.2), 0.9, 2.68) == pytest.approx((7.7, 0.0))
+    # only the points from the target's on count: one already past the observer is not
+    # held up by it
+    assert _past(path, (4.0, 0.0), (5.0, 0.2), 0.9, 2.68) == pytest.approx((7.7, 0.0))
+    assert _past(path, (6.0, 0.0), (5.0, 0.2), 0.9, 2.68) is None
+    assert _past(path, (1.0, 0.0), (5.0, 2.0), 0.9, 2.68) is None     # never within 0.9 m
+    assert _past(path, (1.0, 0.0), (9.0, 0.2), 0.9, 2.68) == pytest.approx((10.0, 0.0))  # end
+    assert _past(None, (1.0, 0.0), (5.0, 0.2), 0.9, 2.68) is None
+
+
+def test_an_observer_on_a_loop_gives_way_unless_the_long_way_round_is_short_enough():
+    # a ring corridor 1.4 m wide round a block (x 2.4..9.6, y 2.4..5.6): the observer stands
+    # in its south side on the target's way east; round it is the long way (14.5 m
+    # more), so it steps aside; with pass_detour 30 m that way counts as passing
+    g = np.full((int(8.0 / RES), int(12.0 / RES)), 100, dtype=np.int8)
+    g[int(1.0 / RES):int(7.0 / RES), int(1.0 / RES):int(11.0 / RES)] = 0
+    g[int(2.4 / RES):int(5.6 / RES), int(2.4 / RES):int(9.6 / RES)] = 100
+    grid = PlanningGrid(map_from_grid(g, RES))
+    dest = [("east", (10.3, 1.7))]
+    seen = (6.3, 1.7, math.pi), (4.8, 1.7, 0.0, 0.0)
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9))
+    assert fb.update(0.0, *seen, dest).mode == "give_way"
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9,
+                                            pass_detour=30.0))
+    assert fb.update(0.0, *seen, dest).mode != "give_way"
+    a = np.linspace(0.0, 2.0 * math.pi, 12, endpoint=False)
+    body = np.column_stack([6.3 + 0.34 * np.cos(a), 1.7 + 0.34 * np.sin(a)])
+    free = path_length(grid.plan((4.8, 1.7), (10.3, 1.7)))
+    assert 12.0 < path_length(grid.plan((4.8, 1.7), (10.3, 1.7), obstacles=body)) - free < 30.0
 
 
 def test_giving_way_again_after_a_search_sends_the_give_way_goal_again():

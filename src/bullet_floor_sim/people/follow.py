@@ -152,9 +152,9 @@ class FollowBehaviour:
         self._pass_key: Optional[tuple] = None   # _passes_by's last answer, and for what
         self._pass_ok = False
         self._route: Optional[np.ndarray] = None
-        # the full length of the target's path to each destination of self._route_key, in
-        # its order (None: no path)
-        self._route_lengths: List[Optional[float]] = []
+        # the target's whole path to each destination of self._route_key, in its order
+        # (None: no path)
+        self._route_paths: List[Optional[np.ndarray]] = []
         self._yield: Optional[Tuple[float, float, float]] = None  # target x, y, t when it began
         self._standing = True            # no goal under way (the last one finished)
         self._last_velocity = (0.0, 0.0)  # the target's, when last seen
@@ -441,7 +441,7 @@ class FollowBehaviour:
         # to keeps clear of the whole of each way, from the target on
         if _distance_to(ahead, rx, ry).min() >= cfg.give_way - _GIVE_WAY_HYSTERESIS:
             return None
-        if cfg.pass_detour > 0 and self._passes_by((tx, ty), (rx, ry), dests):
+        if cfg.pass_detour > 0 and self._passes_by((tx, ty), (rx, ry)):
             return None   # on its way, but it goes round: the observer keeps it in view
         return self._step_aside(t, (rx, ry), (tx, ty), route,
                                 "on the target's way to %d likely destination(s)" % len(dests))
@@ -522,8 +522,7 @@ class FollowBehaviour:
         """The points of the target's planned paths to each of ``dests``, their first
         ``distance + slack + give_way_reach`` metres; planned again when the target moved
         ``replan_distance`` or the destinations changed, at most every ``goal_period`` s (an
-        A* on a big floor is 0.1-0.4 s). Each whole path's length goes to
-        ``_route_lengths``."""
+        A* on a big floor is 0.1-0.4 s). The whole paths go to ``_route_paths``."""
         cfg = self.config
         key = self._route_key
         if key is not None and (t - key[2] < cfg.goal_period or (
@@ -534,53 +533,45 @@ class FollowBehaviour:
         self._route_key = (target[0], target[1], t, list(dests))
         keep = cfg.distance + cfg.slack + cfg.give_way_reach
         parts = [np.zeros((0, 2))]
-        self._route_lengths = []
-        for path in self._plans(target, dests):
-            if path is None:
-                self._route_lengths.append(None)
+        self._route_paths = []
+        for dest in dests:
+            try:
+                path = self.grid.plan(target, dest)
+            except PlanError:
+                self._route_paths.append(None)
                 continue
+            self._route_paths.append(path)
             steps = np.hypot(*np.diff(path, axis=0).T) if len(path) > 1 else np.zeros(0)
-            self._route_lengths.append(float(steps.sum()))
             parts.append(path[np.concatenate([[0.0], np.cumsum(steps)]) <= keep])
         self._route = np.vstack(parts)
         return self._route
 
-    def _free_lengths(self, target: Tuple[float, float],
-                      dests: List[Tuple[float, float]]) -> List[Optional[float]]:
-        """The length of the target's planned path to each of ``dests`` (None: no path):
-        :meth:`_target_routes`' when it planned from this very point to these, else planned."""
-        key = self._route_key
-        if key is not None and (key[0], key[1]) == tuple(target) and key[3] == dests:
-            return self._route_lengths
-        return [None if p is None else path_length(p) for p in self._plans(target, dests)]
-
-    def _plans(self, target: Tuple[float, float],
-               dests: List[Tuple[float, float]]) -> List[Optional[np.ndarray]]:
-        """The target's planned path to each of ``dests`` (None: it cannot be planned)."""
-        out: List[Optional[np.ndarray]] = []
-        for dest in dests:
-            try:
-                out.append(self.grid.plan(target, dest))
-            except PlanError:
-                out.append(None)
-        return out
-
-    def _passes_by(self, target: Tuple[float, float], robot: Tuple[float, float],
-                   dests: List[Tuple[float, float]]) -> bool:
-        """Whether the target, planned round the observer (a disc of the grid's radius), still
-        reaches each of ``dests`` it can reach at all, at most ``pass_detour`` m further. Kept
-        while the target's routes are and the observer stays in its planning cell."""
+    def _passes_by(self, target: Tuple[float, float], robot: Tuple[float, float]) -> bool:
+        """Whether the target gets past the observer (a disc of the grid's radius) on each of
+        its planned paths (``_route_paths``) that comes within two radii and two planning
+        cells of it: planned round it to the path's first point past it that is
+        ``pass_detour`` + two radii from it (or the path's end), at most ``pass_detour`` m
+        further than planned without it. Only that stretch is planned, so a plan stays
+        short on a big floor (planned to the destination, the check was 8 % of a hall's
+        tick: 20 ms a plan). Kept while the target's routes are and the observer stays in
+        its planning cell."""
         key = (self._route_key[2] if self._route_key else None, self.grid.to_cell(*robot))
         if self._pass_key == key:
             return self._pass_ok
-        body = disc_points(robot[0], robot[1], self.grid.config.robot_radius)
+        radius, detour = self.grid.config.robot_radius, self.config.pass_detour
+        body = disc_points(robot[0], robot[1], radius)
         ok = True
-        for dest, free in zip(dests, self._free_lengths(target, dests)):
-            if free is None:
+        for path in self._route_paths:
+            end = _past(path, target, robot, 2.0 * (radius + self.grid.resolution),
+                        2.0 * radius + detour)
+            if end is None:
                 continue
             try:
-                round_it = path_length(self.grid.plan(target, dest, obstacles=body))
-                ok = round_it <= free + self.config.pass_detour
+                free = path_length(self.grid.plan(target, end))
+            except PlanError:
+                continue   # the target cannot be planned there from where it is now
+            try:
+                ok = path_length(self.grid.plan(target, end, obstacles=body)) <= free + detour
             except PlanError:
                 ok = False
             if not ok:
@@ -775,6 +766,23 @@ class FollowBehaviour:
         return (not goal_done and not self._standing and g is not None and g[2]
                 and math.hypot(g[0] - rx, g[1] - ry) >= cfg.replan_distance
                 and math.hypot(g[0] - tx, g[1] - ty) >= cfg.distance - _GIVE_WAY_HYSTERESIS)
+
+
+def _past(path: Optional[np.ndarray], target: Sequence[float], robot: Sequence[float],
+          near: float, beyond: float) -> Optional[Tuple[float, float]]:
+    """The first point of ``path`` (N, 2), from its point nearest ``target`` on, that is
+    ``beyond`` metres from ``robot`` after the path's nearest approach to it, or its last
+    point; None when there is no path or it never comes within ``near`` of the robot."""
+    if path is None or not len(path):
+        return None
+    rest = path[int(np.argmin(_distance_to(path, target[0], target[1]))):]
+    d = _distance_to(rest, robot[0], robot[1])
+    i = int(np.argmin(d))
+    if d[i] >= near:
+        return None
+    far = np.nonzero(d[i:] >= beyond)[0]
+    x, y = rest[i + int(far[0])] if len(far) else rest[-1]
+    return float(x), float(y)
 
 
 def _distance_to(points: np.ndarray, x: float, y: float) -> np.ndarray:
