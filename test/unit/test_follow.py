@@ -702,9 +702,9 @@ def test_the_stretch_past_the_observer_is_where_the_path_first_gets_that_far_bey
     # hypot(x - 5, 0.2) >= 2.68 first at x 7.7 (2.6 m would be 2.608)
     assert _past(path, (1.0, 0.0), (5.0, 0.2), 0.9, 2.68) == pytest.approx((7.7, 0.0))
     # only the points from the target's on count: one already past the observer is not
-    # held up by it
-    assert _past(path, (4.0, 0.0), (5.0, 0.2), 0.9, 2.68) == pytest.approx((7.7, 0.0))
+    # held up by it (its nearest approach from x 6 on is 1.02 m)
     assert _past(path, (6.0, 0.0), (5.0, 0.2), 0.9, 2.68) is None
+    assert _past(path[50:51], (5.0, 0.0), (5.0, 0.2), 0.9, 2.68) == pytest.approx((5.0, 0.0))
     assert _past(path, (1.0, 0.0), (5.0, 2.0), 0.9, 2.68) is None     # never within 0.9 m
     assert _past(path, (1.0, 0.0), (9.0, 0.2), 0.9, 2.68) == pytest.approx((10.0, 0.0))  # end
     assert _past(None, (1.0, 0.0), (5.0, 0.2), 0.9, 2.68) is None
@@ -729,6 +729,30 @@ def test_an_observer_on_a_loop_gives_way_unless_the_long_way_round_is_short_enou
     body = np.column_stack([6.3 + 0.34 * np.cos(a), 1.7 + 0.34 * np.sin(a)])
     free = path_length(grid.plan((4.8, 1.7), (10.3, 1.7)))
     assert 12.0 < path_length(grid.plan((4.8, 1.7), (10.3, 1.7), obstacles=body)) - free < 30.0
+
+
+def test_an_observer_in_one_of_two_aisles_stays_when_the_other_is_hardly_longer():
+    # two aisles 1.4 m wide either side of a block (x 3..13, y 2.4..3.4) in a hall: the
+    # observer stands in the south one, on the target's way east; the north one is 1.1 m
+    # longer, so it stays. Planned only to 2.68 m past the observer, the way round is 16.6 m
+    # longer (down the north aisle and back along the south one): that stretch alone would
+    # have sent it aside, so the check plans to the destination too
+    g = np.full((int(6.0 / RES), int(16.0 / RES)), 100, dtype=np.int8)
+    g[int(1.0 / RES):int(4.8 / RES), int(1.0 / RES):int(15.0 / RES)] = 0
+    g[int(2.4 / RES):int(3.4 / RES), int(3.0 / RES):int(13.0 / RES)] = 100
+    grid = PlanningGrid(map_from_grid(g, RES))
+    target, robot, dest = (2.0, 2.6), (4.0, 1.7), (14.0, 2.6)
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9))
+    assert fb.update(0.0, (*robot, math.pi), (*target, 0.0, 0.0), [("east", dest)]).mode \
+        != "give_way"
+    body = np.column_stack([robot[0] + 0.34 * np.cos(np.linspace(0, 2 * math.pi, 12, False)),
+                            robot[1] + 0.34 * np.sin(np.linspace(0, 2 * math.pi, 12, False))])
+    free = path_length(grid.plan(target, dest))
+    assert path_length(grid.plan(target, dest, obstacles=body)) - free < 2.0
+    end = _past(grid.plan(target, dest), target, robot, 0.88, 2.68)
+    assert end is not None and end != dest
+    assert path_length(grid.plan(target, end, obstacles=body)) \
+        - path_length(grid.plan(target, end)) > 10.0
 
 
 def test_giving_way_again_after_a_search_sends_the_give_way_goal_again():

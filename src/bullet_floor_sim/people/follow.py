@@ -522,7 +522,7 @@ class FollowBehaviour:
         """The points of the target's planned paths to each of ``dests``, their first
         ``distance + slack + give_way_reach`` metres; planned again when the target moved
         ``replan_distance`` or the destinations changed, at most every ``goal_period`` s (an
-        A* on a big floor is 0.1-0.4 s). The whole paths go to ``_route_paths``."""
+        A* across a hall is 10-20 ms). The whole paths go to ``_route_paths``."""
         cfg = self.config
         key = self._route_key
         if key is not None and (t - key[2] < cfg.goal_period or (
@@ -547,37 +547,50 @@ class FollowBehaviour:
         return self._route
 
     def _passes_by(self, target: Tuple[float, float], robot: Tuple[float, float]) -> bool:
-        """Whether the target gets past the observer (a disc of the grid's radius) on each of
-        its planned paths (``_route_paths``) that comes within two radii and two planning
-        cells of it: planned round it to the path's first point past it that is
-        ``pass_detour`` + two radii from it (or the path's end), at most ``pass_detour`` m
-        further than planned without it. Only that stretch is planned, so a plan stays
-        short on a big floor (planned to the destination, the check was 8 % of a hall's
-        tick: 20 ms a plan). Kept while the target's routes are and the observer stays in
-        its planning cell."""
+        """Whether the target gets round the observer (a disc of the grid's radius) on each of
+        its planned paths (``_route_paths``, to the destinations of ``_route_key``) that
+        comes within two radii and two planning cells of it, by a way at most
+        ``pass_detour`` m longer than the path. Planned first only to the path's first point
+        past the observer that is ``pass_detour`` + two radii from it (or the path's end):
+        a plan across a big floor is 20 ms, and planned to every destination this check
+        took 8 % of a hall's tick. When that stretch cannot be passed so (a way round that
+        rejoins further on, e.g. down a parallel aisle, is charged for walking back to it),
+        planned to the destination. Kept while the target's routes are and the observer
+        stays in its planning cell."""
         key = (self._route_key[2] if self._route_key else None, self.grid.to_cell(*robot))
         if self._pass_key == key:
             return self._pass_ok
         radius, detour = self.grid.config.robot_radius, self.config.pass_detour
         body = disc_points(robot[0], robot[1], radius)
+        dests = self._route_key[3] if self._route_key else []
         ok = True
-        for path in self._route_paths:
+        for path, dest in zip(self._route_paths, dests):
             end = _past(path, target, robot, 2.0 * (radius + self.grid.resolution),
                         2.0 * radius + detour)
             if end is None:
                 continue
-            try:
-                free = path_length(self.grid.plan(target, end))
-            except PlanError:
-                continue   # the target cannot be planned there from where it is now
-            try:
-                ok = path_length(self.grid.plan(target, end, obstacles=body)) <= free + detour
-            except PlanError:
+            near = self._round_within(target, end, body)
+            if near is None or (not near and end != tuple(dest)):
+                near = self._round_within(target, dest, body)
+            if near is False:   # None: not plannable even without it, as if not its way
                 ok = False
-            if not ok:
                 break
         self._pass_key, self._pass_ok = key, ok
         return ok
+
+    def _round_within(self, target: Tuple[float, float], goal: Sequence[float],
+                      body: np.ndarray) -> Optional[bool]:
+        """Whether the target's plan to ``goal`` round ``body`` is at most ``pass_detour``
+        longer than its plan without it (None: there is no plan without it either)."""
+        try:
+            free = path_length(self.grid.plan(target, goal))
+        except PlanError:
+            return None
+        try:
+            return path_length(self.grid.plan(target, goal, obstacles=body)) <= \
+                free + self.config.pass_detour
+        except PlanError:
+            return False
 
     def _trail_point(self) -> Optional[Tuple[float, float, float]]:
         """Where a target lost while moving went: ``trail`` seconds on from where it was last

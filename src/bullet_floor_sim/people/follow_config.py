@@ -80,10 +80,11 @@ class FollowConfig:
             comes first: on freiburg_079 it gave way round a corner from a walker in a
             room, and tracked it 46 % of its time giving way. 0: neither preference.
         pass_detour: an observer on the target's way stays where it is (the target in view)
-            when the target can go round it by a way at most this much longer (m), planned
-            to the first point of its way this much and two footprint radii past the
-            observer; 0: it always steps aside. Stepping aside for a target that could pass, it lost sight
-            of it (office: walker tracked 66.6 % of a 40-leg run with 0, 81.1 % with 2).
+            when the target can go round it by a way at most this much longer (m): to the
+            first point of its way this much and two footprint radii past the observer, or
+            else to its destination; 0: it always steps aside. Stepping aside for a target
+            that could pass, it lost sight of it (office: walker tracked 66.6 % of a 40-leg
+            run with 0, 81.1 % with 2, checked to the destination only).
         trail: a target lost further than ``distance + slack`` off while moving is first
             looked for where it went: the observer drives to the point ``trail`` seconds on
             from where it was last seen at its last velocity (stopped short of a wall),
