@@ -755,6 +755,21 @@ def test_an_observer_in_one_of_two_aisles_stays_when_the_other_is_hardly_longer(
         - path_length(grid.plan(target, end)) > 10.0
 
 
+def test_the_pass_by_check_takes_the_destinations_of_now_not_of_the_routes_kept():
+    # in the room the target goes round the observer on its way east; half a second later
+    # (its routes kept for goal_period) it is predicted to go where the observer stands: it
+    # cannot get there round it, so the observer steps aside
+    g = np.full((int(5.0 / RES), int(12.0 / RES)), 100, dtype=np.int8)
+    g[int(0.5 / RES):int(4.5 / RES), int(1.0 / RES):int(11.0 / RES)] = 0
+    grid = PlanningGrid(map_from_grid(g, RES))
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9))
+    target = (4.8, 2.5, 0.0, 0.0)
+    assert fb.update(0.0, (6.3, 2.5, math.pi), target, [("east", (10.0, 2.5))]).mode \
+        != "give_way"
+    assert fb.update(0.5, (6.45, 2.5, math.pi), target, [("here", (6.6, 2.5))]).mode \
+        == "give_way"
+
+
 def test_giving_way_again_after_a_search_sends_the_give_way_goal_again():
     grid = corridor_with_alcove()
     fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9,

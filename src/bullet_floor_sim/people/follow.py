@@ -441,7 +441,7 @@ class FollowBehaviour:
         # to keeps clear of the whole of each way, from the target on
         if _distance_to(ahead, rx, ry).min() >= cfg.give_way - _GIVE_WAY_HYSTERESIS:
             return None
-        if cfg.pass_detour > 0 and self._passes_by((tx, ty), (rx, ry)):
+        if cfg.pass_detour > 0 and self._passes_by((tx, ty), (rx, ry), dests):
             return None   # on its way, but it goes round: the observer keeps it in view
         return self._step_aside(t, (rx, ry), (tx, ty), route,
                                 "on the target's way to %d likely destination(s)" % len(dests))
@@ -533,23 +533,20 @@ class FollowBehaviour:
         self._route_key = (target[0], target[1], t, list(dests))
         keep = cfg.distance + cfg.slack + cfg.give_way_reach
         parts = [np.zeros((0, 2))]
-        self._route_paths = []
-        for dest in dests:
-            try:
-                path = self.grid.plan(target, dest)
-            except PlanError:
-                self._route_paths.append(None)
+        self._route_paths = [self._plan_or_none(target, dest) for dest in dests]
+        for path in self._route_paths:
+            if path is None:
                 continue
-            self._route_paths.append(path)
             steps = np.hypot(*np.diff(path, axis=0).T) if len(path) > 1 else np.zeros(0)
             parts.append(path[np.concatenate([[0.0], np.cumsum(steps)]) <= keep])
         self._route = np.vstack(parts)
         return self._route
 
-    def _passes_by(self, target: Tuple[float, float], robot: Tuple[float, float]) -> bool:
+    def _passes_by(self, target: Tuple[float, float], robot: Tuple[float, float],
+                   dests: List[Tuple[float, float]]) -> bool:
         """Whether the target gets round the observer (a disc of the grid's radius) on each of
-        its planned paths (``_route_paths``, to the destinations of ``_route_key``) that
-        comes within two radii and two planning cells of it, by a way at most
+        its paths to ``dests`` (``_route_paths`` when they are its routes' destinations, else
+        planned) that comes within two radii and two planning cells of it, by a way at most
         ``pass_detour`` m longer than the path. Planned first only to the path's first point
         past the observer that is ``pass_detour`` + two radii from it (or the path's end):
         a plan across a big floor is 20 ms, and planned to every destination this check
@@ -562,9 +559,10 @@ class FollowBehaviour:
             return self._pass_ok
         radius, detour = self.grid.config.robot_radius, self.config.pass_detour
         body = disc_points(robot[0], robot[1], radius)
-        dests = self._route_key[3] if self._route_key else []
+        paths = self._route_paths if self._route_key and self._route_key[3] == dests else \
+            [self._plan_or_none(target, dest) for dest in dests]
         ok = True
-        for path, dest in zip(self._route_paths, dests):
+        for path, dest in zip(paths, dests):
             end = _past(path, target, robot, 2.0 * (radius + self.grid.resolution),
                         2.0 * radius + detour)
             if end is None:
@@ -577,6 +575,14 @@ class FollowBehaviour:
                 break
         self._pass_key, self._pass_ok = key, ok
         return ok
+
+    def _plan_or_none(self, start: Tuple[float, float],
+                      goal: Sequence[float]) -> Optional[np.ndarray]:
+        """The target's planned path from ``start`` to ``goal`` (None: it cannot be planned)."""
+        try:
+            return self.grid.plan(start, goal)
+        except PlanError:
+            return None
 
     def _round_within(self, target: Tuple[float, float], goal: Sequence[float],
                       body: np.ndarray) -> Optional[bool]:
