@@ -731,6 +731,21 @@ def test_an_observer_on_a_loop_gives_way_unless_the_long_way_round_is_short_enou
     assert 12.0 < path_length(grid.plan((4.8, 1.7), (10.3, 1.7), obstacles=body)) - free < 30.0
 
 
+def test_the_pass_by_check_plans_again_from_a_target_off_its_kept_route():
+    # the ring corridor: routes kept from the north side (4.8, 6.3) go east round the block,
+    # nowhere near the observer in the south side; the target, now seen in the south side
+    # within goal_period, walks into the observer, and round it is the long way
+    g = np.full((int(8.0 / RES), int(12.0 / RES)), 100, dtype=np.int8)
+    g[int(1.0 / RES):int(7.0 / RES), int(1.0 / RES):int(11.0 / RES)] = 0
+    g[int(2.4 / RES):int(5.6 / RES), int(2.4 / RES):int(9.6 / RES)] = 100
+    grid = PlanningGrid(map_from_grid(g, RES))
+    dests, robot = [(10.3, 1.7)], (6.3, 1.7)
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9))
+    fb._target_routes(0.0, (4.8, 6.3), dests)
+    assert _past(fb._route_paths[0], (4.8, 6.3), robot, 0.88, 2.68) is None
+    assert fb._passes_by((4.8, 1.7), robot, dests) is False
+
+
 def test_an_observer_in_one_of_two_aisles_stays_when_the_other_is_hardly_longer():
     # two aisles 1.4 m wide either side of a block (x 3..13, y 2.4..3.4) in a hall: the
     # observer stands in the south one, on the target's way east; the north one is 1.1 m

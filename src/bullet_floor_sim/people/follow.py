@@ -530,37 +530,40 @@ class FollowBehaviour:
                 and key[3] == dests)):
             assert self._route is not None   # made right after the key
             return self._route
-        self._route_key = (target[0], target[1], t, list(dests))
         keep = cfg.distance + cfg.slack + cfg.give_way_reach
         parts = [np.zeros((0, 2))]
-        self._route_paths = [self._plan_or_none(target, dest) for dest in dests]
-        for path in self._route_paths:
+        paths = [self._plan_or_none(target, dest) for dest in dests]
+        for path in paths:
             if path is None:
                 continue
             steps = np.hypot(*np.diff(path, axis=0).T) if len(path) > 1 else np.zeros(0)
             parts.append(path[np.concatenate([[0.0], np.cumsum(steps)]) <= keep])
-        self._route = np.vstack(parts)
+        # the key last: a plan that raises leaves the last routes and their key together
+        self._route, self._route_paths = np.vstack(parts), paths
+        self._route_key = (target[0], target[1], t, list(dests))
         return self._route
 
     def _passes_by(self, target: Tuple[float, float], robot: Tuple[float, float],
                    dests: List[Tuple[float, float]]) -> bool:
         """Whether the target gets round the observer (a disc of the grid's radius) on each of
-        its paths to ``dests`` (``_route_paths`` when they are its routes' destinations, else
-        planned) that comes within two radii and two planning cells of it, by a way at most
+        its paths to ``dests`` (``_route_paths`` when they are its routes' destinations and
+        it is still on them, within a radius, or they found none; else planned from where
+        it is) that comes within two radii and two planning cells of it, by a way at most
         ``pass_detour`` m longer than the path. Planned first only to the path's first point
         past the observer that is ``pass_detour`` + two radii from it (or the path's end):
         a plan across a big floor is 20 ms, and planned to every destination this check
         took 8 % of a hall's tick. When that stretch cannot be passed so (a way round that
         rejoins further on, e.g. down a parallel aisle, is charged for walking back to it),
         planned to the destination. Kept while the target's routes are and the observer
-        stays in its planning cell."""
+        stays in its planning cell, whatever the destinations (as before the stretch)."""
         key = (self._route_key[2] if self._route_key else None, self.grid.to_cell(*robot))
         if self._pass_key == key:
             return self._pass_ok
         radius, detour = self.grid.config.robot_radius, self.config.pass_detour
         body = disc_points(robot[0], robot[1], radius)
-        paths = self._route_paths if self._route_key and self._route_key[3] == dests else \
-            [self._plan_or_none(target, dest) for dest in dests]
+        kept = self._route_paths if self._route_key and self._route_key[3] == dests else []
+        paths = [kept[i] if i < len(kept) and _on_path(kept[i], target, radius)
+                 else self._plan_or_none(target, dest) for i, dest in enumerate(dests)]
         ok = True
         for path, dest in zip(paths, dests):
             end = _past(path, target, robot, 2.0 * (radius + self.grid.resolution),
@@ -785,6 +788,12 @@ class FollowBehaviour:
         return (not goal_done and not self._standing and g is not None and g[2]
                 and math.hypot(g[0] - rx, g[1] - ry) >= cfg.replan_distance
                 and math.hypot(g[0] - tx, g[1] - ty) >= cfg.distance - _GIVE_WAY_HYSTERESIS)
+
+
+def _on_path(path: Optional[np.ndarray], target: Sequence[float], within: float) -> bool:
+    """Whether ``target`` is within ``within`` m of a point of ``path``; True for no path
+    (kept: the destination could not be planned to a moment ago either)."""
+    return path is None or bool(_distance_to(path, target[0], target[1]).min() <= within)
 
 
 def _past(path: Optional[np.ndarray], target: Sequence[float], robot: Sequence[float],
