@@ -155,8 +155,8 @@ class PlannerConfig:
         inflation_radius: distance beyond ``robot_radius`` over which the wall cost decays.
         cost_scaling: exponential decay rate of the wall cost (1/m), as costmap_2d's.
         cost_weight: how much a fully inflated cell adds to the length of a step (x1 + w).
-            1.5 and 6.0 scored within 0.5 points of 3.0's trk50 over 16 worlds (one seed,
-            folds inconclusive), and 6.0 gave up 15 % of aces_austin's legs
+            1.5 and 6.0 scored within 0.5 points of 3.0's trk50 over 16 worlds (two seeds;
+            the folds split, no held-out gain), and 6.0 gave up 8 % of aces_austin's legs
             (docs/evaluation.md, session 54).
         resolution: planning cell size (m); rounded to a multiple of the map resolution.
         unknown_is_obstacle: unknown (-1) areas are walls for planning (``unknown: wall`` of
