@@ -26,13 +26,14 @@ import argparse
 import os
 import sys
 import time
-from typing import Callable, List, Optional, Tuple
+from typing import Callable, Dict, List, Optional, Tuple
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 sys.path.insert(0, HERE)
 
 from bullet_floor_sim.people.evaluation import FRACTIONS, EvalConfig, run  # noqa: E402
+from bullet_floor_sim.errors import BulletFloorSimError  # noqa: E402
 from bullet_floor_sim.paths import corpus_dir, corpus_worlds, worlds_dir  # noqa: E402
 from bullet_floor_sim.sim.config import world_label  # noqa: E402
 from bullet_floor_sim.people.walker import OUTCOMES  # noqa: E402
@@ -63,8 +64,6 @@ def shipped() -> list:
 def study_check(worlds: list, allow: bool) -> tuple:
     """The map check of every world before any runs (building/check.py): (notes, refused),
     refused mapping each world that would refuse (unless ``allow``) to its one line."""
-    from bullet_floor_sim.errors import BulletFloorSimError
-    from bullet_floor_sim.people.evaluation import EvalConfig
     from bullet_floor_sim.people.evaluation.scenario import refuse_unreachable
     from bullet_floor_sim.building import Building
 
@@ -90,7 +89,58 @@ def checked(worlds: list, named: bool, allow: bool) -> tuple:
     return [w for w in worlds if w not in refused], notes
 
 
-def row(world: str, legs: int, seed: int, allow: bool = False, save: str = "") -> dict:
+#: The config sections ``--set SECTION.FIELD=VALUE`` changes: the observer's (FollowConfig,
+#: what the follower node runs) and the predictor's (PredictionConfig).
+SECTIONS = ("follow", "prediction")
+
+
+def parse_sets(items: List[str]) -> Dict[str, Dict[str, str]]:
+    """``--set`` items ``section.field=value`` as {section: {field: value}}; each checked
+    (a known section and field, a value of the field's type and range).
+
+    Raises:
+        BulletFloorSimError: the first bad item, named (one line).
+    """
+    from bullet_floor_sim.errors import ConfigError
+
+    out: Dict[str, Dict[str, str]] = {}
+    for item in items:
+        key, eq, value = item.partition("=")
+        section, dot, name = key.strip().partition(".")
+        if not (eq and dot and name and value.strip()):
+            raise ConfigError("--set %s: expected SECTION.FIELD=VALUE (sections: %s)"
+                              % (item, ", ".join(SECTIONS)))
+        if section not in SECTIONS:
+            raise ConfigError("--set %s: no section %r (sections: %s)"
+                              % (item, section, ", ".join(SECTIONS)))
+        out.setdefault(section, {})[name] = value.strip()
+    eval_config("office", 1, 1, False, out)   # every value checked before any run
+    return out
+
+
+def eval_config(world: str, legs: int, seed: int, allow: bool,
+                sets: Dict[str, Dict[str, str]]) -> EvalConfig:
+    """The study's config of one task, with ``--set``'s changes to the shipped defaults."""
+    from bullet_floor_sim.overrides import with_changes
+    from bullet_floor_sim.people.follow_config import FollowConfig
+    from bullet_floor_sim.people.prediction import PredictionConfig
+
+    return EvalConfig(legs=legs, seed=seed, world=world, allow_unreachable=allow,
+                      follower=with_changes(FollowConfig(), sets.get("follow", {}), "follow."),
+                      prediction=with_changes(PredictionConfig(), sets.get("prediction", {}),
+                                              "prediction."))
+
+
+def set_notes(sets: Dict[str, Dict[str, str]]) -> List[str]:
+    """One note per ``--set`` change, with the default it replaced."""
+    cfg = eval_config("office", 1, 1, False, {})
+    now = {"follow": cfg.follower, "prediction": cfg.prediction}
+    return ["%s.%s=%s: not the shipped default (%r)" % (s, k, v, getattr(now[s], k))
+            for s, fields in sorted(sets.items()) for k, v in sorted(fields.items())]
+
+
+def row(world: str, legs: int, seed: int, allow: bool = False, save: str = "",
+        sets: Optional[Dict[str, Dict[str, str]]] = None) -> dict:
     t0 = time.time()
     last = [t0]
 
@@ -100,7 +150,7 @@ def row(world: str, legs: int, seed: int, allow: bool = False, save: str = "") -
             last[0] = time.time()
             print("  %s: %s" % (world, line), file=sys.stderr, flush=True)
 
-    r = run(EvalConfig(legs=legs, seed=seed, world=world, allow_unreachable=allow), progress)
+    r = run(eval_config(world, legs, seed, allow, sets or {}), progress)
     if save:   # the moments, for bench/calibrate_prediction.py and choose_prediction.py
         from choose_prediction import cache_path, save_moments
 
@@ -154,12 +204,14 @@ TIMING = ("rtf", "setup")
 
 def run_tasks(tasks: List[Tuple[str, int]], legs: int, allow: bool = False, save: str = "",
               workers: int = 1, ray_address: str = "",
-              on_row: Optional[Callable[[dict], None]] = None) -> List[dict]:
+              on_row: Optional[Callable[[dict], None]] = None,
+              sets: Optional[Dict[str, Dict[str, str]]] = None) -> List[dict]:
     """The row of each (world, seed) task, in the order given: one after the other in this
     process (``workers`` 1), in ``workers`` processes, or as Ray tasks (``ray_address``:
     "local" starts Ray on this machine, else a cluster's address, e.g. "auto").
-    ``on_row`` gets each row as its task ends (a ``done:`` line on stderr too)."""
-    jobs = [(w, legs, seed, allow, save) for w, seed in tasks]
+    ``on_row`` gets each row as its task ends (a ``done:`` line on stderr too); ``sets``
+    changes the defaults (parse_sets)."""
+    jobs = [(w, legs, seed, allow, save, sets or {}) for w, seed in tasks]
 
     def done(r: dict) -> dict:
         for n in r["notes"]:
@@ -282,13 +334,25 @@ def main() -> int:
                         "directory of the embedded store), as it ends")
     p.add_argument("--show-results", default="", metavar="URI",
                    help="print the table of the rows stored there, and run nothing")
+    p.add_argument("--set", action="append", default=[], metavar="SECTION.FIELD=VALUE",
+                   help="run with this parameter changed from its shipped default (sections: "
+                        "follow, the observer's FollowConfig; prediction, PredictionConfig); "
+                        "repeatable; the output says so (bench/choose_by_folds.py uses it)")
     args = p.parse_args()
     if args.show_results:
         return show_results(args.show_results)
     if args.workers < 1:
         p.error("--workers must be >= 1")
+    try:
+        sets = parse_sets(args.set)
+    except BulletFloorSimError as e:
+        p.error(str(e))
+    if sets and args.save:   # the moments' cache names no parameters: keep it the defaults'
+        p.error("--save keeps the shipped defaults' moments (bench/choose_prediction.py); "
+                "not with --set")
     worlds, notes = checked(args.worlds or shipped(), bool(args.worlds),
                             args.allow_unreachable)   # before any runs
+    notes = set_notes(sets) + notes
     for n in notes:
         print("note: %s" % n, file=sys.stderr, flush=True)
     tasks = [(w, s) for w in worlds for s in args.seed]
@@ -299,7 +363,7 @@ def main() -> int:
     sink = ResultSink(args.results) if args.results else None
     try:
         rows = run_tasks(tasks, args.legs, args.allow_unreachable, args.save, args.workers,
-                         args.ray, sink.add if sink else None)
+                         args.ray, sink.add if sink else None, sets)
     finally:
         if sink:
             notes += sink.close()

@@ -10,7 +10,7 @@ import re
 import pytest
 
 from bullet_floor_sim.errors import BulletFloorSimError, ConfigError
-from bullet_floor_sim.ros.params import _convert
+from bullet_floor_sim.overrides import convert
 from bullet_floor_sim.ros.path_follower import PathFollowerParams
 from bullet_floor_sim.ros.roi_manager import RoiManagerParams
 from bullet_floor_sim.ros.trajectory_recorder import RecorderParams
@@ -24,7 +24,7 @@ from bullet_floor_sim.ros.trajectory_viewer import ViewerParams
     ("1e3", 1.0, 1000.0), ("inf", 1.0, float("inf")), ("4", 7, 4), (1, False, True),
     (0, True, False), ("false", True, False), ("True", False, True)])
 def test_values_convert_to_the_fields_type(value, current, expected):
-    got = _convert("~p", value, current)
+    got = convert("~p", value, current)
     assert got == expected and type(got) is type(expected)
 
 
@@ -36,7 +36,7 @@ def test_values_convert_to_the_fields_type(value, current, expected):
     ("a,b", [], "expected a list")])
 def test_a_value_of_the_wrong_kind_is_one_error_naming_the_parameter(value, current, problem):
     with pytest.raises(ConfigError, match=r"^~p: %s, got %s$" % (problem, re.escape(repr(value)))):
-        _convert("~p", value, current)
+        convert("~p", value, current)
 
 
 @pytest.mark.parametrize("params, message", [

@@ -8,6 +8,7 @@ from typing import Any, Dict, Optional, Sequence, TypeVar
 import rospy
 
 from ..errors import BulletFloorSimError, ConfigError
+from ..overrides import convert, with_changes
 from ..sim.solidmap import MapHandling
 
 __all__ = ["config_from_params", "check_at_least", "map_handling", "set_map_handling", "MAP_HANDLING_PARAM"]
@@ -31,15 +32,11 @@ def config_from_params(config: C, prefix: str = "~", names: Optional[Dict[str, s
     """
     names = names or {}
     changes: Dict[str, Any] = {}
-    for f in dataclasses.fields(config):
+    for f in dataclasses.fields(config):   # type: ignore[arg-type]
         name = prefix + names.get(f.name, f.name)
         if rospy.has_param(name):
-            changes[f.name] = _convert(name, rospy.get_param(name), getattr(config, f.name))
-    config = dataclasses.replace(config, **changes)   # (a frozen dataclass too)
-    check = getattr(config, "check", None)
-    if check is not None:
-        check()
-    return config
+            changes[f.name] = convert(name, rospy.get_param(name), getattr(config, f.name))
+    return with_changes(config, changes)   # (a frozen dataclass too)
 
 
 def check_at_least(params: Any, node: str, names: Sequence[str], least: float = 0.0,
@@ -52,38 +49,6 @@ def check_at_least(params: Any, node: str, names: Sequence[str], least: float = 
         if not (math.isfinite(v) and (v > least if strict else v >= least)):
             raise BulletFloorSimError("%s: ~%s %r: must be %s%s %g" % (
                 node, name, v, what + " " if what else "", ">" if strict else ">=", least))
-
-
-def _convert(name: str, value: Any, current: Any) -> Any:
-    """``value`` as the type of ``current`` (any value when that is None), taking what
-    roslaunch makes of a ``<param value="...">`` (it types "1e3" and "inf" as strings, and
-    a bool written 1 or 0 as an int), but never a word for a bool or a number ("false" is
-    not True)."""
-    if current is None:
-        return value
-    want = type(current)
-    if want is bool:
-        if isinstance(value, bool):
-            return value
-        word = str(value).strip().lower()
-        if isinstance(value, (int, str)) and word in ("1", "0", "true", "false"):
-            return word in ("1", "true")
-        raise ConfigError("%s: expected true or false, got %r" % (name, value))
-    if want in (int, float):
-        number = value
-        if isinstance(value, str):
-            try:
-                number = float(value)
-            except ValueError:
-                raise ConfigError("%s: expected a number, got %r" % (name, value)) from None
-        if isinstance(number, bool) or not isinstance(number, (int, float)):
-            raise ConfigError("%s: expected a number, got %r" % (name, value))
-        if want is int and not float(number).is_integer():
-            raise ConfigError("%s: expected a whole number, got %r" % (name, value))
-        return want(number)
-    if want is list and not isinstance(value, list):
-        raise ConfigError("%s: expected a list, got %r" % (name, value))
-    return want(value)
 
 
 def set_map_handling(handling: MapHandling) -> None:

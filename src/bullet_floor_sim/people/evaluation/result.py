@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple
 
 from ...errors import BulletFloorSimError
+from ..follow_config import FollowConfig
 from ..prediction import PredictionConfig
 
 __all__ = ["EvalConfig", "EvalResult", "LegScore", "EvaluationError", "FRACTIONS", "METHODS",
@@ -23,9 +24,6 @@ class EvaluationError(BulletFloorSimError):
     """The evaluation cannot run (bad parameters, a world without two robots or ROIs)."""
 
 
-
-
-@dataclass
 @dataclass
 class EvalConfig:
     """Evaluation parameters.
@@ -42,6 +40,8 @@ class EvalConfig:
         match_distance: a track within this distance (m) of the walker tracks it.
         visible_beams: the walker is visible when this many observer beams end on its body.
         prediction: the predictor's parameters (default: PredictionConfig()).
+        follower: the observer's parameters (default: FollowConfig(), what the follower node
+            runs with).
         allow_unreachable: run even when the map check (building/check.py) finds a region
             the walker cannot reach or an observer cut off from it (else the run refuses);
             what it found is then among the result's warnings.
@@ -64,6 +64,7 @@ class EvalConfig:
     match_distance: float = 0.5
     visible_beams: int = 3
     prediction: Optional[PredictionConfig] = None
+    follower: Optional[FollowConfig] = None
     allow_unreachable: bool = False
     min_leg_path: float = 0.25
 

@@ -119,7 +119,7 @@ class _Scenario:
         self.tracker = TrackerAgent.for_map(world.fmap, TrackerConfig(centre_offset=0.25),
                                             handling=world.config.map_handling)
         self.predictor = PredictorAgent(model)
-        self.follower = FollowerAgent(FollowBehaviour(grid, FollowConfig()))
+        self.follower = FollowerAgent(FollowBehaviour(grid, cfg.follower or FollowConfig()))
         # path_follower in each namespace; the observer's yields (demo.launch's ~give_way)
         self.nav_walker = Navigator(grid, PathFollower(), NavigatorConfig(keep_way=True))
         self.drive = ObserverDrive(world, cfg.observer, grid)

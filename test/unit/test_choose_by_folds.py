@@ -1,0 +1,105 @@
+"""A default chosen by leaving each world out (bench/choose_by_folds.py) and the study's
+``--set`` changes it runs with (bench/eval_worlds.py, overrides.with_changes)."""
+from __future__ import annotations
+
+import os
+import sys
+
+import pytest
+
+# the package first, from the workspace (with its messages), before the bench scripts put
+# src/ first on the path
+from bullet_floor_sim.errors import BulletFloorSimError, ConfigError
+from bullet_floor_sim.overrides import with_changes
+from bullet_floor_sim.people.follow_config import FollowConfig, FollowError
+
+BENCH = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "bench")
+sys.path.insert(0, BENCH)
+
+import choose_by_folds  # noqa: E402
+import eval_worlds  # noqa: E402
+
+
+def test_each_fold_keeps_the_best_value_on_the_other_worlds():
+    # a: 0.9 + 0.5 + 0.5 = 1.9 in all; b: 0.6 + 0.7 + 0.7 = 2.0
+    scores = {"a": {"w1": 0.9, "w2": 0.5, "w3": 0.5}, "b": {"w1": 0.6, "w2": 0.7, "w3": 0.7}}
+    picks = choose_by_folds.leave_one_out(scores, ["w1", "w2", "w3"])
+    # w1 out: a 1.0, b 1.4 -> b; w2 out: a 1.4, b 1.3 -> a; w3 out: the same -> a
+    assert picks == {"w1": "b", "w2": "a", "w3": "a"}
+
+
+def test_a_tie_goes_to_the_first_value():
+    scores = {"default": {"w1": 0.5, "w2": 0.8}, "other": {"w1": 0.8, "w2": 0.5}}
+    # w1 out: w2 decides (default 0.8); w2 out: w1 decides (other 0.8)
+    assert choose_by_folds.leave_one_out(scores, ["w1", "w2"]) == {"w1": "default", "w2": "other"}
+    scores = {"default": {"w1": 0.5, "w2": 0.5}, "other": {"w1": 0.5, "w2": 0.5}}
+    assert set(choose_by_folds.leave_one_out(scores, ["w1", "w2"]).values()) == {"default"}
+
+
+def test_the_table_pools_seeds_and_scores_each_pick_held_out():
+    def line(world, seed, trk50, tracked, given_up=0.0):
+        return choose_by_folds.parse_eval_line(
+            "done: EVAL world=%s seed=%d legs=100 given_up=%.3f trk50=%.3f tracked=%.3f "
+            "modes=follow:90/search:10 rtf=50.1 setup=12s legs_asked=100"
+            % (world, seed, given_up, trk50, tracked))
+    runs = {"1.0 (default)": {("w1", 1): line("w1", 1, 0.8, 0.9), ("w1", 2): line("w1", 2, 0.6, 0.7),
+                              ("w2", 1): line("w2", 1, 0.9, 0.8), ("w2", 2): line("w2", 2, 0.9, 0.8)},
+            "2": {("w1", 1): line("w1", 1, 0.9, 0.9), ("w1", 2): line("w1", 2, 0.9, 0.9),
+                  ("w2", 1): line("w2", 1, 0.5, 0.6, 0.05), ("w2", 2): line("w2", 2, 0.7, 0.6)}}
+    out = choose_by_folds.table(runs, list(runs), ["w1", "w2"], [1, 2], "trk50")
+    # pooled trk50: default w1 0.7, w2 0.9; "2" w1 0.9, w2 0.6. w1 out: default (0.9 > 0.6),
+    # held out 0.7; w2 out: "2" (0.9 > 0.7), held out 0.6; mean held out 0.65
+    assert "| w1 | 70.0 | 90.0 | 80.0 | 90.0 | 1.0 (default) | 70.0 |" in out
+    assert "| w2 | 90.0 | 60.0 | 80.0 | 60.0 | 2 | 60.0 |" in out
+    assert out[-1] == 'FOLDS score=trk50 held_out=0.6500 default=0.8000 picks="1.0 (default): 1, 2: 1"'
+    assert "2 5.0 % (w2)" in out[-2]
+
+
+def test_runs_kept_on_file_are_read_back_by_world_and_seed(tmp_path):
+    path = tmp_path / "default.log"
+    path.write_text("== noise\nEVAL world=a seed=3 legs=9 trk50=0.500 legs_asked=10\n"
+                    "  done: EVAL world=a seed=3 legs=10 trk50=0.700 legs_asked=10\n")
+    runs = choose_by_folds.read_runs(str(path))
+    assert list(runs) == [("a", 3)] and runs["a", 3]["trk50"] == 0.7   # the last line counts
+
+
+def test_a_set_change_reaches_the_config_converted_and_checked():
+    sets = eval_worlds.parse_sets(["follow.pass_detour=1", "prediction.beta=5"])
+    cfg = eval_worlds.eval_config("office", 3, 4, False, sets)
+    assert cfg.follower.pass_detour == 1.0 and type(cfg.follower.pass_detour) is float
+    assert cfg.prediction.beta == 5.0 and cfg.follower.trail == FollowConfig().trail
+    assert eval_worlds.set_notes(sets) == [
+        "follow.pass_detour=1: not the shipped default (2.0)",
+        "prediction.beta=5: not the shipped default (3.0)"]
+
+
+@pytest.mark.parametrize("item, message", [
+    ("follow.pass_detour", "expected SECTION.FIELD=VALUE"),
+    ("pass_detour=1", "expected SECTION.FIELD=VALUE"),
+    ("walker.speed=1", "no section 'walker'"),
+    ("follow.speed=1", r"follow.speed: no such parameter \(FollowConfig has: .*pass_detour"),
+    ("follow.search_regions=2.5", "follow.search_regions: expected a whole number"),
+    ("follow.pass_detour=-1", "follower: pass_detour must be a finite number >= 0")])
+def test_a_bad_set_is_one_error_naming_it(item, message):
+    with pytest.raises(BulletFloorSimError, match=message):
+        eval_worlds.parse_sets([item])
+
+
+def test_with_changes_names_the_field_and_keeps_the_original():
+    base = FollowConfig()
+    with pytest.raises(ConfigError, match="^x.nope: no such parameter"):
+        with_changes(base, {"nope": 1}, "x.")
+    with pytest.raises(FollowError):
+        with_changes(base, {"distance": "0"})
+    assert with_changes(base, {"distance": "2.5"}).distance == 2.5 and base.distance == 1.5
+
+
+def test_the_study_runs_with_the_changed_observer():
+    # an observer that keeps 3 m off instead of 1.5 m sees the walker otherwise
+    base = eval_worlds.run_tasks([("simple", 2)], 3)[0]
+    far = eval_worlds.run_tasks([("simple", 2)], 3, sets={"follow": {"distance": "3.0"}})[0]
+    same = eval_worlds.run_tasks([("simple", 2)], 3, sets={"follow": {"distance": "1.5"}})[0]
+    drop = ("rtf", "setup")
+    assert {k: v for k, v in same.items() if k not in drop} == \
+        {k: v for k, v in base.items() if k not in drop}
+    assert far["tracked"] != base["tracked"]
