@@ -4,16 +4,18 @@
 Runs the study (bench/eval_worlds.py's tasks, the code ``make eval`` runs) on every world
 and seed once with the shipped default and once with each candidate value
 (``eval_worlds.py --set SECTION.FIELD=VALUE``), then for each world left out keeps the value
-with the best mean score (trk50 by default, pooled over the seeds) on the *other* worlds
-(ties: the shipped default, then the first value given) and scores that value on the world
-left out. Prints one markdown table: each value's score and tracked share per world, the
-fold's pick and its held-out score, the means, and each value's worst share of legs given
-up; then a ``FOLDS`` line.
+with the best mean score (trk50 by default: each world's mean over the seeds, to the 3
+decimals an EVAL line has) on the *other* worlds (ties: the shipped default, then the first
+value given) and scores that value on the world left out. Prints one markdown table: each
+value's score and tracked share per world, the fold's pick and its held-out score, the
+means, and each value's worst share of legs given up (the pick does not weigh legs given
+up: the table shows them beside it); then a ``FOLDS`` line.
 
-The runs' EVAL lines are kept in ``--out DIR`` (one file per value, a line as each task
-ends): a run cut short, or run again with more values or seeds, runs only what is missing.
-The default's runs (``default.log``) serve every parameter chosen into the same DIR: use
-one DIR per commit.
+The runs' EVAL lines are kept in ``--out DIR`` (default: one directory per commit under
+~/.ros/bullet_floor_sim/folds; one file per value, a line as each task ends): a run cut
+short, or run again with more values or seeds, runs only what is missing. The default's
+runs (``default.log``) serve every parameter chosen into the same DIR. A task that fails
+stops the run; the lines of the tasks done stay.
 
     .venv/bin/python bench/choose_by_folds.py follow.pass_detour 1 3 --legs 100 --seed 12 13
 """
@@ -29,10 +31,16 @@ sys.path.insert(0, os.path.join(HERE, "..", "src"))
 sys.path.insert(0, HERE)
 
 from bullet_floor_sim.errors import BulletFloorSimError  # noqa: E402
+from bullet_floor_sim.overrides import convert  # noqa: E402
 from bullet_floor_sim.sim.config import world_label  # noqa: E402
 import eval_worlds  # noqa: E402
+from eval_results import checkout_commit  # noqa: E402
 
 Scores = Dict[str, Dict[str, float]]   # value -> world -> score
+#: The EVAL fields a fold can maximise (higher is better in each).
+SCORES = ("trk25", "trk50", "trk75", "gt25", "gt50", "gt75", "margin", "tracked", "ll_margin")
+#: The EVAL fields kept as text.
+TEXT = ("world", "modes")
 
 
 def leave_one_out(scores: Scores, worlds: Sequence[str]) -> Dict[str, str]:
@@ -41,8 +49,9 @@ def leave_one_out(scores: Scores, worlds: Sequence[str]) -> Dict[str, str]:
     values = list(scores)
     picks = {}
     for w in worlds:
-        others = [o for o in worlds if o != w] or [w]
-        picks[w] = max(values, key=lambda v: (sum(scores[v][o] for o in others),
+        others = [o for o in worlds if o != w]
+        # summed in millionths, so that a tie is one whatever the order of the sum
+        picks[w] = max(values, key=lambda v: (sum(round(1e6 * scores[v][o]) for o in others),
                                               -values.index(v)))
     return picks
 
@@ -58,21 +67,22 @@ def parse_eval_line(line: str) -> Optional[dict]:
     for item in text.split()[1:]:
         k, _, v = item.partition("=")
         try:
-            out[k] = float(v.rstrip("sx"))
+            out[k] = v if k in TEXT else float(v.rstrip("sx"))
         except ValueError:
             out[k] = v
-    return out
+    return out if {"world", "seed", "legs_asked"} <= set(out) else None
 
 
-def read_runs(path: str) -> Dict[Tuple[str, int], dict]:
-    """(world, seed) -> the last EVAL line's fields of each task in ``path`` (none: {})."""
+def read_runs(path: str, legs: int) -> Dict[Tuple[str, int], dict]:
+    """(world, seed) -> the fields of the last EVAL line of ``legs`` legs asked of each task
+    in ``path`` (none: {}; lines that are no such EVAL line are passed over)."""
     runs: Dict[Tuple[str, int], dict] = {}
     if os.path.exists(path):
         with open(path) as f:
             for line in f:
                 r = parse_eval_line(line)
-                if r is not None:
-                    runs[str(r["world"]), int(r["seed"])] = r
+                if r is not None and r["legs_asked"] == legs:
+                    runs[r["world"], int(r["seed"])] = r
     return runs
 
 
@@ -80,7 +90,12 @@ def run_value(path: str, sets: dict, worlds: List[str], seeds: List[int], legs: 
               workers: int) -> Dict[Tuple[str, int], dict]:
     """The EVAL fields of every (world, seed) with ``sets``: those in ``path`` already as
     they are (of ``legs`` legs only), the others run now, each appended as it ends."""
-    have = {k: r for k, r in read_runs(path).items() if int(r["legs_asked"]) == legs}
+    wanted = {(world_label(w), s) for w in worlds for s in seeds}
+
+    def kept() -> Dict[Tuple[str, int], dict]:
+        return {k: r for k, r in read_runs(path, legs).items() if k in wanted}
+
+    have = kept()
     todo = [(w, s) for w in worlds for s in seeds if (world_label(w), s) not in have]
     if todo:
         print("== %s: %d task(s) to run, %d kept from %s" % (
@@ -88,11 +103,21 @@ def run_value(path: str, sets: dict, worlds: List[str], seeds: List[int], legs: 
             file=sys.stderr, flush=True)
 
         def keep(r: dict) -> None:
+            lead = "" if ends_a_line(path) else "\n"   # after a line a cut run left unfinished
             with open(path, "a") as f:
-                f.write(eval_worlds._eval_line(r, None) + " legs_asked=%d\n" % legs)
+                f.write(lead + eval_worlds._eval_line(r, None) + " legs_asked=%d\n" % legs)
 
         eval_worlds.run_tasks(todo, legs, workers=workers, on_row=keep, sets=sets)
-    return {k: r for k, r in read_runs(path).items() if int(r["legs_asked"]) == legs}
+    return kept()
+
+
+def ends_a_line(path: str) -> bool:
+    """Whether the file at ``path`` is empty, absent or ends with a newline."""
+    if not os.path.exists(path) or os.path.getsize(path) == 0:
+        return True
+    with open(path, "rb") as f:
+        f.seek(-1, os.SEEK_END)
+        return f.read(1) == b"\n"
 
 
 def pooled(runs: Dict[Tuple[str, int], dict], key: str, world: str, seeds: List[int]) -> float:
@@ -120,10 +145,11 @@ def table(runs: Dict[str, Dict[Tuple[str, int], dict]], labels: List[str], world
         ["%.1f" % (100 * sum(scores[v].values()) / n) for v in labels]
         + ["%.1f" % (100 * sum(tracked[v].values()) / n) for v in labels]
         + [counts, "%.1f" % (100 * held)]) + " |")
-    worst = {v: max((float(r["given_up"]), k[0]) for k, r in runs[v].items()) for v in labels}
+    worst = {v: max((float(runs[v][w, s]["given_up"]), w, s) for w in worlds for s in seeds)
+             for v in labels}
     out.append("")
-    out += ["given up, worst run: %s" % ", ".join("%s %.1f %% (%s)" % (v, 100 * g, w)
-                                                  for v, (g, w) in worst.items())]
+    out += ["given up, worst run: %s" % ", ".join("%s %.1f %% (%s seed %d)" % (v, 100 * g, w, s)
+                                                  for v, (g, w, s) in worst.items())]
     out.append("FOLDS score=%s held_out=%.4f default=%.4f picks=\"%s\"" % (
         score, held, sum(scores[labels[0]].values()) / n, counts))
     return out
@@ -138,26 +164,29 @@ def main() -> int:
     p.add_argument("--worlds", nargs="*", default=None,
                    help="names or world.yaml paths (default: as eval_worlds.py)")
     p.add_argument("--workers", type=int, default=os.cpu_count() or 1)
-    p.add_argument("--score", default="trk50", help="the EVAL field the folds maximise")
+    p.add_argument("--score", default="trk50", choices=SCORES,
+                   help="the EVAL field the folds maximise (default: trk50)")
     p.add_argument("--out", default="", metavar="DIR",
                    help="where the runs' EVAL lines are kept (default: "
-                        "~/.ros/bullet_floor_sim/folds)")
+                        "~/.ros/bullet_floor_sim/folds/<commit>)")
     args = p.parse_args()
     section, _, field = args.param.partition(".")
     try:
-        default = set_notes_default(args.param)
-        for v in args.values:
-            eval_worlds.parse_sets(["%s=%s" % (args.param, v)])
+        default = shipped_default(args.param)
+        values = candidates(args.param, args.values, default)
     except BulletFloorSimError as e:
         p.error(str(e))
     out = args.out or os.path.join(os.environ.get("ROS_HOME", os.path.expanduser("~/.ros")),
-                                   "bullet_floor_sim", "folds")
+                                   "bullet_floor_sim", "folds", checkout_commit())
     os.makedirs(out, exist_ok=True)
     worlds, notes = eval_worlds.checked(args.worlds or eval_worlds.shipped(),
                                         bool(args.worlds), False)
     for n in notes:
         print("note: %s" % n, file=sys.stderr, flush=True)
-    labels = ["%s (default)" % default] + [v for v in args.values if not same(v, default)]
+    names = [world_label(w) for w in worlds]
+    if len(set(names)) < 2 or len(set(names)) < len(names):
+        p.error("the folds need two worlds or more, each once (got: %s)" % " ".join(names))
+    labels = ["%r (default)" % default] + values
     runs = {}
     for label in labels:
         value = label.split()[0]
@@ -167,28 +196,42 @@ def main() -> int:
                                 args.legs, args.workers)
     print("%s, %d legs, seed(s) %s; each fold keeps the value with the best mean %s on the "
           "other worlds\n" % (args.param, args.legs, " ".join(map(str, args.seed)), args.score))
-    names = [world_label(w) for w in worlds]
     for line in table(runs, labels, names, args.seed, args.score):
         print(line)
     return 0
 
 
-def same(value: str, default: str) -> bool:
-    """Whether the text ``value`` is the default's value (as a number when both are)."""
-    try:
-        return float(value) == float(default)
-    except ValueError:
-        return value == default
+def candidates(param: str, values: List[str], default: object) -> List[str]:
+    """``values`` each checked (eval_worlds.parse_sets), without repeats and without the
+    default's own value.
+
+    Raises:
+        BulletFloorSimError: a bad value, or none left beside the default.
+    """
+    out, seen = [], [default]
+    for v in values:
+        eval_worlds.parse_sets(["%s=%s" % (param, v)])
+        typed = convert(param, v, default)
+        if typed not in seen:
+            seen.append(typed)
+            out.append(v)
+    if not out:
+        raise BulletFloorSimError("%s: no value to try beside the default %r" % (param, default))
+    return out
 
 
-def set_notes_default(param: str) -> str:
-    """The shipped default of ``param`` (SECTION.FIELD) as text."""
+def shipped_default(param: str) -> object:
+    """The shipped default of ``param`` (SECTION.FIELD).
+
+    Raises:
+        BulletFloorSimError: no such section or field (named).
+    """
     section, _, field = param.partition(".")
     cfg = eval_worlds.eval_config("office", 1, 1, False, {})
-    config = {"follow": cfg.follower, "prediction": cfg.prediction}.get(section)
+    config = {"follow": cfg.follow_config, "prediction": cfg.prediction}.get(section)
     if config is None or not hasattr(config, field):
         eval_worlds.parse_sets(["%s=0" % param])   # raises, naming the section or field
-    return repr(getattr(config, field))
+    return getattr(config, field)
 
 
 if __name__ == "__main__":

@@ -113,6 +113,8 @@ def parse_sets(items: List[str]) -> Dict[str, Dict[str, str]]:
         if section not in SECTIONS:
             raise ConfigError("--set %s: no section %r (sections: %s)"
                               % (item, section, ", ".join(SECTIONS)))
+        if name in out.get(section, {}):
+            raise ConfigError("--set %s: %s.%s is set twice" % (item, section, name))
         out.setdefault(section, {})[name] = value.strip()
     eval_config("office", 1, 1, False, out)   # every value checked before any run
     return out
@@ -126,7 +128,8 @@ def eval_config(world: str, legs: int, seed: int, allow: bool,
     from bullet_floor_sim.people.prediction import PredictionConfig
 
     return EvalConfig(legs=legs, seed=seed, world=world, allow_unreachable=allow,
-                      follower=with_changes(FollowConfig(), sets.get("follow", {}), "follow."),
+                      follow_config=with_changes(FollowConfig(), sets.get("follow", {}),
+                                                 "follow."),
                       prediction=with_changes(PredictionConfig(), sets.get("prediction", {}),
                                               "prediction."))
 
@@ -134,7 +137,7 @@ def eval_config(world: str, legs: int, seed: int, allow: bool,
 def set_notes(sets: Dict[str, Dict[str, str]]) -> List[str]:
     """One note per ``--set`` change, with the default it replaced."""
     cfg = eval_config("office", 1, 1, False, {})
-    now = {"follow": cfg.follower, "prediction": cfg.prediction}
+    now = {"follow": cfg.follow_config, "prediction": cfg.prediction}
     return ["%s.%s=%s: not the shipped default (%r)" % (s, k, v, getattr(now[s], k))
             for s, fields in sorted(sets.items()) for k, v in sorted(fields.items())]
 
@@ -347,9 +350,9 @@ def main() -> int:
         sets = parse_sets(args.set)
     except BulletFloorSimError as e:
         p.error(str(e))
-    if sets and args.save:   # the moments' cache names no parameters: keep it the defaults'
-        p.error("--save keeps the shipped defaults' moments (bench/choose_prediction.py); "
-                "not with --set")
+    if sets and (args.save or args.results):   # neither names the parameters a row ran with
+        p.error("--save and --results keep the shipped defaults' runs (the moments' cache, "
+                "the results table); not with --set")
     worlds, notes = checked(args.worlds or shipped(), bool(args.worlds),
                             args.allow_unreachable)   # before any runs
     notes = set_notes(sets) + notes

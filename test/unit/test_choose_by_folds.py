@@ -52,22 +52,47 @@ def test_the_table_pools_seeds_and_scores_each_pick_held_out():
     assert "| w1 | 70.0 | 90.0 | 80.0 | 90.0 | 1.0 (default) | 70.0 |" in out
     assert "| w2 | 90.0 | 60.0 | 80.0 | 60.0 | 2 | 60.0 |" in out
     assert out[-1] == 'FOLDS score=trk50 held_out=0.6500 default=0.8000 picks="1.0 (default): 1, 2: 1"'
-    assert "2 5.0 % (w2)" in out[-2]
+    assert out[-2].endswith("2 5.0 % (w2 seed 1)")
 
 
 def test_runs_kept_on_file_are_read_back_by_world_and_seed(tmp_path):
     path = tmp_path / "default.log"
     path.write_text("== noise\nEVAL world=a seed=3 legs=9 trk50=0.500 legs_asked=10\n"
-                    "  done: EVAL world=a seed=3 legs=10 trk50=0.700 legs_asked=10\n")
-    runs = choose_by_folds.read_runs(str(path))
-    assert list(runs) == [("a", 3)] and runs["a", 3]["trk50"] == 0.7   # the last line counts
+                    "  done: EVAL world=a seed=3 legs=10 trk50=0.700 legs_asked=10\n"
+                    "EVAL world=a seed=3 legs=20 trk50=0.900 legs_asked=20\n"
+                    "EVAL world=2 seed=1 legs=10 trk50=0.100 legs_asked=10\n"
+                    "EVAL world=b seed=1 legs=10 trk50=0.100\n"     # no legs asked: passed over
+                    "EVAL world=c seed=1 legs=10 trk5")              # cut short
+    runs = choose_by_folds.read_runs(str(path), 10)
+    # the last line of 10 legs asked counts; a world's label stays text
+    assert sorted(runs) == [("2", 1), ("a", 3)] and runs["a", 3]["trk50"] == 0.7
+    assert choose_by_folds.read_runs(str(path), 20)["a", 3]["trk50"] == 0.9
+
+
+def test_a_value_runs_only_what_is_not_kept(tmp_path):
+    path = str(tmp_path / "v.log")
+    with open(path, "w") as f:   # another world's run, and a line a cut run left unfinished
+        f.write("EVAL world=elsewhere seed=1 legs=2 trk50=0.500 legs_asked=2\nEVAL world=x")
+    runs = choose_by_folds.run_value(path, {}, ["simple"], [1], 2, 1)
+    assert list(runs) == [("simple", 1)] and runs["simple", 1]["legs"] == 2
+    lines = open(path).read().splitlines()
+    assert lines[1] == "EVAL world=x" and lines[2].startswith("EVAL world=simple seed=1 legs=2 ")
+    again = choose_by_folds.run_value(path, {}, ["simple"], [1], 2, 1)   # nothing to run
+    assert again == runs and open(path).read().splitlines() == lines
+
+
+def test_candidates_drop_repeats_and_the_default():
+    assert choose_by_folds.candidates("follow.pass_detour", ["1", "2", "1.0", "3"], 2.0) == ["1", "3"]
+    with pytest.raises(BulletFloorSimError, match="no value to try beside the default 2.0"):
+        choose_by_folds.candidates("follow.pass_detour", ["2", "2.0"], 2.0)
+    assert choose_by_folds.shipped_default("follow.pass_detour") == FollowConfig().pass_detour
 
 
 def test_a_set_change_reaches_the_config_converted_and_checked():
     sets = eval_worlds.parse_sets(["follow.pass_detour=1", "prediction.beta=5"])
     cfg = eval_worlds.eval_config("office", 3, 4, False, sets)
-    assert cfg.follower.pass_detour == 1.0 and type(cfg.follower.pass_detour) is float
-    assert cfg.prediction.beta == 5.0 and cfg.follower.trail == FollowConfig().trail
+    assert cfg.follow_config.pass_detour == 1.0 and type(cfg.follow_config.pass_detour) is float
+    assert cfg.prediction.beta == 5.0 and cfg.follow_config.trail == FollowConfig().trail
     assert eval_worlds.set_notes(sets) == [
         "follow.pass_detour=1: not the shipped default (2.0)",
         "prediction.beta=5: not the shipped default (3.0)"]
@@ -79,10 +104,31 @@ def test_a_set_change_reaches_the_config_converted_and_checked():
     ("walker.speed=1", "no section 'walker'"),
     ("follow.speed=1", r"follow.speed: no such parameter \(FollowConfig has: .*pass_detour"),
     ("follow.search_regions=2.5", "follow.search_regions: expected a whole number"),
-    ("follow.pass_detour=-1", "follower: pass_detour must be a finite number >= 0")])
+    ("follow.pass_detour=-1", "follower: pass_detour must be a finite number >= 0"),
+    ("follow.trail=1,follow.trail=2", "expected a number")])
 def test_a_bad_set_is_one_error_naming_it(item, message):
     with pytest.raises(BulletFloorSimError, match=message):
         eval_worlds.parse_sets([item])
+
+
+def test_a_field_set_twice_is_refused():
+    with pytest.raises(BulletFloorSimError, match="follow.trail is set twice"):
+        eval_worlds.parse_sets(["follow.trail=1", "follow.trail=2"])
+
+
+def test_the_observer_and_the_predictors_search_plans_get_one_config():
+    from bullet_floor_sim.people.evaluation.scenario import _Scenario
+    from bullet_floor_sim.sim.world import World
+
+    cfg = eval_worlds.eval_config("simple", 1, 1, False,
+                                  eval_worlds.parse_sets(["follow.search_regions=1"]))
+    world = World.from_name("simple", seed=1)
+    try:
+        sc = _Scenario(cfg, world, lambda _s: None, 0.0)
+        assert sc.predictor.follow.search_regions == 1   # the search plan the predictor makes
+        assert sc.follower.behaviour.config is sc.predictor.follow
+    finally:
+        world.close()
 
 
 def test_with_changes_names_the_field_and_keeps_the_original():

@@ -59,6 +59,7 @@ class CrowdEvalConfig:
         follow: the observer follows (False: it stays where it is).
         control_rate, match_distance, visible_beams: as the one-walker study's EvalConfig.
         prediction: the predictor's parameters.
+        follow_config: the observer's parameters (default: FollowConfig()).
     """
 
     people: int = 5
@@ -72,6 +73,7 @@ class CrowdEvalConfig:
     match_distance: float = 0.5
     visible_beams: int = 3
     prediction: Optional[PredictionConfig] = None
+    follow_config: Optional[FollowConfig] = None
 
     def check(self) -> None:
         if not (isinstance(self.people, int) and self.people >= 1):
@@ -163,8 +165,9 @@ class _CrowdRun:
         self.tracker = TrackerAgent.for_map(world.fmap,
                                             TrackerConfig(centre_offset=LEG_CENTRE_OFFSET),
                                             handling=world.config.map_handling)
-        self.predictor = PredictorAgent(model)
-        self.follower = FollowerAgent(FollowBehaviour(grid, FollowConfig()))
+        follow = cfg.follow_config or FollowConfig()
+        self.predictor = PredictorAgent(model, follow)
+        self.follower = FollowerAgent(FollowBehaviour(grid, follow))
         self.drive = ObserverDrive(world, 0, grid)
         self.laser = world.models[0].laser_pose
         self.names = [p.name for p in crowd.people]

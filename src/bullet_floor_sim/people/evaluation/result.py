@@ -40,8 +40,9 @@ class EvalConfig:
         match_distance: a track within this distance (m) of the walker tracks it.
         visible_beams: the walker is visible when this many observer beams end on its body.
         prediction: the predictor's parameters (default: PredictionConfig()).
-        follower: the observer's parameters (default: FollowConfig(), what the follower node
-            runs with).
+        follow_config: the observer's parameters, the follower's and the search plan's the
+            predictor makes (default: FollowConfig(), what the follower and
+            destination_predictor nodes run with).
         allow_unreachable: run even when the map check (building/check.py) finds a region
             the walker cannot reach or an observer cut off from it (else the run refuses);
             what it found is then among the result's warnings.
@@ -64,7 +65,7 @@ class EvalConfig:
     match_distance: float = 0.5
     visible_beams: int = 3
     prediction: Optional[PredictionConfig] = None
-    follower: Optional[FollowConfig] = None
+    follow_config: Optional[FollowConfig] = None
     allow_unreachable: bool = False
     min_leg_path: float = 0.25
 

@@ -118,8 +118,9 @@ class _Scenario:
         self.walker = WalkerAgent(Walker(chain, rois, sampler, WalkerConfig(), seed=cfg.seed))
         self.tracker = TrackerAgent.for_map(world.fmap, TrackerConfig(centre_offset=0.25),
                                             handling=world.config.map_handling)
-        self.predictor = PredictorAgent(model)
-        self.follower = FollowerAgent(FollowBehaviour(grid, cfg.follower or FollowConfig()))
+        follow = cfg.follow_config or FollowConfig()
+        self.predictor = PredictorAgent(model, follow)
+        self.follower = FollowerAgent(FollowBehaviour(grid, follow))
         # path_follower in each namespace; the observer's yields (demo.launch's ~give_way)
         self.nav_walker = Navigator(grid, PathFollower(), NavigatorConfig(keep_way=True))
         self.drive = ObserverDrive(world, cfg.observer, grid)
