@@ -148,8 +148,9 @@ def table(runs: Dict[str, Dict[Tuple[str, int], dict]], labels: List[str], world
     worst = {v: max((float(runs[v][w, s]["given_up"]), w, s) for w in worlds for s in seeds)
              for v in labels}
     out.append("")
-    out += ["given up, worst run: %s" % ", ".join("%s %.1f %% (%s seed %d)" % (v, 100 * g, w, s)
-                                                  for v, (g, w, s) in worst.items())]
+    out += ["given up, worst run: %s" % ", ".join(
+        "%s %.1f %% (%s seed %d)" % (v, 100 * g, w, s) if g > 0 else "%s none" % v
+        for v, (g, w, s) in worst.items())]
     out.append("FOLDS score=%s held_out=%.4f default=%.4f picks=\"%s\"" % (
         score, held, sum(scores[labels[0]].values()) / n, counts))
     return out

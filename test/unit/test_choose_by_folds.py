@@ -52,7 +52,7 @@ def test_the_table_pools_seeds_and_scores_each_pick_held_out():
     assert "| w1 | 70.0 | 90.0 | 80.0 | 90.0 | 1.0 (default) | 70.0 |" in out
     assert "| w2 | 90.0 | 60.0 | 80.0 | 60.0 | 2 | 60.0 |" in out
     assert out[-1] == 'FOLDS score=trk50 held_out=0.6500 default=0.8000 picks="1.0 (default): 1, 2: 1"'
-    assert out[-2].endswith("2 5.0 % (w2 seed 1)")
+    assert out[-2] == "given up, worst run: 1.0 (default) none, 2 5.0 % (w2 seed 1)"
 
 
 def test_runs_kept_on_file_are_read_back_by_world_and_seed(tmp_path):
