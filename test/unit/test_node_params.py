@@ -41,6 +41,7 @@ def test_a_value_of_the_wrong_kind_is_one_error_naming_the_parameter(value, curr
 
 @pytest.mark.parametrize("params, message", [
     (PathFollowerParams(max_linear=-0.5), r"path_follower: ~max_linear -0\.5: must be a number > 0"),
+    (PathFollowerParams(reverse_within=-1.0), r"~reverse_within -1\.0: must be a number >= 0"),
     (PathFollowerParams(controller_frequency=float("nan")), r"~controller_frequency nan"),
     (PathFollowerParams(inflation_radius=-0.1), r"~inflation_radius -0\.1: must be a number >= 0"),
     (PathFollowerParams(detour=-1.0), r"~detour -1(\.0)?: must be a number >= 0"),

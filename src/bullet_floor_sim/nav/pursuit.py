@@ -40,6 +40,15 @@ class FollowerConfig:
         side_margin: extra half-width (m) of the stop corridor beyond the footprint radius.
         robot_radius: footprint circumradius (m).
         sweep: how far along the path (m) the stop check looks for obstacles.
+        reverse_within: a goal at most this far (m) behind the robot, on a straight way (as
+            clear of walls as the robot stands, by the Navigator's clearance), whose heading
+            is within ``rotate_in_place`` of the robot's present heading, is reached backing
+            up at ``reverse_speed``, facing as it faces, instead of turning round to it and
+            back again (two half turns with the lidar, which looks forward, the wrong way).
+            0 (the default): never. The observer backs up so to give way (demo.launch): turned
+            round, it lost the target it gave way to. Backing up, the robot sees nothing
+            behind it but what its path avoids on the map.
+        reverse_speed: the speed (m/s) of backing up.
     """
 
     lookahead: float = 0.6
@@ -55,6 +64,12 @@ class FollowerConfig:
     side_margin: float = 0.03
     robot_radius: float = 0.34
     sweep: float = 1.5
+    reverse_within: float = 0.0
+    reverse_speed: float = 0.25
+
+
+#: Farthest (m) a path to back up along may stray from the straight line to its goal.
+_STRAIGHT = 0.15
 
 
 @dataclass
@@ -62,8 +77,8 @@ class FollowerCommand:
     """One control output: body velocities and the follower's state.
 
     ``state`` is ``following``, ``rotating`` (turning on the spot towards the path),
-    ``aligning`` (at the goal, turning to its heading), ``blocked`` (an obstacle ahead) or
-    ``done``.
+    ``reversing`` (backing up to a goal close behind), ``aligning`` (at the goal, turning to
+    its heading), ``blocked`` (an obstacle ahead) or ``done``.
     """
 
     v: float
@@ -85,6 +100,7 @@ class PathFollower:
         self.goal_yaw: Optional[float] = None
         self._index = 0
         self._aligning = False
+        self._reverse: Optional[bool] = None   # backing up to this path's goal (decided once)
         # wall clearance (m) at map-frame points (N, 2) (the Navigator gives its grid's): the
         # look-ahead chord then never runs nearer a wall than the path itself does
         self.clearance: Optional[Callable[[np.ndarray], np.ndarray]] = None
@@ -96,6 +112,7 @@ class PathFollower:
         self.goal_yaw = goal_yaw
         self._index = 0
         self._aligning = False
+        self._reverse = None
         self._path_clear = (self.clearance(self.path) if self.clearance is not None
                             and len(self.path) else None)
 
@@ -118,6 +135,39 @@ class PathFollower:
             if self.clearance(start * (1.0 - t) + rest[j] * t).min() >= need - 0.01:
                 return j
         return k   # no chord is safe (off the path): pure pursuit as it is
+
+    def _backs_up(self, x: float, y: float, yaw: float) -> bool:
+        """Whether this path's goal is reached backing up (``reverse_within``): close
+        behind, on a straight way, its heading about the robot's own."""
+        cfg = self.config
+        goal = self.path[-1]
+        dx, dy = goal[0] - x, goal[1] - y
+        d = math.hypot(dx, dy)
+        if cfg.reverse_within <= 0 or self.goal_yaw is None or d > cfg.reverse_within:
+            return False
+        behind = abs(wrap_angle(math.atan2(dy, dx) - yaw)) > math.pi - cfg.rotate_in_place
+        if not behind or abs(wrap_angle(self.goal_yaw - yaw)) > cfg.rotate_in_place:
+            return False
+        if self.clearance is not None:   # the straight line there as clear of walls as here
+            n = max(2, int(d / 0.025) + 1)
+            t = np.linspace(0.0, 1.0, n)[:, None]
+            line = np.array([x, y]) * (1.0 - t) + goal * t
+            need = min(cfg.robot_radius + cfg.side_margin, float(self.clearance(line[:1])[0]))
+            return bool(self.clearance(line).min() >= need - 0.01)
+        # else every path point within _STRAIGHT of the line from here to the goal
+        off = np.abs((self.path[:, 0] - x) * dy - (self.path[:, 1] - y) * dx) / max(d, 1e-9)
+        return bool(np.all(off <= _STRAIGHT))
+
+    def _back_up(self, x: float, y: float, yaw: float, goal: np.ndarray,
+                 dist_goal: float) -> FollowerCommand:
+        """Back up towards ``goal``, the robot's back turned to it."""
+        cfg = self.config
+        alpha = wrap_angle(math.atan2(goal[1] - y, goal[0] - x) - (yaw + math.pi))
+        w = _clip(1.5 * alpha, cfg.max_angular)
+        if abs(alpha) > 0.5:
+            return FollowerCommand(0.0, w, "reversing", dist_goal)
+        v = cfg.reverse_speed * min(1.0, dist_goal / cfg.slow_radius)
+        return FollowerCommand(-max(v, cfg.min_linear), w, "reversing", dist_goal)
 
     def remaining(self) -> np.ndarray:
         """The part of the path not yet passed."""
@@ -224,6 +274,10 @@ class PathFollower:
             if abs(w) < 0.3:
                 w = math.copysign(0.3, err)
             return FollowerCommand(0.0, w, "aligning", dist_goal)
+        if self._reverse is None:
+            self._reverse = self._backs_up(x, y, yaw)
+        if self._reverse:
+            return self._back_up(x, y, yaw, goal, dist_goal)
 
         # progress: the closest path point within a window ahead of the last one
         window = self.path[self._index:self._index + 60]

@@ -17,7 +17,9 @@ Parameters (defaults suit a Scitos A5): ``~robot_radius`` 0.34, ``~inflation_rad
 ``~blocked_timeout`` 30, ``~progress_timeout`` 60, ``~give_way`` false (true: when blocked
 where no path passes, retreat to a wider place, wait and go on: nav/planner.Navigator),
 ``~keep_way`` false (true: in a passage too narrow for two, never yield by the passing rule,
-only after 20 s blocked: the walker, nav/navigator.NavigatorConfig), ``~detour`` 10 and
+only after 20 s blocked: the walker, nav/navigator.NavigatorConfig), ``~reverse_within`` 0
+(m; > 0: a goal at most this far behind, on a straight way, that faces the robot's own way is
+reached backing up, nav/pursuit.FollowerConfig: demo.launch's observer, 2), ``~detour`` 10 and
 ``~detour_wait`` 10 (a way round what blocks it more than 10 m longer is taken only after
 10 s blocked; 0: at once), ``~goal_taken_within`` 1.5 (within this of its goal, with
 something not on the map standing on the goal for 1 s and no progress for 10 s, the goal is
@@ -77,6 +79,7 @@ class PathFollowerParams:
     progress_timeout: float = 60.0
     give_way: bool = False
     keep_way: bool = False
+    reverse_within: float = 0.0
     detour: float = NavigatorConfig.detour
     detour_wait: float = NavigatorConfig.detour_wait
     goal_taken_within: float = NavigatorConfig.goal_taken_within
@@ -89,7 +92,7 @@ class PathFollowerParams:
         """Raises BulletFloorSimError naming the first parameter that is not a number > 0
         (>= 0 for ``inflation_radius``: none)."""
         numbers = [f.name for f in fields(self) if isinstance(getattr(self, f.name), float)]
-        zero_ok = ("inflation_radius", "detour", "goal_taken_within")
+        zero_ok = ("inflation_radius", "detour", "goal_taken_within", "reverse_within")
         check_at_least(self, "path_follower", [n for n in numbers if n not in zero_ok],
                        what="a number")
         check_at_least(self, "path_follower", list(zero_ok), strict=False, what="a number")
@@ -110,7 +113,8 @@ class PathFollowerNode:
         self.allow_unknown = p.allow_unknown
         self.follower_cfg = FollowerConfig(
             robot_radius=p.robot_radius, max_linear=p.max_linear, max_angular=p.max_angular,
-            xy_tolerance=p.xy_goal_tolerance, yaw_tolerance=p.yaw_goal_tolerance)
+            xy_tolerance=p.xy_goal_tolerance, yaw_tolerance=p.yaw_goal_tolerance,
+            reverse_within=p.reverse_within)
         self.nav_cfg = NavigatorConfig(blocked_timeout=p.blocked_timeout,
                                        progress_timeout=p.progress_timeout, give_way=p.give_way,
                                        keep_way=p.keep_way, detour=p.detour,

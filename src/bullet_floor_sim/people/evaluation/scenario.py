@@ -10,7 +10,7 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from ...sim.sensors import Scan
-from ...nav.planner import (Navigator, NavigatorConfig, PathFollower, PlanError,
+from ...nav.planner import (FollowerConfig, Navigator, NavigatorConfig, PathFollower, PlanError,
                             obstacles_in_base)
 from ..agents import FollowerAgent, PredictorAgent, TrackerAgent, WalkerAgent
 from ..follow import FollowBehaviour, FollowConfig
@@ -278,6 +278,11 @@ class _Scenario:
                           setup_time=self.setup_time)
 
 
+#: The observer backs up to a goal this close behind it (FollowerConfig.reverse_within; as
+#: demo.launch's observer, ``~reverse_within``): it gives way facing the target.
+OBSERVER_REVERSE = 2.0
+
+
 class ObserverDrive:
     """The observer's navigation (its path_follower, yielding as demo.launch's ~give_way)
     towards the follower's goals, and the follower node's ``goal_done`` (the last goal sent
@@ -286,7 +291,8 @@ class ObserverDrive:
     def __init__(self, world, observer: int, grid) -> None:
         self.world, self.observer = world, observer
         self.laser = world.models[observer].laser_pose
-        self.nav = Navigator(grid, PathFollower(), NavigatorConfig(give_way=True))
+        self.nav = Navigator(grid, PathFollower(FollowerConfig(reverse_within=OBSERVER_REVERSE)),
+                             NavigatorConfig(give_way=True))
         self.goal_active = self.goal_done = False
         self.modes: Dict[str, int] = {}
 
