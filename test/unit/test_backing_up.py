@@ -10,31 +10,39 @@ import pytest
 
 from bullet_floor_sim.geometry import wrap_angle
 from bullet_floor_sim.nav.planner import (FollowerConfig, Navigator, NavigatorConfig,
-                                          PathFollower, PlanningGrid)
+                                          PathFollower, PlanningGrid, obstacles_in_base)
 from bullet_floor_sim.sim.world import World
 
 
-def _go(reverse_within: float, goal):
-    """robot2 of the simple room ((3, 3), facing -x) driven to ``goal`` on the physics: the
-    end pose, the largest turn off its first heading on the way, the least forward speed."""
+def _go(reverse_within: float, goal, other=None):
+    """robot2 of the simple room ((3, 3), facing -x) driven to ``goal`` on the physics, its
+    scan given to its Navigator (robot1 moved to ``other`` first, when given): the end state
+    and pose, the largest turn off its first heading on the way, the least forward speed."""
     world = World.from_name("simple", seed=1)
     try:
+        if other is not None:
+            world.set_pose(0, other)
         nav = Navigator(PlanningGrid(world.fmap),
                         PathFollower(FollowerConfig(reverse_within=reverse_within)),
                         NavigatorConfig(give_way=True))
+        lp = world.models[1].laser_pose
+        lp = (lp[0], lp[1], lp[3])   # (x, y, yaw) of the laser in base_footprint
         yaw0 = world.view(1).pose[2]
-        now, turned, least_v = 0.0, 0.0, math.inf
+        now, turned, least_v, obstacles = 0.0, 0.0, math.inf, None
         nav.start(world.view(1).pose, goal, now)
         while now < 60.0:
             pose = world.view(1).pose
             turned = max(turned, abs(wrap_angle(pose[2] - yaw0)))
-            st = nav.update(pose, None, now)
+            st = nav.update(pose, obstacles, now)
             if st.state != "active":
                 return st.state, world.view(1).pose, turned, least_v
             least_v = min(least_v, st.v)
             world.command(1, st.v, 0.0, st.w)
             for _ in range(10):
-                world.step()
+                for sc in world.step(1):
+                    if sc.robot == 1:
+                        obstacles = obstacles_in_base(sc.ranges, sc.angle_min,
+                                                      sc.angle_increment, sc.range_max, lp)
             now += 0.1
         return "timeout", world.view(1).pose, turned, least_v
     finally:
@@ -74,3 +82,37 @@ def test_a_bent_way_behind_is_not_backed_up():
     f = PathFollower(FollowerConfig(reverse_within=2.0))
     f.set_path(np.array([[0.0, 0.0], [-0.8, 0.0], [-0.8, 0.5], [-1.2, 0.5]]), 0.0)
     assert f.compute((0.0, 0.0, 0.0)).state == "rotating"
+
+
+def test_backing_into_something_it_cannot_see_it_goes_forward_round_it():
+    # robot1 stands 1 m behind robot2, on its way back: backing up stalls against it, then
+    # robot2 turns and goes round by the plan
+    state, pose, turned, least_v = _go(2.0, (4.7, 3.0, math.pi), other=(4.0, 3.0, 0.0))
+    assert state == "succeeded" and math.hypot(pose[0] - 4.7, pose[1] - 3.0) < 0.2
+    assert least_v < 0 and turned > 2.5
+
+
+def test_a_way_past_a_wall_or_round_something_is_not_backed_up():
+    world = World.from_name("simple", seed=1)
+    try:
+        grid = PlanningGrid(world.fmap)
+    finally:
+        world.close()
+    nav = Navigator(grid, PathFollower(FollowerConfig(reverse_within=2.0)), NavigatorConfig())
+    nav.start((5.3, 1.0, 0.0), (3.6, 1.0, 0.0), 0.0)   # the pillar stands on the line
+    assert nav.update((5.3, 1.0, 0.0), None, 0.0).message != "reversing"
+    nav.start((3.0, 3.0, math.pi), (4.5, 3.0, math.pi), 0.0)   # clear: backed up
+    assert nav.update((3.0, 3.0, math.pi), None, 0.0).message == "reversing"
+    f = nav.follower   # a path round something 0.55 m off the line is not
+    f.set_path(np.array([[3.0, 3.0], [3.5, 3.55], [4.0, 3.55], [4.5, 3.0]]), math.pi)
+    assert f.compute((3.0, 3.0, math.pi)).state != "reversing"
+
+
+def test_backing_up_counts_progress_and_stops_for_what_a_scan_shows_behind():
+    f = PathFollower(FollowerConfig(reverse_within=2.0))
+    f.set_path(np.linspace((0.0, 0.0), (-1.5, 0.0), 16), 0.0)
+    assert f.compute((0.0, 0.0, 0.0)).v < 0 and len(f.remaining()) == 16
+    assert f.compute((-0.7, 0.0, 0.0)).v < 0 and len(f.remaining()) == 9   # from -0.7 m on
+    behind = np.array([[-0.55, 0.05]])   # 0.21 m behind the footprint's back (stop_distance 0.3)
+    assert f.compute((-0.7, 0.0, 0.0), behind).state == "blocked"
+    assert f.compute((-0.7, 0.0, 0.0), np.array([[-0.55, 1.0], [-0.8, 0.0]])).state == "reversing"

@@ -319,6 +319,7 @@ class Navigator:
         path = self.grid.plan(pose, goal)
         self.goal = (float(goal[0]), float(goal[1]), None if yaw is None else float(yaw))
         self.follower.set_path(path, self.goal[2])
+        self.follower.no_reverse = False
         self.replans = 0
         self._blocked_since = None
         self._blocked_total = 0.0
@@ -448,6 +449,10 @@ class Navigator:
         blocked_timeout, abort (it waited in place for ever before)."""
         cfg = self.config
         self.stalls += 1
+        if self._last_cmd[0] < 0.0 and not self.follower.no_reverse:
+            # backing up into something it cannot see: forward, by the plan, from now on
+            self.follower.no_reverse = True
+            self.follower.set_path(self.follower.path, self.follower.goal_yaw)
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
         st = self._stuck
         if st is None or math.hypot(x - st[1], y - st[2]) > 0.25 \
@@ -458,7 +463,9 @@ class Navigator:
                                "the goal" % (now - st[0], cmd.distance_to_goal), cmd)
         again = now - self._last_stall < 3.0 * cfg.stall_time
         self._last_stall = now
-        for sign in (-1.0, 1.0):
+        # back off, or nudge forward first when it stalled backing up (into what it cannot
+        # see behind it)
+        for sign in ((1.0, -1.0) if self._last_cmd[0] < 0.0 else (-1.0, 1.0)):
             if again and self._clear_behind(pose, obstacles, sign):
                 self._boxed = 0
                 return self._back_off(sign, now, cmd)

@@ -68,8 +68,9 @@ class FollowerConfig:
     reverse_speed: float = 0.25
 
 
-#: Farthest (m) a path to back up along may stray from the straight line to its goal.
-_STRAIGHT = 0.15
+#: Farthest (m) a path to back up along may stray from the straight line to its goal (a
+#: grid path to a goal off its axes zigzags up to about a cell and a half).
+_STRAIGHT = 0.3
 
 
 @dataclass
@@ -101,6 +102,8 @@ class PathFollower:
         self._index = 0
         self._aligning = False
         self._reverse: Optional[bool] = None   # backing up to this path's goal (decided once)
+        # no backing up until the next goal (the Navigator's start): it stalled doing so
+        self.no_reverse = False
         # wall clearance (m) at map-frame points (N, 2) (the Navigator gives its grid's): the
         # look-ahead chord then never runs nearer a wall than the path itself does
         self.clearance: Optional[Callable[[np.ndarray], np.ndarray]] = None
@@ -143,30 +146,45 @@ class PathFollower:
         goal = self.path[-1]
         dx, dy = goal[0] - x, goal[1] - y
         d = math.hypot(dx, dy)
-        if cfg.reverse_within <= 0 or self.goal_yaw is None or d > cfg.reverse_within:
+        if (cfg.reverse_within <= 0 or self.no_reverse or self.goal_yaw is None
+                or d > cfg.reverse_within):
             return False
         behind = abs(wrap_angle(math.atan2(dy, dx) - yaw)) > math.pi - cfg.rotate_in_place
         if not behind or abs(wrap_angle(self.goal_yaw - yaw)) > cfg.rotate_in_place:
             return False
-        if self.clearance is not None:   # the straight line there as clear of walls as here
-            n = max(2, int(d / 0.025) + 1)
-            t = np.linspace(0.0, 1.0, n)[:, None]
-            line = np.array([x, y]) * (1.0 - t) + goal * t
-            need = min(cfg.robot_radius + cfg.side_margin, float(self.clearance(line[:1])[0]))
-            return bool(self.clearance(line).min() >= need - 0.01)
-        # else every path point within _STRAIGHT of the line from here to the goal
+        # every path point within _STRAIGHT of the line from here to the goal (a way round
+        # something is not backed up along), and the line as clear of walls as the path
         off = np.abs((self.path[:, 0] - x) * dy - (self.path[:, 1] - y) * dx) / max(d, 1e-9)
-        return bool(np.all(off <= _STRAIGHT))
+        if not np.all(off <= _STRAIGHT):
+            return False
+        if self.clearance is None or self._path_clear is None:
+            return True
+        n = max(2, int(d / 0.025) + 1)
+        t = np.linspace(0.0, 1.0, n)[:, None]
+        line = np.array([x, y]) * (1.0 - t) + goal * t
+        need = min(cfg.robot_radius + cfg.side_margin, float(self._path_clear.min()))
+        return bool(self.clearance(line).min() >= need - 0.01)
 
-    def _back_up(self, x: float, y: float, yaw: float, goal: np.ndarray,
-                 dist_goal: float) -> FollowerCommand:
-        """Back up towards ``goal``, the robot's back turned to it."""
+    def _back_up(self, x: float, y: float, yaw: float, goal: np.ndarray, dist_goal: float,
+                 obstacles: Optional[np.ndarray]) -> Optional[FollowerCommand]:
+        """Back up towards ``goal``, the robot's back turned to it; ``blocked`` by a scan
+        point in the footprint's way behind (a lidar that sees behind); None once the goal
+        lies off behind (pushed, or past it): then forward, as any goal."""
         cfg = self.config
         alpha = wrap_angle(math.atan2(goal[1] - y, goal[0] - x) - (yaw + math.pi))
+        if abs(alpha) > cfg.rotate_in_place:
+            self._reverse = False
+            return None
+        if obstacles is not None and len(obstacles):
+            pts = np.asarray(obstacles)
+            half = cfg.robot_radius + cfg.side_margin
+            ahead = -pts[:, 0] - cfg.robot_radius   # free space behind the footprint
+            if np.any((ahead >= -half) & (ahead < cfg.stop_distance) & (np.abs(pts[:, 1]) < half)):
+                return FollowerCommand(0.0, 0.0, "blocked", dist_goal)
         w = _clip(1.5 * alpha, cfg.max_angular)
         if abs(alpha) > 0.5:
             return FollowerCommand(0.0, w, "reversing", dist_goal)
-        v = cfg.reverse_speed * min(1.0, dist_goal / cfg.slow_radius)
+        v = min(cfg.reverse_speed, cfg.max_linear) * min(1.0, dist_goal / cfg.slow_radius)
         return FollowerCommand(-max(v, cfg.min_linear), w, "reversing", dist_goal)
 
     def remaining(self) -> np.ndarray:
@@ -274,15 +292,16 @@ class PathFollower:
             if abs(w) < 0.3:
                 w = math.copysign(0.3, err)
             return FollowerCommand(0.0, w, "aligning", dist_goal)
-        if self._reverse is None:
-            self._reverse = self._backs_up(x, y, yaw)
-        if self._reverse:
-            return self._back_up(x, y, yaw, goal, dist_goal)
-
         # progress: the closest path point within a window ahead of the last one
         window = self.path[self._index:self._index + 60]
         d = np.hypot(window[:, 0] - x, window[:, 1] - y)
         self._index += int(np.argmin(d))
+        if self._reverse is None:
+            self._reverse = self._backs_up(x, y, yaw)
+        if self._reverse:
+            back = self._back_up(x, y, yaw, goal, dist_goal, obstacles)
+            if back is not None:
+                return back
         # look-ahead point: first point at least `lookahead` away, else the goal; close to an
         # obstacle the look-ahead shrinks so that the robot follows the path's detours tightly
         free = self.free_ahead(obstacles)
