@@ -35,6 +35,7 @@ def _go(reverse_within: float, goal, other=None):
             turned = max(turned, abs(wrap_angle(pose[2] - yaw0)))
             st = nav.update(pose, obstacles, now)
             if st.state != "active":
+                _go.no_reverse = nav.follower.no_reverse   # backing up given up on the way
                 return st.state, world.view(1).pose, turned, least_v
             least_v = min(least_v, st.v)
             world.command(1, st.v, 0.0, st.w)
@@ -89,7 +90,7 @@ def test_backing_into_something_it_cannot_see_it_goes_forward_round_it():
     # robot2 turns and goes round by the plan
     state, pose, turned, least_v = _go(2.0, (4.7, 3.0, math.pi), other=(4.0, 3.0, 0.0))
     assert state == "succeeded" and math.hypot(pose[0] - 4.7, pose[1] - 3.0) < 0.2
-    assert least_v < 0 and turned > 2.5
+    assert least_v < 0 and turned > 2.5 and _go.no_reverse
 
 
 def test_a_way_past_a_wall_or_round_something_is_not_backed_up():

@@ -449,8 +449,9 @@ class Navigator:
         blocked_timeout, abort (it waited in place for ever before)."""
         cfg = self.config
         self.stalls += 1
-        if self._last_cmd[0] < 0.0 and not self.follower.no_reverse:
-            # backing up into something it cannot see: forward, by the plan, from now on
+        backing = cmd.state == "reversing"   # to a goal behind (FollowerConfig.reverse_within)
+        if backing:
+            # into something it cannot see: forward, by the plan, until the next goal
             self.follower.no_reverse = True
             self.follower.set_path(self.follower.path, self.follower.goal_yaw)
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
@@ -465,7 +466,7 @@ class Navigator:
         self._last_stall = now
         # back off, or nudge forward first when it stalled backing up (into what it cannot
         # see behind it)
-        for sign in ((1.0, -1.0) if self._last_cmd[0] < 0.0 else (-1.0, 1.0)):
+        for sign in ((1.0, -1.0) if backing else (-1.0, 1.0)):
             if again and self._clear_behind(pose, obstacles, sign):
                 self._boxed = 0
                 return self._back_off(sign, now, cmd)
