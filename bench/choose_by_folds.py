@@ -228,8 +228,7 @@ def shipped_default(param: str) -> object:
         BulletFloorSimError: no such section or field (named).
     """
     section, _, field = param.partition(".")
-    cfg = eval_worlds.eval_config("office", 1, 1, False, {})
-    config = {"follow": cfg.follow_config, "prediction": cfg.prediction}.get(section)
+    config = eval_worlds.shipped_sections().get(section)
     if config is None or not hasattr(config, field):
         eval_worlds.parse_sets(["%s=0" % param])   # raises, naming the section or field
     return getattr(config, field)

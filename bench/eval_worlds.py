@@ -134,10 +134,15 @@ def eval_config(world: str, legs: int, seed: int, allow: bool,
                                               "prediction."))
 
 
+def shipped_sections() -> Dict[str, object]:
+    """Each ``--set`` section's config as shipped (SECTIONS -> its dataclass)."""
+    cfg = eval_config("office", 1, 1, False, {})
+    return {"follow": cfg.follow_config, "prediction": cfg.prediction}
+
+
 def set_notes(sets: Dict[str, Dict[str, str]]) -> List[str]:
     """One note per ``--set`` change, with the default it replaced."""
-    cfg = eval_config("office", 1, 1, False, {})
-    now = {"follow": cfg.follow_config, "prediction": cfg.prediction}
+    now = shipped_sections()
     return ["%s.%s=%s: not the shipped default (%r)" % (s, k, v, getattr(now[s], k))
             for s, fields in sorted(sets.items()) for k, v in sorted(fields.items())]
 

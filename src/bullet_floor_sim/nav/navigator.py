@@ -450,10 +450,8 @@ class Navigator:
         cfg = self.config
         self.stalls += 1
         backing = cmd.state == "reversing"   # to a goal behind (FollowerConfig.reverse_within)
-        if backing:
-            # into something it cannot see: forward, by the plan, until the next goal
+        if backing:   # into something it cannot see: forward, by the plan, until the next goal
             self.follower.no_reverse = True
-            self.follower.set_path(self.follower.path, self.follower.goal_yaw)
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
         st = self._stuck
         if st is None or math.hypot(x - st[1], y - st[2]) > 0.25 \

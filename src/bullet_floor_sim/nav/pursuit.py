@@ -133,11 +133,17 @@ class PathFollower:
         start = np.array([x, y])
         for j in range(k, 0, -1):
             need = min(cfg.robot_radius + cfg.side_margin, here, float(clear[:j + 1].min()))
-            n = max(2, int(math.hypot(*(rest[j] - start)) / 0.025) + 1)
-            t = np.linspace(0.0, 1.0, n)[1:, None]
-            if self.clearance(start * (1.0 - t) + rest[j] * t).min() >= need - 0.01:
+            if self._line_clearance(start, rest[j]) >= need - 0.01:
                 return j
         return k   # no chord is safe (off the path): pure pursuit as it is
+
+    def _line_clearance(self, a: np.ndarray, b: np.ndarray) -> float:
+        """The least wall clearance along the straight line from ``a`` to ``b`` (every
+        2.5 cm)."""
+        assert self.clearance is not None
+        n = max(2, int(math.hypot(*(b - a)) / 0.025) + 1)
+        t = np.linspace(0.0, 1.0, n)[:, None]
+        return float(self.clearance(a * (1.0 - t) + b * t).min())
 
     def _backs_up(self, x: float, y: float, yaw: float) -> bool:
         """Whether this path's goal is reached backing up (``reverse_within``): close
@@ -146,8 +152,7 @@ class PathFollower:
         goal = self.path[-1]
         dx, dy = goal[0] - x, goal[1] - y
         d = math.hypot(dx, dy)
-        if (cfg.reverse_within <= 0 or self.no_reverse or self.goal_yaw is None
-                or d > cfg.reverse_within):
+        if cfg.reverse_within <= 0 or self.goal_yaw is None or d > cfg.reverse_within:
             return False
         behind = abs(wrap_angle(math.atan2(dy, dx) - yaw)) > math.pi - cfg.rotate_in_place
         if not behind or abs(wrap_angle(self.goal_yaw - yaw)) > cfg.rotate_in_place:
@@ -159,11 +164,8 @@ class PathFollower:
             return False
         if self.clearance is None or self._path_clear is None:
             return True
-        n = max(2, int(d / 0.025) + 1)
-        t = np.linspace(0.0, 1.0, n)[:, None]
-        line = np.array([x, y]) * (1.0 - t) + goal * t
         need = min(cfg.robot_radius + cfg.side_margin, float(self._path_clear.min()))
-        return bool(self.clearance(line).min() >= need - 0.01)
+        return self._line_clearance(np.array([x, y]), goal) >= need - 0.01
 
     def _back_up(self, x: float, y: float, yaw: float, goal: np.ndarray, dist_goal: float,
                  obstacles: Optional[np.ndarray]) -> Optional[FollowerCommand]:
@@ -298,7 +300,7 @@ class PathFollower:
         self._index += int(np.argmin(d))
         if self._reverse is None:
             self._reverse = self._backs_up(x, y, yaw)
-        if self._reverse:
+        if self._reverse and not self.no_reverse:
             back = self._back_up(x, y, yaw, goal, dist_goal, obstacles)
             if back is not None:
                 return back
