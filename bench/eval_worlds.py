@@ -90,8 +90,9 @@ def checked(worlds: list, named: bool, allow: bool) -> tuple:
 
 
 #: The config sections ``--set SECTION.FIELD=VALUE`` changes: the observer's (FollowConfig,
-#: what the follower node runs) and the predictor's (PredictionConfig).
-SECTIONS = ("follow", "prediction")
+#: what the follower node runs), the predictor's (PredictionConfig) and the observer's path
+#: following (FollowerConfig, its path_follower's).
+SECTIONS = ("follow", "prediction", "drive")
 
 
 def parse_sets(items: List[str]) -> Dict[str, Dict[str, str]]:
@@ -125,9 +126,12 @@ def eval_config(world: str, legs: int, seed: int, allow: bool,
     """The study's config of one task, with ``--set``'s changes to the shipped defaults."""
     from bullet_floor_sim.overrides import with_changes
     from bullet_floor_sim.people.follow_config import FollowConfig
+    from bullet_floor_sim.people.evaluation.scenario import observer_follower
     from bullet_floor_sim.people.prediction import PredictionConfig
 
     return EvalConfig(legs=legs, seed=seed, world=world, allow_unreachable=allow,
+                      drive_config=with_changes(observer_follower(), sets.get("drive", {}),
+                                                "drive."),
                       follow_config=with_changes(FollowConfig(), sets.get("follow", {}),
                                                  "follow."),
                       prediction=with_changes(PredictionConfig(), sets.get("prediction", {}),
@@ -137,7 +141,8 @@ def eval_config(world: str, legs: int, seed: int, allow: bool,
 def shipped_sections() -> Dict[str, object]:
     """Each ``--set`` section's config as shipped (SECTIONS -> its dataclass)."""
     cfg = eval_config("office", 1, 1, False, {})
-    return {"follow": cfg.follow_config, "prediction": cfg.prediction}
+    return {"follow": cfg.follow_config, "prediction": cfg.prediction,
+            "drive": cfg.drive_config}
 
 
 def set_notes(sets: Dict[str, Dict[str, str]]) -> List[str]:
@@ -344,7 +349,8 @@ def main() -> int:
                    help="print the table of the rows stored there, and run nothing")
     p.add_argument("--set", action="append", default=[], metavar="SECTION.FIELD=VALUE",
                    help="run with this parameter changed from its shipped default (sections: "
-                        "follow, the observer's FollowConfig; prediction, PredictionConfig); "
+                        "follow, the observer's FollowConfig; prediction, PredictionConfig; "
+                        "drive, the observer's path following, FollowerConfig); "
                         "repeatable; the output says so (bench/choose_by_folds.py uses it)")
     args = p.parse_args()
     if args.show_results:

@@ -149,3 +149,21 @@ def test_the_study_runs_with_the_changed_observer():
     assert {k: v for k, v in same.items() if k not in drop} == \
         {k: v for k, v in base.items() if k not in drop}
     assert far["tracked"] != base["tracked"]
+
+
+def test_the_observers_path_following_is_a_section_of_its_own():
+    from bullet_floor_sim.people.evaluation.scenario import OBSERVER_REVERSE, _Scenario
+    from bullet_floor_sim.sim.world import World
+
+    assert choose_by_folds.shipped_default("drive.reverse_within") == OBSERVER_REVERSE
+    with pytest.raises(BulletFloorSimError, match="reverse_within must be a finite number >= 0"):
+        eval_worlds.parse_sets(["drive.reverse_within=-1"])
+    cfg = eval_worlds.eval_config("simple", 1, 1, False,
+                                  eval_worlds.parse_sets(["drive.reverse_within=1"]))
+    world = World.from_name("simple", seed=1)
+    try:
+        sc = _Scenario(cfg, world, lambda _s: None, 0.0)
+        assert sc.drive.nav.follower.config.reverse_within == 1.0
+        assert sc.nav_walker.follower.config.reverse_within == 0.0   # the walker never backs up
+    finally:
+        world.close()

@@ -7,11 +7,12 @@ the robot's own scan points (:func:`obstacles_in_base`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Callable, Iterable, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ..errors import BulletFloorSimError
 from ..geometry import wrap_angle
 
 __all__ = ["FollowerCommand", "FollowerConfig", "PathFollower", "obstacles_in_base", "to_map"]
@@ -66,6 +67,19 @@ class FollowerConfig:
     sweep: float = 1.5
     reverse_within: float = 0.0
     reverse_speed: float = 0.25
+
+    def check(self) -> None:
+        """Raises BulletFloorSimError naming the first field that is not a finite number
+        > 0 (>= 0 for ``reverse_within``; ``yaw_tolerance`` may also be None)."""
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if v is None and f.name == "yaw_tolerance":
+                continue
+            zero_ok = f.name == "reverse_within"
+            if not (isinstance(v, (int, float)) and math.isfinite(v)
+                    and (v >= 0 if zero_ok else v > 0)):
+                raise BulletFloorSimError("path follower: %s must be a finite number %s 0, "
+                                          "got %r" % (f.name, ">=" if zero_ok else ">", v))
 
 
 #: Farthest (m) a path to back up along may stray from the straight line to its goal (a

@@ -27,6 +27,7 @@ from typing import Callable, Dict, List, Optional
 
 import numpy as np
 
+from ...nav.pursuit import FollowerConfig
 from ...sim.sensors import Scan
 from ..agents import FollowerAgent, PredictorAgent, TrackerAgent
 from ..crowd.build import build_crowd
@@ -60,6 +61,8 @@ class CrowdEvalConfig:
         control_rate, match_distance, visible_beams: as the one-walker study's EvalConfig.
         prediction: the predictor's parameters.
         follow_config: the observer's parameters (default: FollowConfig()).
+        drive_config: the observer's path following (default: the shipped one,
+            scenario.observer_follower()).
     """
 
     people: int = 5
@@ -74,6 +77,7 @@ class CrowdEvalConfig:
     visible_beams: int = 3
     prediction: Optional[PredictionConfig] = None
     follow_config: Optional[FollowConfig] = None
+    drive_config: Optional[FollowerConfig] = None
 
     def check(self) -> None:
         if not (isinstance(self.people, int) and self.people >= 1):
@@ -168,7 +172,7 @@ class _CrowdRun:
         follow = cfg.follow_config or FollowConfig()
         self.predictor = PredictorAgent(model, follow)
         self.follower = FollowerAgent(FollowBehaviour(grid, follow))
-        self.drive = ObserverDrive(world, 0, grid)
+        self.drive = ObserverDrive(world, 0, grid, cfg.drive_config)
         self.laser = world.models[0].laser_pose
         self.names = [p.name for p in crowd.people]
         self.gt_pred = [OnlinePredictor(model) for _ in crowd.people]

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple
 
 from ...errors import BulletFloorSimError
+from ...nav.pursuit import FollowerConfig
 from ..follow_config import FollowConfig
 from ..prediction import PredictionConfig
 
@@ -43,6 +44,8 @@ class EvalConfig:
         follow_config: the observer's parameters, the follower's and the search plan's the
             predictor makes (default: FollowConfig(), what the follower and
             destination_predictor nodes run with).
+        drive_config: the observer's path following (default: the shipped one,
+            scenario.observer_follower(), as demo.launch's robot2 path_follower).
         allow_unreachable: run even when the map check (building/check.py) finds a region
             the walker cannot reach or an observer cut off from it (else the run refuses);
             what it found is then among the result's warnings.
@@ -66,6 +69,7 @@ class EvalConfig:
     visible_beams: int = 3
     prediction: Optional[PredictionConfig] = None
     follow_config: Optional[FollowConfig] = None
+    drive_config: Optional[FollowerConfig] = None
     allow_unreachable: bool = False
     min_leg_path: float = 0.25
 

@@ -123,7 +123,7 @@ class _Scenario:
         self.follower = FollowerAgent(FollowBehaviour(grid, follow))
         # path_follower in each namespace; the observer's yields (demo.launch's ~give_way)
         self.nav_walker = Navigator(grid, PathFollower(), NavigatorConfig(keep_way=True))
-        self.drive = ObserverDrive(world, cfg.observer, grid)
+        self.drive = ObserverDrive(world, cfg.observer, grid, cfg.drive_config)
         self.pred_gt = OnlinePredictor(model)   # the same predictor on the walker's truth
         self.laser = [world.models[i].laser_pose for i in range(world.n)]  # x, y, z, yaw
         self.body = float(world.radius[cfg.walker])  # the walker's footprint radius
@@ -283,15 +283,22 @@ class _Scenario:
 OBSERVER_REVERSE = 2.0
 
 
+def observer_follower() -> FollowerConfig:
+    """The observer's path following as shipped (demo.launch's robot2 path_follower)."""
+    return FollowerConfig(reverse_within=OBSERVER_REVERSE)
+
+
 class ObserverDrive:
     """The observer's navigation (its path_follower, yielding as demo.launch's ~give_way)
     towards the follower's goals, and the follower node's ``goal_done`` (the last goal sent
-    is over, until the next); ``modes`` counts the follower's decisions by mode."""
+    is over, until the next); ``modes`` counts the follower's decisions by mode.
+    ``config``: its path following (default: :func:`observer_follower`)."""
 
-    def __init__(self, world, observer: int, grid) -> None:
+    def __init__(self, world, observer: int, grid,
+                 config: Optional[FollowerConfig] = None) -> None:
         self.world, self.observer = world, observer
         self.laser = world.models[observer].laser_pose
-        self.nav = Navigator(grid, PathFollower(FollowerConfig(reverse_within=OBSERVER_REVERSE)),
+        self.nav = Navigator(grid, PathFollower(config or observer_follower()),
                              NavigatorConfig(give_way=True))
         self.goal_active = self.goal_done = False
         self.modes: Dict[str, int] = {}
