@@ -11,6 +11,7 @@ import pytest
 # src/ first on the path
 from bullet_floor_sim.errors import BulletFloorSimError, ConfigError
 from bullet_floor_sim.overrides import with_changes
+from bullet_floor_sim.people.evaluation import EvalConfig
 from bullet_floor_sim.people.follow_config import FollowConfig, FollowError
 
 BENCH = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "bench")
@@ -156,6 +157,9 @@ def test_the_observers_path_following_is_a_section_of_its_own():
     from bullet_floor_sim.sim.world import World
 
     assert choose_by_folds.shipped_default("drive.reverse_within") == OBSERVER_REVERSE
+    with pytest.raises(BulletFloorSimError, match="reverse_speed must be a finite number > 0"):
+        eval_worlds.parse_sets(["drive.reverse_speed=0"])
+    assert eval_worlds.parse_sets(["drive.side_margin=0"]) == {"drive": {"side_margin": "0"}}
     with pytest.raises(BulletFloorSimError, match="reverse_within must be a finite number >= 0"):
         eval_worlds.parse_sets(["drive.reverse_within=-1"])
     cfg = eval_worlds.eval_config("simple", 1, 1, False,
@@ -165,5 +169,11 @@ def test_the_observers_path_following_is_a_section_of_its_own():
         sc = _Scenario(cfg, world, lambda _s: None, 0.0)
         assert sc.drive.nav.follower.config.reverse_within == 1.0
         assert sc.nav_walker.follower.config.reverse_within == 0.0   # the walker never backs up
+    finally:
+        world.close()
+    world = World.from_name("simple", seed=1)
+    try:   # the study as shipped, its config built without eval_worlds
+        sc = _Scenario(EvalConfig(legs=1, seed=1, world="simple"), world, lambda _s: None, 0.0)
+        assert sc.drive.nav.follower.config.reverse_within == OBSERVER_REVERSE
     finally:
         world.close()

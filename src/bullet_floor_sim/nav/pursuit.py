@@ -70,13 +70,14 @@ class FollowerConfig:
 
     def check(self) -> None:
         """Raises BulletFloorSimError naming the first field that is not a finite number
-        > 0 (>= 0 for ``reverse_within``; ``yaw_tolerance`` may also be None)."""
+        > 0 (>= 0 for the margins, ``min_linear`` and ``reverse_within``; ``yaw_tolerance``
+        may also be None)."""
         for f in fields(self):
             v = getattr(self, f.name)
             if v is None and f.name == "yaw_tolerance":
                 continue
-            zero_ok = f.name == "reverse_within"
-            if not (isinstance(v, (int, float)) and math.isfinite(v)
+            zero_ok = f.name in ("reverse_within", "side_margin", "stop_distance", "min_linear")
+            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
                     and (v >= 0 if zero_ok else v > 0)):
                 raise BulletFloorSimError("path follower: %s must be a finite number %s 0, "
                                           "got %r" % (f.name, ">=" if zero_ok else ">", v))

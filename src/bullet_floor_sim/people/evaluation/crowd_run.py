@@ -88,6 +88,8 @@ class CrowdEvalConfig:
                                   % (self.chosen, self.people))
         if not (math.isfinite(self.sim_time) and self.sim_time > 0):
             raise EvaluationError("evaluate: sim_time must be > 0, got %r" % self.sim_time)
+        if self.drive_config is not None:
+            self.drive_config.check()
 
 
 @dataclass

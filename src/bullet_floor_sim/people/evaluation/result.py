@@ -85,6 +85,8 @@ class EvalConfig:
         if not (math.isfinite(self.min_leg_path) and self.min_leg_path >= 0):
             raise EvaluationError("evaluate: min_leg_path must be >= 0, got %r"
                                   % self.min_leg_path)
+        if self.drive_config is not None:
+            self.drive_config.check()
 
 
 @dataclass
