@@ -29,11 +29,13 @@ def _go(reverse_within: float, goal, other=None):
         lp = (lp[0], lp[1], lp[3])   # (x, y, yaw) of the laser in base_footprint
         yaw0 = world.view(1).pose[2]
         now, turned, least_v, obstacles = 0.0, 0.0, math.inf, None
+        _go.messages = set()
         nav.start(world.view(1).pose, goal, now)
         while now < 60.0:
             pose = world.view(1).pose
             turned = max(turned, abs(wrap_angle(pose[2] - yaw0)))
             st = nav.update(pose, obstacles, now)
+            _go.messages.add(st.message)
             if st.state != "active":
                 _go.no_reverse = nav.follower.no_reverse   # backing up given up on the way
                 return st.state, world.view(1).pose, turned, least_v
@@ -55,6 +57,19 @@ def test_a_goal_close_behind_facing_its_way_is_reached_backing_up():
     assert state == "succeeded"
     assert math.hypot(pose[0] - 4.5, pose[1] - 3.0) < 0.2
     assert turned < 0.35 and least_v < -0.1   # backed up, facing as it faced
+    assert "reversing" in _go.messages
+
+
+def test_the_path_follower_node_logs_backing_up_to_a_goal():
+    from bullet_floor_sim.nav.navigator import NavStatus
+    from bullet_floor_sim.ros.path_follower import _recovery
+
+    class _Nav:
+        retreat = None
+
+    assert _recovery(_Nav(), NavStatus(-0.25, 0.0, "active", "reversing", 1.2)) == \
+        "backing up to a goal behind it (~reverse_within)"
+    assert _recovery(_Nav(), NavStatus(0.3, 0.0, "active", "following", 1.2)) == ""
 
 
 def test_without_it_the_robot_turns_round_twice():

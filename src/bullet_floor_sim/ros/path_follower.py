@@ -348,14 +348,17 @@ class PathFollowerNode:
 
 
 def _recovery(nav: Navigator, st) -> str:
-    """What the navigator does to get past something, for the log ('' when it just follows
-    its path): a goal aborted for good in CI had left no trace of how it got stuck."""
+    """What the navigator does to get past something, or the controller backing up to a
+    goal behind, for the log ('' when it just follows its path): a goal aborted for good in
+    CI had left no trace of how it got stuck."""
     if nav.retreat is not None:
         return "giving way: out of the way to (%.2f, %.2f)" % nav.retreat
     if st.message == "blocked":
         return "blocked by something the scan shows on the path: planning around it"
     if st.message in ("stalled", "backing up", "nudging forward", "giving way"):
         return st.message
+    if st.message == "reversing":   # the controller's own: to a goal within ~reverse_within
+        return "backing up to a goal behind it (~reverse_within)"
     return ""
 
 
