@@ -174,7 +174,7 @@ def test_bad_settings_are_refused_with_the_setting_named():
         FloorNavEnv(world="simple", robot=5, people=0)
     with pytest.raises(ConfigError, match="goal_distance"):
         FloorNavEnv(world="simple", people=0, goal_distance=(3.0, 1.0))
-    with pytest.raises(ConfigError, match="gym: control_rate must be a positive number, got 0.0"):
+    with pytest.raises(ConfigError, match="gym: control_rate must be a finite number > 0, got 0.0"):
         FloorNavEnv(NavEnvConfig(world="simple", people=0, control_rate=0.0))
     with pytest.raises(ConfigError, match="reward: arrival must be a finite number"):
         FloorNavEnv(world="simple", people=0, reward=RewardConfig(arrival=float("nan")))

@@ -16,7 +16,7 @@ import pytest
 from bullet_floor_sim.errors import ConfigError
 from bullet_floor_sim.paths import worlds_dir
 from bullet_floor_sim.sim import sensors
-from bullet_floor_sim.sim.checks import positive
+from bullet_floor_sim.sim.checks import check_numbers
 from bullet_floor_sim.sim.config import load_world_config
 from bullet_floor_sim.sim.sensors import NEVER, Scan, SensorKind
 from bullet_floor_sim.sim.world import World
@@ -27,7 +27,7 @@ class TickerConfig:
     rate: float = 4.0
 
     def validate(self, where: str) -> None:
-        positive(self, where, ("rate",))
+        check_numbers(self, ("rate",), where)
 
 
 class Tick(NamedTuple):
@@ -74,8 +74,8 @@ def test_a_registered_kind_is_read_from_world_yaml_with_defaults_and_checks(tmp_
     assert a.ticker == TickerConfig(rate=2.0) and a.sensors["ticker"] is a.ticker
     assert b.ticker == TickerConfig()          # no section: the defaults
     assert hash(a) != hash(b) and {a, a} == {a}
-    with pytest.raises(ConfigError, match=r"robots\[0\] \(a\): ticker: rate must be a positive "
-                                          r"number, got -1\.0"):
+    with pytest.raises(ConfigError, match=r"robots\[0\] \(a\): ticker: rate must be a finite "
+                                          r"number > 0, got -1\.0"):
         load_world_config(_world_yaml(tmp_path, "    ticker: {rate: -1.0}\n"))
     with pytest.raises(ConfigError, match=r"ticker: unknown key\(s\) 'hz'"):
         load_world_config(_world_yaml(tmp_path, "    ticker: {hz: 3}\n"))

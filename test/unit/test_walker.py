@@ -387,7 +387,7 @@ def test_no_acceptable_goal_gives_up_with_the_reasons(office):
 
 
 @pytest.mark.parametrize("config,message", [
-    (dict(goal_timeout=0), "goal_timeout must be a number of seconds > 0, got 0"),
+    (dict(goal_timeout=0), "goal_timeout must be a finite number of seconds > 0, got 0"),
     (dict(dwell_min=-1.0), "dwell_min must be a finite number >= 0, got -1.0"),
     (dict(dwell_min=5.0, dwell_max=2.0), r"dwell_max \(2 s\) must be >= dwell_min \(5 s\)"),
     (dict(max_picks=0), "max_picks must be an integer >= 1, got 0"),

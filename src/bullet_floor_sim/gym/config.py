@@ -1,12 +1,11 @@
 """The settings of the navigation environment (``FloorNavEnv``) and of its reward."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, fields
 from typing import Tuple
 
 from ..errors import ConfigError
-from ..sim.checks import is_number, positive
+from ..sim.checks import check_numbers
 
 __all__ = ["NavEnvConfig", "RewardConfig"]
 
@@ -35,10 +34,7 @@ class RewardConfig:
     time: float = -0.1
 
     def validate(self) -> None:
-        for f in fields(self):
-            if not math.isfinite(getattr(self, f.name)):
-                raise ConfigError("gym reward: %s must be a finite number, got %r"
-                                  % (f.name, getattr(self, f.name)))
+        check_numbers(self, [f.name for f in fields(self)], "gym reward", least=None)
 
 
 @dataclass(frozen=True)
@@ -87,12 +83,9 @@ class NavEnvConfig:
 
     def validate(self) -> None:
         """Raise ConfigError naming the first bad value."""
-        positive(self, "gym", ("control_rate", "physics_rate", "max_time", "goal_tolerance",
-                               "scan_range"))
-        for name in ("clearance", "personal_space"):
-            v = getattr(self, name)
-            if not (is_number(v) and math.isfinite(v) and v >= 0):
-                raise ConfigError("gym: %s must be a number >= 0, got %r" % (name, v))
+        check_numbers(self, ("control_rate", "physics_rate", "max_time", "goal_tolerance",
+                             "scan_range"), "gym")
+        check_numbers(self, ("clearance", "personal_space"), "gym", strict=False)
         try:
             lo, hi = (float(v) for v in self.goal_distance)
         except (TypeError, ValueError):

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..errors import BulletFloorSimError
 from ..geometry import wrap_angle
+from ..sim.checks import check_numbers
 
 __all__ = ["FollowerCommand", "FollowerConfig", "PathFollower", "obstacles_in_base", "to_map"]
 
@@ -72,15 +73,11 @@ class FollowerConfig:
         """Raises BulletFloorSimError naming the first field that is not a finite number
         > 0 (>= 0 for the margins, ``min_linear`` and ``reverse_within``; ``yaw_tolerance``
         may also be None)."""
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if v is None and f.name == "yaw_tolerance":
-                continue
-            zero_ok = f.name in ("reverse_within", "side_margin", "stop_distance", "min_linear")
-            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-                    and (v >= 0 if zero_ok else v > 0)):
-                raise BulletFloorSimError("path follower: %s must be a finite number %s 0, "
-                                          "got %r" % (f.name, ">=" if zero_ok else ">", v))
+        zero_ok = ("reverse_within", "side_margin", "stop_distance", "min_linear")
+        check_numbers(self, [f.name for f in fields(self) if f.name not in zero_ok
+                             and not (f.name == "yaw_tolerance" and self.yaw_tolerance is None)],
+                      "path follower", error=BulletFloorSimError)
+        check_numbers(self, zero_ok, "path follower", strict=False, error=BulletFloorSimError)
 
 
 #: Farthest (m) a path to back up along may stray from the straight line to its goal (a

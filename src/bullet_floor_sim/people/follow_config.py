@@ -7,6 +7,7 @@ import math
 from dataclasses import dataclass
 from typing import Optional, Tuple
 
+from ..sim.checks import check_integers, check_numbers
 from ..errors import BulletFloorSimError
 
 __all__ = ["FollowError", "FollowConfig", "FollowDecision"]
@@ -170,23 +171,13 @@ class FollowConfig:
 
     def check(self) -> None:
         """Raise FollowError naming the first bad parameter."""
-        for name in ("distance", "slack", "replan_distance", "goal_period", "lost_after",
-                     "search_turn", "search_wait", "patrol_spacing", "patrol_after", "roomy",
-                     "give_way",
-                     "give_way_reach", "give_way_hold"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise FollowError("follower: %s must be a finite number > 0, got %r" % (name, v))
-        for name in ("search_regions", "search_rounds"):
-            v = getattr(self, name)
-            if not (isinstance(v, int) and v >= 1):
-                raise FollowError("follower: %s must be an integer >= 1, got %r" % (name, v))
-        for name in ("pass_detour", "trail", "unblock", "snug", "patrol_sight", "search_sight",
-                     "watch"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-                raise FollowError("follower: %s must be a finite number >= 0, got %r"
-                                  % (name, v))
+        check_numbers(self, ("distance", "slack", "replan_distance", "goal_period", "lost_after",
+                             "search_turn", "search_wait", "patrol_spacing", "patrol_after",
+                             "roomy", "give_way", "give_way_reach", "give_way_hold"),
+                      "follower", error=FollowError)
+        check_integers(self, ("search_regions", "search_rounds"), "follower", error=FollowError)
+        check_numbers(self, ("pass_detour", "trail", "unblock", "snug", "patrol_sight",
+                             "search_sight", "watch"), "follower", strict=False, error=FollowError)
         if not (math.isfinite(self.give_way_view) and 0.0 <= self.give_way_view <= math.pi):
             raise FollowError("follower: give_way_view must be in [0, pi] radians, got %r"
                               % (self.give_way_view,))

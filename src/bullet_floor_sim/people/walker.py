@@ -27,6 +27,7 @@ from typing import Any, Dict, List, Optional, Sequence, Set, Tuple
 import numpy as np
 
 from ..errors import BulletFloorSimError
+from ..sim.checks import check_integers, check_numbers
 from .markov import MarkovChain
 from ..nav.planner import PlanError, PlanningGrid, path_length
 from ..data.rois import Roi, RoiError, random_point_inside, roi_polygon
@@ -104,23 +105,14 @@ class WalkerConfig:
 
     def check(self) -> None:
         """Raise WalkerError naming the first bad parameter."""
-        for name in ("goal_timeout", "timeout_per_m", "retry_delay", "max_retry_delay"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise WalkerError("walker: %s must be a number of seconds > 0, got %r"
-                                  % (name, v))
-        for name in ("dwell_min", "dwell_max", "margin", "clearance", "max_extension",
-                     "min_stay_move"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-                raise WalkerError("walker: %s must be a finite number >= 0, got %r" % (name, v))
+        check_numbers(self, ("goal_timeout", "timeout_per_m", "retry_delay", "max_retry_delay"),
+                      "walker", error=WalkerError, unit="seconds")
+        check_numbers(self, ("dwell_min", "dwell_max", "margin", "clearance", "max_extension",
+                             "min_stay_move"), "walker", strict=False, error=WalkerError)
         if self.dwell_max < self.dwell_min:
             raise WalkerError("walker: dwell_max (%g s) must be >= dwell_min (%g s)"
                               % (self.dwell_max, self.dwell_min))
-        for name in ("goal_tries", "max_picks"):
-            v = getattr(self, name)
-            if not (isinstance(v, int) and v >= 1):
-                raise WalkerError("walker: %s must be an integer >= 1, got %r" % (name, v))
+        check_integers(self, ("goal_tries", "max_picks"), "walker", error=WalkerError)
 
 
 # --------------------------------------------------------------------------------------------

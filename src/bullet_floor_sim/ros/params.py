@@ -2,13 +2,13 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import Any, Dict, Optional, Sequence, TypeVar
 
 import rospy
 
 from ..errors import BulletFloorSimError, ConfigError
 from ..overrides import convert, with_changes
+from ..sim.checks import check_numbers
 from ..sim.solidmap import MapHandling
 
 __all__ = ["config_from_params", "check_at_least", "map_handling", "set_map_handling", "MAP_HANDLING_PARAM"]
@@ -39,16 +39,11 @@ def config_from_params(config: C, prefix: str = "~", names: Optional[Dict[str, s
     return with_changes(config, changes)   # (a frozen dataclass too)
 
 
-def check_at_least(params: Any, node: str, names: Sequence[str], least: float = 0.0,
-                   strict: bool = True, what: str = "") -> None:
-    """Raise BulletFloorSimError ``<node>: ~<name> <value>: must be [<what> ]> <least>``
-    (``>=`` unless ``strict``) for the first of ``names``, attributes of a node's parameter
-    dataclass, that is not a finite number above (or at) ``least``."""
-    for name in names:
-        v = getattr(params, name)
-        if not (math.isfinite(v) and (v > least if strict else v >= least)):
-            raise BulletFloorSimError("%s: ~%s %r: must be %s%s %g" % (
-                node, name, v, what + " " if what else "", ">" if strict else ">=", least))
+def check_at_least(params: Any, node: str, names: Sequence[str], strict: bool = True) -> None:
+    """Raise BulletFloorSimError ``<node>: ~<name> must be a finite number > 0, got <value>``
+    (``>= 0`` unless ``strict``) for the first of ``names``, attributes of a node's parameter
+    dataclass, that is not (sim/checks.check_numbers, the configs' own check)."""
+    check_numbers(params, names, node, strict=strict, error=BulletFloorSimError, prefix="~")
 
 
 def set_map_handling(handling: MapHandling) -> None:

@@ -93,9 +93,8 @@ class PathFollowerParams:
         (>= 0 for ``inflation_radius``: none)."""
         numbers = [f.name for f in fields(self) if isinstance(getattr(self, f.name), float)]
         zero_ok = ("inflation_radius", "detour", "goal_taken_within", "reverse_within")
-        check_at_least(self, "path_follower", [n for n in numbers if n not in zero_ok],
-                       what="a number")
-        check_at_least(self, "path_follower", list(zero_ok), strict=False, what="a number")
+        check_at_least(self, "path_follower", [n for n in numbers if n not in zero_ok])
+        check_at_least(self, "path_follower", list(zero_ok), strict=False)
         if self.localisation not in ("ground_truth", "tf"):
             raise BulletFloorSimError("path_follower: ~localisation must be ground_truth or tf, "
                                       "got %r" % self.localisation)

@@ -116,8 +116,7 @@ class RecorderParams:
 
     def check(self) -> None:
         """Raises BulletFloorSimError naming the bad parameter."""
-        check_at_least(self, "trajectory_recorder", ("db_timeout", "db_retry_interval"),
-                       what="seconds")
+        check_at_least(self, "trajectory_recorder", ("db_timeout", "db_retry_interval"))
         check_at_least(self, "trajectory_recorder", ("path_rate", "rois_wait", "flush_every"),
                        strict=False)   # flush_every 0: every pose
 

@@ -91,8 +91,7 @@ class ViewerParams:
             raise BulletFloorSimError("~max_poses %d: must be >= 1" % self.max_poses)
         check_at_least(self, "trajectory_viewer", ("line_width", "db_timeout",
                                                    "publish_period"))
-        check_at_least(self, "trajectory_viewer", ("refresh_period",), strict=False,
-                       what="seconds")   # 0: never
+        check_at_least(self, "trajectory_viewer", ("refresh_period",), strict=False)   # 0: never
 
 
 @dataclass(frozen=True)

@@ -1,18 +1,23 @@
-"""Value checks shared by the world file's sections (config.py and each sensor's section)."""
+"""Value checks shared by the world file's sections (config.py and each sensor's section),
+the config dataclasses of the core (follower, predictor, tracker, walker, path follower) and
+the nodes' ``~<name>`` parameters (``prefix="~"``), with one message for a field out of range:
+``<owner>: <name> must be a finite number > 0, got -1``."""
 from __future__ import annotations
 
 import math
 from dataclasses import fields
-from typing import Any, ClassVar, Dict, Mapping, Protocol, Tuple, Type, TypeVar
+from numbers import Integral, Real
+from typing import Any, ClassVar, Dict, Iterable, Mapping, Optional, Protocol, Tuple, Type, TypeVar
 
-from ..errors import ConfigError
+from ..errors import BulletFloorSimError, ConfigError
 
-__all__ = ["is_number", "finite_positive", "positive", "reject_unknown", "section"]
+__all__ = ["is_number", "finite_positive", "check_numbers", "check_integers", "reject_unknown",
+           "section"]
 
 
 def is_number(v: Any) -> bool:
-    """An int or float, not a bool."""
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
+    """A real number (an int, a float or numpy's), not a bool."""
+    return isinstance(v, Real) and not isinstance(v, bool)
 
 
 def finite_positive(v: Any) -> bool:
@@ -20,13 +25,32 @@ def finite_positive(v: Any) -> bool:
     return is_number(v) and math.isfinite(v) and v > 0
 
 
-def positive(obj: Any, where: str, names: Tuple[str, ...]) -> None:
-    """Raise ConfigError naming ``where`` and the first of ``names`` (attributes of ``obj``)
-    that is not a finite number > 0."""
-    for k in names:
-        v = getattr(obj, k)
-        if not finite_positive(v):
-            raise ConfigError("%s: %s must be a positive number, got %r" % (where, k, v))
+def check_numbers(config: Any, names: Iterable[str], owner: str,
+                  least: Optional[float] = 0.0, strict: bool = True,
+                  error: Type[BulletFloorSimError] = ConfigError, prefix: str = "",
+                  unit: str = "") -> None:
+    """Raise ``error`` for the first of ``names`` (attributes of ``config``) that is not a
+    finite number above ``least`` (at or above it unless ``strict``; any finite number when
+    ``least`` is None): ``<owner>: <prefix><name> must be a finite number[ of <unit>] > <least>,
+    got <value>``."""
+    for name in names:
+        v = getattr(config, name)
+        if is_number(v) and math.isfinite(v) and (
+                least is None or (v > least if strict else v >= least)):
+            continue
+        bound = "" if least is None else " %s %g" % (">" if strict else ">=", least)
+        raise error("%s: %s%s must be a finite number%s%s, got %r"
+                    % (owner, prefix, name, " of " + unit if unit else "", bound, v))
+
+
+def check_integers(config: Any, names: Iterable[str], owner: str, least: int = 1,
+                   error: Type[BulletFloorSimError] = ConfigError, prefix: str = "") -> None:
+    """Raise ``error`` for the first of ``names`` that is not an integer (not a bool) at or
+    above ``least``: ``<owner>: <prefix><name> must be an integer >= <least>, got <value>``."""
+    for name in names:
+        v = getattr(config, name)
+        if not (isinstance(v, Integral) and not isinstance(v, bool) and v >= least):
+            raise error("%s: %s%s must be an integer >= %d, got %r" % (owner, prefix, name, least, v))
 
 
 def reject_unknown(doc: Mapping[str, Any], known: Tuple[str, ...], where: str) -> None:

@@ -31,7 +31,7 @@ from typing import Any, Dict, List, Optional, Tuple
 from ..errors import ConfigError
 from ..people.crowd.config import PeopleConfig, parse_people
 from .checks import (finite_positive as _finite_positive, is_number as _is_number,
-                     positive as _positive, reject_unknown as _reject_unknown,
+                     check_numbers as _check_numbers, reject_unknown as _reject_unknown,
                      section as _section)
 from .sensors import SENSORS, BatteryConfig, LaserConfig, OdometryConfig
 from .solidmap import MapHandling
@@ -81,9 +81,9 @@ class DriveConfig:
         if self.type not in DRIVES:
             raise ConfigError("%s: drive type %r unknown, expected one of %s"
                               % (where, self.type, ", ".join(sorted(DRIVES))))
-        _positive(self, where, ("max_linear", "max_lateral", "max_angular", "max_acc_linear",
-                                "max_acc_lateral", "max_acc_angular", "cmd_timeout",
-                                "absurd_factor"))
+        _check_numbers(self, ("max_linear", "max_lateral", "max_angular", "max_acc_linear",
+                             "max_acc_lateral", "max_acc_angular", "cmd_timeout",
+                             "absurd_factor"), where)
 
 
 @dataclass(frozen=True, init=False)

@@ -5,9 +5,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Tuple
 
-import numpy as np
-
 from ...errors import BulletFloorSimError
+from ...sim.checks import check_integers, check_numbers, is_number as _is_number
 
 __all__ = ["XY", "PredictionConfig", "PredictionError"]
 
@@ -90,24 +89,13 @@ class PredictionConfig:
 
     def check(self) -> None:
         """Raise PredictionError naming the first bad parameter."""
-        for name in ("goal_spacing", "min_progress"):
-            v = getattr(self, name)
-            if not (_is_number(v) and math.isfinite(v) and v > 0):
-                raise PredictionError("prediction: %s must be a finite number > 0, got %r"
-                                      % (name, v))
-        for name in ("beta", "length_exponent", "clearance", "margin", "stop_speed", "dwell_time",
-                     "snap_distance", "handover_time", "handover_speed"):
-            v = getattr(self, name)
-            if not (_is_number(v) and math.isfinite(v) and v >= 0):
-                raise PredictionError("prediction: %s must be a finite number >= 0, got %r"
-                                      % (name, v))
-        v = self.max_goals_per_region
-        if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 1):
-            raise PredictionError("prediction: max_goals_per_region must be an integer >= 1, "
-                                  "got %r" % (v,))
-        v = self.temperature
-        if not (_is_number(v) and math.isfinite(v) and v >= 1.0):
-            raise PredictionError("prediction: temperature must be a number >= 1, got %r" % (v,))
+        check_numbers(self, ("goal_spacing", "min_progress"), "prediction", error=PredictionError)
+        check_numbers(self, ("beta", "length_exponent", "clearance", "margin", "stop_speed",
+                             "dwell_time", "snap_distance", "handover_time", "handover_speed"),
+                      "prediction", strict=False, error=PredictionError)
+        check_integers(self, ("max_goals_per_region",), "prediction", error=PredictionError)
+        check_numbers(self, ("temperature",), "prediction", least=1.0, strict=False,
+                      error=PredictionError)
         v = self.prior_mix
         if not (_is_number(v) and 0.0 <= v < 1.0):
             raise PredictionError("prediction: prior_mix must be a number in [0, 1), got %r"
@@ -119,7 +107,7 @@ class PredictionConfig:
 
 
 # --------------------------------------------------------------------------------------------
-# the model
+# input checks
 # --------------------------------------------------------------------------------------------
 
 
@@ -132,12 +120,6 @@ def _check_xy(xy: Any, what: str) -> XY:
     if not ok:
         raise PredictionError("prediction: %s must be a finite (x, y), got %r" % (what, xy))
     return x, y
-
-
-def _is_number(v: Any) -> bool:
-    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
-
-
 
 
 def _quote(s: Any) -> str:

@@ -15,7 +15,8 @@ from ...data.rois import Roi, roi_polygon
 from ...geometry import wrap_angle
 from ..walker import RegionIndex, anchor
 from .calibration import calibrate
-from .config import PredictionConfig, PredictionError, _check_xy, _is_number, _quote
+from ...sim.checks import is_number as _is_number
+from .config import PredictionConfig, PredictionError, _check_xy, _quote
 
 __all__ = ["DestinationModel"]
 

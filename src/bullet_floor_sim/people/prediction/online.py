@@ -6,7 +6,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Dict, Mapping, Optional, Sequence, Set, Tuple
 
-from .config import XY, PredictionConfig, PredictionError, _is_number
+from ...sim.checks import is_number as _is_number
+from .config import XY, PredictionConfig, PredictionError
 from .model import _SLACK, DestinationModel
 
 __all__ = ["OnlinePredictor", "Prediction", "PredictorPool", "log_loss", "posterior_or_prior", "top1"]

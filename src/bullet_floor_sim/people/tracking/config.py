@@ -1,11 +1,11 @@
 """The tracker's parameters, checked. See the package doc."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 
 from ...errors import BulletFloorSimError
+from ...sim.checks import check_integers, check_numbers
 
 class TrackingError(BulletFloorSimError):
     """Bad tracker parameters or inputs (the message names the field or input)."""
@@ -66,27 +66,15 @@ class TrackerConfig:
 
     def check(self) -> None:
         """Raise TrackingError naming the first bad parameter."""
-        for name in ("static_tolerance", "min_size", "centre_offset", "min_travel"):
-            _number(self, name, 0.0, strict=False)
-        for name in ("cluster_gap", "max_size", "process_noise", "measurement_noise", "gate",
-                     "max_age", "tentative_max_age", "max_speed"):
-            _number(self, name, 0.0, strict=True)
-        for name in ("min_points", "confirm_hits"):
-            v = getattr(self, name)
-            if not (isinstance(v, int) and not isinstance(v, bool) and v >= 1):
-                raise TrackingError("tracker: %s must be an integer >= 1, got %r" % (name, v))
+        check_numbers(self, ("static_tolerance", "min_size", "centre_offset", "min_travel"),
+                      "tracker", strict=False, error=TrackingError)
+        check_numbers(self, ("cluster_gap", "max_size", "process_noise", "measurement_noise",
+                             "gate", "max_age", "tentative_max_age", "max_speed"),
+                      "tracker", error=TrackingError)
+        check_integers(self, ("min_points", "confirm_hits"), "tracker", error=TrackingError)
         if self.max_size < self.min_size:
             raise TrackingError("tracker: max_size (%g m) must be >= min_size (%g m)"
                                 % (self.max_size, self.min_size))
-
-
-def _number(cfg: TrackerConfig, name: str, low: float, strict: bool) -> None:
-    v = getattr(cfg, name)
-    ok = (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-          and (v > low if strict else v >= low))
-    if not ok:
-        raise TrackingError("tracker: %s must be a finite number %s %g, got %r"
-                            % (name, ">" if strict else ">=", low, v))
 
 
 # --------------------------------------------------------------------------------------------

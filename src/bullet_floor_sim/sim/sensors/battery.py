@@ -6,7 +6,7 @@ from typing import List, Sequence, Tuple
 
 import numpy as np
 
-from ..checks import positive
+from ..checks import check_numbers
 from ...errors import ConfigError
 from .base import NEVER, SensorKind
 
@@ -30,7 +30,7 @@ class BatteryConfig:
         if self.discharge_per_hour < 0.0:
             raise ConfigError("%s: discharge_per_hour must be >= 0, got %r"
                               % (where, self.discharge_per_hour))
-        positive(self, where, ("voltage_full", "voltage_empty", "capacity_ah"))
+        check_numbers(self, ("voltage_full", "voltage_empty", "capacity_ah"), where)
 
 
 class Battery:

@@ -11,7 +11,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from ..checks import positive
+from ..checks import check_numbers
 from ...errors import ConfigError
 from .base import NEVER, SensorKind
 
@@ -44,7 +44,7 @@ class LaserConfig:
 
     def validate(self, where: str) -> None:
         """Raise ConfigError if a value is out of range."""
-        positive(self, where, ("range_max", "fov", "resolution", "rate"))
+        check_numbers(self, ("range_max", "fov", "resolution", "rate"), where)
         if not 0.0 <= self.range_min < self.range_max:
             raise ConfigError("%s: range_min must be in [0, range_max), got %r"
                               % (where, self.range_min))

@@ -8,7 +8,7 @@ from typing import List, Optional, Sequence
 import numpy as np
 
 from .. import small
-from ..checks import positive
+from ..checks import check_numbers
 from ...errors import ConfigError
 from ...geometry import wrap_angles
 from .base import NEVER, SensorKind
@@ -37,7 +37,7 @@ class OdometryConfig:
         for k in ("noise_trans", "noise_rot", "noise_rot_per_m"):
             if getattr(self, k) < 0.0:
                 raise ConfigError("%s: %s must be >= 0, got %r" % (where, k, getattr(self, k)))
-        positive(self, where, ("rate",))
+        check_numbers(self, ("rate",), where)
 
 
 class Odometry:
