@@ -49,7 +49,7 @@ def check_integers(config: Any, names: Iterable[str], owner: str, least: int = 1
     above ``least``: ``<owner>: <prefix><name> must be an integer >= <least>, got <value>``."""
     for name in names:
         v = getattr(config, name)
-        if not (isinstance(v, Integral) and not isinstance(v, bool) and v >= least):
+        if not (isinstance(v, Integral) and not isinstance(v, bool) and int(v) >= least):
             raise error("%s: %s%s must be an integer >= %d, got %r" % (owner, prefix, name, least, v))
 
 
