@@ -8,11 +8,13 @@ import pytest
 
 from bullet_floor_sim.errors import BulletFloorSimError, ConfigError
 from bullet_floor_sim.nav.pursuit import FollowerConfig
+from bullet_floor_sim.people.crowd.forces import ForceConfig
 from bullet_floor_sim.people.follow_config import FollowConfig, FollowError
 from bullet_floor_sim.people.prediction.config import PredictionConfig, PredictionError
 from bullet_floor_sim.people.tracking.config import TrackerConfig, TrackingError
 from bullet_floor_sim.people.walker import WalkerConfig, WalkerError
 from bullet_floor_sim.sim.checks import check_integers, check_numbers
+from bullet_floor_sim.sim.sensors.odometry import OdometryConfig
 
 
 @dataclass
@@ -77,3 +79,12 @@ def test_integers_refuse_floats_bools_and_values_below_the_bound(value, ok):
 def test_the_configs_of_the_core_share_the_message(config, error, message):
     with pytest.raises(error, match="^" + re.escape(message)):
         config.check()
+
+
+@pytest.mark.parametrize("config, message", [
+    (OdometryConfig(noise_rot=-0.1), "w: noise_rot must be a finite number >= 0, got -0.1"),
+    (ForceConfig(tau=0.0), "w: tau must be a finite number > 0, got 0.0"),
+    (ForceConfig(horizon=float("nan")), "w: horizon must be a finite number >= 0, got nan")])
+def test_the_world_files_sections_share_it_too(config, message):
+    with pytest.raises(ConfigError, match="^" + re.escape(message) + "$"):
+        config.validate("w")

@@ -232,5 +232,5 @@ def test_legs_shorter_than_min_leg_path_are_counted_not_scored():
     r = ev.run(ev.EvalConfig(legs=2, seed=2, min_leg_path=1000.0, max_sim_time=90.0))
     assert r.legs == [] and r.short_legs >= 2 and r.failed_legs == 0
     assert "0 legs scored, 0 failed, %d too short to score" % r.short_legs in ev.format_table(r)
-    with pytest.raises(ev.EvaluationError, match="min_leg_path must be >= 0, got -1"):
+    with pytest.raises(ev.EvaluationError, match="min_leg_path must be a finite number >= 0, got -1"):
         ev.run(ev.EvalConfig(legs=2, min_leg_path=-1.0))

@@ -55,7 +55,7 @@ _GT, _GE = " must be a finite number > 0, got ", " must be a finite number >= 0,
     (RecorderParams(path_rate=-1.0), r"trajectory_recorder: ~path_rate" + _GE + r"-1\.0"),
     (RoiManagerParams(save_quiet=-0.5), r"roi_manager: ~save_quiet" + _GE + r"-0\.5"),
     (RoiManagerParams(new_roi_size=0.0), r"roi_manager: ~new_roi_size" + _GT + r"0\.0"),
-    (ViewerParams(max_points=1), r"~max_points 1: must be >= 2"),
+    (ViewerParams(max_points=1), r"^trajectory_viewer: ~max_points must be an integer >= 2, got 1$"),
     (ViewerParams(refresh_period=-2.0), r"~refresh_period" + _GE + r"-2\.0")])
 def test_each_nodes_parameters_check_names_the_bad_one(params, message):
     with pytest.raises(BulletFloorSimError, match=message):

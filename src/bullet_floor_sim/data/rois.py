@@ -27,6 +27,7 @@ from shapely.validation import explain_validity
 
 from ..errors import BulletFloorSimError
 from ..files import atomic_file
+from ..sim.checks import is_number as _is_number
 from ..yamlio import read_yaml
 
 __all__ = [
@@ -407,10 +408,6 @@ def random_point_inside(roi: Roi, rng: Optional[np.random.Generator] = None,
 
 def _quote(s: Any) -> str:
     return '"%s"' % s
-
-
-def _is_number(v: Any) -> bool:
-    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
 
 
 def _number_hint(p: Any) -> str:

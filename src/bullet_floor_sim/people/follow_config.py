@@ -7,8 +7,8 @@ import math
 from dataclasses import dataclass
 from typing import Optional, Tuple
 
-from ..sim.checks import check_integers, check_numbers
 from ..errors import BulletFloorSimError
+from ..sim.checks import check_integers, check_numbers
 
 __all__ = ["FollowError", "FollowConfig", "FollowDecision"]
 

@@ -47,7 +47,7 @@ from std_msgs.msg import Bool
 from ..mapping.frontiers import Explorer, ExplorerConfig
 from .convert import grid_from_msg, move_base_goal, planar
 from .node import run_node
-from .params import check_at_least, config_from_params
+from .params import check_params, config_from_params
 
 __all__ = ["main", "ExplorerParams"]
 
@@ -74,9 +74,9 @@ class ExplorerParams:
     finish_wait: float = 10.0
 
     def check(self) -> None:
-        check_at_least(self, "explorer", ("robot_radius", "min_frontier", "reach",
+        check_params(self, "explorer", ("robot_radius", "min_frontier", "reach",
                                           "goal_timeout", "finish_wait"))
-        check_at_least(self, "explorer", ("blacklist_radius", "min_distance", "lookahead",
+        check_params(self, "explorer", ("blacklist_radius", "min_distance", "lookahead",
                                           "view_range", "view_angle"),
                        strict=False)
 

@@ -39,7 +39,7 @@ from ..mapping.occupancy import MapperConfig
 from ..mapping.slam import ScanMatchingMapper, SlamConfig
 from .convert import occupancy_grid, planar
 from .node import quiet_at_shutdown, run_node
-from .params import check_at_least, config_from_params
+from .params import check_params, config_from_params
 
 __all__ = ["main", "MapperParams"]
 
@@ -60,12 +60,12 @@ class MapperParams:
     trace_range: float = 12.0
 
     def check(self) -> None:
-        check_at_least(self, "mapper", ("delta", "map_update_interval", "sigma",
+        check_params(self, "mapper", ("delta", "map_update_interval", "sigma",
                                         "transform_publish_period", "trace_range"))
         for field, name in GMAPPING_NAMES.items():
             v = getattr(self, field)
             if not (math.isfinite(v) and v >= 0):
-                raise BulletFloorSimError("mapper: ~%s must be a number >= 0, got %r"
+                raise BulletFloorSimError("mapper: ~%s must be a finite number >= 0, got %r"
                                           % (name, v))
 
 

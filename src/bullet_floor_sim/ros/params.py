@@ -11,7 +11,7 @@ from ..overrides import convert, with_changes
 from ..sim.checks import check_numbers
 from ..sim.solidmap import MapHandling
 
-__all__ = ["config_from_params", "check_at_least", "map_handling", "set_map_handling", "MAP_HANDLING_PARAM"]
+__all__ = ["config_from_params", "check_params", "map_handling", "set_map_handling", "MAP_HANDLING_PARAM"]
 
 # The world's map handling (world.yaml keys unknown and clean), set by the simulator before it
 # publishes /map, so every node that plans or tracks on /map reads the map as the simulator
@@ -39,10 +39,10 @@ def config_from_params(config: C, prefix: str = "~", names: Optional[Dict[str, s
     return with_changes(config, changes)   # (a frozen dataclass too)
 
 
-def check_at_least(params: Any, node: str, names: Sequence[str], strict: bool = True) -> None:
+def check_params(params: Any, node: str, names: Sequence[str], strict: bool = True) -> None:
     """Raise BulletFloorSimError ``<node>: ~<name> must be a finite number > 0, got <value>``
-    (``>= 0`` unless ``strict``) for the first of ``names``, attributes of a node's parameter
-    dataclass, that is not (sim/checks.check_numbers, the configs' own check)."""
+    for the first of ``names``, attributes of a node's parameter dataclass, that is not a
+    finite number > 0 (>= 0 unless ``strict``): sim/checks.check_numbers with the ``~``."""
     check_numbers(params, names, node, strict=strict, error=BulletFloorSimError, prefix="~")
 
 

@@ -56,7 +56,7 @@ from ..geometry import compose
 from ..sim.floormap import crop_known
 from ..sim.solidmap import while_mapping
 from .convert import grid_from_msg, planar, yaw as yaw_of
-from .params import check_at_least, config_from_params, map_handling
+from .params import check_params, config_from_params, map_handling
 from .node import StartupGrace, TfOnDemand, closed_at_shutdown, quiet_at_shutdown, run_node
 
 __all__ = ["main", "PathFollowerNode"]
@@ -89,12 +89,13 @@ class PathFollowerParams:
     allow_unknown: bool = False
 
     def check(self) -> None:
-        """Raises BulletFloorSimError naming the first parameter that is not a number > 0
-        (>= 0 for ``inflation_radius``: none)."""
+        """Raises BulletFloorSimError naming the first parameter that is not a finite number
+        > 0 (>= 0 for ``inflation_radius``, ``detour``, ``goal_taken_within`` and
+        ``reverse_within``: 0 turns each off)."""
         numbers = [f.name for f in fields(self) if isinstance(getattr(self, f.name), float)]
         zero_ok = ("inflation_radius", "detour", "goal_taken_within", "reverse_within")
-        check_at_least(self, "path_follower", [n for n in numbers if n not in zero_ok])
-        check_at_least(self, "path_follower", list(zero_ok), strict=False)
+        check_params(self, "path_follower", [n for n in numbers if n not in zero_ok])
+        check_params(self, "path_follower", list(zero_ok), strict=False)
         if self.localisation not in ("ground_truth", "tf"):
             raise BulletFloorSimError("path_follower: ~localisation must be ground_truth or tf, "
                                       "got %r" % self.localisation)

@@ -27,7 +27,6 @@ from __future__ import annotations
 import colorsys
 import functools
 import hashlib
-import math
 import sys
 import threading
 import time
@@ -47,6 +46,7 @@ from bullet_floor_sim.data import roi_edits as edits
 from bullet_floor_sim.data import roi_store as rs
 from bullet_floor_sim.sim.config import load_world_config, resolve_world
 from bullet_floor_sim.errors import BulletFloorSimError
+from bullet_floor_sim.sim.checks import check_numbers
 from bullet_floor_sim.sim.floormap import load_map
 from bullet_floor_sim.paths import worlds_dir
 from bullet_floor_sim.data.rois import Roi, RoiError, centroid, check_bounds, load_rois
@@ -54,7 +54,7 @@ from bullet_floor_sim.data.store import StoreError, StoreUnavailable, open_store
 from bullet_floor_sim.ros.convert import occupancy_grid
 from bullet_floor_sim.ros.soma import document_to_msg
 from bullet_floor_sim.ros.node import run_node
-from bullet_floor_sim.ros.params import check_at_least, config_from_params
+from bullet_floor_sim.ros.params import check_params, config_from_params
 from bullet_floor_sim.srv import (MapInfo, MapInfoResponse, SOMAQueryROIs,
                                   SOMAQueryROIsResponse)
 
@@ -97,11 +97,10 @@ class RoiManagerParams:
 
     def check(self) -> None:
         """Raises BulletFloorSimError naming the bad parameter."""
-        check_at_least(self, "roi_manager", ("new_roi_size", "save_max_wait"))
-        check_at_least(self, "roi_manager", ("save_quiet",), strict=False)
-        if not math.isfinite(self.sync_period):   # (0 or less: no sync)
-            raise BulletFloorSimError("roi_manager: ~sync_period %r: must be finite"
-                                      % (self.sync_period,))
+        check_params(self, "roi_manager", ("new_roi_size", "save_max_wait"))
+        check_params(self, "roi_manager", ("save_quiet",), strict=False)
+        check_numbers(self, ("sync_period",), "roi_manager", least=None,   # (0 or less: no sync)
+                      error=BulletFloorSimError, prefix="~")
 
 
 class RoiManagerNode:

@@ -64,7 +64,7 @@ from ..data.trajectory import (COLLECTION, DATABASE, DEFAULT_MAX_GAP, DEFAULT_MA
 from ..msg import People, Trajectory
 from .convert import chunk_to_msg, people_poses, pose_of_msg
 from .node import forward_store_log, quiet_at_shutdown, run_node
-from .params import check_at_least, config_from_params
+from .params import check_params, config_from_params
 from .soma import query_rois
 
 __all__ = ["main", "RecorderNode"]
@@ -116,8 +116,8 @@ class RecorderParams:
 
     def check(self) -> None:
         """Raises BulletFloorSimError naming the bad parameter."""
-        check_at_least(self, "trajectory_recorder", ("db_timeout", "db_retry_interval"))
-        check_at_least(self, "trajectory_recorder", ("path_rate", "rois_wait", "flush_every"),
+        check_params(self, "trajectory_recorder", ("db_timeout", "db_retry_interval"))
+        check_params(self, "trajectory_recorder", ("path_rate", "rois_wait", "flush_every"),
                        strict=False)   # flush_every 0: every pose
 
 

@@ -51,6 +51,7 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from ..errors import BulletFloorSimError
+from ..sim.checks import check_integers
 from ..data.store import StoreError, open_store
 from ..data.trajectory import (COLLECTION, DATABASE, Chunk, Joined, chunk_from_document,
                                ensure_indexes, join_chunks, select_chunks)
@@ -59,7 +60,7 @@ from ..srv import SelectTrajectories, SelectTrajectoriesResponse
 from .convert import pose_msgs
 from .node import closed_at_shutdown, forward_store_log, quiet_at_shutdown, run_node
 from .packed_markers import PackedMarkerArray, pack_marker, time_colours
-from .params import check_at_least, config_from_params
+from .params import check_params, config_from_params
 
 __all__ = ["main", "ViewerNode", "Selection", "decimate", "newest",
            "trajectory_colour"]
@@ -85,13 +86,13 @@ class ViewerParams:
 
     def check(self) -> None:
         """Raises BulletFloorSimError naming the bad parameter (the selection checks its own)."""
-        if self.max_points < 2:
-            raise BulletFloorSimError("~max_points %d: must be >= 2" % self.max_points)
-        if self.max_poses < 1:
-            raise BulletFloorSimError("~max_poses %d: must be >= 1" % self.max_poses)
-        check_at_least(self, "trajectory_viewer", ("line_width", "db_timeout",
+        check_integers(self, ("max_points",), "trajectory_viewer", least=2,
+                       error=BulletFloorSimError, prefix="~")
+        check_integers(self, ("max_poses",), "trajectory_viewer", error=BulletFloorSimError,
+                       prefix="~")
+        check_params(self, "trajectory_viewer", ("line_width", "db_timeout",
                                                    "publish_period"))
-        check_at_least(self, "trajectory_viewer", ("refresh_period",), strict=False)   # 0: never
+        check_params(self, "trajectory_viewer", ("refresh_period",), strict=False)   # 0: never
 
 
 @dataclass(frozen=True)

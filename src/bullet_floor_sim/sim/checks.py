@@ -1,7 +1,8 @@
 """Value checks shared by the world file's sections (config.py and each sensor's section),
-the config dataclasses of the core (follower, predictor, tracker, walker, path follower) and
-the nodes' ``~<name>`` parameters (``prefix="~"``), with one message for a field out of range:
-``<owner>: <name> must be a finite number > 0, got -1``."""
+the config dataclasses of the core (follower, predictor, tracker, walker, crowd, path
+follower, evaluation, gym) and the nodes' ``~<name>`` parameters (``prefix="~"``), with one
+wording for a field out of range: ``<owner>: <name> must be a finite number > 0, got -1``
+(``... a finite number of seconds > 0`` where a unit is given)."""
 from __future__ import annotations
 
 import math

@@ -23,6 +23,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from ..errors import MapError
+from .checks import is_number as _is_number
 from ..yamlio import read_yaml
 
 __all__ = [
@@ -236,10 +237,6 @@ def _read_yaml(path: str) -> Dict[str, Any]:
         "free_thresh": float(doc["free_thresh"]),
         "mode": mode,
     }
-
-
-def _is_number(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
 def _read_image(yaml_path: str, image_path: str) -> Tuple[np.ndarray, bool]:

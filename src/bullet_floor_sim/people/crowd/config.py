@@ -26,7 +26,7 @@ from dataclasses import dataclass, field, fields, replace
 from typing import Any, Dict, Optional, Tuple
 
 from ...errors import ConfigError
-from ...sim.checks import is_number, reject_unknown as _reject_unknown, section as _section
+from ...sim.checks import check_numbers, is_number, reject_unknown as _reject_unknown, section as _section
 from .forces import ForceConfig
 
 __all__ = ["BodyConfig", "GroupConfig", "PeopleConfig", "parse_people"]
@@ -54,10 +54,7 @@ class BodyConfig:
 
     def validate(self, where: str) -> None:
         """Raise ConfigError naming the first bad value."""
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if not (math.isfinite(v) and v > 0):
-                raise ConfigError("%s: %s must be a number > 0, got %r" % (where, f.name, v))
+        check_numbers(self, [f.name for f in fields(self)], where)
         if self.leg_spacing + 2 * self.leg_radius > 2 * self.radius:
             raise ConfigError("%s: the legs (leg_spacing %g + 2 x leg_radius %g) must fit in the "
                               "body (2 x radius %g)" % (where, self.leg_spacing, self.leg_radius,

@@ -20,13 +20,13 @@ costs about linearly in the number of people (crowd.py).
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Optional, Tuple
 
 import numpy as np
 
 from ...errors import ConfigError
+from ...sim.checks import check_numbers
 
 __all__ = ["ForceConfig", "driving", "repulsion", "wall_repulsion", "limit_speed"]
 
@@ -65,14 +65,9 @@ class ForceConfig:
 
     def validate(self, where: str) -> None:
         """Raise ConfigError naming the first bad value."""
-        for name in ("tau", "range", "wall_range", "cutoff", "max_speed_factor"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise ConfigError("%s: %s must be a number > 0, got %r" % (where, name, v))
-        for name in ("strength", "contact", "wall_strength", "pass_angle", "horizon"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v >= 0):
-                raise ConfigError("%s: %s must be a number >= 0, got %r" % (where, name, v))
+        check_numbers(self, ("tau", "range", "wall_range", "cutoff", "max_speed_factor"), where)
+        check_numbers(self, ("strength", "contact", "wall_strength", "pass_angle", "horizon"),
+                      where, strict=False)
         if not 0.0 <= self.anisotropy <= 1.0:
             raise ConfigError("%s: anisotropy must be in [0, 1], got %r"
                               % (where, self.anisotropy))

@@ -2,11 +2,11 @@
 the fractions, methods and pipelines it scores."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple
 
 from ...errors import BulletFloorSimError
+from ...sim.checks import check_integers, check_numbers
 from ...nav.pursuit import FollowerConfig
 from ..follow_config import FollowConfig
 from ..prediction import PredictionConfig
@@ -74,17 +74,11 @@ class EvalConfig:
     min_leg_path: float = 0.25
 
     def check(self) -> None:
-        if not (isinstance(self.legs, int) and self.legs >= 1):
-            raise EvaluationError("evaluate: legs must be an integer >= 1, got %r" % self.legs)
+        check_integers(self, ("legs",), "evaluate", error=EvaluationError)
         if self.walker == self.observer:
             raise EvaluationError("evaluate: walker and observer must be different robots")
-        for name in ("control_rate", "match_distance"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise EvaluationError("evaluate: %s must be > 0, got %r" % (name, v))
-        if not (math.isfinite(self.min_leg_path) and self.min_leg_path >= 0):
-            raise EvaluationError("evaluate: min_leg_path must be >= 0, got %r"
-                                  % self.min_leg_path)
+        check_numbers(self, ("control_rate", "match_distance"), "evaluate", error=EvaluationError)
+        check_numbers(self, ("min_leg_path",), "evaluate", strict=False, error=EvaluationError)
         if self.drive_config is not None:
             self.drive_config.check()
 

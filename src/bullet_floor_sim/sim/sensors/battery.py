@@ -27,9 +27,7 @@ class BatteryConfig:
         """Raise ConfigError if a value is out of range."""
         if not 0.0 <= self.initial <= 1.0:
             raise ConfigError("%s: initial must be in [0, 1], got %r" % (where, self.initial))
-        if self.discharge_per_hour < 0.0:
-            raise ConfigError("%s: discharge_per_hour must be >= 0, got %r"
-                              % (where, self.discharge_per_hour))
+        check_numbers(self, ("discharge_per_hour",), where, strict=False)
         check_numbers(self, ("voltage_full", "voltage_empty", "capacity_ah"), where)
 
 

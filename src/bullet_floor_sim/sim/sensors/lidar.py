@@ -50,8 +50,7 @@ class LaserConfig:
                               % (where, self.range_min))
         if self.fov > 360.0:
             raise ConfigError("%s: fov must be at most 360 degrees, got %r" % (where, self.fov))
-        if self.noise_std < 0.0:
-            raise ConfigError("%s: noise_std must be >= 0, got %r" % (where, self.noise_std))
+        check_numbers(self, ("noise_std",), where, strict=False)
 
 
 @dataclass(frozen=True)

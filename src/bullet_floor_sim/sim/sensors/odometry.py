@@ -9,7 +9,6 @@ import numpy as np
 
 from .. import small
 from ..checks import check_numbers
-from ...errors import ConfigError
 from ...geometry import wrap_angles
 from .base import NEVER, SensorKind
 
@@ -34,9 +33,7 @@ class OdometryConfig:
 
     def validate(self, where: str) -> None:
         """Raise ConfigError if a value is out of range."""
-        for k in ("noise_trans", "noise_rot", "noise_rot_per_m"):
-            if getattr(self, k) < 0.0:
-                raise ConfigError("%s: %s must be >= 0, got %r" % (where, k, getattr(self, k)))
+        check_numbers(self, ("noise_trans", "noise_rot", "noise_rot_per_m"), where, strict=False)
         check_numbers(self, ("rate",), where)
 
 
