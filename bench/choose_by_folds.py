@@ -8,8 +8,9 @@ with the best mean score (trk50 by default: each world's mean over the seeds, to
 decimals an EVAL line has) on the *other* worlds (ties: the shipped default, then the first
 value given) and scores that value on the world left out. Prints one markdown table: each
 value's score and tracked share per world, the fold's pick and its held-out score, the
-means, and each value's worst share of legs given up (the pick does not weigh legs given
-up: the table shows them beside it); then a ``FOLDS`` line.
+means, and each value's worst share of legs given up; then a ``FOLDS`` line. A value that
+gave up more than ``--max-given-up`` of its legs (the study's bar, 2 %) in a run on a
+world a fold learns from is not that fold's pick (the default always may be).
 
 The runs' EVAL lines are kept in ``--out DIR`` (default: one directory per commit under
 ~/.ros/bullet_floor_sim/folds; one file per value, a line as each task ends): a run cut
@@ -43,16 +44,21 @@ SCORES = ("trk25", "trk50", "trk75", "gt25", "gt50", "gt75", "margin", "tracked"
 TEXT = ("world", "modes")
 
 
-def leave_one_out(scores: Scores, worlds: Sequence[str]) -> Dict[str, str]:
+def leave_one_out(scores: Scores, worlds: Sequence[str], given_up: Optional[Scores] = None,
+                  limit: float = 1.0) -> Dict[str, str]:
     """For each world, the value (a key of ``scores``, in order of preference on a tie)
-    with the best summed score over the other worlds."""
+    with the best summed score over the other worlds, among the first value and those whose
+    ``given_up`` (value -> world -> the worst share of legs given up) is at most ``limit``
+    on every other world."""
     values = list(scores)
     picks = {}
     for w in worlds:
         others = [o for o in worlds if o != w]
+        allowed = [v for i, v in enumerate(values) if i == 0 or given_up is None
+                   or all(given_up[v][o] <= limit for o in others)]
         # summed in millionths, so that a tie is one whatever the order of the sum
-        picks[w] = max(values, key=lambda v: (sum(round(1e6 * scores[v][o]) for o in others),
-                                              -values.index(v)))
+        picks[w] = max(allowed, key=lambda v: (sum(round(1e6 * scores[v][o]) for o in others),
+                                               -values.index(v)))
     return picks
 
 
@@ -125,11 +131,13 @@ def pooled(runs: Dict[Tuple[str, int], dict], key: str, world: str, seeds: List[
 
 
 def table(runs: Dict[str, Dict[Tuple[str, int], dict]], labels: List[str], worlds: List[str],
-          seeds: List[int], score: str) -> List[str]:
+          seeds: List[int], score: str, max_given_up: float = 1.0) -> List[str]:
     """The markdown lines of the folds (``runs``: label -> its EVAL fields)."""
     scores = {v: {w: pooled(runs[v], score, w, seeds) for w in worlds} for v in labels}
     tracked = {v: {w: pooled(runs[v], "tracked", w, seeds) for w in worlds} for v in labels}
-    picks = leave_one_out(scores, worlds)
+    lost = {v: {w: max(float(runs[v][w, s]["given_up"]) for s in seeds) for w in worlds}
+            for v in labels}
+    picks = leave_one_out(scores, worlds, lost, max_given_up)
     head = (["world"] + ["%s %s" % (score, v) for v in labels]
             + ["tracked %s" % v for v in labels] + ["fold's pick", "held out %s" % score])
     out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
@@ -151,6 +159,12 @@ def table(runs: Dict[str, Dict[Tuple[str, int], dict]], labels: List[str], world
     out += ["given up, worst run: %s" % ", ".join(
         "%s %.1f %% (%s seed %d)" % (v, 100 * g, w, s) if g > 0 else "%s none" % v
         for v, (g, w, s) in worst.items())]
+    barred = ["%s in %d" % (v, sum(1 for w in worlds if any(lost[v][o] > max_given_up
+                                                          for o in worlds if o != w)))
+              for v in labels[1:] if any(g > max_given_up for g in lost[v].values())]
+    if barred:
+        out.append("not a fold's pick for giving up more than %.1f %% of the legs on a world "
+                   "it learns from: %s fold(s)" % (100 * max_given_up, ", ".join(barred)))
     out.append("FOLDS score=%s held_out=%.4f default=%.4f picks=\"%s\"" % (
         score, held, sum(scores[labels[0]].values()) / n, counts))
     return out
@@ -167,11 +181,16 @@ def main() -> int:
     p.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     p.add_argument("--score", default="trk50", choices=SCORES,
                    help="the EVAL field the folds maximise (default: trk50)")
+    p.add_argument("--max-given-up", type=float, default=0.02, metavar="SHARE",
+                   help="a value that gave up more than this share of its legs on a world a "
+                        "fold learns from is not that fold's pick (default: 0.02, the bar)")
     p.add_argument("--out", default="", metavar="DIR",
                    help="where the runs' EVAL lines are kept (default: "
                         "~/.ros/bullet_floor_sim/folds/<commit>)")
     args = p.parse_args()
     section, _, field = args.param.partition(".")
+    if not 0.0 <= args.max_given_up <= 1.0:
+        p.error("--max-given-up must be a share in [0, 1], got %g" % args.max_given_up)
     try:
         default = shipped_default(args.param)
         values = candidates(args.param, args.values, default)
@@ -197,7 +216,7 @@ def main() -> int:
                                 args.legs, args.workers)
     print("%s, %d legs, seed(s) %s; each fold keeps the value with the best mean %s on the "
           "other worlds\n" % (args.param, args.legs, " ".join(map(str, args.seed)), args.score))
-    for line in table(runs, labels, names, args.seed, args.score):
+    for line in table(runs, labels, names, args.seed, args.score, args.max_given_up):
         print(line)
     return 0
 
