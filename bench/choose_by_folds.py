@@ -8,9 +8,10 @@ with the best mean score (trk50 by default: each world's mean over the seeds, to
 decimals an EVAL line has) on the *other* worlds (ties: the shipped default, then the first
 value given) and scores that value on the world left out. Prints one markdown table: each
 value's score and tracked share per world, the fold's pick and its held-out score, the
-means, and each value's worst share of legs given up; then a ``FOLDS`` line. A value that
-gave up more than ``--max-given-up`` of its legs (the study's bar, 2 %) in a run on a
-world a fold learns from is not that fold's pick (the default always may be).
+means, each value's worst share of legs given up, which values the given-up bar kept out
+of how many folds, and a ``FOLDS`` line. A value that gave up more than ``--max-given-up``
+of its legs (the study's bar, 2 %) in any one run on a world a fold learns from is not that
+fold's pick (the shipped default always may be).
 
 The runs' EVAL lines are kept in ``--out DIR`` (default: one directory per commit under
 ~/.ros/bullet_floor_sim/folds; one file per value, a line as each task ends): a run cut
@@ -163,7 +164,7 @@ def table(runs: Dict[str, Dict[Tuple[str, int], dict]], labels: List[str], world
                                                           for o in worlds if o != w)))
               for v in labels[1:] if any(g > max_given_up for g in lost[v].values())]
     if barred:
-        out.append("not a fold's pick for giving up more than %.1f %% of the legs on a world "
+        out.append("not a fold's pick for giving up more than %g %% of the legs on a world "
                    "it learns from: %s fold(s)" % (100 * max_given_up, ", ".join(barred)))
     out.append("FOLDS score=%s held_out=%.4f default=%.4f picks=\"%s\"" % (
         score, held, sum(scores[labels[0]].values()) / n, counts))
@@ -182,8 +183,9 @@ def main() -> int:
     p.add_argument("--score", default="trk50", choices=SCORES,
                    help="the EVAL field the folds maximise (default: trk50)")
     p.add_argument("--max-given-up", type=float, default=0.02, metavar="SHARE",
-                   help="a value that gave up more than this share of its legs on a world a "
-                        "fold learns from is not that fold's pick (default: 0.02, the bar)")
+                   help="a value that gave up more than this share of its legs in any one run "
+                        "on a world a fold learns from is not that fold's pick (the shipped "
+                        "default always may be; default: 0.02, the study's bar)")
     p.add_argument("--out", default="", metavar="DIR",
                    help="where the runs' EVAL lines are kept (default: "
                         "~/.ros/bullet_floor_sim/folds/<commit>)")
@@ -215,7 +217,9 @@ def main() -> int:
         runs[label] = run_value(os.path.join(out, name + ".log"), sets, worlds, args.seed,
                                 args.legs, args.workers)
     print("%s, %d legs, seed(s) %s; each fold keeps the value with the best mean %s on the "
-          "other worlds\n" % (args.param, args.legs, " ".join(map(str, args.seed)), args.score))
+          "other worlds, of those that gave up at most %g %% of the legs there\n"
+          % (args.param, args.legs, " ".join(map(str, args.seed)), args.score,
+             100 * args.max_given_up))
     for line in table(runs, labels, names, args.seed, args.score, args.max_given_up):
         print(line)
     return 0
