@@ -75,10 +75,9 @@ class ExplorerParams:
 
     def check(self) -> None:
         check_params(self, "explorer", ("robot_radius", "min_frontier", "reach",
-                                          "goal_timeout", "finish_wait"))
+                                        "goal_timeout", "finish_wait"))
         check_params(self, "explorer", ("blacklist_radius", "min_distance", "lookahead",
-                                          "view_range", "view_angle"),
-                       strict=False)
+                                        "view_range", "view_angle"), strict=False)
 
 
 class ExplorerNode:

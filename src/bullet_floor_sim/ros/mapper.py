@@ -61,7 +61,7 @@ class MapperParams:
 
     def check(self) -> None:
         check_params(self, "mapper", ("delta", "map_update_interval", "sigma",
-                                        "transform_publish_period", "trace_range"))
+                                      "transform_publish_period", "trace_range"))
         for field, name in GMAPPING_NAMES.items():
             v = getattr(self, field)
             if not (math.isfinite(v) and v >= 0):

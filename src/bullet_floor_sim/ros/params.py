@@ -8,10 +8,11 @@ import rospy
 
 from ..errors import BulletFloorSimError, ConfigError
 from ..overrides import convert, with_changes
-from ..sim.checks import check_numbers
+from ..sim.checks import check_integers, check_numbers
 from ..sim.solidmap import MapHandling
 
-__all__ = ["config_from_params", "check_params", "map_handling", "set_map_handling", "MAP_HANDLING_PARAM"]
+__all__ = ["config_from_params", "check_params", "check_int_params", "map_handling",
+           "set_map_handling", "MAP_HANDLING_PARAM"]
 
 # The world's map handling (world.yaml keys unknown and clean), set by the simulator before it
 # publishes /map, so every node that plans or tracks on /map reads the map as the simulator
@@ -39,11 +40,20 @@ def config_from_params(config: C, prefix: str = "~", names: Optional[Dict[str, s
     return with_changes(config, changes)   # (a frozen dataclass too)
 
 
-def check_params(params: Any, node: str, names: Sequence[str], strict: bool = True) -> None:
+def check_params(params: Any, node: str, names: Sequence[str], strict: bool = True,
+                 least: Optional[float] = 0.0) -> None:
     """Raise BulletFloorSimError ``<node>: ~<name> must be a finite number > 0, got <value>``
     for the first of ``names``, attributes of a node's parameter dataclass, that is not a
-    finite number > 0 (>= 0 unless ``strict``): sim/checks.check_numbers with the ``~``."""
-    check_numbers(params, names, node, strict=strict, error=BulletFloorSimError, prefix="~")
+    finite number above ``least`` (at it too unless ``strict``; any finite number when None):
+    sim/checks.check_numbers with the ``~``."""
+    check_numbers(params, names, node, least=least, strict=strict, error=BulletFloorSimError,
+                  prefix="~")
+
+
+def check_int_params(params: Any, node: str, names: Sequence[str], least: int = 1) -> None:
+    """As :func:`check_params` for integer parameters: ``~<name> must be an integer >=
+    <least>`` (sim/checks.check_integers with the ``~``)."""
+    check_integers(params, names, node, least=least, error=BulletFloorSimError, prefix="~")
 
 
 def set_map_handling(handling: MapHandling) -> None:

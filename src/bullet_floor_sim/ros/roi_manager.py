@@ -46,7 +46,6 @@ from bullet_floor_sim.data import roi_edits as edits
 from bullet_floor_sim.data import roi_store as rs
 from bullet_floor_sim.sim.config import load_world_config, resolve_world
 from bullet_floor_sim.errors import BulletFloorSimError
-from bullet_floor_sim.sim.checks import check_numbers
 from bullet_floor_sim.sim.floormap import load_map
 from bullet_floor_sim.paths import worlds_dir
 from bullet_floor_sim.data.rois import Roi, RoiError, centroid, check_bounds, load_rois
@@ -99,8 +98,7 @@ class RoiManagerParams:
         """Raises BulletFloorSimError naming the bad parameter."""
         check_params(self, "roi_manager", ("new_roi_size", "save_max_wait"))
         check_params(self, "roi_manager", ("save_quiet",), strict=False)
-        check_numbers(self, ("sync_period",), "roi_manager", least=None,   # (0 or less: no sync)
-                      error=BulletFloorSimError, prefix="~")
+        check_params(self, "roi_manager", ("sync_period",), least=None)   # 0 or less: no sync
 
 
 class RoiManagerNode:

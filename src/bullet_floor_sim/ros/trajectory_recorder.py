@@ -118,7 +118,7 @@ class RecorderParams:
         """Raises BulletFloorSimError naming the bad parameter."""
         check_params(self, "trajectory_recorder", ("db_timeout", "db_retry_interval"))
         check_params(self, "trajectory_recorder", ("path_rate", "rois_wait", "flush_every"),
-                       strict=False)   # flush_every 0: every pose
+                     strict=False)   # flush_every 0: every pose
 
 
 def robot_of_topic(topic: str) -> str:

@@ -51,7 +51,6 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from ..errors import BulletFloorSimError
-from ..sim.checks import check_integers
 from ..data.store import StoreError, open_store
 from ..data.trajectory import (COLLECTION, DATABASE, Chunk, Joined, chunk_from_document,
                                ensure_indexes, join_chunks, select_chunks)
@@ -60,7 +59,7 @@ from ..srv import SelectTrajectories, SelectTrajectoriesResponse
 from .convert import pose_msgs
 from .node import closed_at_shutdown, forward_store_log, quiet_at_shutdown, run_node
 from .packed_markers import PackedMarkerArray, pack_marker, time_colours
-from .params import check_params, config_from_params
+from .params import check_int_params, check_params, config_from_params
 
 __all__ = ["main", "ViewerNode", "Selection", "decimate", "newest",
            "trajectory_colour"]
@@ -86,12 +85,9 @@ class ViewerParams:
 
     def check(self) -> None:
         """Raises BulletFloorSimError naming the bad parameter (the selection checks its own)."""
-        check_integers(self, ("max_points",), "trajectory_viewer", least=2,
-                       error=BulletFloorSimError, prefix="~")
-        check_integers(self, ("max_poses",), "trajectory_viewer", error=BulletFloorSimError,
-                       prefix="~")
-        check_params(self, "trajectory_viewer", ("line_width", "db_timeout",
-                                                   "publish_period"))
+        check_int_params(self, "trajectory_viewer", ("max_points",), least=2)
+        check_int_params(self, "trajectory_viewer", ("max_poses",))
+        check_params(self, "trajectory_viewer", ("line_width", "db_timeout", "publish_period"))
         check_params(self, "trajectory_viewer", ("refresh_period",), strict=False)   # 0: never
 
 

@@ -82,8 +82,8 @@ class DriveConfig:
             raise ConfigError("%s: drive type %r unknown, expected one of %s"
                               % (where, self.type, ", ".join(sorted(DRIVES))))
         _check_numbers(self, ("max_linear", "max_lateral", "max_angular", "max_acc_linear",
-                             "max_acc_lateral", "max_acc_angular", "cmd_timeout",
-                             "absurd_factor"), where)
+                              "max_acc_lateral", "max_acc_angular", "cmd_timeout",
+                              "absurd_factor"), where)
 
 
 @dataclass(frozen=True, init=False)
