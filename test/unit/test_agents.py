@@ -22,7 +22,7 @@ from bullet_floor_sim.people.markov import MarkovChain
 from bullet_floor_sim.people.prediction import DestinationModel, PredictionConfig, PredictorPool
 from bullet_floor_sim.people.tracking import TrackerConfig
 from bullet_floor_sim.people.walker import GoalSampler, Walker, WalkerConfig, WalkerError
-from bullet_floor_sim.sim.floormap import load_map
+from bullet_floor_sim.sim.floormap import load_map, map_from_grid
 
 from test_follow import hall
 from test_prediction import GOALS, corridor_chain, corridor_map, corridor_rois
@@ -305,6 +305,36 @@ def test_predictor_agent_searches_a_corridor_from_its_lookouts_not_its_end():
     # search_sight 0: every goal point is a lookout (the nearest goal point, as before)
     assert len(PredictorAgent(model, FollowConfig(search_sight=0.0)).lookouts("corridor")) \
         == len(goals)
+
+
+def cells_(metres):
+    return int(round(metres / 0.05))
+
+
+def test_a_region_a_wall_cuts_in_two_is_searched_from_the_side_the_target_was_lost_on():
+    """mit_csail: a region's lookouts lay across a wall from where the walker was lost (that
+    side had more goal points), nearest as the crow flies but with no way there; the observer
+    took the goal that failed at once for the search point reached. The search point is now
+    one of the region's lookouts on the target's side of the wall."""
+    g = np.zeros((cells_(6.0), cells_(12.0)), dtype=np.int8)
+    g[:2, :] = g[-2:, :] = g[:, :2] = g[:, -2:] = 100
+    g[:, cells_(6.0):cells_(6.1)] = 100              # a wall from end to end: two halves
+    grid = PlanningGrid(map_from_grid(g, 0.05))
+    rois = [Roi(id="R", config="1", type="room", map_name="m",
+                vertices=[(0.1, 0.1), (11.9, 0.1), (11.9, 5.9), (0.1, 5.9)]),
+            Roi(id="L", config="1", type="room", map_name="m",
+                vertices=[(0.1, 0.1), (1.0, 0.1), (1.0, 5.9), (0.1, 5.9)])]
+    west, east = [(3.0, 2.0), (3.0, 4.0)], [(8.0, 2.0), (8.0, 4.0), (10.0, 2.0), (10.0, 4.0)]
+    model = DestinationModel(grid, rois, MarkovChain.from_neighbours(["L", "R"], {"L": ["R"]}),
+                             goal_points={"R": west + east, "L": [(0.6, 3.0)]})
+    agent = PredictorAgent(model)
+    assert {tuple(p) for p in agent.lookouts("R")} == set(east)   # the side with more
+    for x, side in ((5.5, west), (6.6, east)):    # lost 0.5 m either side of the wall
+        step = None
+        for k in range(10):
+            step = agent.tick(0.1 * k, [(1, x, 3.0, 0.0, 0.0)])
+        _, plan = step.destinations[1]
+        assert tuple(dict(plan)["R"]) in side
 
 
 # --------------------------------------------------------------------------------------------

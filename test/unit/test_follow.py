@@ -1204,9 +1204,30 @@ def test_after_the_plan_a_search_watches_at_the_hub_by_turns_with_the_patrol():
     assert any("patrolling" in r for r, _ in goals)
 
 
+def test_a_search_point_the_observer_did_not_get_to_is_not_taken_for_reached():
+    """mit_csail: a goal with no way to it ends at once; the observer looked round 3.5 m
+    from the search point "at region 1's search point", again and again. Now a place more
+    than a metre off is not reached: on to the next region of the plan."""
+    grid = hall(20.0, 3.0)
+    cfg = FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=1, trail=0.0,
+                       patrol_sight=0.0)
+    fb = FollowBehaviour(grid, cfg)
+    plan = [("7", (18.0, 1.5)), ("8", (10.0, 1.5))]
+    fb.update(0.0, (2.0, 2.0, 0.0), (6.0, 2.0, 0.0, 0.0))
+    robot = (2.0, 2.0, 0.0)
+    d = fb.update(2.0, robot, None, plan)
+    assert d.goal[:2] == (18.0, 1.5)
+    d = fb.update(2.5, robot, None, plan, goal_done=True)      # it never moved
+    assert d.reason.startswith("region 7's search point not reached (16.0 m short); ")
+    assert d.goal[:2] == (10.0, 1.5) and "region 8" in d.reason
+    d = fb.update(3.0, (9.3, 1.5, 0.0), None, plan, goal_done=True)   # 0.7 m off: there
+    assert d.reason == "at region 8's search point: looking round"
+
+
 def test_a_hub_the_observer_did_not_get_to_is_not_watched():
-    """The way to the hub ends where the observer stands, 10 m short of it: it looks round
-    there once, as at any goal, but keeps no watch there; the patrol follows."""
+    """The way to the hub ends where the observer stands, 10 m short of it: it neither looks
+    round there nor keeps a watch (a place more than a metre off is not reached); the patrol
+    follows at once."""
     grid = hall(20.0, 3.0)
     cfg = FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=2, trail=0.0,
                        patrol_sight=0.0, watch=10.0)
@@ -1224,6 +1245,6 @@ def test_a_hub_the_observer_did_not_get_to_is_not_watched():
         d = fb.update(t, robot, None, plan, goal_done=d.goal is not None)
     went = reasons.index(next(r for r in reasons if "watching at the place" in r))
     assert robot != (8.05, 1.45)
-    assert not any("watching at hub" in r for r in reasons)
-    assert "at hub 1: looking round" in reasons[went + 1]
-    assert "patrolling" in reasons[went + 2]
+    assert not any("at hub 1" in r or "watching at hub" in r for r in reasons[:went + 2])
+    assert reasons[went + 1].startswith("hub 1 not reached (10.0 m short); ")
+    assert "patrolling" in reasons[went + 1]

@@ -512,9 +512,12 @@ def test_a_stalled_robot_backs_off_a_cell_nearer_a_wall_but_not_into_it():
         assert back < min(r, now) and (back >= min(r, now) - 0.05) == backs
         nav = Navigator(grid, PathFollower())
         nav.start((1.0, 1.5, 0.0), (4.0, 1.5), 0.0)
-        said = {nav.update((1.0, 1.5, 0.0), None, 0.1 * k).message for k in range(80)}
-        assert ("backing up" in said) == backs
-        assert ("nudging forward" in said) != backs   # then only forward is clear
+        said = [nav.update((1.0, 1.5, 0.0), None, 0.1 * k).message for k in range(80)]
+        moves = [m for m in said if m in ("backing up", "nudging forward")]
+        # back first where it may; else only forward is clear (and a back-off that did
+        # not move it is followed by a nudge forward)
+        assert moves[0] == ("backing up" if backs else "nudging forward")
+        assert ("backing up" in moves) == backs
 
 
 def test_a_robot_boxed_in_by_cautious_checks_eases_out_the_roomier_way():
@@ -538,6 +541,42 @@ def test_a_robot_boxed_in_by_cautious_checks_eases_out_the_roomier_way():
     assert not any(m == "backing up" for _, m, _ in said)   # nearer the stub: not that way
     stalls = [t for t, m, _ in said if m == "stalled"]
     assert len([t for t in stalls if t < eased[0][0]]) == 2   # a plan again, twice, first
+
+
+def test_a_back_off_that_did_not_move_the_robot_is_followed_by_a_nudge_forward():
+    """Pressed against something the scan does not show (behind it: the lidar looks ahead),
+    a back-off does not move the robot; the next move off is forward, and they alternate."""
+    g = np.zeros((60, 100), dtype=np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+    grid = PlanningGrid(map_from_grid(g, 0.05))
+    nav = Navigator(grid, PathFollower())
+    nav.start((1.5, 1.5, 0.0), (1.5, 2.5), 0.0)    # to its left: it turns first
+    said = [nav.update((1.5, 1.5, 0.0), None, 0.1 * k).message for k in range(200)]
+    moves = [m for k, m in enumerate(said) if m != said[k - 1]
+             and m in ("backing up", "nudging forward")]
+    assert moves[:4] == ["backing up", "nudging forward"] * 2
+
+
+def test_two_robots_backed_into_each_other_nudge_forward_apart_and_arrive():
+    """mit_csail: the observer backed blind into the walker; the two octagons touching could
+    neither turn (a corner would press in) nor back off (into each other, unseen behind), and
+    each backed off again and again until both gave up, three legs in a row. Back to back and
+    touching, each turning to a goal behind the other: both now nudge forward and arrive."""
+    for a0 in (0.0, 0.4):
+        world = World.from_name("simple", seed=1, physics_rate=100.0)
+        try:
+            for i, pose in enumerate([(2.5, 2.5, a0), (1.9, 2.5, math.pi + 0.3)]):
+                world.pose[i] = world.spawn[i] = pose
+            world.reset()
+            assert world.radius[0] + world.radius[1] > 0.6 + 0.05   # pressed together
+            grid = PlanningGrid(world.fmap)
+            navs = [Navigator(grid, PathFollower()), Navigator(grid, PathFollower())]
+            goals = [(1.2, 3.4, None), (3.5, 0.6, None)]
+            out, _ = _drive(world, navs, goals, limit=60.0)
+            for state, t, err, _pose in out:
+                assert state == "succeeded" and err < 0.2 and t < 30.0, out
+        finally:
+            world.close()
 
 
 def test_a_wedged_robot_nudges_forward_when_behind_is_not_clear_then_gives_up():

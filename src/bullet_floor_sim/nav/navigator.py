@@ -167,7 +167,8 @@ class NavigatorConfig:
             for this long -> stalled (pressed against another robot the scan does not show
             ahead): plan again at once, around the obstacles in the scan; stalled again soon
             after (it cannot even turn): back up 0.15 m when that brings it no nearer a wall
-            of the map and the scan shows nothing behind.
+            of the map and the scan shows nothing behind; a back-off that did not move it
+            is followed by a nudge forward, and the other way round.
         give_way: when no path passes what blocks it, yield at once (the observer): retreat
             to the nearest passing place (nav/passing.py: out of the way of the narrow
             passage's middle, within ``passing_reach`` m), else to the nearest free place (a
@@ -288,6 +289,7 @@ class Navigator:
         self._last_stall = -math.inf
         self._stuck: Optional[Tuple[float, float, float, float]] = None  # first stall: t, pose
         self._nudge = -1.0                        # -1 backing up, +1 nudging forward
+        self._moved_off: Optional[Tuple[float, float, float, float]] = None  # last: sign, t, x, y
         self._boxed = 0     # stalls in a row with neither way clear
         self._resume_at: Optional[float] = None   # out of the way: when to go on to the goal
         self.retreats = 0
@@ -444,9 +446,10 @@ class Navigator:
                   cmd: FollowerCommand) -> NavStatus:
         """Stalled: plan again around what the scan shows; stalled again soon after (it cannot
         even turn: pressed against a robot, or wedged on a wall corner), back off a little, or
-        nudge forward when only that is clear; stalled without getting 0.25 m away (more than a
-        back-off or nudge) or turning 0.3 rad, and without progress to the goal, for
-        blocked_timeout, abort (it waited in place for ever before)."""
+        nudge forward when only that is clear or the last back-off did not move it; stalled
+        without getting 0.25 m away (more than a back-off or nudge) or turning 0.3 rad, and
+        without progress to the goal, for blocked_timeout, abort (it waited in place for ever
+        before)."""
         cfg = self.config
         self.stalls += 1
         backing = cmd.state == "reversing"   # to a goal behind (FollowerConfig.reverse_within)
@@ -463,11 +466,12 @@ class Navigator:
         again = now - self._last_stall < 3.0 * cfg.stall_time
         self._last_stall = now
         # back off, or nudge forward first when it stalled backing up (into what it cannot
-        # see behind it)
-        for sign in ((1.0, -1.0) if backing else (-1.0, 1.0)):
-            if again and self._clear_behind(pose, obstacles, sign):
+        # see behind it); never again the way its last move off went without moving it
+        refused = self._refused_way(pose, now)
+        for sign in ((1.0, -1.0) if backing or refused < 0 else (-1.0, 1.0)):
+            if again and sign != refused and self._clear_behind(pose, obstacles, sign):
                 self._boxed = 0
-                return self._back_off(sign, now, cmd)
+                return self._back_off(sign, pose, now, cmd)
         if again:
             self._boxed += 1
             if self._boxed >= _BOXED_STALLS:
@@ -475,7 +479,7 @@ class Navigator:
                 # cell nearer a wall), and it cannot turn: off the way with more room on
                 # the map; a move that would press into something is refused as ever
                 self._boxed = 0
-                return self._back_off(self._roomier_way(pose), now, cmd)
+                return self._back_off(self._roomier_way(pose), pose, now, cmd)
         self._replan_around(pose, obstacles)
         return NavStatus(0.0, 0.0, "active", "stalled", cmd.distance_to_goal)
 
@@ -501,11 +505,25 @@ class Navigator:
         return (now - self._taken_since >= _TAKEN_FOR
                 and now - self._best_t >= cfg.deadlock_time)
 
-    def _back_off(self, sign: float, now: float, cmd: FollowerCommand) -> NavStatus:
+    def _back_off(self, sign: float, pose: Sequence[float], now: float,
+                  cmd: FollowerCommand) -> NavStatus:
         """Back up (``sign`` -1) or nudge forward (+1) for ``_BACKUP_TIME``."""
         self._backup_until, self._nudge = now + _BACKUP_TIME, sign
+        self._moved_off = (sign, now, float(pose[0]), float(pose[1]))
         return NavStatus(sign * _BACKUP_SPEED, 0.0, "active",
                          "backing up" if sign < 0 else "nudging forward", cmd.distance_to_goal)
+
+    def _refused_way(self, pose: Sequence[float], now: float) -> float:
+        """The sign of the last back-off or nudge when it ended without moving the robot 2 cm
+        and this stall came right after it (0: none such). What it pressed into lies that
+        way, unseen (a robot whose lidar looks ahead is blind behind): the way out is the
+        other. Two robots that had backed into each other backed again and again, each
+        into the other, until both gave up (mit_csail, three legs in a row)."""
+        last = self._moved_off
+        if last is None or now - last[1] > _BACKUP_TIME + 3.0 * self.config.stall_time:
+            return 0.0
+        moved = math.hypot(float(pose[0]) - last[2], float(pose[1]) - last[3])
+        return last[0] if moved < 0.02 else 0.0
 
     def _roomier_way(self, pose: Sequence[float]) -> float:
         """-1 (back) or +1 (forward): the way whose back-off ends further from the map's

@@ -28,7 +28,7 @@ from .follow import FollowBehaviour, FollowConfig, FollowDecision
 from .search import SearchPlan, TrackLike, lookout_points, pick_target, search_plan
 from .prediction import DestinationModel, Prediction, PredictorPool
 from .tracking import StaticMap, Track, Tracker, TrackerConfig, detect, scan_points
-from .walker import Leg, Walker, WalkerError
+from .walker import GoalSampler, Leg, Walker, WalkerError
 
 __all__ = ["WalkerAgent", "WalkerStep", "REGOAL_WITHIN", "MAX_REGOALS", "TrackerAgent",
            "TrackerStep", "PredictorAgent", "PredictorStep", "FollowerAgent", "FollowerStep",
@@ -334,12 +334,40 @@ class PredictorAgent:
         self.pool = PredictorPool(model)
         self.last_t = -math.inf
         # each region's lookouts, made here (the ROS node builds the agent in its model
-        # thread, not in a track callback): 24 goal points take about 4 ms a region
+        # thread, not in a track callback): 24 goal points take about 4 ms a region; and
+        # those of each part of the floor its goal points lie in (a wall can cut a region
+        # in two, and its lookouts lie on the side with more points)
+        self._floor = GoalSampler(model.grid)
         self._lookouts: Dict[str, np.ndarray] = {}
+        self._part_lookouts: Dict[str, Dict[int, np.ndarray]] = {}
         for region in model.chain.ids:
-            pts = lookout_points(model.grid, model.goals(region), self.follow.search_sight)
+            self._lookouts[region], self._part_lookouts[region] = self._region_lookouts(
+                model.goals(region))
+
+    def _region_lookouts(self, goals: np.ndarray) -> Tuple[np.ndarray, Dict[int, np.ndarray]]:
+        """A region's lookouts (people/search.lookout_points of its goal points), and per
+        part of the floor (GoalSampler's components) the lookouts of its points there."""
+        grid, sight = self.model.grid, self.follow.search_sight
+        every = lookout_points(grid, goals, sight)
+        every.setflags(write=False)
+        cells = [grid.to_cell(float(x), float(y)) for x, y in goals]
+        part = np.array([int(self._floor.labels[r, c]) if grid.inside(c, r) else 0
+                         for c, r in cells], dtype=np.int64)
+        by_part = {}
+        for k in np.unique(part[part > 0]).tolist():
+            pts = every if (part == k).all() else lookout_points(grid, goals[part == k], sight)
             pts.setflags(write=False)
-            self._lookouts[region] = pts
+            by_part[k] = pts
+        return every, by_part
+
+    def _lookouts_from(self, x: float, y: float):
+        """The lookouts a search from (x, y) uses: each region's in the part of the floor
+        (x, y) is in, where the region has goal points there (else all its lookouts). A
+        lookout across a wall, nearest as the crow flies, sent the observer to a place it
+        had no way to (mit_csail)."""
+        part = self._floor.component_at(x, y)
+        return lambda region: self._part_lookouts.get(region, {}).get(
+            part, self.lookouts(region))
 
     def tick(self, t: float, tracks: Sequence[TrackTuple]) -> PredictorStep:
         """Predict on one track update: ``tracks`` as (id, x, y, vx, vy) at time ``t``."""
@@ -353,7 +381,7 @@ class PredictorAgent:
         for tid, x, y, _vx, _vy in tracks:
             p = preds.get(tid)
             if p is not None:
-                out[tid] = (p, search_plan(p.probabilities, self.lookouts, (x, y),
+                out[tid] = (p, search_plan(p.probabilities, self._lookouts_from(x, y), (x, y),
                                            fc.search_regions, fc.search_min_probability, p.best,
                                            rest=True))
         return PredictorStep(out, list(self.pool.errors.values()), went_back)

@@ -83,7 +83,7 @@ from .search import PatrolTour, SearchPlan, as_plan, hub_points
 _GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps to give_way
 _MOVING = 0.15              # m/s: a target slower than this stands still
 _DETOUR = 0.5               # m: stepping aside further from its place than this: a detour
-_AT_HUB = 1.0               # m: a watch is kept only this near its hub (else: on to the patrol)
+_AT_PLACE = 1.0             # m: a search place or hub this near is reached (else: on to the next)
 _AHEAD = math.radians(75.0)  # a point this near the heading is in view (the Scitos's
                              # 180-degree lidar, less a body's width; as give_way_view)
 
@@ -139,6 +139,7 @@ class FollowBehaviour:
         self._search_index = 0
         self._rounds = 0                 # rounds of the search plan gone without a sight
         self._place = ""                 # what the current search goal is (for the log)
+        self._place_xy = (0.0, 0.0)      # and where
         self._t0: Optional[float] = None   # when it first looked for a target not yet seen
         cfg = self.config
         self._tour = PatrolTour(grid, cfg.patrol_spacing, cfg.roomy, cfg.patrol_sight)
@@ -325,6 +326,15 @@ class FollowBehaviour:
                 return self._search_go(rx, ry, "not there: searching predicted region")
             return FollowDecision("search")
         if self._search_phase == "go" and goal_done:
+            gx, gy = self._place_xy
+            short = math.hypot(gx - rx, gy - ry)
+            if short > _AT_PLACE:
+                # its way there ended short (no way from where it stands: a region's search
+                # point across a wall, mit_csail, taken at once for reached and looked round
+                # from 3.5 m off, again and again): on to the next place
+                place, on = self._place, self._search_next(t, robot)
+                return FollowDecision(on.mode, on.goal, "%s not reached (%.1f m short); %s"
+                                      % (place, short, on.reason))
             self._search_phase = "look"
             return FollowDecision("search", (rx, ry, wrap_angle(ryaw + cfg.search_turn)),
                                   "at %s: looking round" % self._place)
@@ -377,7 +387,7 @@ class FollowBehaviour:
             hx, hy = float(hubs[k, 0]), float(hubs[k, 1])
             if until is None:
                 # arrived (or its way there ended): the watch runs from here, at the hub only
-                at_hub = math.hypot(rx - hx, ry - hy) <= _AT_HUB
+                at_hub = math.hypot(rx - hx, ry - hy) <= _AT_PLACE
                 until = t + cfg.watch if at_hub else t
                 self._watch = (kind, k, until)
             if t < until:
@@ -693,7 +703,7 @@ class FollowBehaviour:
                         "(%s of %d)" % (self._rounds, self._place, n))
 
     def _go(self, rx: float, ry: float, x: float, y: float, why: str) -> FollowDecision:
-        self._search_phase = "go"
+        self._search_phase, self._place_xy = "go", (x, y)
         yaw = math.atan2(y - ry, x - rx) if math.hypot(x - rx, y - ry) > 1e-6 else 0.0
         return FollowDecision("search", (x, y, yaw), why)
 
