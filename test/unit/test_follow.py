@@ -1224,6 +1224,45 @@ def test_a_search_point_the_observer_did_not_get_to_is_not_taken_for_reached():
     assert d.reason == "at region 8's search point: looking round"
 
 
+def test_places_none_of_which_is_reached_are_skipped_as_many_in_a_row_as_the_plan_has():
+    """Shut in (every goal ends at once where it stands), the observer sent a new goal every
+    tick for ever, a plan each; now, after as many places in a row as the plan has regions,
+    it looks round where it is and waits, as at a place reached."""
+    grid = hall(20.0, 3.0)
+    cfg = FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=2, trail=0.0,
+                       patrol_sight=0.0)
+    fb = FollowBehaviour(grid, cfg)
+    plan = [("7", (18.0, 1.5)), ("8", (10.0, 1.5))]
+    fb.update(0.0, (2.0, 2.0, 0.0), (6.0, 2.0, 0.0, 0.0))
+    robot, t, reasons = (2.0, 2.0, 0.0), 2.0, []
+    d = fb.update(t, robot, None, plan)
+    for _ in range(8):
+        if d.goal is not None:
+            reasons.append(d.reason)
+        t += 0.5
+        d = fb.update(t, robot, None, plan, goal_done=d.goal is not None)
+    assert [r.split(" (")[0] for r in reasons[1:4]] == [
+        "region 7's search point not reached", "region 8's search point not reached",
+        "region 7's search point not reached"]
+    assert reasons[3].endswith("3 places in a row: looking round here")
+    assert reasons[4].startswith("not found: searching region 8")   # after the wait
+
+
+def test_a_search_place_moved_out_of_a_pocket_is_reached_at_the_place_it_was_moved_to():
+    grid = hall_with_pocket()
+    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, snug=0.04, search_rounds=1,
+                                            trail=0.0, patrol_sight=0.0))
+    plan = [("P", (5.0, 5.5)), ("Q", (1.0, 2.0))]
+    robot = (8.0, 2.0, 0.0)
+    fb.update(0.0, robot, (8.5, 2.0, 0.0, 0.0))
+    d = fb.update(2.0, robot, None, plan)
+    while "region P" not in d.reason:
+        d = fb.update(2.5, robot, None, plan, goal_done=True)
+    assert "is in a pocket" in d.reason and math.hypot(d.goal[0] - 5.0, d.goal[1] - 5.5) > 1.0
+    d = fb.update(5.0, tuple(d.goal), None, plan, goal_done=True)   # got where it was sent
+    assert d.reason == "at region P's search point: looking round"
+
+
 def test_a_hub_the_observer_did_not_get_to_is_not_watched():
     """The way to the hub ends where the observer stands, 10 m short of it: it neither looks
     round there nor keeps a watch (a place more than a metre off is not reached); the patrol

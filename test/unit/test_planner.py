@@ -555,6 +555,16 @@ def test_a_back_off_that_did_not_move_the_robot_is_followed_by_a_nudge_forward()
     moves = [m for k, m in enumerate(said) if m != said[k - 1]
              and m in ("backing up", "nudging forward")]
     assert moves[:4] == ["backing up", "nudging forward"] * 2
+    # a back-off that moved it is not refused: pressed against something unseen ahead
+    # again after driving back, it backs off again
+    nav = Navigator(grid, PathFollower())
+    nav.start((1.0, 1.5, 0.0), (4.0, 1.5), 0.0)
+    x, said = 1.0, []
+    for k in range(120):
+        st = nav.update((x, 1.5, 0.0), None, 0.1 * k)
+        said.append(st.message)
+        x = min(1.0, x + st.v * 0.1)       # free behind, blocked ahead at x = 1 m
+    assert "backing up" in said and "nudging forward" not in said
 
 
 def test_two_robots_backed_into_each_other_nudge_forward_apart_and_arrive():

@@ -289,8 +289,9 @@ class Navigator:
         self._last_stall = -math.inf
         self._stuck: Optional[Tuple[float, float, float, float]] = None  # first stall: t, pose
         self._nudge = -1.0                        # -1 backing up, +1 nudging forward
-        self._moved_off: Optional[Tuple[float, float, float, float]] = None  # last: sign, t, x, y
-        self._boxed = 0     # stalls in a row with neither way clear
+        self._moved_off: Optional[Tuple[float, float, float]] = None  # the last: sign, x, y
+        self._refused = (0.0, -math.inf)   # a back-off that ended unmoved: its sign, when
+        self._boxed = 0     # stalls in a row with no way clear that it may take
         self._resume_at: Optional[float] = None   # out of the way: when to go on to the goal
         self.retreats = 0
         self._seen = np.zeros((0, 2))             # the last scan's points in the map frame
@@ -434,6 +435,8 @@ class Navigator:
             return NavStatus(self._nudge * _BACKUP_SPEED, 0.0, "active",
                              "backing up" if self._nudge < 0 else "nudging forward",
                              cmd.distance_to_goal)
+        if self._backup_until is not None:
+            self._back_off_ended(pose, now)
         self._backup_until = None
         if self._stalled(pose, now):
             return self._on_stall(pose, obstacles, now, cmd)
@@ -466,8 +469,8 @@ class Navigator:
         again = now - self._last_stall < 3.0 * cfg.stall_time
         self._last_stall = now
         # back off, or nudge forward first when it stalled backing up (into what it cannot
-        # see behind it); never again the way its last move off went without moving it
-        refused = self._refused_way(pose, now)
+        # see behind it); not the way its last move off went without moving it
+        refused = self._refused_way(now)
         for sign in ((1.0, -1.0) if backing or refused < 0 else (-1.0, 1.0)):
             if again and sign != refused and self._clear_behind(pose, obstacles, sign):
                 self._boxed = 0
@@ -476,8 +479,9 @@ class Navigator:
             self._boxed += 1
             if self._boxed >= _BOXED_STALLS:
                 # neither way passed the checks, which are cautious (a wall alongside, a
-                # cell nearer a wall), and it cannot turn: off the way with more room on
-                # the map; a move that would press into something is refused as ever
+                # cell nearer a wall), or the one that did was just refused, and it cannot
+                # turn: off the way with more room on the map; a move that would press into
+                # something is refused as ever
                 self._boxed = 0
                 return self._back_off(self._roomier_way(pose), pose, now, cmd)
         self._replan_around(pose, obstacles)
@@ -509,21 +513,27 @@ class Navigator:
                   cmd: FollowerCommand) -> NavStatus:
         """Back up (``sign`` -1) or nudge forward (+1) for ``_BACKUP_TIME``."""
         self._backup_until, self._nudge = now + _BACKUP_TIME, sign
-        self._moved_off = (sign, now, float(pose[0]), float(pose[1]))
+        self._moved_off = (sign, float(pose[0]), float(pose[1]))
         return NavStatus(sign * _BACKUP_SPEED, 0.0, "active",
                          "backing up" if sign < 0 else "nudging forward", cmd.distance_to_goal)
 
-    def _refused_way(self, pose: Sequence[float], now: float) -> float:
-        """The sign of the last back-off or nudge when it ended without moving the robot 2 cm
-        and this stall came right after it (0: none such). What it pressed into lies that
-        way, unseen (a robot whose lidar looks ahead is blind behind): the way out is the
-        other. Two robots that had backed into each other backed again and again, each
-        into the other, until both gave up (mit_csail, three legs in a row)."""
-        last = self._moved_off
-        if last is None or now - last[1] > _BACKUP_TIME + 3.0 * self.config.stall_time:
-            return 0.0
-        moved = math.hypot(float(pose[0]) - last[2], float(pose[1]) - last[3])
-        return last[0] if moved < 0.02 else 0.0
+    def _back_off_ended(self, pose: Sequence[float], now: float) -> None:
+        """A back-off or nudge has run its time: refused, when it did not move the robot
+        2 cm (_refused_way)."""
+        if self._moved_off is not None:
+            sign, x, y = self._moved_off
+            moved = math.hypot(float(pose[0]) - x, float(pose[1]) - y)
+            self._refused = (sign if moved < 0.02 else 0.0, now)
+            self._moved_off = None
+
+    def _refused_way(self, now: float) -> float:
+        """The sign of the last back-off or nudge when it ended without moving the robot and
+        this stall came within ``3 * stall_time`` of its end (0: none such). What it pressed
+        into lies that way, unseen (a robot whose lidar looks ahead is blind behind): the
+        way out is the other. Two robots that had backed into each other backed again and
+        again, each into the other, until both gave up (mit_csail, three legs in a row)."""
+        sign, ended = self._refused
+        return sign if 0.0 <= now - ended <= 3.0 * self.config.stall_time else 0.0
 
     def _roomier_way(self, pose: Sequence[float]) -> float:
         """-1 (back) or +1 (forward): the way whose back-off ends further from the map's

@@ -346,13 +346,12 @@ class PredictorAgent:
 
     def _region_lookouts(self, goals: np.ndarray) -> Tuple[np.ndarray, Dict[int, np.ndarray]]:
         """A region's lookouts (people/search.lookout_points of its goal points), and per
-        part of the floor (GoalSampler's components) the lookouts of its points there."""
+        part of the floor (GoalSampler.component_at) the lookouts of its points there."""
         grid, sight = self.model.grid, self.follow.search_sight
         every = lookout_points(grid, goals, sight)
         every.setflags(write=False)
-        cells = [grid.to_cell(float(x), float(y)) for x, y in goals]
-        part = np.array([int(self._floor.labels[r, c]) if grid.inside(c, r) else 0
-                         for c, r in cells], dtype=np.int64)
+        part = np.array([self._floor.component_at(float(x), float(y)) for x, y in goals],
+                        dtype=np.int64)
         by_part = {}
         for k in np.unique(part[part > 0]).tolist():
             pts = every if (part == k).all() else lookout_points(grid, goals[part == k], sight)
@@ -387,8 +386,9 @@ class PredictorAgent:
         return PredictorStep(out, list(self.pool.errors.values()), went_back)
 
     def lookouts(self, region: str) -> np.ndarray:
-        """Where a search of ``region`` looks from: of its goal points, those with the most of
-        them in view (people/search.lookout_points, within ``search_sight``); read-only.
+        """Of ``region``'s goal points, those with the most of them in view
+        (people/search.lookout_points, within ``search_sight``); read-only. A search from
+        a point takes those of the part of the floor it is in (_lookouts_from).
 
         Raises:
             PredictionError: an unknown region (as DestinationModel.goals)."""

@@ -43,10 +43,12 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   not trailed (no roomy point on its way), is looked for from the stand-off point of where
   it was last seen, facing it. Then it goes to the predicted destination region (the
   predictor's arg-max; of the region's goal points with the most of them in view within
-  the predictor's ``search_sight`` (:func:`lookout_points`), the one nearest to where the
-  target was last seen), turns on the spot to look around, waits ``search_wait``
-  seconds, then goes on to the next most likely region (up to ``search_regions`` of them, each
-  at least ``search_min_probability``: :func:`search_plan`) and round the list again; after
+  the predictor's ``search_sight`` (:func:`lookout_points`), in the part of the floor where
+  the target was last seen, the one nearest to where it was), turns on the spot to look
+  around, waits ``search_wait`` seconds (a place whose goal ended more than a metre off is
+  not reached: on to the next at once, for as many in a row as the plan has), then goes
+  on to the next most likely region (up to ``search_regions`` of them, each at least
+  ``search_min_probability``: :func:`search_plan`) and round the list again; after
   ``search_rounds`` rounds, each other region of the plan once, most likely first, and then
   the patrol (with ``watch`` set, by turns with watches at the building's hubs: the places
   most ways across it pass, :func:`hub_points`; it looks round there for ``watch`` seconds,
@@ -83,7 +85,7 @@ from .search import PatrolTour, SearchPlan, as_plan, hub_points
 _GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps to give_way
 _MOVING = 0.15              # m/s: a target slower than this stands still
 _DETOUR = 0.5               # m: stepping aside further from its place than this: a detour
-_AT_PLACE = 1.0             # m: a search place or hub this near is reached (else: on to the next)
+_AT_PLACE = 1.0             # m: a search or patrol place or hub this near is reached
 _AHEAD = math.radians(75.0)  # a point this near the heading is in view (the Scitos's
                              # 180-degree lidar, less a body's width; as give_way_view)
 
@@ -139,7 +141,7 @@ class FollowBehaviour:
         self._search_index = 0
         self._rounds = 0                 # rounds of the search plan gone without a sight
         self._place = ""                 # what the current search goal is (for the log)
-        self._place_xy = (0.0, 0.0)      # and where
+        self._unreached = 0              # places in a row whose goal ended > _AT_PLACE off
         self._t0: Optional[float] = None   # when it first looked for a target not yet seen
         cfg = self.config
         self._tour = PatrolTour(grid, cfg.patrol_spacing, cfg.roomy, cfg.patrol_sight)
@@ -285,6 +287,7 @@ class FollowBehaviour:
                 [r for r, _ in self._search], self._search.likely):
             first_loss = self.mode != "search"
             self.mode, self._search, self._search_index, self._rounds = "search", plan, 0, 0
+            self._unreached = 0
             self._tour.goal, self._watch = None, None
             lx, ly = self.last_target if self.last_target is not None else (rx, ry)
             # lost close by and behind: turned to; close by but ahead (it went behind a
@@ -326,23 +329,39 @@ class FollowBehaviour:
                 return self._search_go(rx, ry, "not there: searching predicted region")
             return FollowDecision("search")
         if self._search_phase == "go" and goal_done:
-            gx, gy = self._place_xy
-            short = math.hypot(gx - rx, gy - ry)
-            if short > _AT_PLACE:
-                # its way there ended short (no way from where it stands: a region's search
-                # point across a wall, mit_csail, taken at once for reached and looked round
-                # from 3.5 m off, again and again): on to the next place
-                place, on = self._place, self._search_next(t, robot)
-                return FollowDecision(on.mode, on.goal, "%s not reached (%.1f m short); %s"
-                                      % (place, short, on.reason))
-            self._search_phase = "look"
-            return FollowDecision("search", (rx, ry, wrap_angle(ryaw + cfg.search_turn)),
-                                  "at %s: looking round" % self._place)
+            return self._at_place(t, robot)
         if self._search_phase == "look" and goal_done:
             self._search_phase, self._search_since = "wait", t
         if self._search_phase == "wait" and t - self._search_since >= cfg.search_wait:
             return self._search_next(t, robot)
         return FollowDecision("search")
+
+    def _at_place(self, t: float, robot: Sequence[float]) -> FollowDecision:
+        """The goal to a search place, patrol place or hub has ended: looking round there;
+        or, when it ended more than ``_AT_PLACE`` from the goal sent (no way from where it
+        stands: a region's search point across a wall, mit_csail, was taken at once for
+        reached and looked round from 3.5 m off, again and again), on to the next place,
+        for as many places in a row as the search plan has (then it looks round where it
+        is and waits as at a place reached: every way out may be shut, and a goal a tick
+        is a plan a tick)."""
+        cfg = self.config
+        rx, ry, ryaw = (float(v) for v in robot[:3])
+        gx, gy = self._goal[:2] if self._goal is not None else (rx, ry)
+        short = math.hypot(gx - rx, gy - ry)
+        why = "at %s: looking round" % self._place
+        if short <= _AT_PLACE:
+            self._unreached = 0
+        elif self._unreached < max(1, len(self._search)):
+            self._unreached += 1
+            place, on = self._place, self._search_next(t, robot)
+            return FollowDecision(on.mode, on.goal, "%s not reached (%.1f m short); %s"
+                                  % (place, short, on.reason))
+        else:
+            why = "%s not reached (%.1f m short), %d places in a row: looking round here" % (
+                self._place, short, self._unreached + 1)
+            self._unreached = 0
+        self._search_phase = "look"
+        return FollowDecision("search", (rx, ry, wrap_angle(ryaw + cfg.search_turn)), why)
 
     def _search_next(self, t: float, robot: Sequence[float]) -> FollowDecision:
         """On from a region searched in vain: the next likely one, round after round, for
@@ -703,7 +722,7 @@ class FollowBehaviour:
                         "(%s of %d)" % (self._rounds, self._place, n))
 
     def _go(self, rx: float, ry: float, x: float, y: float, why: str) -> FollowDecision:
-        self._search_phase, self._place_xy = "go", (x, y)
+        self._search_phase = "go"
         yaw = math.atan2(y - ry, x - rx) if math.hypot(x - rx, y - ry) > 1e-6 else 0.0
         return FollowDecision("search", (x, y, yaw), why)
 

@@ -55,8 +55,9 @@ class FollowConfig:
             Going to each place in turn, it patrolled a 3600 m^2 hall for 690 s before it
             first saw the walker. 0: only the places it goes to count.
         search_sight: a region's search point is, of its goal points with the most of them
-            in view within this many metres (no wall between: people/search.lookout_points),
-            the one nearest to where the target was last seen; 0: of all its goal points.
+            in view within this many metres (no wall between: people/search.lookout_points)
+            in the part of the floor where the target was last seen (a wall may cut a
+            region in two), the one nearest to where it was; 0: of all its goal points.
             The predictor makes the points (agents.PredictorAgent): set it on the
             destination_predictor node (``~search_sight``); the follower node has no use for
             it. 8 m, as ``patrol_sight``, fixed before any run. At a long corridor's end the
