@@ -1204,18 +1204,24 @@ def test_after_the_plan_a_search_watches_at_the_hub_by_turns_with_the_patrol():
     assert any("patrolling" in r for r, _ in goals)
 
 
+def lost_in_a_hall(search_rounds):
+    """An observer at (2, 2) in a 20 x 3 m hall that saw the target once 4 m off, then lost
+    it, with a plan of two regions: the behaviour, the plan, and its first search decision
+    (at 2 s)."""
+    cfg = FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=search_rounds,
+                       trail=0.0, patrol_sight=0.0)
+    fb = FollowBehaviour(hall(20.0, 3.0), cfg)
+    plan = [("7", (18.0, 1.5)), ("8", (10.0, 1.5))]
+    fb.update(0.0, (2.0, 2.0, 0.0), (6.0, 2.0, 0.0, 0.0))
+    return fb, plan, fb.update(2.0, (2.0, 2.0, 0.0), None, plan)
+
+
 def test_a_search_point_the_observer_did_not_get_to_is_not_taken_for_reached():
     """mit_csail: a goal with no way to it ends at once; the observer looked round 3.5 m
     from the search point "at region 1's search point", again and again. Now a place more
     than a metre off is not reached: on to the next region of the plan."""
-    grid = hall(20.0, 3.0)
-    cfg = FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=1, trail=0.0,
-                       patrol_sight=0.0)
-    fb = FollowBehaviour(grid, cfg)
-    plan = [("7", (18.0, 1.5)), ("8", (10.0, 1.5))]
-    fb.update(0.0, (2.0, 2.0, 0.0), (6.0, 2.0, 0.0, 0.0))
+    fb, plan, d = lost_in_a_hall(search_rounds=1)
     robot = (2.0, 2.0, 0.0)
-    d = fb.update(2.0, robot, None, plan)
     assert d.goal[:2] == (18.0, 1.5)
     d = fb.update(2.5, robot, None, plan, goal_done=True)      # it never moved
     assert d.reason.startswith("region 7's search point not reached (16.0 m short); ")
@@ -1228,14 +1234,8 @@ def test_places_none_of_which_is_reached_are_skipped_as_many_in_a_row_as_the_pla
     """Shut in (every goal ends at once where it stands), the observer sent a new goal every
     tick for ever, a plan each; now, after as many places in a row as the plan has regions,
     it looks round where it is and waits, as at a place reached."""
-    grid = hall(20.0, 3.0)
-    cfg = FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=2, trail=0.0,
-                       patrol_sight=0.0)
-    fb = FollowBehaviour(grid, cfg)
-    plan = [("7", (18.0, 1.5)), ("8", (10.0, 1.5))]
-    fb.update(0.0, (2.0, 2.0, 0.0), (6.0, 2.0, 0.0, 0.0))
+    fb, plan, d = lost_in_a_hall(search_rounds=2)
     robot, t, reasons = (2.0, 2.0, 0.0), 2.0, []
-    d = fb.update(t, robot, None, plan)
     for _ in range(8):
         if d.goal is not None:
             reasons.append(d.reason)
