@@ -289,7 +289,7 @@ class Navigator:
         self._last_stall = -math.inf
         self._stuck: Optional[Tuple[float, float, float, float]] = None  # first stall: t, pose
         self._nudge = -1.0                        # -1 backing up, +1 nudging forward
-        self._moved_off: Optional[Tuple[float, float, float]] = None  # the last: sign, x, y
+        self._moved_off: Optional[Tuple[float, float]] = None  # where the last one began
         self._refused = (0.0, -math.inf)   # a back-off that ended unmoved: its sign, when
         self._boxed = 0     # stalls in a row with no way clear that it may take
         self._resume_at: Optional[float] = None   # out of the way: when to go on to the goal
@@ -513,7 +513,7 @@ class Navigator:
                   cmd: FollowerCommand) -> NavStatus:
         """Back up (``sign`` -1) or nudge forward (+1) for ``_BACKUP_TIME``."""
         self._backup_until, self._nudge = now + _BACKUP_TIME, sign
-        self._moved_off = (sign, float(pose[0]), float(pose[1]))
+        self._moved_off = (float(pose[0]), float(pose[1]))
         return NavStatus(sign * _BACKUP_SPEED, 0.0, "active",
                          "backing up" if sign < 0 else "nudging forward", cmd.distance_to_goal)
 
@@ -521,9 +521,9 @@ class Navigator:
         """A back-off or nudge has run its time: refused, when it did not move the robot
         2 cm (_refused_way)."""
         if self._moved_off is not None:
-            sign, x, y = self._moved_off
+            x, y = self._moved_off
             moved = math.hypot(float(pose[0]) - x, float(pose[1]) - y)
-            self._refused = (sign if moved < 0.02 else 0.0, now)
+            self._refused = (self._nudge if moved < 0.02 else 0.0, now)
             self._moved_off = None
 
     def _refused_way(self, now: float) -> float:
