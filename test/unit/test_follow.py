@@ -1125,6 +1125,33 @@ def test_a_target_lost_close_by_from_a_doorway_is_trailed_not_turned_to():
     assert "looking back" in d.reason and d.goal[:2] == pytest.approx((5.0, 3.3))
 
 
+def test_a_target_lost_close_by_from_a_doorway_is_looked_at_from_a_roomy_place():
+    """In a doorway (no room to turn) the observer loses a target that stood 1 m behind it:
+    it does not turn where its base may wedge on the frame (aces_austin: it backed and
+    nudged for 30 s while the walker it blocked stood at its side); it looks from a roomy
+    place at the stand-off distance, facing where the target was, then looks round there.
+    With no roomy place within reach (a corridor too narrow for any), it turns as before."""
+    grid = two_rooms()
+    roomy = FollowConfig().roomy
+    assert grid.clearance_at(5.0, 3.0) < roomy
+    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=4.0, distance=1.5, slack=0.7))
+    fb.update(0.0, (5.0, 3.0, math.pi), (4.0, 3.0, 0.0, 0.0))
+    plan = [("7", (8.0, 1.0))]
+    d = fb.update(1.5, (5.0, 3.0, 0.0), None, plan)
+    assert d.mode == "search" and "no room to turn" in d.reason
+    gx, gy, gyaw = d.goal
+    assert grid.clearance_at(gx, gy) >= roomy
+    assert math.hypot(gx - 4.0, gy - 3.0) == pytest.approx(1.5, abs=1e-9)
+    assert gyaw == pytest.approx(math.atan2(3.0 - gy, 4.0 - gx), abs=1e-9)
+    d = fb.update(6.0, (gx, gy, gyaw), None, plan, goal_done=True)
+    assert "looking round" in d.reason and d.goal[:2] == pytest.approx((gx, gy))
+    narrow = hall(10.0, 1.0)
+    fn = FollowBehaviour(narrow, FollowConfig(lost_after=1.0, trail=4.0, distance=1.5))
+    fn.update(0.0, (5.0, 0.5, 0.0), (6.0, 0.5, 0.0, 0.0))
+    d = fn.update(1.5, (5.0, 0.5, math.pi), None, plan)
+    assert "looking back" in d.reason and d.goal[:2] == pytest.approx((5.0, 0.5))
+
+
 def test_path_headings_are_the_way_the_robot_sets_off_not_the_straight_line():
     # a 10 x 6 m hall with a wall at x 3.0-3.2 from the floor up to y 4.5: from (2, 3) the
     # place (4.5, 3) lies straight east, but the way there goes north round the wall's end

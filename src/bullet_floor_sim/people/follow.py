@@ -41,7 +41,10 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   its last velocity, short of a wall, facing that way (it had stood in a room while the
   walker it lost in the doorway went off down the corridor). One that stood still, or is
   not trailed (no roomy point on its way), is looked for from the stand-off point of where
-  it was last seen, facing it. Then it goes to the predicted destination region (the
+  it was last seen, facing it; one lost close by with no room to turn, from a roomy place
+  (the stand-off point, or the nearest roomy place within ``give_way_reach``), else turned
+  to where it stands (turning 0.3 m from a wall, an octagonal base wedged: aces_austin).
+  Then it goes to the predicted destination region (the
   predictor's arg-max; of the region's goal points with the most of them in view within
   the predictor's ``search_sight`` (:func:`lookout_points`), in the part of the floor where
   the target was last seen, the one nearest to where it was), turns on the spot to look
@@ -290,25 +293,33 @@ class FollowBehaviour:
             self._unreached = 0
             self._tour.goal, self._watch = None, None
             lx, ly = self.last_target if self.last_target is not None else (rx, ry)
-            # lost close by and behind: turned to; close by but ahead (it went behind a
-            # wall or through a door, and turning shows nothing): looked for as one lost
-            # further off (with ``trail`` 0, or no sighting to tell: turned to, as before)
+            # lost close by and behind: turned to where there is room to turn, else trailed
+            # or looked at from a roomy place near by, else turned to (an octagonal base
+            # turning in a passage 0.3 m from a wall backed and nudged for 30 s while the
+            # walker it blocked stood at its side: aces_austin); close by but ahead (it went behind a wall or
+            # through a door, and turning shows nothing): looked for as one lost further off
+            # (with ``trail`` 0, or no sighting to tell: turned to, as before)
             near = math.hypot(lx - rx, ly - ry)
             ahead = (cfg.trail > 0 and near > 1e-6
                      and abs(wrap_angle(math.atan2(ly - ry, lx - rx) - ryaw)) <= _AHEAD)
             close = near <= cfg.distance + cfg.slack and not ahead
             room = self.grid.clearance_at(rx, ry) >= cfg.roomy   # to turn (not in a doorway)
             trail = self._trail_point() if first_loss and not (close and room) else None
-            if first_loss and close and (room or trail is None):
-                self._search_phase = "back"
-                return FollowDecision("search", (rx, ry, math.atan2(ly - ry, lx - rx)),
-                                      "target lost close by at (%.2f, %.2f): looking back"
-                                      % (lx, ly))
+            if first_loss and close and room:
+                return self._look_back(rx, ry, lx, ly)
             if trail is not None:
                 self._search_phase = "back"
                 return FollowDecision("search", trail, "target lost at (%.2f, %.2f) going "
                                       "(%.2f, %.2f) m/s: trailing it to (%.2f, %.2f)"
                                       % (lx, ly, *self._last_velocity, *trail[:2]))
+            if first_loss and close:
+                spot = self._roomy_spot(rx, ry, lx, ly)
+                if spot is None:           # none within reach: turned to, as before
+                    return self._look_back(rx, ry, lx, ly)
+                self._search_phase = "back"
+                return FollowDecision("search", spot, "target lost close by at (%.2f, %.2f), "
+                                      "no room to turn: looking from (%.2f, %.2f)"
+                                      % (lx, ly, *spot[:2]))
             seen = (self._seen_from(rx, ry) if first_loss and cfg.trail > 0
                     and self.last_target is not None else None)
             if seen is not None:
@@ -335,6 +346,12 @@ class FollowBehaviour:
         if self._search_phase == "wait" and t - self._search_since >= cfg.search_wait:
             return self._search_next(t, robot)
         return FollowDecision("search")
+
+    def _look_back(self, rx: float, ry: float, lx: float, ly: float) -> FollowDecision:
+        """Turn on the spot towards where a target lost close by was last seen."""
+        self._search_phase = "back"
+        return FollowDecision("search", (rx, ry, math.atan2(ly - ry, lx - rx)),
+                              "target lost close by at (%.2f, %.2f): looking back" % (lx, ly))
 
     def _at_place(self, t: float, robot: Sequence[float]) -> FollowDecision:
         """The goal to a search place, patrol place or hub has ended: looking round there;
@@ -734,6 +751,22 @@ class FollowBehaviour:
         round the loop)."""
         return disc_points(tx, ty, self.grid.config.robot_radius)
 
+    def _roomy_spot(self, rx: float, ry: float, tx: float, ty: float
+                    ) -> Optional[Tuple[float, float, float]]:
+        """A place with ``roomy`` clearance, to turn in, facing the target at (tx, ty): the
+        stand-off point, or when none on its circle is roomy (a long narrow corridor) the
+        nearest roomy place up to ``give_way_reach`` away, not past the target (None: none)."""
+        cfg = self.config
+        point = standoff_point(self.grid, (tx, ty), (rx, ry), cfg.distance, None, cfg.roomy)
+        if point is None or self.grid.clearance_at(*point) < cfg.roomy:
+            point = give_way_point(self.grid, np.array([[tx, ty]]), (rx, ry), (tx, ty),
+                                   cfg.give_way, cfg.give_way_reach, cfg.roomy,
+                                   obstacles=self._body(tx, ty))
+        if point is None or self.grid.clearance_at(*point) < cfg.roomy:
+            return None
+        gx, gy = point
+        return gx, gy, math.atan2(ty - gy, tx - gx)
+
     def _follow(self, t: float, robot: Sequence[float], target: Sequence[float],
                 goal_done: bool) -> FollowDecision:
         cfg = self.config
@@ -749,18 +782,11 @@ class FollowBehaviour:
         cramped = self.grid.clearance_at(rx, ry) < cfg.roomy
         if not first and dist <= cfg.distance + cfg.slack and not moving and cramped \
                 and self._standing:
-            point = standoff_point(self.grid, (tx, ty), (rx, ry), cfg.distance, None, cfg.roomy)
-            if point is None or self.grid.clearance_at(*point) < cfg.roomy:
-                # none on the circle (a long narrow corridor): the nearest roomy place, however
-                # far along it, up to give_way_reach, not past the target
-                point = give_way_point(self.grid, np.array([[tx, ty]]), (rx, ry), (tx, ty),
-                                       cfg.give_way, cfg.give_way_reach, cfg.roomy,
-                                       obstacles=self._body(tx, ty))
-            if point is not None and self.grid.clearance_at(*point) >= cfg.roomy:
+            spot = self._roomy_spot(rx, ry, tx, ty)
+            if spot is not None:
                 self._goal_target, self._goal_time = (tx, ty), t
-                gx, gy = point
                 self._backing_off = True
-                return FollowDecision("follow", (gx, gy, math.atan2(ty - gy, tx - gx)),
+                return FollowDecision("follow", spot,
                                       "out of the narrow passage at (%.2f, %.2f)" % (rx, ry))
         if not first and dist <= cfg.distance + cfg.slack and not moving:
             if abs(wrap_angle(facing - ryaw)) > 0.5 and (goal_done or moved > cfg.replan_distance) \
