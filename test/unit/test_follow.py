@@ -1140,11 +1140,30 @@ def test_a_target_lost_close_by_from_a_doorway_is_looked_at_from_a_roomy_place()
     d = fb.update(1.5, (5.0, 3.0, 0.0), None, plan)
     assert d.mode == "search" and "no room to turn" in d.reason
     gx, gy, gyaw = d.goal
-    assert grid.clearance_at(gx, gy) >= roomy
+    assert grid.clearance_at(gx, gy) >= roomy and gx > 5.0      # on the observer's side
     assert math.hypot(gx - 4.0, gy - 3.0) == pytest.approx(1.5, abs=1e-9)
     assert gyaw == pytest.approx(math.atan2(3.0 - gy, 4.0 - gx), abs=1e-9)
     d = fb.update(6.0, (gx, gy, gyaw), None, plan, goal_done=True)
     assert "looking round" in d.reason and d.goal[:2] == pytest.approx((gx, gy))
+    # trail 0 keeps the plain rule: turned to where it stands
+    plain = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=0.0, distance=1.5,
+                                               slack=0.7))
+    plain.update(0.0, (5.0, 3.0, math.pi), (4.0, 3.0, 0.0, 0.0))
+    assert "looking back" in plain.update(1.5, (5.0, 3.0, 0.0), None, plan).reason
+    # in a 1 m corridor no stand-off point is roomy: where an alcove 1-3 m back widens it
+    alcove = np.full((int(round(5.0 / RES)), int(round(10.0 / RES))), 100, dtype=np.int8)
+    alcove[int(round(1.0 / RES)):int(round(2.0 / RES)), 1:-1] = 0
+    alcove[int(round(2.0 / RES)):int(round(4.0 / RES)),
+           int(round(2.0 / RES)):int(round(4.0 / RES))] = 0
+    ga = PlanningGrid(map_from_grid(alcove, RES))
+    fa = FollowBehaviour(ga, FollowConfig(lost_after=1.0, trail=4.0, distance=1.5))
+    fa.update(0.0, (5.0, 1.5, math.pi), (6.0, 1.5, 0.0, 0.0))
+    d = fa.update(1.5, (5.0, 1.5, math.pi), None, plan)          # it is behind
+    gx, gy, gyaw = d.goal
+    assert "no room to turn" in d.reason and ga.clearance_at(gx, gy) >= roomy
+    assert 2.0 < gx < 4.0 and math.hypot(gx - 5.0, gy - 1.5) <= 4.0   # by the alcove
+    assert gyaw == pytest.approx(math.atan2(1.5 - gy, 6.0 - gx), abs=1e-9)
+    # no roomy place within reach at all: turned to, as before
     narrow = hall(10.0, 1.0)
     fn = FollowBehaviour(narrow, FollowConfig(lost_after=1.0, trail=4.0, distance=1.5))
     fn.update(0.0, (5.0, 0.5, 0.0), (6.0, 0.5, 0.0, 0.0))

@@ -296,9 +296,9 @@ class FollowBehaviour:
             # lost close by and behind: turned to where there is room to turn, else trailed
             # or looked at from a roomy place near by, else turned to (an octagonal base
             # turning in a passage 0.3 m from a wall backed and nudged for 30 s while the
-            # walker it blocked stood at its side: aces_austin); close by but ahead (it went behind a wall or
-            # through a door, and turning shows nothing): looked for as one lost further off
-            # (with ``trail`` 0, or no sighting to tell: turned to, as before)
+            # walker it blocked stood at its side: aces_austin); close by but ahead (it
+            # went behind a wall or through a door, and turning shows nothing): looked for
+            # as one lost further off (with ``trail`` 0, or no sighting to tell: turned to)
             near = math.hypot(lx - rx, ly - ry)
             ahead = (cfg.trail > 0 and near > 1e-6
                      and abs(wrap_angle(math.atan2(ly - ry, lx - rx) - ryaw)) <= _AHEAD)
@@ -313,7 +313,8 @@ class FollowBehaviour:
                                       "(%.2f, %.2f) m/s: trailing it to (%.2f, %.2f)"
                                       % (lx, ly, *self._last_velocity, *trail[:2]))
             if first_loss and close:
-                spot = self._roomy_spot(rx, ry, lx, ly)
+                spot = (self._roomy_spot(rx, ry, lx, ly)
+                        if cfg.trail > 0 and self.last_target is not None else None)
                 if spot is None:           # none within reach: turned to, as before
                     return self._look_back(rx, ry, lx, ly)
                 self._search_phase = "back"
@@ -754,8 +755,10 @@ class FollowBehaviour:
     def _roomy_spot(self, rx: float, ry: float, tx: float, ty: float
                     ) -> Optional[Tuple[float, float, float]]:
         """A place with ``roomy`` clearance, to turn in, facing the target at (tx, ty): the
-        stand-off point, or when none on its circle is roomy (a long narrow corridor) the
-        nearest roomy place up to ``give_way_reach`` away, not past the target (None: none)."""
+        stand-off point (:func:`standoff_point`: on the observer's side when one there is
+        roomy), or when it is not roomy (a long narrow corridor) the nearest roomy place up
+        to ``give_way_reach`` away, ``give_way`` from the target and reached without passing
+        it (:func:`give_way_point`); None: neither is roomy."""
         cfg = self.config
         point = standoff_point(self.grid, (tx, ty), (rx, ry), cfg.distance, None, cfg.roomy)
         if point is None or self.grid.clearance_at(*point) < cfg.roomy:

@@ -99,7 +99,8 @@ class FollowConfig:
             stand-off point of where it was last seen; then the likely regions (a target
             lost nearer, and more than 75 degrees off the observer's heading, is turned to,
             moving or not, where the observer has ``roomy`` clearance; with less, a moving
-            one is trailed; one lost nearer in front, in the lidar's view, went behind
+            one is trailed, and one not trailed is looked at from a roomy place near by
+            (else turned to); one lost nearer in front, in the lidar's view, went behind
             something and is looked for as one lost further off). 0: it only turns to where a
             target lost close by was last seen, in front or not.
         unblock: a target that came nearer than ``distance`` - 0.2 m and has stayed within
