@@ -15,6 +15,10 @@ baselines at 25 % (the earliest fraction the issue's targets name).
     .venv/bin/python bench/choose_prediction.py --legs 100 --seed 2
     .venv/bin/python bench/choose_prediction.py --cache /tmp/moments   # reuse the runs
     .venv/bin/python bench/choose_prediction.py --resume OUT.txt ...     # go on after a cut
+    .venv/bin/python bench/choose_prediction.py --grid goal_spacing=0.5,1,2 ...  # other values
+
+``--grid FIELD=V1,V2,...`` (repeatable) searches those values of the PredictionConfig fields
+the rescoring sees (BUILT and SET below) instead of GRID, beside the shipped defaults.
 
 ``--resume`` reads the candidate lines an earlier run printed (same worlds, legs and seed) and
 scores only the candidates they lack; the scores of the earlier lines are taken as printed
@@ -47,6 +51,10 @@ GRID = {"beta": (2.0, 3.0, 5.0, 8.0), "length_exponent": (0.0, 0.5, 1.0, 1.5),
         "max_goals_per_region": (12, 24)}
 # the parameters before this study (no leg-length term)
 BEFORE = {"beta": 3.0, "length_exponent": 0.0, "max_goals_per_region": 12}
+# the fields a rescore sees (the posterior of S and Q): those that shape the model's goal
+# points and distances are built into a model of their own, the others set on it
+BUILT = ("max_goals_per_region", "goal_spacing")
+SET = ("beta", "length_exponent", "snap_distance")
 COLUMNS = ("trk25", "trk50", "trk75", "trk_markov25", "trk_heading25", "gt25", "gt50", "gt75",
            "gt_markov25", "gt_heading25")
 SCORED = tuple(FRACTIONS.index(f) for f in (0.25, 0.5, 0.75))
@@ -109,15 +117,15 @@ def score(result: EvalResult) -> dict:
     return out
 
 
-def resumed(path: str, worlds) -> dict:
+def resumed(path: str, worlds, grid: dict) -> dict:
     """(name, world) -> {"score": s} from the candidate lines of an earlier run's output
     (a world's name may hold spaces: each world of this run is looked for in the line)."""
     out = {}
     with open(path) as f:
         for line in f:
-            if not line.startswith("beta="):
+            if not line.startswith(min(grid) + "="):
                 continue
-            params = " ".join(line.split()[:len(GRID)])
+            params = " ".join(line.split()[:len(grid)])
             for w in worlds:
                 m = re.search(r"(?:^|\s)%s (\S+)" % re.escape(w), line[len(params):])
                 if m is None:
@@ -127,10 +135,27 @@ def resumed(path: str, worlds) -> dict:
     return out
 
 
-def candidates():
-    keys = sorted(GRID)
-    for values in itertools.product(*(GRID[k] for k in keys)):
+def candidates(grid: dict):
+    keys = sorted(grid)
+    for values in itertools.product(*(grid[k] for k in keys)):
         yield dict(zip(keys, values))
+
+
+def parse_grid(specs) -> dict:
+    """{field: values} from ``FIELD=V1,V2,...`` strings; SystemExit naming a bad one."""
+    grid = {}
+    for spec in specs:
+        field, _, values = spec.partition("=")
+        if field not in BUILT + SET:
+            raise SystemExit("choose_prediction: --grid %s: %r is not a field the rescoring "
+                             "sees (one of %s)" % (spec, field, ", ".join(BUILT + SET)))
+        try:
+            kind = type(getattr(PredictionConfig, field))
+            grid[field] = tuple(kind(v) for v in values.split(","))
+        except ValueError:
+            raise SystemExit("choose_prediction: --grid %s: values must be %s numbers, "
+                             "comma-separated" % (spec, kind.__name__)) from None
+    return grid
 
 
 def name(params: dict) -> str:
@@ -146,51 +171,57 @@ def main() -> int:
         "~/.ros")), "bullet_floor_sim", "choose_prediction"))
     p.add_argument("--resume", default=None, metavar="OUT",
                    help="an earlier run's output: its candidates are not scored again")
+    p.add_argument("--grid", action="append", default=[], metavar="FIELD=V1,V2",
+                   help="search these values (of %s) instead of the study's grid, beside "
+                        "the shipped defaults; repeatable" % ", ".join(BUILT + SET))
     args = p.parse_args()
+    grid = parse_grid(args.grid) or GRID
+    before = ({k: getattr(PredictionConfig, k) for k in grid} if args.grid else BEFORE)
     # of the default list, a world the map check refuses is left out with a line saying so
     worlds, notes = checked(args.worlds or shipped(), bool(args.worlds), False)
     for line in notes:
         print("note: %s" % line, file=sys.stderr)
     runs = {w: recorded(w, args.legs, args.seed, args.cache) for w in worlds}
-    scores = resumed(args.resume, worlds) if args.resume else {}   # (name, world) -> dict
-    models = {}  # (world, goals per region) -> model: the other parameters leave V as it is
+    scores = resumed(args.resume, worlds, grid) if args.resume else {}  # (name, world) -> dict
+    models = {}  # (world, BUILT values) -> model: the SET parameters leave V as it is
 
     def full(params: dict, w: str) -> dict:
         """The score dict of ``params`` on ``w``: scored now unless already in full."""
         if "trk50" not in scores.get((name(params), w), {}):
-            goals = params["max_goals_per_region"]
-            if (w, goals) not in models:
-                models[w, goals] = world_model(w, PredictionConfig(max_goals_per_region=goals))
-            model = models[w, goals]
-            model.config.beta = params["beta"]
-            model.config.length_exponent = params["length_exponent"]
+            built = tuple((k, params[k]) for k in BUILT if k in params)
+            if (w, built) not in models:
+                models[w, built] = world_model(w, PredictionConfig(**dict(built)))
+            model = models[w, built]
+            for k in SET:
+                setattr(model.config, k, params.get(k, getattr(PredictionConfig, k)))
             scores[name(params), w] = score(rescore(runs[w], model))
         return scores[name(params), w]
 
-    for params in candidates():
+    for params in candidates(grid):
         if all((name(params), w) in scores for w in worlds):
             continue
         for w in worlds:
             full(params, w)
         print("%-36s %s" % (name(params), "  ".join(
             "%s %.3f" % (w, scores[name(params), w]["score"]) for w in worlds)), flush=True)
-    names = [name(c) for c in candidates()]
+    names = [name(c) for c in candidates(grid)]
     print()
-    print("| left out | chosen on the others | score | trk50 | gt50 | before: trk50 | gt50 |")
+    print("| left out | chosen on the others | score | trk50 | gt50 | %s: trk50 | gt50 |"
+          % ("default" if args.grid else "before"))
     print("|---|---|---|---|---|---|---|")
     picks = []
     for w in worlds:
         others = [o for o in worlds if o != w]
         # to the 3 decimals a resumed line holds, so a resumed run picks as a whole one would
         best = max(names, key=lambda n: sum(round(scores[n, o]["score"], 3) for o in others))
-        picks.append(next(c for c in candidates() if name(c) == best))
-        s, b = full(picks[-1], w), full(BEFORE, w)
+        picks.append(next(c for c in candidates(grid) if name(c) == best))
+        s, b = full(picks[-1], w), full(before, w)
         print("| %s | %s | %.3f | %.3f | %.3f | %.3f | %.3f |" % (
             w, best, s["score"], s["trk50"], s["gt50"], b["trk50"], b["gt50"]))
     # each parameter: the value most folds chose (the first in GRID order on a tie)
-    chosen = {k: max(GRID[k], key=lambda v: sum(1 for c in picks if c[k] == v)) for k in GRID}
+    chosen = {k: max(grid[k], key=lambda v: sum(1 for c in picks if c[k] == v)) for k in grid}
     print("\nCHOOSE folds=%d chosen=\"%s\" default=\"%s\"" % (
-        len(worlds), name(chosen), name({k: getattr(PredictionConfig, k) for k in GRID})))
+        len(worlds), name(chosen), name({k: getattr(PredictionConfig, k) for k in grid})))
     print("\n| world | %s |" % " | ".join(COLUMNS))
     print("|---|" + "---|" * len(COLUMNS))
     for w in worlds:
