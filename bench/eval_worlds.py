@@ -90,9 +90,10 @@ def checked(worlds: list, named: bool, allow: bool) -> tuple:
 
 
 #: The config sections ``--set SECTION.FIELD=VALUE`` changes: the observer's (FollowConfig,
-#: what the follower node runs), the predictor's (PredictionConfig) and the observer's path
-#: following (FollowerConfig, its path_follower's).
-SECTIONS = ("follow", "prediction", "drive")
+#: what the follower node runs), the predictor's (PredictionConfig), the observer's path
+#: following (FollowerConfig, its path_follower's) and the people tracker's (TrackerConfig,
+#: observer.launch's people_tracker).
+SECTIONS = ("follow", "prediction", "drive", "tracker")
 
 
 def parse_sets(items: List[str]) -> Dict[str, Dict[str, str]]:
@@ -126,7 +127,7 @@ def eval_config(world: str, legs: int, seed: int, allow: bool,
     """The study's config of one task, with ``--set``'s changes to the shipped defaults."""
     from bullet_floor_sim.overrides import with_changes
     from bullet_floor_sim.people.follow_config import FollowConfig
-    from bullet_floor_sim.people.evaluation.scenario import observer_follower
+    from bullet_floor_sim.people.evaluation.scenario import observer_follower, study_tracker
     from bullet_floor_sim.people.prediction import PredictionConfig
 
     return EvalConfig(legs=legs, seed=seed, world=world, allow_unreachable=allow,
@@ -135,14 +136,16 @@ def eval_config(world: str, legs: int, seed: int, allow: bool,
                       follow_config=with_changes(FollowConfig(), sets.get("follow", {}),
                                                  "follow."),
                       prediction=with_changes(PredictionConfig(), sets.get("prediction", {}),
-                                              "prediction."))
+                                              "prediction."),
+                      tracker_config=with_changes(study_tracker(), sets.get("tracker", {}),
+                                                  "tracker."))
 
 
 def shipped_sections() -> Dict[str, object]:
     """Each ``--set`` section's config as shipped (SECTIONS -> its dataclass)."""
     cfg = eval_config("office", 1, 1, False, {})
     return {"follow": cfg.follow_config, "prediction": cfg.prediction,
-            "drive": cfg.drive_config}
+            "drive": cfg.drive_config, "tracker": cfg.tracker_config}
 
 
 def set_notes(sets: Dict[str, Dict[str, str]]) -> List[str]:
@@ -350,7 +353,8 @@ def main() -> int:
     p.add_argument("--set", action="append", default=[], metavar="SECTION.FIELD=VALUE",
                    help="run with this parameter changed from its shipped default (sections: "
                         "follow, the observer's FollowConfig; prediction, PredictionConfig; "
-                        "drive, the observer's path following, FollowerConfig); "
+                        "drive, the observer's path following, FollowerConfig; tracker, "
+                        "the people tracker's TrackerConfig as observer.launch sets it); "
                         "repeatable; the output says so (bench/choose_by_folds.py uses it)")
     args = p.parse_args()
     if args.show_results:

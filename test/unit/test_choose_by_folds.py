@@ -13,6 +13,7 @@ from bullet_floor_sim.errors import BulletFloorSimError, ConfigError
 from bullet_floor_sim.overrides import with_changes
 from bullet_floor_sim.people.evaluation import EvalConfig
 from bullet_floor_sim.people.follow_config import FollowConfig, FollowError
+from bullet_floor_sim.people.tracking import TrackerConfig
 
 BENCH = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "bench")
 sys.path.insert(0, BENCH)
@@ -218,5 +219,34 @@ def test_the_observers_path_following_is_a_section_of_its_own():
     try:   # the study as shipped, its config built without eval_worlds
         sc = _Scenario(EvalConfig(legs=1, seed=1, world="simple"), world, lambda _s: None, 0.0)
         assert sc.drive.nav.follower.config.reverse_within == OBSERVER_REVERSE
+    finally:
+        world.close()
+
+
+def test_the_people_tracker_is_a_section_of_its_own():
+    from bullet_floor_sim.people.evaluation.scenario import SCITOS_CENTRE_OFFSET, _Scenario
+    from bullet_floor_sim.sim.world import World
+
+    # the study's tracker is observer.launch's: the Scitos body's centre offset
+    assert choose_by_folds.shipped_default("tracker.centre_offset") == SCITOS_CENTRE_OFFSET
+    assert choose_by_folds.shipped_default("tracker.max_age") == TrackerConfig().max_age
+    with pytest.raises(BulletFloorSimError, match="max_age must be a finite number > 0"):
+        eval_worlds.parse_sets(["tracker.max_age=0"])
+    with pytest.raises(BulletFloorSimError, match="tracker.confirm_hits: expected a whole number"):
+        eval_worlds.parse_sets(["tracker.confirm_hits=2.5"])
+    cfg = eval_worlds.eval_config("simple", 1, 1, False,
+                                  eval_worlds.parse_sets(["tracker.max_age=2"]))
+    world = World.from_name("simple", seed=1)
+    try:
+        sc = _Scenario(cfg, world, lambda _s: None, 0.0)
+        assert sc.tracker.config.max_age == 2.0 and sc.tracker.tracker.config.max_age == 2.0
+        assert sc.tracker.config.centre_offset == SCITOS_CENTRE_OFFSET   # the rest as shipped
+    finally:
+        world.close()
+    world = World.from_name("simple", seed=1)
+    try:   # the study as shipped, its config built without eval_worlds
+        sc = _Scenario(EvalConfig(legs=1, seed=1, world="simple"), world, lambda _s: None, 0.0)
+        assert sc.tracker.config.centre_offset == SCITOS_CENTRE_OFFSET
+        assert sc.tracker.config.max_age == TrackerConfig().max_age
     finally:
         world.close()

@@ -10,6 +10,7 @@ from ...sim.checks import check_integers, check_numbers
 from ...nav.pursuit import FollowerConfig
 from ..follow_config import FollowConfig
 from ..prediction import PredictionConfig
+from ..tracking import TrackerConfig
 
 __all__ = ["EvalConfig", "EvalResult", "LegScore", "EvaluationError", "FRACTIONS", "METHODS",
            "PIPELINES", "LEG_KINDS", "Moment"]
@@ -46,6 +47,8 @@ class EvalConfig:
             destination_predictor nodes run with).
         drive_config: the observer's path following (default: the shipped one,
             scenario.observer_follower(), as demo.launch's robot2 path_follower).
+        tracker_config: the people tracker's parameters (default: scenario.study_tracker(),
+            observer.launch's people_tracker: the centre offset of the Scitos body).
         allow_unreachable: run even when the map check (building/check.py) finds a region
             the walker cannot reach or an observer cut off from it (else the run refuses);
             what it found is then among the result's warnings.
@@ -70,6 +73,7 @@ class EvalConfig:
     prediction: Optional[PredictionConfig] = None
     follow_config: Optional[FollowConfig] = None
     drive_config: Optional[FollowerConfig] = None
+    tracker_config: Optional[TrackerConfig] = None
     allow_unreachable: bool = False
     min_leg_path: float = 0.25
 
@@ -79,8 +83,9 @@ class EvalConfig:
             raise EvaluationError("evaluate: walker and observer must be different robots")
         check_numbers(self, ("control_rate", "match_distance"), "evaluate", error=EvaluationError)
         check_numbers(self, ("min_leg_path",), "evaluate", strict=False, error=EvaluationError)
-        if self.drive_config is not None:
-            self.drive_config.check()
+        for config in (self.drive_config, self.tracker_config):
+            if config is not None:
+                config.check()
 
 
 @dataclass

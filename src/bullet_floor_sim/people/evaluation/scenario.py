@@ -116,7 +116,7 @@ class _Scenario:
         # the agents the nodes run: markov_walker, people_tracker (observer.launch's
         # centre_offset for the Scitos body), destination_predictor, follower
         self.walker = WalkerAgent(Walker(chain, rois, sampler, WalkerConfig(), seed=cfg.seed))
-        self.tracker = TrackerAgent.for_map(world.fmap, TrackerConfig(centre_offset=0.25),
+        self.tracker = TrackerAgent.for_map(world.fmap, cfg.tracker_config or study_tracker(),
                                             handling=world.config.map_handling)
         follow = cfg.follow_config or FollowConfig()
         self.predictor = PredictorAgent(model, follow)
@@ -276,6 +276,16 @@ class _Scenario:
                           follow_modes=self.drive.modes, warnings=self.warnings,
                           short_legs=self.short,
                           setup_time=self.setup_time)
+
+
+#: The tracker's centre offset for the Scitos A5 body that stands in for the person
+#: (TrackerConfig.centre_offset; as observer.launch's people_tracker).
+SCITOS_CENTRE_OFFSET = 0.25
+
+
+def study_tracker() -> TrackerConfig:
+    """The people tracker as the study runs it (observer.launch's people_tracker)."""
+    return TrackerConfig(centre_offset=SCITOS_CENTRE_OFFSET)
 
 
 #: The observer backs up to a goal this close behind it (FollowerConfig.reverse_within; as
