@@ -91,9 +91,11 @@ def checked(worlds: list, named: bool, allow: bool) -> tuple:
 
 #: The config sections ``--set SECTION.FIELD=VALUE`` changes: the observer's (FollowConfig,
 #: what the follower node runs), the predictor's (PredictionConfig), the observer's path
-#: following (FollowerConfig, its path_follower's) and the people tracker's (TrackerConfig,
-#: observer.launch's people_tracker).
-SECTIONS = ("follow", "prediction", "drive", "tracker")
+#: following (FollowerConfig, its path_follower's), the people tracker's (TrackerConfig,
+#: observer.launch's people_tracker) and both robots' navigation recovery (NavigatorConfig;
+#: not the ROLES, which the launch files set per robot).
+SECTIONS = ("follow", "prediction", "drive", "tracker", "nav")
+ROLES = ("give_way", "keep_way")
 
 
 def parse_sets(items: List[str]) -> Dict[str, Dict[str, str]]:
@@ -115,6 +117,9 @@ def parse_sets(items: List[str]) -> Dict[str, Dict[str, str]]:
         if section not in SECTIONS:
             raise ConfigError("--set %s: no section %r (sections: %s)"
                               % (item, section, ", ".join(SECTIONS)))
+        if section == "nav" and name in ROLES:
+            raise ConfigError("--set %s: nav.%s is a robot's role (the observer gives way, the "
+                              "walker keeps its way), not a default to change" % (item, name))
         if name in out.get(section, {}):
             raise ConfigError("--set %s: %s.%s is set twice" % (item, section, name))
         out.setdefault(section, {})[name] = value.strip()
@@ -125,6 +130,7 @@ def parse_sets(items: List[str]) -> Dict[str, Dict[str, str]]:
 def eval_config(world: str, legs: int, seed: int, allow: bool,
                 sets: Dict[str, Dict[str, str]]) -> EvalConfig:
     """The study's config of one task, with ``--set``'s changes to the shipped defaults."""
+    from bullet_floor_sim.nav.navigator import NavigatorConfig
     from bullet_floor_sim.overrides import with_changes
     from bullet_floor_sim.people.follow_config import FollowConfig
     from bullet_floor_sim.people.evaluation.scenario import observer_follower, study_tracker
@@ -138,14 +144,15 @@ def eval_config(world: str, legs: int, seed: int, allow: bool,
                       prediction=with_changes(PredictionConfig(), sets.get("prediction", {}),
                                               "prediction."),
                       tracker_config=with_changes(study_tracker(), sets.get("tracker", {}),
-                                                  "tracker."))
+                                                  "tracker."),
+                      nav_config=with_changes(NavigatorConfig(), sets.get("nav", {}), "nav."))
 
 
 def shipped_sections() -> Dict[str, object]:
     """Each ``--set`` section's config as shipped (SECTIONS -> its dataclass)."""
     cfg = eval_config("office", 1, 1, False, {})
     return {"follow": cfg.follow_config, "prediction": cfg.prediction,
-            "drive": cfg.drive_config, "tracker": cfg.tracker_config}
+            "drive": cfg.drive_config, "tracker": cfg.tracker_config, "nav": cfg.nav_config}
 
 
 def set_notes(sets: Dict[str, Dict[str, str]]) -> List[str]:
@@ -354,7 +361,8 @@ def main() -> int:
                    help="run with this parameter changed from its shipped default (sections: "
                         "follow, the observer's FollowConfig; prediction, PredictionConfig; "
                         "drive, the observer's path following, FollowerConfig; tracker, "
-                        "the people tracker's TrackerConfig as observer.launch sets it); "
+                        "the people tracker's TrackerConfig as observer.launch sets it; nav, "
+                        "both robots' NavigatorConfig, their roles as launched); "
                         "repeatable; the output says so (bench/choose_by_folds.py uses it)")
     args = p.parse_args()
     if args.show_results:

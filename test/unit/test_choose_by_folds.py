@@ -250,3 +250,31 @@ def test_the_people_tracker_is_a_section_of_its_own():
         assert sc.tracker.config.max_age == TrackerConfig().max_age
     finally:
         world.close()
+
+
+def test_the_navigation_is_a_section_of_both_robots_with_their_roles_kept():
+    from bullet_floor_sim.nav.navigator import NavigatorConfig
+    from bullet_floor_sim.people.evaluation.scenario import _Scenario
+    from bullet_floor_sim.sim.world import World
+
+    assert choose_by_folds.shipped_default("nav.deadlock_time") == NavigatorConfig().deadlock_time
+    with pytest.raises(BulletFloorSimError, match="deadlock_time must be a finite number > 0"):
+        eval_worlds.parse_sets(["nav.deadlock_time=0"])
+    with pytest.raises(BulletFloorSimError, match="nav.give_way is a robot's role"):
+        eval_worlds.parse_sets(["nav.give_way=false"])
+    assert eval_worlds.parse_sets(["nav.detour=0"]) == {"nav": {"detour": "0"}}
+    shipped = NavigatorConfig().deadlock_time
+    for item, (walker_dl, observer_dl) in (("nav.deadlock_time=5", (5.0, 5.0)),
+                                           (None, (shipped, shipped))):
+        sets = eval_worlds.parse_sets([item] if item else [])
+        cfg = eval_worlds.eval_config("simple", 1, 1, False, sets) if item else \
+            EvalConfig(legs=1, seed=1, world="simple")   # as shipped, without eval_worlds
+        world = World.from_name("simple", seed=1)
+        try:
+            sc = _Scenario(cfg, world, lambda _s: None, 0.0)
+            walker, observer = sc.nav_walker.config, sc.drive.nav.config
+            assert (walker.deadlock_time, observer.deadlock_time) == (walker_dl, observer_dl)
+            assert walker.keep_way and not walker.give_way      # the walker keeps its way
+            assert observer.give_way and not observer.keep_way  # the observer gives way
+        finally:
+            world.close()

@@ -7,12 +7,14 @@ when stalled and, with ``give_way``, yields to a robot it meets (:func:`give_way
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
+from ..errors import BulletFloorSimError
 from ..geometry import wrap_angle, wrap_angles
+from ..sim.checks import check_numbers
 from .grid import PlanError, PlanningGrid, path_length
 from .pursuit import FollowerCommand, PathFollower, to_map
 
@@ -234,6 +236,19 @@ class NavigatorConfig:
     detour: float = 10.0
     detour_wait: float = 10.0
     goal_taken_within: float = 1.5
+
+    def check(self) -> None:
+        """Raises BulletFloorSimError naming the first number that is not finite and > 0
+        (>= 0 for the distances and waits that may be none: ``sidestep``,
+        ``give_way_clear``, ``give_way_wait``, ``detour``, ``detour_wait``,
+        ``goal_taken_within``; ``other_radius`` may also be None)."""
+        zero_ok = ("sidestep", "give_way_clear", "give_way_wait", "detour", "detour_wait",
+                   "goal_taken_within")
+        numbers = [f.name for f in fields(self) if f.type in ("float", "Optional[float]")]
+        check_numbers(self, [n for n in numbers if n not in zero_ok and not (
+            n == "other_radius" and self.other_radius is None)], "navigator",
+            error=BulletFloorSimError)
+        check_numbers(self, zero_ok, "navigator", strict=False, error=BulletFloorSimError)
 
 
 @dataclass

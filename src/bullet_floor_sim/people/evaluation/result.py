@@ -7,6 +7,7 @@ from typing import Dict, List, Optional, Tuple
 
 from ...errors import BulletFloorSimError
 from ...sim.checks import check_integers, check_numbers
+from ...nav.navigator import NavigatorConfig
 from ...nav.pursuit import FollowerConfig
 from ..follow_config import FollowConfig
 from ..prediction import PredictionConfig
@@ -49,6 +50,9 @@ class EvalConfig:
             scenario.observer_follower(), as demo.launch's robot2 path_follower).
         tracker_config: the people tracker's parameters (default: scenario.study_tracker(),
             observer.launch's people_tracker: the centre offset of the Scitos body).
+        nav_config: both robots' navigation recovery (default: NavigatorConfig()); each
+            robot's role is set on it as demo.launch does (the walker ``keep_way``, the
+            observer ``give_way``).
         allow_unreachable: run even when the map check (building/check.py) finds a region
             the walker cannot reach or an observer cut off from it (else the run refuses);
             what it found is then among the result's warnings.
@@ -74,6 +78,7 @@ class EvalConfig:
     follow_config: Optional[FollowConfig] = None
     drive_config: Optional[FollowerConfig] = None
     tracker_config: Optional[TrackerConfig] = None
+    nav_config: Optional[NavigatorConfig] = None
     allow_unreachable: bool = False
     min_leg_path: float = 0.25
 
@@ -83,7 +88,7 @@ class EvalConfig:
             raise EvaluationError("evaluate: walker and observer must be different robots")
         check_numbers(self, ("control_rate", "match_distance"), "evaluate", error=EvaluationError)
         check_numbers(self, ("min_leg_path",), "evaluate", strict=False, error=EvaluationError)
-        for config in (self.drive_config, self.tracker_config):
+        for config in (self.drive_config, self.tracker_config, self.nav_config):
             if config is not None:
                 config.check()
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 from typing import Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -122,8 +123,9 @@ class _Scenario:
         self.predictor = PredictorAgent(model, follow)
         self.follower = FollowerAgent(FollowBehaviour(grid, follow))
         # path_follower in each namespace; the observer's yields (demo.launch's ~give_way)
-        self.nav_walker = Navigator(grid, PathFollower(), NavigatorConfig(keep_way=True))
-        self.drive = ObserverDrive(world, cfg.observer, grid, cfg.drive_config)
+        nav = cfg.nav_config or NavigatorConfig()   # each robot's role set on it, as launched
+        self.nav_walker = Navigator(grid, PathFollower(), replace(nav, keep_way=True))
+        self.drive = ObserverDrive(world, cfg.observer, grid, cfg.drive_config, nav)
         self.pred_gt = OnlinePredictor(model)   # the same predictor on the walker's truth
         self.laser = [world.models[i].laser_pose for i in range(world.n)]  # x, y, z, yaw
         self.body = float(world.radius[cfg.walker])  # the walker's footprint radius
@@ -302,14 +304,15 @@ class ObserverDrive:
     """The observer's navigation (its path_follower, yielding as demo.launch's ~give_way)
     towards the follower's goals, and the follower node's ``goal_done`` (the last goal sent
     is over, until the next); ``modes`` counts the follower's decisions by mode.
-    ``config``: its path following (default: :func:`observer_follower`)."""
+    ``config``: its path following (default: :func:`observer_follower`); ``nav``: its
+    recovery (default: NavigatorConfig()), with ``give_way`` set on it."""
 
-    def __init__(self, world, observer: int, grid,
-                 config: Optional[FollowerConfig] = None) -> None:
+    def __init__(self, world, observer: int, grid, config: Optional[FollowerConfig] = None,
+                 nav: Optional[NavigatorConfig] = None) -> None:
         self.world, self.observer = world, observer
         self.laser = world.models[observer].laser_pose
         self.nav = Navigator(grid, PathFollower(config or observer_follower()),
-                             NavigatorConfig(give_way=True))
+                             replace(nav or NavigatorConfig(), give_way=True))
         self.goal_active = self.goal_done = False
         self.modes: Dict[str, int] = {}
 
