@@ -205,6 +205,8 @@ def main() -> int:
         print("%-36s %s" % (name(params), "  ".join(
             "%s %.3f" % (w, scores[name(params), w]["score"]) for w in worlds)), flush=True)
     names = [name(c) for c in candidates(grid)]
+    default = {k: getattr(PredictionConfig, k) for k in grid}
+    as_shipped = {name(c): sum(c[k] == default[k] for k in grid) for c in candidates(grid)}
     print()
     print("| left out | chosen on the others | score | trk50 | gt50 | %s: trk50 | gt50 |"
           % ("default" if args.grid else "before"))
@@ -212,16 +214,20 @@ def main() -> int:
     picks = []
     for w in worlds:
         others = [o for o in worlds if o != w]
-        # to the 3 decimals a resumed line holds, so a resumed run picks as a whole one would
-        best = max(names, key=lambda n: sum(round(scores[n, o]["score"], 3) for o in others))
+        # to the 3 decimals a resumed line holds, so a resumed run picks as a whole one would;
+        # of candidates that tie, the one with most shipped defaults
+        best = max(names, key=lambda n: (sum(round(scores[n, o]["score"], 3) for o in others),
+                                         as_shipped.get(n, 0)))
         picks.append(next(c for c in candidates(grid) if name(c) == best))
         s, b = full(picks[-1], w), full(before, w)
         print("| %s | %s | %.3f | %.3f | %.3f | %.3f | %.3f |" % (
             w, best, s["score"], s["trk50"], s["gt50"], b["trk50"], b["gt50"]))
-    # each parameter: the value most folds chose (the first in GRID order on a tie)
-    chosen = {k: max(grid[k], key=lambda v: sum(1 for c in picks if c[k] == v)) for k in grid}
+    # each parameter: the value most folds chose (the shipped default on a tie, else the
+    # first in grid order)
+    chosen = {k: max(grid[k], key=lambda v: (sum(1 for c in picks if c[k] == v),
+                                             v == default[k])) for k in grid}
     print("\nCHOOSE folds=%d chosen=\"%s\" default=\"%s\"" % (
-        len(worlds), name(chosen), name({k: getattr(PredictionConfig, k) for k in grid})))
+        len(worlds), name(chosen), name(default)))
     print("\n| world | %s |" % " | ".join(COLUMNS))
     print("|---|" + "---|" * len(COLUMNS))
     for w in worlds:
