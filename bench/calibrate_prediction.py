@@ -30,7 +30,7 @@ from bullet_floor_sim.people.prediction import (PredictionConfig, log_loss,  # n
                                                 posterior_or_prior, top1)
 from bullet_floor_sim.people.prediction.calibration import brier, calibrate  # noqa: E402
 from choose_prediction import recorded  # noqa: E402
-from eval_worlds import shipped  # noqa: E402
+from eval_worlds import checked, shipped  # noqa: E402
 
 GRID = {"temperature": (1.0, 1.5, 2.0, 3.0, 4.0, 6.0), "prior_mix": (0.0, 0.05, 0.1, 0.2, 0.3)}
 SCORED = tuple(k for k, f in enumerate(FRACTIONS) if f >= 0.25)
@@ -81,7 +81,10 @@ def main() -> int:
         "~/.ros")), "bullet_floor_sim", "choose_prediction"))
     ap.add_argument("--plot", help="reliability diagram PNG")
     args = ap.parse_args()
-    worlds = args.worlds or shipped()
+    # of the default list, a world the map check refuses is left out with a line saying so
+    worlds, notes = checked(args.worlds or shipped(), bool(args.worlds), False)
+    for line in notes:
+        print("note: %s" % line, file=sys.stderr)
     data = {w: moments(w, args.legs, args.seed, args.cache) for w in worlds}
     cands = list(itertools.product(GRID["temperature"], GRID["prior_mix"]))
     table = {(c, w): scores(data[w], *c) for c in cands for w in worlds}
