@@ -18,7 +18,9 @@ baselines at 25 % (the earliest fraction the issue's targets name).
     .venv/bin/python bench/choose_prediction.py --grid goal_spacing=0.5,1,2 ...  # other values
 
 ``--grid FIELD=V1,V2,...`` (repeatable) searches those values of the PredictionConfig fields
-the rescoring sees (BUILT and SET below) instead of GRID, beside the shipped defaults.
+the rescoring sees (BUILT and SET below) instead of GRID; each field's shipped default is
+added to its values when not among them, and a tie goes to the shipped defaults. The
+calibration's (temperature, prior_mix) is bench/calibrate_prediction.py's.
 
 ``--resume`` reads the candidate lines an earlier run printed (same worlds, legs and seed) and
 scores only the candidates they lack; the scores of the earlier lines are taken as printed
@@ -53,7 +55,7 @@ GRID = {"beta": (2.0, 3.0, 5.0, 8.0), "length_exponent": (0.0, 0.5, 1.0, 1.5),
 BEFORE = {"beta": 3.0, "length_exponent": 0.0, "max_goals_per_region": 12}
 # the fields a rescore sees (the posterior of S and Q): those that shape the model's goal
 # points and distances are built into a model of their own, the others set on it
-BUILT = ("max_goals_per_region", "goal_spacing")
+BUILT = ("max_goals_per_region", "goal_spacing", "clearance", "margin")
 SET = ("beta", "length_exponent", "snap_distance")
 COLUMNS = ("trk25", "trk50", "trk75", "trk_markov25", "trk_heading25", "gt25", "gt50", "gt75",
            "gt_markov25", "gt_heading25")
@@ -123,9 +125,17 @@ def resumed(path: str, worlds, grid: dict) -> dict:
     out = {}
     with open(path) as f:
         for line in f:
-            if not line.startswith(min(grid) + "="):
+            words = line.split()
+            lead = [w.partition("=") for w in words[:len(grid) + 1]]
+            lead = lead[:next((i for i, (_, eq, _) in enumerate(lead) if not eq), len(lead))]
+            if not lead or not line.startswith(lead[0][0] + "="):
                 continue
-            params = " ".join(line.split()[:len(grid)])
+            keys = [k for k, _, _ in lead]
+            if keys != sorted(grid) or any(float(v) not in grid[k] for k, _, v in lead):
+                raise SystemExit("choose_prediction: --resume %s: a candidate line is not of "
+                                 "this grid (%s): %s" % (path, ", ".join(sorted(grid)),
+                                                         line.strip()[:80]))
+            params = " ".join(words[:len(grid)])
             for w in worlds:
                 m = re.search(r"(?:^|\s)%s (\S+)" % re.escape(w), line[len(params):])
                 if m is None:
@@ -143,18 +153,29 @@ def candidates(grid: dict):
 
 def parse_grid(specs) -> dict:
     """{field: values} from ``FIELD=V1,V2,...`` strings; SystemExit naming a bad one."""
+    from bullet_floor_sim.errors import BulletFloorSimError
+
     grid = {}
     for spec in specs:
         field, _, values = spec.partition("=")
         if field not in BUILT + SET:
             raise SystemExit("choose_prediction: --grid %s: %r is not a field the rescoring "
-                             "sees (one of %s)" % (spec, field, ", ".join(BUILT + SET)))
+                             "sees (one of %s; temperature and prior_mix are "
+                             "calibrate_prediction.py's)" % (spec, field, ", ".join(BUILT + SET)))
+        if field in grid:
+            raise SystemExit("choose_prediction: --grid %s: %s is given twice" % (spec, field))
+        default = getattr(PredictionConfig, field)
         try:
-            kind = type(getattr(PredictionConfig, field))
-            grid[field] = tuple(kind(v) for v in values.split(","))
+            typed = [type(default)(v) for v in values.split(",")]
+            for v in typed:
+                PredictionConfig(**{field: v}).check()
         except ValueError:
             raise SystemExit("choose_prediction: --grid %s: values must be %s numbers, "
-                             "comma-separated" % (spec, kind.__name__)) from None
+                             "comma-separated" % (spec, type(default).__name__)) from None
+        except BulletFloorSimError as e:
+            raise SystemExit("choose_prediction: --grid %s: %s" % (spec, e)) from None
+        # the shipped default is always a candidate: the folds may keep it
+        grid[field] = tuple(dict.fromkeys(typed + [default]))
     return grid
 
 

@@ -92,10 +92,14 @@ def checked(worlds: list, named: bool, allow: bool) -> tuple:
 #: The config sections ``--set SECTION.FIELD=VALUE`` changes: the observer's (FollowConfig,
 #: what the follower node runs), the predictor's (PredictionConfig), the observer's path
 #: following (FollowerConfig, its path_follower's), the people tracker's (TrackerConfig,
-#: observer.launch's people_tracker) and both robots' navigation recovery (NavigatorConfig;
-#: not the ROLES, which the launch files set per robot).
+#: observer.launch's people_tracker) and both robots' navigation: recovery, replanning and
+#: passing (NavigatorConfig; not the FIXED fields below).
 SECTIONS = ("follow", "prediction", "drive", "tracker", "nav")
-ROLES = ("give_way", "keep_way")
+#: NavigatorConfig fields that are no default to change, and why.
+FIXED = {"give_way": "a robot's role (the observer gives way, the walker keeps its way)",
+         "keep_way": "a robot's role (the observer gives way, the walker keeps its way)",
+         "passing": "the path follower's mapping mode (off only while a map is built)",
+         "other_radius": "None by default (the robot's own radius), not a number to change"}
 
 
 def parse_sets(items: List[str]) -> Dict[str, Dict[str, str]]:
@@ -117,9 +121,8 @@ def parse_sets(items: List[str]) -> Dict[str, Dict[str, str]]:
         if section not in SECTIONS:
             raise ConfigError("--set %s: no section %r (sections: %s)"
                               % (item, section, ", ".join(SECTIONS)))
-        if section == "nav" and name in ROLES:
-            raise ConfigError("--set %s: nav.%s is a robot's role (the observer gives way, the "
-                              "walker keeps its way), not a default to change" % (item, name))
+        if section == "nav" and name in FIXED:
+            raise ConfigError("--set %s: nav.%s is %s" % (item, name, FIXED[name]))
         if name in out.get(section, {}):
             raise ConfigError("--set %s: %s.%s is set twice" % (item, section, name))
         out.setdefault(section, {})[name] = value.strip()

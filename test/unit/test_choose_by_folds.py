@@ -262,6 +262,8 @@ def test_the_navigation_is_a_section_of_both_robots_with_their_roles_kept():
         eval_worlds.parse_sets(["nav.deadlock_time=0"])
     with pytest.raises(BulletFloorSimError, match="nav.give_way is a robot's role"):
         eval_worlds.parse_sets(["nav.give_way=false"])
+    with pytest.raises(BulletFloorSimError, match="nav.other_radius is None by default"):
+        eval_worlds.parse_sets(["nav.other_radius=0.3"])
     assert eval_worlds.parse_sets(["nav.detour=0"]) == {"nav": {"detour": "0"}}
     shipped = NavigatorConfig().deadlock_time
     for item, (walker_dl, observer_dl) in (("nav.deadlock_time=5", (5.0, 5.0)),

@@ -75,8 +75,8 @@ class PathFollowerParams:
     xy_goal_tolerance: float = 0.15
     yaw_goal_tolerance: float = 0.15
     controller_frequency: float = 10.0
-    blocked_timeout: float = 30.0
-    progress_timeout: float = 60.0
+    blocked_timeout: float = NavigatorConfig.blocked_timeout
+    progress_timeout: float = NavigatorConfig.progress_timeout
     give_way: bool = False
     keep_way: bool = False
     reverse_within: float = 0.0

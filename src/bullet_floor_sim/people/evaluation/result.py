@@ -50,9 +50,9 @@ class EvalConfig:
             scenario.observer_follower(), as demo.launch's robot2 path_follower).
         tracker_config: the people tracker's parameters (default: scenario.study_tracker(),
             observer.launch's people_tracker: the centre offset of the Scitos body).
-        nav_config: both robots' navigation recovery (default: NavigatorConfig()); each
-            robot's role is set on it as demo.launch does (the walker ``keep_way``, the
-            observer ``give_way``).
+        nav_config: both robots' navigation: recovery, replanning and passing (default:
+            NavigatorConfig()); each robot's role is set on it as demo.launch does (the
+            walker ``keep_way``, the observer ``give_way``).
         allow_unreachable: run even when the map check (building/check.py) finds a region
             the walker cannot reach or an observer cut off from it (else the run refuses);
             what it found is then among the result's warnings.
