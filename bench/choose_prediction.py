@@ -197,7 +197,8 @@ def main() -> int:
                         "the shipped defaults; repeatable" % ", ".join(BUILT + SET))
     args = p.parse_args()
     grid = parse_grid(args.grid) or GRID
-    before = ({k: getattr(PredictionConfig, k) for k in grid} if args.grid else BEFORE)
+    default = {k: getattr(PredictionConfig, k) for k in grid}
+    before = default if args.grid else BEFORE
     # of the default list, a world the map check refuses is left out with a line saying so
     worlds, notes = checked(args.worlds or shipped(), bool(args.worlds), False)
     for line in notes:
@@ -226,7 +227,6 @@ def main() -> int:
         print("%-36s %s" % (name(params), "  ".join(
             "%s %.3f" % (w, scores[name(params), w]["score"]) for w in worlds)), flush=True)
     names = [name(c) for c in candidates(grid)]
-    default = {k: getattr(PredictionConfig, k) for k in grid}
     as_shipped = {name(c): sum(c[k] == default[k] for k in grid) for c in candidates(grid)}
     print()
     print("| left out | chosen on the others | score | trk50 | gt50 | %s: trk50 | gt50 |"

@@ -2,6 +2,7 @@
 ``--set`` changes it runs with (bench/eval_worlds.py, overrides.with_changes)."""
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 
@@ -14,6 +15,19 @@ from bullet_floor_sim.overrides import with_changes
 from bullet_floor_sim.people.evaluation import EvalConfig
 from bullet_floor_sim.people.follow_config import FollowConfig, FollowError
 from bullet_floor_sim.people.tracking import TrackerConfig
+
+@contextlib.contextmanager
+def scenario(cfg):
+    """The study's scenario of ``cfg`` on a fresh world, closed afterwards."""
+    from bullet_floor_sim.people.evaluation.scenario import _Scenario
+    from bullet_floor_sim.sim.world import World
+
+    world = World.from_name(cfg.world, seed=1)
+    try:
+        yield _Scenario(cfg, world, lambda _s: None, 0.0)
+    finally:
+        world.close()
+
 
 BENCH = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "bench")
 sys.path.insert(0, BENCH)
@@ -162,18 +176,11 @@ def test_a_field_set_twice_is_refused():
 
 
 def test_the_observer_and_the_predictors_search_plans_get_one_config():
-    from bullet_floor_sim.people.evaluation.scenario import _Scenario
-    from bullet_floor_sim.sim.world import World
-
     cfg = eval_worlds.eval_config("simple", 1, 1, False,
                                   eval_worlds.parse_sets(["follow.search_regions=1"]))
-    world = World.from_name("simple", seed=1)
-    try:
-        sc = _Scenario(cfg, world, lambda _s: None, 0.0)
+    with scenario(cfg) as sc:
         assert sc.predictor.follow.search_regions == 1   # the search plan the predictor makes
         assert sc.follower.behaviour.config is sc.predictor.follow
-    finally:
-        world.close()
 
 
 def test_with_changes_names_the_field_and_keeps_the_original():
@@ -197,8 +204,7 @@ def test_the_study_runs_with_the_changed_observer():
 
 
 def test_the_observers_path_following_is_a_section_of_its_own():
-    from bullet_floor_sim.people.evaluation.scenario import OBSERVER_REVERSE, _Scenario
-    from bullet_floor_sim.sim.world import World
+    from bullet_floor_sim.people.evaluation.scenario import OBSERVER_REVERSE
 
     assert choose_by_folds.shipped_default("drive.reverse_within") == OBSERVER_REVERSE
     with pytest.raises(BulletFloorSimError, match="reverse_speed must be a finite number > 0"):
@@ -208,24 +214,16 @@ def test_the_observers_path_following_is_a_section_of_its_own():
         eval_worlds.parse_sets(["drive.reverse_within=-1"])
     cfg = eval_worlds.eval_config("simple", 1, 1, False,
                                   eval_worlds.parse_sets(["drive.reverse_within=1"]))
-    world = World.from_name("simple", seed=1)
-    try:
-        sc = _Scenario(cfg, world, lambda _s: None, 0.0)
+    with scenario(cfg) as sc:
         assert sc.drive.nav.follower.config.reverse_within == 1.0
         assert sc.nav_walker.follower.config.reverse_within == 0.0   # the walker never backs up
-    finally:
-        world.close()
-    world = World.from_name("simple", seed=1)
-    try:   # the study as shipped, its config built without eval_worlds
-        sc = _Scenario(EvalConfig(legs=1, seed=1, world="simple"), world, lambda _s: None, 0.0)
+    # the study as shipped, its config built without eval_worlds
+    with scenario(EvalConfig(legs=1, seed=1, world="simple")) as sc:
         assert sc.drive.nav.follower.config.reverse_within == OBSERVER_REVERSE
-    finally:
-        world.close()
 
 
 def test_the_people_tracker_is_a_section_of_its_own():
-    from bullet_floor_sim.people.evaluation.scenario import SCITOS_CENTRE_OFFSET, _Scenario
-    from bullet_floor_sim.sim.world import World
+    from bullet_floor_sim.people.evaluation.scenario import SCITOS_CENTRE_OFFSET
 
     # the study's tracker is observer.launch's: the Scitos body's centre offset
     assert choose_by_folds.shipped_default("tracker.centre_offset") == SCITOS_CENTRE_OFFSET
@@ -236,26 +234,17 @@ def test_the_people_tracker_is_a_section_of_its_own():
         eval_worlds.parse_sets(["tracker.confirm_hits=2.5"])
     cfg = eval_worlds.eval_config("simple", 1, 1, False,
                                   eval_worlds.parse_sets(["tracker.max_age=2"]))
-    world = World.from_name("simple", seed=1)
-    try:
-        sc = _Scenario(cfg, world, lambda _s: None, 0.0)
+    with scenario(cfg) as sc:
         assert sc.tracker.config.max_age == 2.0 and sc.tracker.tracker.config.max_age == 2.0
         assert sc.tracker.config.centre_offset == SCITOS_CENTRE_OFFSET   # the rest as shipped
-    finally:
-        world.close()
-    world = World.from_name("simple", seed=1)
-    try:   # the study as shipped, its config built without eval_worlds
-        sc = _Scenario(EvalConfig(legs=1, seed=1, world="simple"), world, lambda _s: None, 0.0)
+    # the study as shipped, its config built without eval_worlds
+    with scenario(EvalConfig(legs=1, seed=1, world="simple")) as sc:
         assert sc.tracker.config.centre_offset == SCITOS_CENTRE_OFFSET
         assert sc.tracker.config.max_age == TrackerConfig().max_age
-    finally:
-        world.close()
 
 
 def test_the_navigation_is_a_section_of_both_robots_with_their_roles_kept():
     from bullet_floor_sim.nav.navigator import NavigatorConfig
-    from bullet_floor_sim.people.evaluation.scenario import _Scenario
-    from bullet_floor_sim.sim.world import World
 
     assert choose_by_folds.shipped_default("nav.deadlock_time") == NavigatorConfig().deadlock_time
     with pytest.raises(BulletFloorSimError, match="deadlock_time must be a finite number > 0"):
@@ -271,12 +260,8 @@ def test_the_navigation_is_a_section_of_both_robots_with_their_roles_kept():
         sets = eval_worlds.parse_sets([item] if item else [])
         cfg = eval_worlds.eval_config("simple", 1, 1, False, sets) if item else \
             EvalConfig(legs=1, seed=1, world="simple")   # as shipped, without eval_worlds
-        world = World.from_name("simple", seed=1)
-        try:
-            sc = _Scenario(cfg, world, lambda _s: None, 0.0)
+        with scenario(cfg) as sc:
             walker, observer = sc.nav_walker.config, sc.drive.nav.config
             assert (walker.deadlock_time, observer.deadlock_time) == (walker_dl, observer_dl)
             assert walker.keep_way and not walker.give_way      # the walker keeps its way
             assert observer.give_way and not observer.keep_way  # the observer gives way
-        finally:
-            world.close()
