@@ -94,9 +94,10 @@ def read_runs(path: str, legs: int) -> Dict[Tuple[str, int], dict]:
 
 
 def run_value(path: str, sets: dict, worlds: List[str], seeds: List[int], legs: int,
-              workers: int) -> Dict[Tuple[str, int], dict]:
+              workers: int, save: str = "") -> Dict[Tuple[str, int], dict]:
     """The EVAL fields of every (world, seed) with ``sets``: those in ``path`` already as
-    they are (of ``legs`` legs only), the others run now, each appended as it ends."""
+    they are (of ``legs`` legs only), the others run now, each appended as it ends (and,
+    with ``save``, each run's moments kept there as eval_worlds.py --save keeps them)."""
     wanted = {(world_label(w), s) for w in worlds for s in seeds}
 
     def kept() -> Dict[Tuple[str, int], dict]:
@@ -114,7 +115,7 @@ def run_value(path: str, sets: dict, worlds: List[str], seeds: List[int], legs: 
             with open(path, "a") as f:
                 f.write(lead + eval_worlds._eval_line(r, None) + " legs_asked=%d\n" % legs)
 
-        eval_worlds.run_tasks(todo, legs, workers=workers, on_row=keep, sets=sets)
+        eval_worlds.run_tasks(todo, legs, save=save, workers=workers, on_row=keep, sets=sets)
     return kept()
 
 
@@ -189,6 +190,10 @@ def main() -> int:
     p.add_argument("--out", default="", metavar="DIR",
                    help="where the runs' EVAL lines are kept (default: "
                         "~/.ros/bullet_floor_sim/folds/<commit>)")
+    p.add_argument("--save", default="", metavar="DIR",
+                   help="the default's runs done now also keep their moments in DIR, as "
+                        "eval_worlds.py --save does (for choose_prediction.py and "
+                        "calibrate_prediction.py --cache): one run serves both folds")
     args = p.parse_args()
     section, _, field = args.param.partition(".")
     if not 0.0 <= args.max_given_up <= 1.0:
@@ -215,7 +220,7 @@ def main() -> int:
         sets = {} if label.endswith("(default)") else {section: {field: value}}
         name = "default" if not sets else "%s=%s" % (args.param, value)
         runs[label] = run_value(os.path.join(out, name + ".log"), sets, worlds, args.seed,
-                                args.legs, args.workers)
+                                args.legs, args.workers, "" if sets else args.save)
     print("%s, %d legs, seed(s) %s; each fold keeps the value with the best mean %s on the "
           "other worlds, of those that gave up at most %g %% of the legs there\n"
           % (args.param, args.legs, " ".join(map(str, args.seed)), args.score,

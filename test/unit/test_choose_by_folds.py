@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import sys
 
@@ -33,6 +34,7 @@ BENCH = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "be
 sys.path.insert(0, BENCH)
 
 import choose_by_folds  # noqa: E402
+import choose_prediction  # noqa: E402
 import eval_worlds  # noqa: E402
 
 
@@ -132,10 +134,15 @@ def test_a_value_runs_only_what_is_not_kept(tmp_path):
     path = str(tmp_path / "v.log")
     with open(path, "w") as f:   # another world's run, and a line a cut run left unfinished
         f.write("EVAL world=elsewhere seed=1 legs=2 trk50=0.500 legs_asked=2\nEVAL world=x")
-    runs = choose_by_folds.run_value(path, {}, ["simple"], [1], 2, 1)
+    save = str(tmp_path / "moments")
+    runs = choose_by_folds.run_value(path, {}, ["simple"], [1], 2, 1, save)
     assert list(runs) == [("simple", 1)] and runs["simple", 1]["legs"] == 2
     lines = open(path).read().splitlines()
     assert lines[1] == "EVAL world=x" and lines[2].startswith("EVAL world=simple seed=1 legs=2 ")
+    # the run done now kept its moments, as eval_worlds.py --save keeps them
+    with open(choose_prediction.cache_path(save, "simple", 2, 1)) as f:
+        kept = json.load(f)
+    assert len(kept["legs"]) == runs["simple", 1]["legs"] == 2
     again = choose_by_folds.run_value(path, {}, ["simple"], [1], 2, 1)   # nothing to run
     assert again == runs and open(path).read().splitlines() == lines
 
