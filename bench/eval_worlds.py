@@ -92,14 +92,19 @@ def checked(worlds: list, named: bool, allow: bool) -> tuple:
 #: The config sections ``--set SECTION.FIELD=VALUE`` changes: the observer's (FollowConfig,
 #: what the follower node runs), the predictor's (PredictionConfig), the observer's path
 #: following (FollowerConfig, its path_follower's), the people tracker's (TrackerConfig,
-#: observer.launch's people_tracker) and both robots' navigation: recovery, replanning and
-#: passing (NavigatorConfig; not the FIXED fields below).
-SECTIONS = ("follow", "prediction", "drive", "tracker", "nav")
-#: NavigatorConfig fields that are no default to change, and why.
-FIXED = {"give_way": "a robot's role (the observer gives way, the walker keeps its way)",
-         "keep_way": "a robot's role (the observer gives way, the walker keeps its way)",
-         "passing": "the path follower's mapping mode (off only while a map is built)",
-         "other_radius": "None by default (the robot's own radius), not a number to change"}
+#: observer.launch's people_tracker), both robots' navigation: recovery, replanning and
+#: passing (NavigatorConfig) and the planning grid both robots and the predictor's distances
+#: use (PlannerConfig); not the FIXED fields below.
+SECTIONS = ("follow", "prediction", "drive", "tracker", "nav", "planner")
+_ROLE = "a robot's role (the observer gives way, the walker keeps its way)"
+#: Fields that are no default to change, and why.
+FIXED = {"nav.give_way": _ROLE, "nav.keep_way": _ROLE,
+         "nav.passing": "the path follower's mapping mode (off only while a map is built)",
+         "nav.other_radius": "None by default (the robot's own radius), not a number to change",
+         "planner.robot_radius": "the robots' footprint (the Scitos A5's circumradius), not a "
+                                 "choice of the planner",
+         "planner.unknown_is_obstacle": "set by the world's map handling (world.yaml "
+                                        "`unknown`), not by the planner"}
 
 
 def parse_sets(items: List[str]) -> Dict[str, Dict[str, str]]:
@@ -121,8 +126,8 @@ def parse_sets(items: List[str]) -> Dict[str, Dict[str, str]]:
         if section not in SECTIONS:
             raise ConfigError("--set %s: no section %r (sections: %s)"
                               % (item, section, ", ".join(SECTIONS)))
-        if section == "nav" and name in FIXED:
-            raise ConfigError("--set %s: nav.%s is %s" % (item, name, FIXED[name]))
+        if key.strip() in FIXED:
+            raise ConfigError("--set %s: %s is %s" % (item, key.strip(), FIXED[key.strip()]))
         if name in out.get(section, {}):
             raise ConfigError("--set %s: %s.%s is set twice" % (item, section, name))
         out.setdefault(section, {})[name] = value.strip()
@@ -133,6 +138,7 @@ def parse_sets(items: List[str]) -> Dict[str, Dict[str, str]]:
 def eval_config(world: str, legs: int, seed: int, allow: bool,
                 sets: Dict[str, Dict[str, str]]) -> EvalConfig:
     """The study's config of one task, with ``--set``'s changes to the shipped defaults."""
+    from bullet_floor_sim.nav.grid import PlannerConfig
     from bullet_floor_sim.nav.navigator import NavigatorConfig
     from bullet_floor_sim.overrides import with_changes
     from bullet_floor_sim.people.follow_config import FollowConfig
@@ -148,14 +154,17 @@ def eval_config(world: str, legs: int, seed: int, allow: bool,
                                               "prediction."),
                       tracker_config=with_changes(study_tracker(), sets.get("tracker", {}),
                                                   "tracker."),
-                      nav_config=with_changes(NavigatorConfig(), sets.get("nav", {}), "nav."))
+                      nav_config=with_changes(NavigatorConfig(), sets.get("nav", {}), "nav."),
+                      planner_config=with_changes(PlannerConfig(), sets.get("planner", {}),
+                                                  "planner."))
 
 
 def shipped_sections() -> Dict[str, object]:
     """Each ``--set`` section's config as shipped (SECTIONS -> its dataclass)."""
     cfg = eval_config("office", 1, 1, False, {})
     return {"follow": cfg.follow_config, "prediction": cfg.prediction,
-            "drive": cfg.drive_config, "tracker": cfg.tracker_config, "nav": cfg.nav_config}
+            "drive": cfg.drive_config, "tracker": cfg.tracker_config, "nav": cfg.nav_config,
+            "planner": cfg.planner_config}
 
 
 def set_notes(sets: Dict[str, Dict[str, str]]) -> List[str]:
@@ -365,7 +374,8 @@ def main() -> int:
                         "follow, the observer's FollowConfig; prediction, PredictionConfig; "
                         "drive, the observer's path following, FollowerConfig; tracker, "
                         "the people tracker's TrackerConfig as observer.launch sets it; nav, "
-                        "both robots' NavigatorConfig, their roles as launched); "
+                        "both robots' NavigatorConfig, their roles as launched; planner, the "
+                        "PlannerConfig of both robots' and the predictor's grid); "
                         "repeatable; the output says so (bench/choose_by_folds.py uses it)")
     args = p.parse_args()
     if args.show_results:

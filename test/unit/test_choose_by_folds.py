@@ -7,6 +7,7 @@ import json
 import os
 import sys
 
+import numpy as np
 import pytest
 
 # the package first, from the workspace (with its messages), before the bench scripts put
@@ -272,3 +273,30 @@ def test_the_navigation_is_a_section_of_both_robots_with_their_roles_kept():
             assert (walker.deadlock_time, observer.deadlock_time) == (walker_dl, observer_dl)
             assert walker.keep_way and not walker.give_way      # the walker keeps its way
             assert observer.give_way and not observer.keep_way  # the observer gives way
+
+
+def test_the_planner_is_a_section_of_both_robots_and_the_predictors_distances():
+    from bullet_floor_sim.nav.grid import PlannerConfig
+
+    shipped = PlannerConfig()
+    assert choose_by_folds.shipped_default("planner.inflation_radius") == shipped.inflation_radius
+    with pytest.raises(BulletFloorSimError, match="planner: cost_scaling must be a finite number > 0"):
+        eval_worlds.parse_sets(["planner.cost_scaling=0"])
+    with pytest.raises(BulletFloorSimError, match="planner.robot_radius is the robots' footprint"):
+        eval_worlds.parse_sets(["planner.robot_radius=0.3"])
+    with pytest.raises(BulletFloorSimError, match="planner.unknown_is_obstacle is set by the world"):
+        eval_worlds.parse_sets(["planner.unknown_is_obstacle=false"])
+    for cfg, inflation in ((eval_worlds.eval_config("simple", 1, 1, False, eval_worlds.parse_sets(
+            ["planner.inflation_radius=0.2"])), 0.2),
+                           (EvalConfig(legs=1, seed=1, world="simple"), shipped.inflation_radius)):
+        with scenario(cfg) as sc:
+            grid = sc.nav_walker.grid   # the walker's, the observer's and the predictor's
+            assert sc.drive.nav.grid is grid and sc.model.grid is grid
+            assert grid.config.inflation_radius == inflation
+            assert grid.config.robot_radius == shipped.robot_radius   # the footprint kept
+            # a free cell costs only within the inflation radius of the footprint's edge
+            edge = grid.clearance - shipped.robot_radius
+            free = np.isfinite(grid.cost)
+            assert (grid.cost[free & (edge > inflation + 1e-6)] == 0).all()
+            assert (grid.cost[free & (edge < inflation - 0.05)] > 0).all()
+            assert (free & (edge > 0.25) & (edge < 0.55)).any()   # cells the two differ on

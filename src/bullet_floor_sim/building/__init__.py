@@ -11,7 +11,7 @@ Two footprints matter to a study: a robot's (the planner's ``robot_radius``, the
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Dict, List, Optional, Tuple
 
 from ..data.rois import Roi, load_rois
@@ -56,11 +56,15 @@ class Building:
     Args:
         config: the parsed world.yaml.
         fmap: its map when already loaded (else read from ``config.map_yaml``).
+        planner: the planning parameters of every footprint's grid, its ``robot_radius``
+            set per footprint (default: PlannerConfig(), what the nodes plan with).
     """
 
-    def __init__(self, config: WorldConfig, fmap: Optional[FloorMap] = None) -> None:
+    def __init__(self, config: WorldConfig, fmap: Optional[FloorMap] = None,
+                 planner: Optional[PlannerConfig] = None) -> None:
         self.config = config
         self.fmap = fmap if fmap is not None else load_map(config.map_yaml)
+        self.planner = planner or PlannerConfig()
         self._grids: Dict[float, PlanningGrid] = {}
         self._samplers: Dict[Footprint, object] = {}
         self._rois: Optional[Tuple[List[Roi], List[str]]] = None
@@ -89,7 +93,7 @@ class Building:
         """The planning grid for a disc of ``radius`` (walls as the simulator's)."""
         key = round(float(radius), 4)
         if key not in self._grids:
-            self._grids[key] = PlanningGrid(self.fmap, PlannerConfig(robot_radius=key),
+            self._grids[key] = PlanningGrid(self.fmap, replace(self.planner, robot_radius=key),
                                             handling=self.config.map_handling)
         return self._grids[key]
 

@@ -172,6 +172,15 @@ class PlannerConfig:
     unknown_is_obstacle: bool = True
     path_spacing: float = 0.1
 
+    def check(self) -> None:
+        """Raise PlanError naming the first bad parameter."""
+        from ..sim.checks import check_numbers
+
+        check_numbers(self, ("robot_radius", "cost_scaling", "resolution", "path_spacing"),
+                      "planner", error=PlanError)
+        check_numbers(self, ("inflation_radius", "cost_weight"), "planner", strict=False,
+                      error=PlanError)
+
 
 def largest_part(mask: np.ndarray) -> np.ndarray:
     """The largest 4-connected part of a boolean grid (the first of equal ones; all False
@@ -198,8 +207,7 @@ class PlanningGrid:
                  handling: Optional[MapHandling] = None) -> None:
         self.fmap = fmap
         self.config = cfg = config or PlannerConfig()
-        if cfg.robot_radius <= 0 or cfg.resolution <= 0:
-            raise PlanError("planner: robot_radius and resolution must be > 0")
+        cfg.check()
         k = max(1, int(round(cfg.resolution / fmap.resolution)))
         self.factor = k
         self.resolution = fmap.resolution * k

@@ -7,6 +7,7 @@ from typing import Dict, List, Optional, Tuple
 
 from ...errors import BulletFloorSimError
 from ...sim.checks import check_integers, check_numbers
+from ...nav.grid import PlannerConfig
 from ...nav.navigator import NavigatorConfig
 from ...nav.pursuit import FollowerConfig
 from ..follow_config import FollowConfig
@@ -53,6 +54,9 @@ class EvalConfig:
         nav_config: both robots' navigation: recovery, replanning and passing (default:
             NavigatorConfig()); each robot's role is set on it as demo.launch does (the
             walker ``keep_way``, the observer ``give_way``).
+        planner_config: the planning grid of both robots and of the predictor's distances
+            (default: PlannerConfig(), what the nodes plan with); its ``robot_radius`` is
+            the robots' footprint.
         allow_unreachable: run even when the map check (building/check.py) finds a region
             the walker cannot reach or an observer cut off from it (else the run refuses);
             what it found is then among the result's warnings.
@@ -79,6 +83,7 @@ class EvalConfig:
     drive_config: Optional[FollowerConfig] = None
     tracker_config: Optional[TrackerConfig] = None
     nav_config: Optional[NavigatorConfig] = None
+    planner_config: Optional[PlannerConfig] = None
     allow_unreachable: bool = False
     min_leg_path: float = 0.25
 
@@ -88,7 +93,8 @@ class EvalConfig:
             raise EvaluationError("evaluate: walker and observer must be different robots")
         check_numbers(self, ("control_rate", "match_distance"), "evaluate", error=EvaluationError)
         check_numbers(self, ("min_leg_path",), "evaluate", strict=False, error=EvaluationError)
-        for config in (self.drive_config, self.tracker_config, self.nav_config):
+        for config in (self.drive_config, self.tracker_config, self.nav_config,
+                       self.planner_config):
             if config is not None:
                 config.check()
 

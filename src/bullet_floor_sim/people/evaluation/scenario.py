@@ -108,7 +108,7 @@ class _Scenario:
         if not world.config.rois:
             raise EvaluationError("evaluate: world %s has no rois file" % cfg.world)
         self.cfg, self.world, self.say, self.t_wall = cfg, world, say, t_wall
-        building = Building(world.config, world.fmap)
+        building = Building(world.config, world.fmap, cfg.planner_config)
         allowed = refuse_unreachable(world, cfg, building)
         grid, sampler, rois, chain, self.warnings = _regions(world, building)
         self.warnings = allowed + self.warnings
