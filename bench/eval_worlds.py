@@ -93,9 +93,10 @@ def checked(worlds: list, named: bool, allow: bool) -> tuple:
 #: what the follower node runs), the predictor's (PredictionConfig), the observer's path
 #: following (FollowerConfig, its path_follower's), the people tracker's (TrackerConfig,
 #: observer.launch's people_tracker), both robots' navigation: recovery, replanning and
-#: passing (NavigatorConfig) and the planning grid both robots and the predictor's distances
-#: use (PlannerConfig); not the FIXED fields below.
-SECTIONS = ("follow", "prediction", "drive", "tracker", "nav", "planner")
+#: passing (NavigatorConfig), the planning grid both robots and the predictor's distances
+#: use (PlannerConfig) and each world's map handling (MapHandling: world.yaml's ``clean``
+#: keys, changed on the world's own); not the FIXED fields below.
+SECTIONS = ("follow", "prediction", "drive", "tracker", "nav", "planner", "clean")
 _ROLE = "a robot's role (the observer gives way, the walker keeps its way)"
 #: Fields that are no default to change, and why.
 FIXED = {"nav.give_way": _ROLE, "nav.keep_way": _ROLE,
@@ -104,7 +105,9 @@ FIXED = {"nav.give_way": _ROLE, "nav.keep_way": _ROLE,
          "planner.robot_radius": "the robots' footprint (the Scitos A5's circumradius), not a "
                                  "choice of the planner",
          "planner.unknown_is_obstacle": "set by the world's map handling (world.yaml "
-                                        "`unknown`), not by the planner"}
+                                        "`unknown`), not by the planner",
+         "clean.unknown": "what the map's unknown cells are, which only its user knows "
+                          "(world.yaml `unknown`)"}
 
 
 def parse_sets(items: List[str]) -> Dict[str, Dict[str, str]]:
@@ -131,7 +134,7 @@ def parse_sets(items: List[str]) -> Dict[str, Dict[str, str]]:
         if name in out.get(section, {}):
             raise ConfigError("--set %s: %s.%s is set twice" % (item, section, name))
         out.setdefault(section, {})[name] = value.strip()
-    eval_config("office", 1, 1, False, out)   # every value checked before any run
+    eval_config("office", 1, 1, False, out).check()   # every value checked before any run
     return out
 
 
@@ -156,15 +159,19 @@ def eval_config(world: str, legs: int, seed: int, allow: bool,
                                                   "tracker."),
                       nav_config=with_changes(NavigatorConfig(), sets.get("nav", {}), "nav."),
                       planner_config=with_changes(PlannerConfig(), sets.get("planner", {}),
-                                                  "planner."))
+                                                  "planner."),
+                      clean=dict(sets.get("clean", {})) or None)
 
 
 def shipped_sections() -> Dict[str, object]:
-    """Each ``--set`` section's config as shipped (SECTIONS -> its dataclass)."""
+    """Each ``--set`` section's config as shipped (SECTIONS -> its dataclass; ``clean``:
+    the map handling a world.yaml without ``clean`` keys has)."""
+    from bullet_floor_sim.sim.solidmap import MapHandling
+
     cfg = eval_config("office", 1, 1, False, {})
     return {"follow": cfg.follow_config, "prediction": cfg.prediction,
             "drive": cfg.drive_config, "tracker": cfg.tracker_config, "nav": cfg.nav_config,
-            "planner": cfg.planner_config}
+            "planner": cfg.planner_config, "clean": MapHandling()}
 
 
 def set_notes(sets: Dict[str, Dict[str, str]]) -> List[str]:
@@ -375,7 +382,8 @@ def main() -> int:
                         "drive, the observer's path following, FollowerConfig; tracker, "
                         "the people tracker's TrackerConfig as observer.launch sets it; nav, "
                         "both robots' NavigatorConfig, their roles as launched; planner, the "
-                        "PlannerConfig of both robots' and the predictor's grid); "
+                        "PlannerConfig of both robots' and the predictor's grid; clean, each "
+                        "world's map handling, world.yaml's clean keys); "
                         "repeatable; the output says so (bench/choose_by_folds.py uses it)")
     args = p.parse_args()
     if args.show_results:

@@ -5,10 +5,12 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import shutil
 import sys
 
 import numpy as np
 import pytest
+from PIL import Image
 
 # the package first, from the workspace (with its messages), before the bench scripts put
 # src/ first on the path
@@ -20,11 +22,11 @@ from bullet_floor_sim.people.tracking import TrackerConfig
 
 @contextlib.contextmanager
 def scenario(cfg):
-    """The study's scenario of ``cfg`` on a fresh world, closed afterwards."""
-    from bullet_floor_sim.people.evaluation.scenario import _Scenario
-    from bullet_floor_sim.sim.world import World
+    """The study's scenario of ``cfg`` on a fresh world (as the study makes it), closed
+    afterwards."""
+    from bullet_floor_sim.people.evaluation.scenario import _Scenario, study_world
 
-    world = World.from_name(cfg.world, seed=1)
+    world = study_world(cfg, 1)
     try:
         yield _Scenario(cfg, world, lambda _s: None, 0.0)
     finally:
@@ -300,3 +302,35 @@ def test_the_planner_is_a_section_of_both_robots_and_the_predictors_distances():
             assert (grid.cost[free & (edge > inflation + 1e-6)] == 0).all()
             assert (grid.cost[free & (edge < inflation - 0.05)] > 0).all()
             assert (free & (edge > 0.25) & (edge < 0.55)).any()   # cells the two differ on
+
+
+def test_the_map_handling_is_a_section_of_the_simulator_planner_and_tracker(tmp_path):
+    from bullet_floor_sim.sim.solidmap import MapHandling
+
+    assert choose_by_folds.shipped_default("clean.speckle") == MapHandling().speckle
+    with pytest.raises(BulletFloorSimError, match="clean.speckle must be a number of square metres"):
+        eval_worlds.parse_sets(["clean.speckle=-1"])
+    with pytest.raises(BulletFloorSimError, match="clean.unknown is what the map's unknown cells"):
+        eval_worlds.parse_sets(["clean.unknown=free"])
+    with pytest.raises(BulletFloorSimError, match="clean.gaps: no such parameter"):
+        eval_worlds.parse_sets(["clean.gaps=0"])
+    # simple's room with a speck: one occupied cell at (1.0, 1.0), the default removes it
+    world = tmp_path / "specked"
+    shutil.copytree(os.path.join(BENCH, "..", "worlds", "simple"), world)
+    pgm = world / "map.pgm"
+    img = np.array(Image.open(pgm))
+    row, col = img.shape[0] - 1 - 20, 20            # origin (0, 0), 0.05 m cells
+    assert img[row, col] > 250                      # floor, away from the walls
+    img[row, col] = 0
+    Image.fromarray(img).save(pgm)
+    for sets, solid in (({}, False), ({"clean": {"speckle": "0"}}, True)):
+        cfg = eval_worlds.eval_config(str(world / "world.yaml"), 1, 1, False, sets)
+        with scenario(cfg) as sc:
+            handling = sc.world.config.map_handling
+            assert handling.speckle == (0.0 if solid else MapHandling().speckle)
+            assert handling.close_gaps == MapHandling().close_gaps   # the rest as the world's
+            speck = sc.world.solid.fmap.world_to_cell(1.025, 1.025)
+            assert bool(sc.world.solid.fmap.occupied[speck[1], speck[0]]) is solid
+            assert sc.nav_walker.grid.is_free(1.025, 1.025) is not solid   # the planner's too
+            # the tracker: a point on the speck is explained by the map only when it is solid
+            assert bool(sc.tracker.static.distance(np.array([[1.025, 1.025]]))[0] == 0) is solid

@@ -66,7 +66,7 @@ class MapHandling:
     speckle: float = 0.005
     unknown_slivers: float = 0.3
 
-    def check(self, where: str) -> None:
+    def check(self, where: str = "map handling") -> None:
         """Raise ConfigError naming ``where`` and the first bad value."""
         if self.unknown not in UNKNOWN_MODES:
             raise ConfigError("%s: unknown must be one of %s, got %r"

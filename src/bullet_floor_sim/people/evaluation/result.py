@@ -57,6 +57,9 @@ class EvalConfig:
         planner_config: the planning grid of both robots and of the predictor's distances
             (default: PlannerConfig(), what the nodes plan with); its ``robot_radius`` is
             the robots' footprint.
+        clean: changes to each world's own map handling (MapHandling fields, world.yaml's
+            ``clean`` keys: field -> value), for the simulator, the planner and the
+            tracker alike (default: none, the world as its world.yaml says).
         allow_unreachable: run even when the map check (building/check.py) finds a region
             the walker cannot reach or an observer cut off from it (else the run refuses);
             what it found is then among the result's warnings.
@@ -84,6 +87,7 @@ class EvalConfig:
     tracker_config: Optional[TrackerConfig] = None
     nav_config: Optional[NavigatorConfig] = None
     planner_config: Optional[PlannerConfig] = None
+    clean: Optional[Dict[str, object]] = None
     allow_unreachable: bool = False
     min_leg_path: float = 0.25
 
@@ -97,6 +101,11 @@ class EvalConfig:
                        self.planner_config):
             if config is not None:
                 config.check()
+        if self.clean:   # each name a field of the map handling, each value of its type
+            from ...overrides import with_changes
+            from ...sim.solidmap import MapHandling
+
+            with_changes(MapHandling(), self.clean, "clean.")
 
 
 @dataclass

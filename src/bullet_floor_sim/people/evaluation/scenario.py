@@ -37,17 +37,30 @@ def run(config: Optional[EvalConfig] = None,
     Raises:
         EvaluationError: the world has fewer than two robots or no usable ROIs.
     """
-    from ...sim.world import World
-
     cfg = config or EvalConfig()
     cfg.check()
     say = progress or (lambda _s: None)
     t_wall = time.time()
-    world = World.from_name(cfg.world, seed=cfg.seed, physics_rate=100.0)
+    world = study_world(cfg, cfg.seed)
     try:
         return _run(cfg, world, say, t_wall)
     finally:
         world.close()
+
+
+def study_world(cfg: EvalConfig, seed: int):
+    """The sim World of a study: ``cfg.world`` with ``cfg.clean``'s changes to its own map
+    handling (the simulator's walls, and so the planner's and the tracker's)."""
+    from ...overrides import with_changes
+    from ...paths import worlds_dir
+    from ...sim.config import load_world_config, resolve_world
+    from ...sim.world import World
+
+    config = load_world_config(resolve_world(cfg.world, worlds_dir()))
+    if cfg.clean:
+        config = replace(config, map_handling=with_changes(config.map_handling, cfg.clean,
+                                                           "clean."))
+    return World(config, seed=seed, physics_rate=100.0)
 
 
 def _regions(world, building=None):
