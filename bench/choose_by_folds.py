@@ -13,6 +13,10 @@ of how many folds, and a ``FOLDS`` line. A value that gave up more than ``--max-
 of its legs (the study's bar, 2 %) in any one run on a world a fold learns from is not that
 fold's pick (the shipped default always may be).
 
+Each world is checked before any run (eval_worlds.py's map check); for a ``clean`` or
+``planner`` field, with each value too: a world that any value makes refuse is left out of
+every value's runs, with a note (a world named with ``--worlds`` stops it instead).
+
 The runs' EVAL lines are kept in ``--out DIR`` (default: one directory per commit under
 ~/.ros/bullet_floor_sim/folds; one file per value, a line as each task ends): a run cut
 short, or run again with more values or seeds, runs only what is missing. The default's
@@ -41,6 +45,8 @@ from eval_results import checkout_commit  # noqa: E402
 Scores = Dict[str, Dict[str, float]]   # value -> world -> score
 #: The EVAL fields a fold can maximise (higher is better in each).
 SCORES = ("trk25", "trk50", "trk75", "gt25", "gt50", "gt75", "margin", "tracked", "ll_margin")
+#: The --set sections that change what the map check sees (the solid map, the planner).
+MAP_SECTIONS = ("clean", "planner")
 #: The EVAL fields kept as text.
 TEXT = ("world", "modes")
 
@@ -208,6 +214,11 @@ def main() -> int:
     os.makedirs(out, exist_ok=True)
     worlds, notes = eval_worlds.checked(args.worlds or eval_worlds.shipped(),
                                         bool(args.worlds), False)
+    if section in MAP_SECTIONS:   # each value's map check too: the folds need the same worlds
+        for v in values:
+            worlds, more = eval_worlds.checked(worlds, bool(args.worlds), False,
+                                               {section: {field: v}})
+            notes += ["%s=%s: %s" % (args.param, v, n) for n in more]
     for n in notes:
         print("note: %s" % n, file=sys.stderr, flush=True)
     names = [world_label(w) for w in worlds]

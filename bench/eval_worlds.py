@@ -61,28 +61,31 @@ def shipped() -> list:
     return out + corpus
 
 
-def study_check(worlds: list, allow: bool) -> tuple:
-    """The map check of every world before any runs (building/check.py): (notes, refused),
-    refused mapping each world that would refuse (unless ``allow``) to its one line."""
-    from bullet_floor_sim.people.evaluation.scenario import refuse_unreachable
-    from bullet_floor_sim.building import Building
+def study_check(worlds: list, allow: bool,
+                sets: Optional[Dict[str, Dict[str, str]]] = None) -> tuple:
+    """The map check of every world before any runs (building/check.py), on the map
+    handling and planner the runs use (``sets``' ``clean`` and ``planner``): (notes,
+    refused), refused mapping each world that would refuse (unless ``allow``) to its one
+    line."""
+    from bullet_floor_sim.people.evaluation.scenario import refuse_unreachable, study_building
 
     notes, refused = [], {}
     for w in worlds:
         try:
-            b = Building.load(w)
-            notes += ["%s: %s" % (w, n) for n in refuse_unreachable(
-                b, EvalConfig(world=w, allow_unreachable=allow), b)]
+            cfg = eval_config(w, 1, 1, allow, sets or {})
+            b = study_building(cfg)
+            notes += ["%s: %s" % (w, n) for n in refuse_unreachable(b, cfg, b)]
         except BulletFloorSimError as e:
             refused[w] = str(e)
     return notes, refused
 
 
-def checked(worlds: list, named: bool, allow: bool) -> tuple:
+def checked(worlds: list, named: bool, allow: bool,
+            sets: Optional[Dict[str, Dict[str, str]]] = None) -> tuple:
     """The worlds a study runs on and the notes: worlds the user named that would refuse
     stop it (exit with their lines); of the default list they are left out, each with a note
     that says why."""
-    notes, refused = study_check(worlds, allow)
+    notes, refused = study_check(worlds, allow, sets)
     if refused and named:
         sys.exit("\n".join(refused.values()))
     notes += ["left out %s: %s" % (w, why) for w, why in refused.items()]
@@ -398,7 +401,7 @@ def main() -> int:
         p.error("--save and --results keep the shipped defaults' runs (the moments' cache, "
                 "the results table); not with --set")
     worlds, notes = checked(args.worlds or shipped(), bool(args.worlds),
-                            args.allow_unreachable)   # before any runs
+                            args.allow_unreachable, sets)   # before any runs
     notes = set_notes(sets) + notes
     for n in notes:
         print("note: %s" % n, file=sys.stderr, flush=True)

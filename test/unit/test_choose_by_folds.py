@@ -300,8 +300,9 @@ def test_the_planner_is_a_section_of_both_robots_and_the_predictors_distances():
             edge = grid.clearance - shipped.robot_radius
             free = np.isfinite(grid.cost)
             assert (grid.cost[free & (edge > inflation + 1e-6)] == 0).all()
-            assert (grid.cost[free & (edge < inflation - 0.05)] > 0).all()
-            assert (free & (edge > 0.25) & (edge < 0.55)).any()   # cells the two differ on
+            between = free & (edge > 0.25) & (edge < 0.55)   # inflated by 0.6 m, not 0.2 m
+            assert between.any() and (grid.cost[between] > 0).all() == (inflation > 0.55)
+            assert (grid.cost[between] == 0).all() == (inflation < 0.25)
 
 
 def test_the_map_handling_is_a_section_of_the_simulator_planner_and_tracker(tmp_path):
@@ -334,3 +335,40 @@ def test_the_map_handling_is_a_section_of_the_simulator_planner_and_tracker(tmp_
             assert sc.nav_walker.grid.is_free(1.025, 1.025) is not solid   # the planner's too
             # the tracker: a point on the speck is explained by the map only when it is solid
             assert bool(sc.tracker.static.distance(np.array([[1.025, 1.025]]))[0] == 0) is solid
+
+
+def _walled(tmp_path, door: float) -> str:
+    """simple's room split by a wall at x = 2.4 m with a door ``door`` m wide (its robots
+    one each side): the world.yaml's path."""
+    world = tmp_path / "walled"
+    shutil.copytree(os.path.join(BENCH, "..", "worlds", "simple"), world)
+    pgm = world / "map.pgm"
+    img = np.array(Image.open(pgm))
+    h = img.shape[0]
+    rows = [r for r in range(h) if not 1.6 <= (h - 1 - r) * 0.05 < 1.6 + door]
+    img[rows, 48] = 0
+    Image.fromarray(img).save(pgm)
+    return str(world / "world.yaml")
+
+
+def test_the_map_check_before_any_run_sees_the_changed_map_handling_and_planner(tmp_path):
+    world = _walled(tmp_path, 0.9)   # a 0.9 m door: open to the 0.68 m footprint
+    assert eval_worlds.study_check([world], False) == ([], {})
+    for sets in ({"clean": {"close_gaps": "1.0"}},      # the door closed as a gap
+                 {"planner": {"resolution": "0.5"}}):   # no cell centre in the door is clear
+        notes, refused = eval_worlds.study_check([world], False, sets)
+        assert list(refused) == [world] and "cannot reach" in refused[world], refused
+        # allowed, the study goes on and says so
+        notes, refused = eval_worlds.study_check([world], True, sets)
+        assert not refused and notes and "going on as allowed" in notes[0]
+
+
+def test_a_clean_change_is_typed_as_the_map_handlings_field_not_as_the_worlds(tmp_path):
+    from bullet_floor_sim.people.evaluation.scenario import study_world_config
+
+    world = _walled(tmp_path, 0.9)
+    with open(world, "a") as f:   # a whole number in the world's own clean section
+        f.write("clean: {close_gaps: 0, speckle: 0.01}\n")
+    cfg = eval_worlds.eval_config(world, 1, 1, False, {"clean": {"close_gaps": "0.1"}})
+    handling = study_world_config(cfg).map_handling
+    assert handling.close_gaps == 0.1 and handling.speckle == 0.01   # the rest the world's

@@ -59,7 +59,8 @@ class EvalConfig:
             the robots' footprint.
         clean: changes to each world's own map handling (MapHandling fields, world.yaml's
             ``clean`` keys: field -> value), for the simulator, the planner and the
-            tracker alike (default: none, the world as its world.yaml says).
+            tracker alike (default: none, the world as its world.yaml says). The regions
+            stay the world's: ``rois: auto`` rooms are found with its own handling.
         allow_unreachable: run even when the map check (building/check.py) finds a region
             the walker cannot reach or an observer cut off from it (else the run refuses);
             what it found is then among the result's warnings.

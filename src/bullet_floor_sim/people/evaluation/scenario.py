@@ -23,7 +23,8 @@ from ...building import Building, robot_footprint
 from .result import EvalConfig, EvalResult, EvaluationError, LegScore
 from .scoring import Record, carried, score_leg
 
-__all__ = ["run", "world_model", "ObserverDrive", "refuse_unreachable"]
+__all__ = ["run", "world_model", "ObserverDrive", "refuse_unreachable", "study_world",
+           "study_building"]
 
 
 def run(config: Optional[EvalConfig] = None,
@@ -48,19 +49,37 @@ def run(config: Optional[EvalConfig] = None,
         world.close()
 
 
-def study_world(cfg: EvalConfig, seed: int):
-    """The sim World of a study: ``cfg.world`` with ``cfg.clean``'s changes to its own map
-    handling (the simulator's walls, and so the planner's and the tracker's)."""
+def study_world_config(cfg: EvalConfig):
+    """The WorldConfig of a study: ``cfg.world``'s, with ``cfg.clean``'s changes to its own
+    map handling (each value typed as MapHandling's field). Its regions stay the world's
+    (its rois file, or ``rois: auto``'s rooms found with the world's own handling), so that
+    every map handling is scored against the same destinations."""
     from ...overrides import with_changes
     from ...paths import worlds_dir
     from ...sim.config import load_world_config, resolve_world
-    from ...sim.world import World
+    from ...sim.solidmap import MapHandling
 
     config = load_world_config(resolve_world(cfg.world, worlds_dir()))
-    if cfg.clean:
-        config = replace(config, map_handling=with_changes(config.map_handling, cfg.clean,
-                                                           "clean."))
-    return World(config, seed=seed, physics_rate=100.0)
+    if not cfg.clean:
+        return config
+    typed = with_changes(MapHandling(), cfg.clean, "clean.")
+    handling = replace(config.map_handling, **{k: getattr(typed, k) for k in cfg.clean})
+    handling.check("%s: clean" % cfg.world)
+    return replace(config, map_handling=handling)
+
+
+def study_world(cfg: EvalConfig, seed: int):
+    """The sim World of a study (study_world_config): the simulator's walls, and so the
+    planner's and the tracker's, as ``cfg.clean`` says."""
+    from ...sim.world import World
+
+    return World(study_world_config(cfg), seed=seed, physics_rate=100.0)
+
+
+def study_building(cfg: EvalConfig) -> Building:
+    """The Building a study of ``cfg`` plans on (its map handling and planner), without a
+    simulator: what the map check before any run looks at."""
+    return Building(study_world_config(cfg), planner=cfg.planner_config)
 
 
 def _regions(world, building=None):
