@@ -239,10 +239,10 @@ def test_leg_length_term_by_hand(world):
     for g in PRIOR:
         shift = math.log(p1[g] / p1["corridor"]) - math.log(p0[g] / p0["corridor"])
         assert shift == pytest.approx(-math.log(length[g] / length["corridor"]), abs=1e-9), g
-    # a goal point nearer than goal_spacing (1 m) counts as 1 m away
+    # a goal point nearer than goal_spacing (here 1 m) counts as 1 m away
     near = dict(GOALS, corridor=[(7.55, 5.75)])
-    m = DestinationModel(*world, PredictionConfig(prior_mix=0.0, length_exponent=1.0),
-                         goal_points=near)
+    m = DestinationModel(*world, PredictionConfig(prior_mix=0.0, length_exponent=1.0,
+                                                  goal_spacing=1.0), goal_points=near)
     post = m.posterior("corridor", s, s)
     w["corridor"] = PRIOR["corridor"] / 1.0
     assert post == pytest.approx({g: v / sum(w.values()) for g, v in w.items()}, rel=1e-9)
