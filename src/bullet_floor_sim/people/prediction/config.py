@@ -28,12 +28,11 @@ class PredictionConfig:
         length_exponent: α, how a leg's length L_p to a goal point weighs (1 / L_p^α): 1 says
             a moment is equally likely at any fraction of a leg (the evaluation's sampling).
         goal_spacing: lattice spacing of the goal points of a region; also the shortest
-            leg length L_p counted. 0.5 m: chosen by all 18 folds of
-            bench/choose_prediction.py (seed 13's moments, 100 legs a world) over 1 and 2 m
-            on top-1, and better held out on log-loss and Brier score too (all by under half
-            a point; docs/evaluation.md, session 61). Regions keep at most
-            ``max_goals_per_region`` points, so the denser lattice costs only small regions
-            more Dijkstras.
+            leg length L_p counted. 1 m: on seed 13's moments all 18 folds of
+            bench/choose_prediction.py pick 0.5 m (over 1 and 2 m) by under a tenth of a
+            point of top-1 held out, but in the closed loop (choose_by_folds.py
+            prediction.goal_spacing 0.5) the study's trk50 ties (83.8 %), 12 folds keep 1 m
+            and 0.5 m put orebro's tracked share at 69.7 % (docs/evaluation.md, session 61).
         max_goals_per_region: at most this many goal points per region (spread over the
             lattice), one Dijkstra each.
 
@@ -81,7 +80,7 @@ class PredictionConfig:
 
     beta: float = 3.0
     length_exponent: float = 1.0
-    goal_spacing: float = 0.5
+    goal_spacing: float = 1.0
     max_goals_per_region: int = 24
     clearance: float = 0.45
     margin: float = 0.5
