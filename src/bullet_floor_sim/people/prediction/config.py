@@ -43,8 +43,8 @@ class PredictionConfig:
         docs/evaluation.md gives the folds. Seed 1 is also ``make eval``'s: each fold scores
         a world it did not see, not a seed; seed 2's closed-loop run is in the same doc.
         On seed 13's moments (18 worlds, session 61) every fold keeps length_exponent 1 and
-        24 points, while beta's folds pick 5: a tenth of a point of top-1 held out, with a
-        worse calibrated log-loss (0.386 against 0.382), so beta stays 3.
+        24 points, while 15 folds pick beta 5 and 3 pick 8: a tenth of a point of top-1
+        held out, with a worse calibrated log-loss (0.386 against 0.382), so beta stays 3.
         clearance: a goal point keeps at least this distance from every wall (the walker's
             0.45 m).
         margin: a goal point keeps at least this distance from its region's boundary (the
