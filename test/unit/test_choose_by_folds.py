@@ -305,6 +305,18 @@ def test_the_planner_is_a_section_of_both_robots_and_the_predictors_distances():
             assert (grid.cost[between] == 0).all() == (inflation < 0.25)
 
 
+def _edited_simple(tmp_path, name: str, edit) -> str:
+    """A copy of the simple world under ``tmp_path/name`` whose map image ``edit`` changed
+    in place (a numpy array of the PGM, row 0 at the top): the world.yaml's path."""
+    world = tmp_path / name
+    shutil.copytree(os.path.join(BENCH, "..", "worlds", "simple"), world)
+    pgm = world / "map.pgm"
+    img = np.array(Image.open(pgm))
+    edit(img)
+    Image.fromarray(img).save(pgm)
+    return str(world / "world.yaml")
+
+
 def test_the_map_handling_is_a_section_of_the_simulator_planner_and_tracker(tmp_path):
     from bullet_floor_sim.sim.solidmap import MapHandling
 
@@ -316,16 +328,14 @@ def test_the_map_handling_is_a_section_of_the_simulator_planner_and_tracker(tmp_
     with pytest.raises(BulletFloorSimError, match="clean.gaps: no such parameter"):
         eval_worlds.parse_sets(["clean.gaps=0"])
     # simple's room with a speck: one occupied cell at (1.0, 1.0), the default removes it
-    world = tmp_path / "specked"
-    shutil.copytree(os.path.join(BENCH, "..", "worlds", "simple"), world)
-    pgm = world / "map.pgm"
-    img = np.array(Image.open(pgm))
-    row, col = img.shape[0] - 1 - 20, 20            # origin (0, 0), 0.05 m cells
-    assert img[row, col] > 250                      # floor, away from the walls
-    img[row, col] = 0
-    Image.fromarray(img).save(pgm)
+    def speck(img):
+        row, col = img.shape[0] - 1 - 20, 20        # origin (0, 0), 0.05 m cells
+        assert img[row, col] > 250                  # floor, away from the walls
+        img[row, col] = 0
+
+    world = _edited_simple(tmp_path, "specked", speck)
     for sets, solid in (({}, False), ({"clean": {"speckle": "0"}}, True)):
-        cfg = eval_worlds.eval_config(str(world / "world.yaml"), 1, 1, False, sets)
+        cfg = eval_worlds.eval_config(world, 1, 1, False, sets)
         with scenario(cfg) as sc:
             handling = sc.world.config.map_handling
             assert handling.speckle == (0.0 if solid else MapHandling().speckle)
@@ -340,15 +350,11 @@ def test_the_map_handling_is_a_section_of_the_simulator_planner_and_tracker(tmp_
 def _walled(tmp_path, door: float) -> str:
     """simple's room split by a wall at x = 2.4 m with a door ``door`` m wide (its robots
     one each side): the world.yaml's path."""
-    world = tmp_path / "walled"
-    shutil.copytree(os.path.join(BENCH, "..", "worlds", "simple"), world)
-    pgm = world / "map.pgm"
-    img = np.array(Image.open(pgm))
-    h = img.shape[0]
-    rows = [r for r in range(h) if not 1.6 <= (h - 1 - r) * 0.05 < 1.6 + door]
-    img[rows, 48] = 0
-    Image.fromarray(img).save(pgm)
-    return str(world / "world.yaml")
+    def wall(img):
+        h = img.shape[0]
+        img[[r for r in range(h) if not 1.6 <= (h - 1 - r) * 0.05 < 1.6 + door], 48] = 0
+
+    return _edited_simple(tmp_path, "walled", wall)
 
 
 def test_the_map_check_before_any_run_sees_the_changed_map_handling_and_planner(tmp_path):
