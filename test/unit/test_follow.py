@@ -451,6 +451,7 @@ def test_search_point_and_in_view():
                                          ("goal_period", -1.0), ("search_wait", 0.0),
                                          ("search_regions", 0),
                                          ("search_min_probability", 1.5),
+                                         ("search_turn", 2.0 * math.pi),
                                          ("pass_detour", -1.0)])
 def test_bad_config_names_the_field(field, value):
     with pytest.raises(FollowError, match=field):

@@ -37,7 +37,8 @@ class FollowConfig:
             kept while it is still this far off and ``distance`` - 0.2 m from the target).
         goal_period: while the target moves, a new goal at least this often.
         lost_after: no track for this long -> search.
-        search_turn: after reaching the search point, turn this much (radians) to look round.
+        search_turn: after reaching the search point, turn this much (radians, at most pi: the
+            look-round is a goal's yaw, which wraps, so 2 pi would not turn at all) to look round.
         search_wait: after looking round, wait this long before going on to the next region.
         search_regions: search at most this many of the most likely regions, in turn.
         search_rounds: after this many rounds of those regions without a sight of the target,
@@ -180,6 +181,9 @@ class FollowConfig:
         check_integers(self, ("search_regions", "search_rounds"), "follower", error=FollowError)
         check_numbers(self, ("pass_detour", "trail", "unblock", "snug", "patrol_sight",
                              "search_sight", "watch"), "follower", strict=False, error=FollowError)
+        if self.search_turn > math.pi:
+            raise FollowError("follower: search_turn must be at most pi radians (the look-round's "
+                              "goal yaw wraps: 2 pi turns not at all), got %r" % (self.search_turn,))
         if not (math.isfinite(self.give_way_view) and 0.0 <= self.give_way_view <= math.pi):
             raise FollowError("follower: give_way_view must be in [0, pi] radians, got %r"
                               % (self.give_way_view,))
