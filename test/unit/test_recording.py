@@ -4,7 +4,7 @@ from __future__ import annotations
 import threading
 import time
 
-from bullet_floor_sim.data.recording import ChunkQueue, ChunkSpill
+from bullet_floor_sim.data.recording import ChunkQueue, ChunkSpill, PoseStream
 from bullet_floor_sim.data.trajectory import Chunker
 
 NS = 1000000000
@@ -160,3 +160,31 @@ def test_a_chunk_is_stored_under_the_same_id_every_time(tmp_path):
             pass
         else:
             raise AssertionError("a chunk stored twice")
+
+
+def stamped(t_s):
+    return (int(t_s * NS), 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+
+
+def test_the_gap_is_measured_on_the_poses_clock(tmp_path):
+    """max_gap 2 s. A pose that arrives just before the clock message jumping to its time
+    (stamp 100 s, recorder's clock still at 1 s) is on the recorder's clock once the clock is
+    there: no gap at 101 s, a gap at 102.5 s. A publisher on another clock (stamps near
+    5000 s while the recorder is near 100 s) is measured from its newest stamp and the time
+    since it arrived."""
+    def stream(name):
+        return PoseStream(Chunker(max_gap=2.0, new_uuid=lambda: name),
+                          ChunkSpill(str(tmp_path / (name + ".jsonl"))))
+
+    s = stream("jump")
+    s.add(stamped(100.0), rx_ns=1 * NS)
+    assert not s.stamps_on_clock
+    assert s.check_gap(101 * NS) is None
+    ended = s.check_gap(int(102.5 * NS))
+    assert (ended.uuid, ended.closed_by, len(ended.poses)) == ("jump", "gap", 1)
+
+    other = stream("wall")
+    other.add(stamped(5000.0), rx_ns=100 * NS)
+    assert other.pose_clock(int(101.5 * NS)) == int(5001.5 * NS)
+    assert other.check_gap(int(101.5 * NS)) is None
+    assert other.check_gap(int(102.5 * NS)).closed_by == "gap"

@@ -310,18 +310,27 @@ class PoseStream:
         self.last_rx_ns = rx_ns
         # the silence that ends a trajectory is measured on the stamps when they are on the
         # recorder's clock (within the gap of it)
-        self.stamps_on_clock = abs(rx_ns - pose[0]) <= max(self.chunker.max_gap, 1.0) * _NS
+        self.stamps_on_clock = abs(rx_ns - pose[0]) <= self._window_ns()
         closed = self.chunker.add(pose)
         c = self.chunker
         self.spill.track(c.uuid, c.sequence_id, c.region, c.open_poses)
         return closed
 
     def pose_clock(self, now_ns: int) -> int:
-        """Now on the poses' clock: the recorder's clock when the stamps are on it, else (a
-        publisher on another clock) the newest stamp plus the time since it arrived."""
+        """Now on the poses' clock: the recorder's clock when the stamps are on it (at the
+        newest pose's arrival, or now: a pose can arrive just before the clock message that
+        jumps to its time), else (a publisher on another clock) the newest stamp plus the
+        time since it arrived."""
         if self.stamps_on_clock or self.last_rx_ns is None:
             return now_ns
-        return self.chunker.open_poses[-1][0] + (now_ns - self.last_rx_ns)
+        newest = self.chunker.open_poses[-1][0]
+        if abs(now_ns - newest) <= self._window_ns():
+            return now_ns
+        return newest + (now_ns - self.last_rx_ns)
+
+    def _window_ns(self) -> float:
+        """How far a stamp may be from the recorder's clock and still be on it."""
+        return max(self.chunker.max_gap, 1.0) * _NS
 
     def check_gap(self, now_ns: int) -> Optional[Chunk]:
         """The trajectory that a silence of ``max_gap`` has ended, if any."""
