@@ -17,7 +17,7 @@ from bullet_floor_sim.data.rois import Roi, RoiError, load_rois, roi_polygon
 from bullet_floor_sim.nav.planner import PlanningGrid
 from bullet_floor_sim.people.agents import (FollowerAgent, PredictorAgent, TrackerAgent,
                                             WalkerAgent)
-from bullet_floor_sim.people.follow import FollowBehaviour, FollowConfig
+from bullet_floor_sim.people.follow import FollowBehaviour, FollowConfig, FollowError
 from bullet_floor_sim.people.markov import MarkovChain
 from bullet_floor_sim.people.prediction import DestinationModel, PredictionConfig, PredictorPool
 from bullet_floor_sim.people.tracking import TrackerConfig
@@ -371,3 +371,44 @@ def test_follower_agent_searches_where_its_targets_plan_says_when_lost():
     s = agent.tick(2.5, (2.5, 2.0, 0.0), [], {})
     assert s.target is None and s.decision.mode == "search"
     assert s.decision.goal == pytest.approx((8.0, 3.0, math.atan2(1.0, 5.5)))
+
+
+def test_search_at_likely_goal_sends_the_search_ahead_of_a_walk_lost_on_its_way():
+    """The 28 m corridor's lattice goal points, 1 m apart on its centre line. Walking east
+    from x = 1 to 1.95: with ``lookout`` the corridor's search point is its lookout
+    nearest to the track, more than 5 m from the corridor's west end; with ``likely_goal``
+    it is the corridor's goal point the walk made most likely: every point ahead got the
+    same 0.95 m of progress and the leg-length term prefers the shortest leg, so the
+    first point past the track (2.5); walking west from 20 to 19.05, the first point
+    west of it (18.5). A track that stands (no leg under way) keeps the lookouts."""
+    model = DestinationModel(PlanningGrid(corridor_map()), corridor_rois(), corridor_chain())
+    goals = model.goals("corridor")
+    spacing = model.config.goal_spacing
+
+    def plan_after(agent, xs):
+        step = None
+        for k, x in enumerate(xs):
+            step = agent.tick(0.1 * k, [(1, x, 5.75, 0.5, 0.0)])
+        pred, plan = step.destinations[1]
+        return pred, dict(plan)["corridor"]
+
+    east = [1.0 + 0.05 * k for k in range(20)]
+    _, look = plan_after(PredictorAgent(model), east)
+    pred, likely = plan_after(PredictorAgent(model, FollowConfig(search_at="likely_goal")), east)
+    assert pred.under_way
+    assert look[0] > goals[:, 0].min() + 5.0
+    ahead = goals[goals[:, 0] > 1.95]
+    assert tuple(likely) in [tuple(g) for g in goals.tolist()]
+    assert 1.95 < likely[0] <= ahead[:, 0].min() + 1e-9
+    assert likely[0] - 1.95 <= spacing + 1e-9
+    # walking west from x = 20: the point the search goes to is west of the track
+    west = [20.0 - 0.05 * k for k in range(20)]
+    _, likely_w = plan_after(PredictorAgent(model, FollowConfig(search_at="likely_goal")), west)
+    assert 19.05 - spacing - 1e-9 <= likely_w[0] < 19.05
+    # standing at x = 1: no leg under way, the lookouts as with ``lookout``
+    pred_s, stand = plan_after(PredictorAgent(model, FollowConfig(search_at="likely_goal")),
+                               [1.0] * 20)
+    assert not pred_s.under_way
+    assert stand == plan_after(PredictorAgent(model), [1.0] * 20)[1]
+    with pytest.raises(FollowError, match="search_at"):
+        FollowConfig(search_at="nearest").check()

@@ -380,10 +380,20 @@ class PredictorAgent:
         for tid, x, y, _vx, _vy in tracks:
             p = preds.get(tid)
             if p is not None:
-                out[tid] = (p, search_plan(p.probabilities, self._lookouts_from(x, y), (x, y),
-                                           fc.search_regions, fc.search_min_probability, p.best,
-                                           rest=True))
+                out[tid] = (p, search_plan(p.probabilities, self._search_points(p, x, y),
+                                           (x, y), fc.search_regions,
+                                           fc.search_min_probability, p.best, rest=True))
         return PredictorStep(out, list(self.pool.errors.values()), went_back)
+
+    def _search_points(self, p: Prediction, x: float, y: float):
+        """Each region's candidate search points for a track at (x, y) whose leg ``p`` is:
+        its lookouts (:meth:`_lookouts_from`), or with ``search_at`` ``likely_goal`` and the
+        leg under way, its goal point the leg makes most likely."""
+        lookouts = self._lookouts_from(x, y)
+        if self.follow.search_at != "likely_goal" or not p.under_way:
+            return lookouts
+        likely = self.model.likely_goals(p.start_xy, (x, y))
+        return lambda region: [likely[region]] if region in likely else lookouts(region)
 
     def lookouts(self, region: str) -> np.ndarray:
         """Of ``region``'s goal points, those with the most of them in view

@@ -10,7 +10,10 @@ from typing import Optional, Tuple
 from ..errors import BulletFloorSimError
 from ..sim.checks import check_integers, check_numbers
 
-__all__ = ["FollowError", "FollowConfig", "FollowDecision"]
+__all__ = ["FollowError", "FollowConfig", "FollowDecision", "SEARCH_AT"]
+
+#: FollowConfig.search_at's choices.
+SEARCH_AT = ("lookout", "likely_goal")
 
 
 class FollowError(BulletFloorSimError):
@@ -65,6 +68,14 @@ class FollowConfig:
             nearest goal point looked down one way of it only (aces_austin: the walker, 8-18
             m down the corridor, went unseen for 24 minutes). Seeds 4-8 on six corpus
             worlds, within the noise: docs/evaluation.md, session 47.
+        search_at: where in a region the search goes for a target lost on its way:
+            ``lookout``, the search point as ``search_sight`` says; ``likely_goal``, the
+            region's goal point that the leg walked so far makes most likely
+            (DestinationModel.likely_goals: the most progress towards it; lookouts still
+            while the target stands or has not yet made ``min_progress``). Set it on the
+            destination_predictor node (``~search_at``). In a 90 m convention hall a
+            corridor region's one lookout lay 19 m behind where the walker was lost going
+            the other way (edmonton_convention, seed 13: 800 s unseen).
         patrol_after: a target not seen this long from the start, with nothing predicted, is
             looked for on patrol (it may come by: a crowd's person, a walker dwelling).
         search_min_probability: ... each at least this likely (the most likely one always).
@@ -158,6 +169,7 @@ class FollowConfig:
     search_min_probability: float = 0.05
     search_rounds: int = 2
     search_sight: float = 8.0
+    search_at: str = "lookout"
     patrol_spacing: float = 4.0
     patrol_after: float = 10.0
     patrol_sight: float = 8.0
@@ -181,6 +193,9 @@ class FollowConfig:
         check_integers(self, ("search_regions", "search_rounds"), "follower", error=FollowError)
         check_numbers(self, ("pass_detour", "trail", "unblock", "snug", "patrol_sight",
                              "search_sight", "watch"), "follower", strict=False, error=FollowError)
+        if self.search_at not in SEARCH_AT:
+            raise FollowError("follower: search_at must be one of %s, got %r"
+                              % (", ".join(SEARCH_AT), self.search_at))
         if self.search_turn > math.pi:
             raise FollowError("follower: search_turn must be at most pi radians (the look-round's "
                               "goal yaw wraps: 2 pi turns not at all), got %r" % (self.search_turn,))

@@ -22,9 +22,11 @@ from ``~map_topic`` (``/map``, latched).
 Parameters: ``~config`` ("1"), ``~rois_yaml`` (""), ``~tol`` (0.2), ``~mode`` (vertex),
 ``~robot_radius`` (0.34, planning grid inflation), ``~beta`` and the other core
 PredictionConfig fields as ``~<field>``, ``~query_service``, ``~rois_changed_topic``,
-``~map_topic``, ``~search_sight`` (FollowConfig.search_sight, 8 m). Every region gets a search
-point in ``points`` (people/search.search_plan: of its goal points with the most of them in
-view within ``~search_sight``, ``lookout_points``, the one nearest to the track); the
+``~map_topic``, ``~search_sight`` (FollowConfig.search_sight, 8 m), ``~search_at``
+(FollowConfig.search_at). Every region gets a search point in ``points``
+(people/search.search_plan: of its goal points with the most of them in view within
+``~search_sight``, ``lookout_points``, the one nearest to the track; with ``~search_at``
+likely_goal, while a leg is under way, the goal point the leg makes most likely); the
 follower's ``~search_regions`` and ``~search_min_probability`` say which are the likely ones.
 """
 from __future__ import annotations
@@ -97,8 +99,9 @@ class DestinationPredictorNode:
         self.planner_cfg = PlannerConfig(robot_radius=float(gp("~robot_radius", PlannerConfig.robot_radius)))
         self.config = config_from_params(PredictionConfig())
         self.follow = FollowConfig(search_sight=float(gp("~search_sight",
-                                                         FollowConfig.search_sight)))
-        self.follow.check()   # a bad ~search_sight: one line at start, not in the model thread
+                                                         FollowConfig.search_sight)),
+                                   search_at=str(gp("~search_at", FollowConfig.search_at)))
+        self.follow.check()   # a bad ~search_*: one line at start, not in the model thread
         self.lock = threading.Lock()
         self.grid: Optional[PlanningGrid] = None
         self.rois: Optional[List[Roi]] = None

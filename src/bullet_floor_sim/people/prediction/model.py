@@ -400,6 +400,33 @@ class DestinationModel:
         probs = {g: (math.exp(logw[g] - total) if g in logw else 0.0) for g in prior}
         return calibrate(probs, prior, self.config.temperature, self.config.prior_mix), reasons
 
+    def likely_goals(self, start_xy: Sequence[float], current_xy: Sequence[float]
+                     ) -> Dict[str, Tuple[float, float]]:
+        """Each region's goal point that the walk S..Q makes most likely: the largest term
+        of :meth:`posterior`'s sum over the region's points (the most progress towards it,
+        for the length of its leg). Regions with no goal point reachable from both S and Q
+        are left out.
+
+        Raises:
+            PredictionError: a non-finite position.
+        """
+        sx, sy = _check_xy(start_xy, "start_xy")
+        qx, qy = _check_xy(current_xy, "current_xy")
+        vs = self._start_values(sx, sy)
+        vq = self._values(qx, qy)
+        cfg = self.config
+        with np.errstate(invalid="ignore"):   # (inf - inf: unreachable, left out)
+            terms = (-cfg.beta * (vq - vs)
+                     - cfg.length_exponent * np.log(np.maximum(vs, cfg.goal_spacing)))
+        out = {}
+        for g, sl in self._slices.items():
+            t = terms[sl]
+            ok = np.flatnonzero(np.isfinite(t))
+            if len(ok):
+                x, y = self._goals[g][int(ok[np.argmax(t[ok])])]
+                out[g] = (float(x), float(y))
+        return out
+
     # ---- baselines -------------------------------------------------------------------------
 
     def markov_baseline(self, r0: str) -> Dict[str, float]:
