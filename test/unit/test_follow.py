@@ -227,6 +227,31 @@ def test_a_target_lost_close_by_in_front_is_trailed_not_turned_to():
     assert "looking back" in lost_at(18.0, trail=0.0)
 
 
+def test_look_lead_turns_to_where_a_target_lost_close_by_went_on_to():
+    """The observer at (2, 2) facing east loses a target 1.2 m to its left (90 degrees off:
+    turned to, not trailed). Walking west at 0.6 m/s: with ``look_lead`` 0 it turns to
+    where the target was (yaw pi/2); with 2 s, to where it would be 1.2 m further west,
+    (0.8, 3.2): yaw 3 pi/4. Standing still: where it was, whatever the lead."""
+    grid = hall()
+    plan = [("7", (8.0, 3.0))]
+
+    def look(lead: float, vx: float):
+        fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5, slack=0.7,
+                                                look_lead=lead))
+        fb.update(0.0, (2.0, 2.0, 0.0), (2.0, 3.2, vx, 0.0))
+        return fb.update(1.5, (2.0, 2.0, 0.0), None, plan)
+
+    d = look(0.0, -0.6)
+    assert "looking back" in d.reason
+    assert d.goal == pytest.approx((2.0, 2.0, math.pi / 2), abs=1e-9)
+    d = look(2.0, -0.6)
+    assert "looking back to (0.80, 3.20)" in d.reason
+    assert d.goal == pytest.approx((2.0, 2.0, 3 * math.pi / 4), abs=1e-9)
+    assert look(2.0, 0.0).goal == pytest.approx((2.0, 2.0, math.pi / 2), abs=1e-9)
+    with pytest.raises(FollowError, match="look_lead"):
+        FollowConfig(look_lead=-1.0).check()
+
+
 def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
     grid = hall()                                   # 10 x 4 m
     fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=4.0))

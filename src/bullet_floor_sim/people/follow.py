@@ -349,10 +349,17 @@ class FollowBehaviour:
         return FollowDecision("search")
 
     def _look_back(self, rx: float, ry: float, lx: float, ly: float) -> FollowDecision:
-        """Turn on the spot towards where a target lost close by was last seen."""
+        """Turn on the spot towards where a target lost close by at (lx, ly) would be
+        ``look_lead`` seconds on at its last velocity (where it was, when it stood)."""
         self._search_phase = "back"
-        return FollowDecision("search", (rx, ry, math.atan2(ly - ry, lx - rx)),
-                              "target lost close by at (%.2f, %.2f): looking back" % (lx, ly))
+        vx, vy = self._last_velocity
+        lead = self.config.look_lead if math.hypot(vx, vy) > _MOVING else 0.0
+        ax, ay = lx + vx * lead, ly + vy * lead
+        if math.hypot(ax - rx, ay - ry) < 1e-6:   # (on the observer: where it was)
+            ax, ay = lx, ly
+        return FollowDecision("search", (rx, ry, math.atan2(ay - ry, ax - rx)),
+                              "target lost close by at (%.2f, %.2f): looking back%s"
+                              % (lx, ly, " to (%.2f, %.2f)" % (ax, ay) if lead else ""))
 
     def _at_place(self, t: float, robot: Sequence[float]) -> FollowDecision:
         """The goal to a search place, patrol place or hub has ended: looking round there;

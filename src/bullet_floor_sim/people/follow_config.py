@@ -115,6 +115,11 @@ class FollowConfig:
             (else turned to); one lost nearer in front, in the lidar's view, went behind
             something and is looked for as one lost further off). 0: it only turns to where a
             target lost close by was last seen, in front or not.
+        look_lead: a target lost close by is turned to where it would be this many
+            seconds after it was last seen, at its last velocity (one that stood still:
+            where it was); 0: where it was last seen. A walker that passed the observer's
+            side out of its lidar's 180 degrees went on west while the observer turned east
+            to where it had been (edmonton_convention, seed 13: 800 s unseen after).
         unblock: a target that came nearer than ``distance`` - 0.2 m and has stayed within
             ``distance`` of the observer, and within ``give_way`` of where it was, this long
             (s) is taken to be blocked by it,
@@ -180,6 +185,7 @@ class FollowConfig:
     give_way_view: float = math.radians(75.0)
     pass_detour: float = 2.0
     trail: float = 4.0
+    look_lead: float = 0.0
     unblock: float = 4.0
     snug: float = 0.0
     watch: float = 0.0
@@ -191,8 +197,9 @@ class FollowConfig:
                              "roomy", "give_way", "give_way_reach", "give_way_hold"),
                       "follower", error=FollowError)
         check_integers(self, ("search_regions", "search_rounds"), "follower", error=FollowError)
-        check_numbers(self, ("pass_detour", "trail", "unblock", "snug", "patrol_sight",
-                             "search_sight", "watch"), "follower", strict=False, error=FollowError)
+        check_numbers(self, ("pass_detour", "trail", "look_lead", "unblock", "snug",
+                             "patrol_sight", "search_sight", "watch"), "follower",
+                      strict=False, error=FollowError)
         if self.search_at not in SEARCH_AT:
             raise FollowError("follower: search_at must be one of %s, got %r"
                               % (", ".join(SEARCH_AT), self.search_at))
