@@ -379,8 +379,9 @@ def test_search_at_likely_goal_sends_the_search_ahead_of_a_walk_lost_on_its_way(
     nearest to the track, more than 5 m from the corridor's west end; with ``likely_goal``
     it is the corridor's goal point the walk made most likely: every point ahead got the
     same 0.95 m of progress and the leg-length term prefers the shortest leg, so the
-    first point past the track (2.5); walking west from 20 to 19.05, the first point
-    west of it (18.5). A track that stands (no leg under way) keeps the lookouts."""
+    first point past the track (2.5); walking west from 24 to 23.05, the first point
+    west of it (22.5; the nearest lookout is 18.5). A track that stands (no leg under way)
+    keeps the lookouts."""
     model = DestinationModel(PlanningGrid(corridor_map()), corridor_rois(), corridor_chain())
     goals = model.goals("corridor")
     spacing = model.config.goal_spacing
@@ -401,10 +402,12 @@ def test_search_at_likely_goal_sends_the_search_ahead_of_a_walk_lost_on_its_way(
     assert tuple(likely) in [tuple(g) for g in goals.tolist()]
     assert 1.95 < likely[0] <= ahead[:, 0].min() + 1e-9
     assert likely[0] - 1.95 <= spacing + 1e-9
-    # walking west from x = 20: the point the search goes to is west of the track
-    west = [20.0 - 0.05 * k for k in range(20)]
+    # walking west from x = 24: the first point west of the track (22.5), not the lookout
+    # nearest to it (18.5)
+    west = [24.0 - 0.05 * k for k in range(20)]
     _, likely_w = plan_after(PredictorAgent(model, FollowConfig(search_at="likely_goal")), west)
-    assert 19.05 - spacing - 1e-9 <= likely_w[0] < 19.05
+    assert 23.05 - spacing - 1e-9 <= likely_w[0] < 23.05
+    assert plan_after(PredictorAgent(model), west)[1][0] < 23.05 - 4.0
     # standing at x = 1: no leg under way, the lookouts as with ``lookout``
     pred_s, stand = plan_after(PredictorAgent(model, FollowConfig(search_at="likely_goal")),
                                [1.0] * 20)

@@ -231,7 +231,8 @@ def test_look_lead_turns_to_where_a_target_lost_close_by_went_on_to():
     """The observer at (2, 2) facing east loses a target 1.2 m to its left (90 degrees off:
     turned to, not trailed). Walking west at 0.6 m/s: with ``look_lead`` 0 it turns to
     where the target was (yaw pi/2); with 2 s, to where it would be 1.2 m further west,
-    (0.8, 3.2): yaw 3 pi/4. Standing still: where it was, whatever the lead."""
+    (0.8, 3.2): yaw 3 pi/4. Standing still (slower than 0.15 m/s): where it was, whatever
+    the lead."""
     grid = hall()
     plan = [("7", (8.0, 3.0))]
 
@@ -242,12 +243,15 @@ def test_look_lead_turns_to_where_a_target_lost_close_by_went_on_to():
         return fb.update(1.5, (2.0, 2.0, 0.0), None, plan)
 
     d = look(0.0, -0.6)
-    assert "looking back" in d.reason
+    assert d.reason == "target lost close by at (2.00, 3.20): looking back"
     assert d.goal == pytest.approx((2.0, 2.0, math.pi / 2), abs=1e-9)
     d = look(2.0, -0.6)
-    assert "looking back to (0.80, 3.20)" in d.reason
+    assert d.reason == "target lost close by at (2.00, 3.20): looking back to (0.80, 3.20)"
     assert d.goal == pytest.approx((2.0, 2.0, 3 * math.pi / 4), abs=1e-9)
-    assert look(2.0, 0.0).goal == pytest.approx((2.0, 2.0, math.pi / 2), abs=1e-9)
+    # slower than 0.15 m/s it stood: where it was
+    d = look(2.0, -0.1)
+    assert d.reason == "target lost close by at (2.00, 3.20): looking back"
+    assert d.goal == pytest.approx((2.0, 2.0, math.pi / 2), abs=1e-9)
     with pytest.raises(FollowError, match="look_lead"):
         FollowConfig(look_lead=-1.0).check()
 

@@ -170,8 +170,8 @@ def test_the_gap_is_measured_on_the_poses_clock(tmp_path):
     """max_gap 2 s. A pose that arrives just before the clock message jumping to its time
     (stamp 100 s, recorder's clock still at 1 s) is on the recorder's clock once the clock is
     there: no gap at 101 s, a gap at 102.5 s. A publisher on another clock (stamps near
-    5000 s while the recorder is near 100 s) is measured from its newest stamp and the time
-    since it arrived."""
+    5000 s while the recorder is near 100 s, or 3 s ahead of it) is measured from its newest
+    stamp and the time since it arrived."""
     def stream(name):
         return PoseStream(Chunker(max_gap=2.0, new_uuid=lambda: name),
                           ChunkSpill(str(tmp_path / (name + ".jsonl"))))
@@ -179,7 +179,9 @@ def test_the_gap_is_measured_on_the_poses_clock(tmp_path):
     s = stream("jump")
     s.add(stamped(100.0), rx_ns=1 * NS)
     assert not s.stamps_on_clock
+    assert s.pose_clock(101 * NS) == 101 * NS
     assert s.check_gap(101 * NS) is None
+    assert s.pose_clock(int(101.9 * NS)) == int(101.9 * NS)
     ended = s.check_gap(int(102.5 * NS))
     assert (ended.uuid, ended.closed_by, len(ended.poses)) == ("jump", "gap", 1)
 
@@ -188,3 +190,13 @@ def test_the_gap_is_measured_on_the_poses_clock(tmp_path):
     assert other.pose_clock(int(101.5 * NS)) == int(5001.5 * NS)
     assert other.check_gap(int(101.5 * NS)) is None
     assert other.check_gap(int(102.5 * NS)).closed_by == "gap"
+
+    # a publisher 3 s ahead of the recorder (within the window plus the gap of it): from
+    # its second pose on its stamps are on its own clock, and its silence ends the
+    # trajectory after 2 s, not after 2 s more than the skew
+    ahead = stream("ahead")
+    ahead.add(stamped(103.0), rx_ns=100 * NS)
+    ahead.add(stamped(103.05), rx_ns=int(100.05 * NS))
+    assert ahead.off_clock == 2
+    assert ahead.check_gap(int(101.9 * NS)) is None
+    assert ahead.check_gap(int(102.1 * NS)).closed_by == "gap"

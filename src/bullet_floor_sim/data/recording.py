@@ -303,6 +303,7 @@ class PoseStream:
         self.received = 0
         self.last_rx_ns: Optional[int] = None
         self.stamps_on_clock = False   # the newest pose's stamp is on the recorder's clock
+        self.off_clock = 0             # poses in a row whose stamps were not, on arrival
 
     def add(self, pose: Pose, rx_ns: int) -> List[Chunk]:
         """Record a pose received at ``rx_ns`` (the recorder's clock); the chunks it closed."""
@@ -311,6 +312,7 @@ class PoseStream:
         # the silence that ends a trajectory is measured on the stamps when they are on the
         # recorder's clock (within the gap of it)
         self.stamps_on_clock = abs(rx_ns - pose[0]) <= self._window_ns()
+        self.off_clock = 0 if self.stamps_on_clock else self.off_clock + 1
         closed = self.chunker.add(pose)
         c = self.chunker
         self.spill.track(c.uuid, c.sequence_id, c.region, c.open_poses)
@@ -318,13 +320,14 @@ class PoseStream:
 
     def pose_clock(self, now_ns: int) -> int:
         """Now on the poses' clock: the recorder's clock when the stamps are on it (at the
-        newest pose's arrival, or now: a pose can arrive just before the clock message that
-        jumps to its time), else (a publisher on another clock) the newest stamp plus the
-        time since it arrived."""
+        newest pose's arrival; or now, when that pose is the first in a row that was not
+        and the clock has come to its stamp since: it arrived just before the clock
+        message that jumps to its time), else (a publisher on another clock) the newest
+        stamp plus the time since it arrived."""
         if self.stamps_on_clock or self.last_rx_ns is None:
             return now_ns
         newest = self.chunker.open_poses[-1][0]
-        if abs(now_ns - newest) <= self._window_ns():
+        if self.off_clock == 1 and abs(now_ns - newest) <= self._window_ns():
             return now_ns
         return newest + (now_ns - self.last_rx_ns)
 

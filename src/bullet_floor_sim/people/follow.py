@@ -47,7 +47,9 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   Then it goes to the predicted destination region (the
   predictor's arg-max; of the region's goal points with the most of them in view within
   the predictor's ``search_sight`` (:func:`lookout_points`), in the part of the floor where
-  the target was last seen, the one nearest to where it was), turns on the spot to look
+  the target was last seen, the one nearest to where it was; with ``search_at``
+  likely_goal, while the leg is under way, the region's goal point the leg makes most
+  likely), turns on the spot to look
   around, waits ``search_wait`` seconds (a place whose goal ended more than a metre off is
   not reached: on to the next at once, for as many in a row as the plan has), then goes
   on to the next most likely region (up to ``search_regions`` of them, each at least
@@ -354,7 +356,7 @@ class FollowBehaviour:
         self._search_phase = "back"
         vx, vy = self._last_velocity
         lead = self.config.look_lead if math.hypot(vx, vy) > _MOVING else 0.0
-        ax, ay = lx + vx * lead, ly + vy * lead
+        ax, ay = (lx + vx * lead, ly + vy * lead) if lead else (lx, ly)
         if math.hypot(ax - rx, ay - ry) < 1e-6:   # (on the observer: where it was)
             ax, ay = lx, ly
         return FollowDecision("search", (rx, ry, math.atan2(ay - ry, ax - rx)),

@@ -72,7 +72,8 @@ class FollowConfig:
             ``lookout``, the search point as ``search_sight`` says; ``likely_goal``, the
             region's goal point that the leg walked so far makes most likely
             (DestinationModel.likely_goals: the most progress towards it; lookouts still
-            while the target stands or has not yet made ``min_progress``). Set it on the
+            while the target stands or has not yet made ``min_progress``, and for a region
+            none of whose goal points both the leg's start and the target reach). Set it on the
             destination_predictor node (``~search_at``). In a 90 m convention hall a
             corridor region's one lookout lay 19 m behind where the walker was lost going
             the other way (edmonton_convention, seed 13: 800 s unseen).
@@ -114,7 +115,7 @@ class FollowConfig:
             one is trailed, and one not trailed is looked at from a roomy place near by
             (else turned to); one lost nearer in front, in the lidar's view, went behind
             something and is looked for as one lost further off). 0: it only turns to where a
-            target lost close by was last seen, in front or not.
+            target lost close by was last seen (see ``look_lead``), in front or not.
         look_lead: a target lost close by is turned to where it would be this many
             seconds after it was last seen, at its last velocity (one that stood still:
             where it was); 0: where it was last seen. A walker that passed the observer's
