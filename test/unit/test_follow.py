@@ -291,12 +291,19 @@ def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
     d = still.update(1.5, (6.0, 2.0, math.pi), None, [("7", (1.0, 1.0))])
     assert "looking back" in d.reason and d.goal[:2] == pytest.approx((6.0, 2.0))
     # moving, but lost close by (1.6 m: it walked past behind the observer): looked back
-    # at, not trailed by a velocity that at a leg's start is seldom the way it goes on
-    mover = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=4.0))
+    # at, not trailed by a velocity that at a leg's start is seldom the way it goes on;
+    # with look_lead 0 at where it was, with the default 4 s at where it would be by then
+    # (2.4 m on east: a yaw, not a place to drive to)
+    mover = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=4.0, look_lead=0.0))
     mover.update(0.0, (6.0, 2.0, 0.0), (7.5, 2.5, 0.6, 0.0))
     d = mover.update(1.5, (6.0, 2.0, math.pi), None, [("7", (1.0, 1.0))])
     assert "looking back" in d.reason and d.goal == pytest.approx(
         (6.0, 2.0, math.atan2(0.5, 1.5)), abs=1e-9)
+    mover = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=4.0))
+    mover.update(0.0, (6.0, 2.0, 0.0), (7.5, 2.5, 0.6, 0.0))
+    d = mover.update(1.5, (6.0, 2.0, math.pi), None, [("7", (1.0, 1.0))])
+    assert "looking back to (9.90, 2.50)" in d.reason and d.goal == pytest.approx(
+        (6.0, 2.0, math.atan2(0.5, 3.9)), abs=1e-9)
     with pytest.raises(FollowError, match="trail"):
         FollowConfig(trail=-1.0).check()
 

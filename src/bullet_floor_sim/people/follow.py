@@ -31,7 +31,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   stands), and waited for the same way.
 * **search**: when no track has been seen for ``lost_after`` seconds, the observer first
   turns to where a target lost within ``distance + slack`` and more than 75 degrees off its
-  heading was last seen, moving or not, where it has ``roomy`` clearance to turn (one lost as
+  heading was last seen, moving or not (a moving one: where it would be ``look_lead``
+  seconds on at its last velocity), where it has ``roomy`` clearance to turn (one lost as
   near in front went behind something, and is looked for as one lost further off; turning
   towards its own goal, the observer had turned its back on it; most targets lost so
   walked past behind the observer at a leg's start, when their velocity is seldom the way
