@@ -75,8 +75,10 @@ class FollowConfig:
             while the target stands or has not yet made ``min_progress``, and for a region
             none of whose goal points both the leg's start and the target reach). Set it on the
             destination_predictor node (``~search_at``). In a 90 m convention hall a
-            corridor region's one lookout lay 19 m behind where the walker was lost going
-            the other way (edmonton_convention, seed 13: 800 s unseen).
+            corridor region's one lookout lay 16 m behind where the walker was lost going
+            the other way (edmonton_convention, seed 13: 876 s unseen). Against it the
+            lookouts are chosen by every fold (seed 13): the likely goal is the first goal
+            point past where the target was lost, which sees less of the region.
         patrol_after: a target not seen this long from the start, with nothing predicted, is
             looked for on patrol (it may come by: a crowd's person, a walker dwelling).
         search_min_probability: ... each at least this likely (the most likely one always).
