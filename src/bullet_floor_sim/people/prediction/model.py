@@ -369,8 +369,6 @@ class DestinationModel:
         qx, qy = _check_xy(current_xy, "current_xy")
         vs = self._start_values(sx, sy)
         vq = vs if (qx, qy) == (sx, sy) else self._values(qx, qy)
-        beta, alpha = self.config.beta, self.config.length_exponent
-        floor = self.config.goal_spacing
         logw = {}  # type: Dict[str, float]
         reasons = {}  # type: Dict[str, str]
         for g, p in prior.items():
@@ -386,7 +384,7 @@ class DestinationModel:
                               % (_quote(g), sx, sy))
                 continue
             a, b = a[ok], b[ok]
-            terms = -beta * (b - a) - alpha * np.log(np.maximum(a, floor))
+            terms = self._terms(a, b)
             logw[g] = math.log(p) + _logsumexp(terms) - math.log(int(ok.sum()))
         if not logw:
             where = ["%s (%.2f, %.2f)" % (what, x, y) for what, x, y
@@ -412,12 +410,8 @@ class DestinationModel:
         """
         sx, sy = _check_xy(start_xy, "start_xy")
         qx, qy = _check_xy(current_xy, "current_xy")
-        vs = self._start_values(sx, sy)
-        vq = self._values(qx, qy)
-        cfg = self.config
         with np.errstate(invalid="ignore"):   # (inf - inf: unreachable, left out)
-            terms = (-cfg.beta * (vq - vs)
-                     - cfg.length_exponent * np.log(np.maximum(vs, cfg.goal_spacing)))
+            terms = self._terms(self._start_values(sx, sy), self._values(qx, qy))
         out = {}
         for g, sl in self._slices.items():
             t = terms[sl]
@@ -426,6 +420,13 @@ class DestinationModel:
                 x, y = self._goals[g][int(ok[np.argmax(t[ok])])]
                 out[g] = (float(x), float(y))
         return out
+
+    def _terms(self, vs: np.ndarray, vq: np.ndarray) -> np.ndarray:
+        """The log terms of the posterior's sum for goal points with cost-to-go ``vs`` from
+        the leg's start and ``vq`` from where the entity is: -beta * (V_p(Q) - V_p(S)) -
+        alpha * log(L_p), L_p = max(V_p(S), goal_spacing)."""
+        cfg = self.config
+        return -cfg.beta * (vq - vs) - cfg.length_exponent * np.log(np.maximum(vs, cfg.goal_spacing))
 
     # ---- baselines -------------------------------------------------------------------------
 
