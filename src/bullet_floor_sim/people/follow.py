@@ -41,8 +41,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   the observer drives to the point ``trail`` seconds on from where it was last seen, at
   its last velocity, short of a wall, facing that way (it had stood in a room while the
   walker it lost in the doorway went off down the corridor). One that stood still, or is
-  not trailed (no roomy point on its way), is looked for from the stand-off point of where
-  it was last seen, facing it; one lost close by with no room to turn, from a roomy place
+  not trailed (no roomy point on its way), is looked for from ``look_distance`` (the
+  stand-off distance by default) from where it was last seen, facing it; one lost close by with no room to turn, from a roomy place
   (the stand-off point, or the nearest roomy place within ``give_way_reach``), else turned
   to where it stands (turning 0.3 m from a wall, an octagonal base wedged: aces_austin).
   Then it goes to the predicted destination region (the
@@ -702,17 +702,23 @@ class FollowBehaviour:
 
     def _seen_from(self, rx: float, ry: float) -> Optional[Tuple[float, float, float]]:
         """Where to look from at the place a target was last seen (one that stood still, or
-        went where no roomy point lies on its way): the stand-off point ``distance`` from it
-        on the observer's side, roomy first, facing it (None: no free point that near).
-        Going straight to the predicted region instead, the observer drove 33 m off while
-        the walker it lost 3 m away stood in the room beside it for 120 s (orebro)."""
+        went where no roomy point lies on its way): the point ``look_distance`` from it on
+        the observer's side, roomy first (:func:`standoff_point`; the stand-off point at
+        ``distance`` when none is free that near), facing it, or, from nearer than 0.5 m,
+        facing the way the observer came to it (None: no free point). Going straight to
+        the predicted region instead, the observer drove 33 m off while the walker it lost
+        3 m away stood in the room beside it for 120 s (orebro)."""
         assert self.last_target is not None
         cfg, (lx, ly) = self.config, self.last_target
-        point = standoff_point(self.grid, (lx, ly), (rx, ry), cfg.distance, None, cfg.roomy)
+        point = standoff_point(self.grid, (lx, ly), (rx, ry), cfg.look_distance, None, cfg.roomy)
+        if point is None and cfg.look_distance != cfg.distance:
+            point = standoff_point(self.grid, (lx, ly), (rx, ry), cfg.distance, None, cfg.roomy)
         if point is None:
             return None
         px, py = point
-        return px, py, math.atan2(ly - py, lx - px)
+        if math.hypot(lx - px, ly - py) >= 0.5 or math.hypot(lx - rx, ly - ry) < 1e-6:
+            return px, py, math.atan2(ly - py, lx - px)
+        return px, py, math.atan2(ly - ry, lx - rx)
 
     def _search_go(self, rx: float, ry: float, why: str) -> FollowDecision:
         region, (x, y) = self._search[self._search_index]

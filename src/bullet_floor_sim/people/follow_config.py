@@ -126,6 +126,15 @@ class FollowConfig:
             against 0 and 2, leaving each of 18 worlds out (seed 13): every fold chose 4 s,
             held-out trk50 84.6 % against 83.8 %, tracked 87.1 % against 85.7 %
             (docs/evaluation.md, session 64).
+        look_distance: a target that stood still when lost further off, or is not trailed,
+            is looked for from this far (m) from where it was last seen, on the observer's
+            side (a roomy point first; nearer when no free point lies that far), facing
+            where it was (from nearer than 0.5 m: the way the observer came); then, where
+            there is ``roomy`` clearance, the observer looks round there. 0: from where it
+            was last seen (from the stand-off point when that is not free). Looking from
+            the stand-off point, 1.5 m on its own side, the observer looked again past the
+            door jamb that had hidden a walker standing 2.5 m down the corridor beyond
+            (orebro, seed 14: 232 and 325 s unseen after).
         unblock: a target that came nearer than ``distance`` - 0.2 m and has stayed within
             ``distance`` of the observer, and within ``give_way`` of where it was, this long
             (s) is taken to be blocked by it,
@@ -192,6 +201,7 @@ class FollowConfig:
     pass_detour: float = 2.0
     trail: float = 4.0
     look_lead: float = 4.0
+    look_distance: float = 1.5
     unblock: float = 4.0
     snug: float = 0.0
     watch: float = 0.0
@@ -203,7 +213,7 @@ class FollowConfig:
                              "roomy", "give_way", "give_way_reach", "give_way_hold"),
                       "follower", error=FollowError)
         check_integers(self, ("search_regions", "search_rounds"), "follower", error=FollowError)
-        check_numbers(self, ("pass_detour", "trail", "look_lead", "unblock", "snug",
+        check_numbers(self, ("pass_detour", "trail", "look_lead", "look_distance", "unblock", "snug",
                              "patrol_sight", "search_sight", "watch"), "follower",
                       strict=False, error=FollowError)
         if self.search_at not in SEARCH_AT:
