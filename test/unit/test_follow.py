@@ -330,6 +330,38 @@ def test_a_target_lost_further_off_is_looked_for_where_it_was_seen_first():
     assert straight.update(1.5, (2.0, 2.0, 0.0), None, plan).goal[:2] == pytest.approx((1.0, 1.0))
 
 
+def test_look_distance_sets_how_near_where_it_was_the_observer_looks_from():
+    """The same loss (4.1 m off, standing) with ``look_distance`` 0.6 m: the point 0.6 m
+    from where it was on the observer's side, facing it; with 0: where it was, facing the
+    way the observer came to it (from (2, 2): atan2(1, 4)), then a look round there. A lost
+    point in the wall's inflation (not free): from the stand-off point at ``distance``."""
+    grid = hall()
+    plan = [("7", (1.0, 1.0))]
+
+    def lost(look: float, where=(6.0, 3.0)):
+        fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5,
+                                                look_distance=look))
+        fb.update(0.0, (2.0, 2.0, 0.0), (where[0], where[1], 0.05, 0.0))
+        return fb, fb.update(1.5, (2.0, 2.0, 0.0), None, plan)
+
+    _, d = lost(0.6)
+    gx, gy, gyaw = d.goal
+    assert "look where it was" in d.reason
+    assert math.hypot(6.0 - gx, 3.0 - gy) == pytest.approx(0.6, abs=1e-9) and gx < 6.0
+    assert gyaw == pytest.approx(math.atan2(3.0 - gy, 6.0 - gx), abs=1e-9)
+    fb, d = lost(0.0)
+    assert d.goal == pytest.approx((6.0, 3.0, math.atan2(1.0, 4.0)), abs=1e-9)
+    d = fb.update(5.0, d.goal, None, plan, goal_done=True)   # roomy there: it looks round
+    assert "looking round" in d.reason and d.goal == pytest.approx(
+        (6.0, 3.0, math.atan2(1.0, 4.0) - math.pi))
+    # 0.1 m from the top wall: not free for the observer, so from 1.5 m (the stand-off)
+    _, d = lost(0.0, (6.0, 3.9))
+    gx, gy, _ = d.goal
+    assert grid.is_free(gx, gy) and math.hypot(6.0 - gx, 3.9 - gy) == pytest.approx(1.5, abs=1e-9)
+    with pytest.raises(FollowError, match="look_distance"):
+        FollowConfig(look_distance=-0.5).check()
+
+
 def test_a_search_goes_on_to_the_next_likely_region_and_round_again():
     grid = hall()
     fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, search_turn=math.pi, search_wait=3.0,
