@@ -202,12 +202,18 @@ def test_a_target_lost_close_by_in_front_is_trailed_not_turned_to():
         gx, gy, gyaw = d.goal
         assert gx == pytest.approx(3.5) and gyaw == pytest.approx(side * 0.5 * math.pi)
         assert 0.5 < side * (gy - 2.0) <= 2.0 - fb.config.roomy     # on, short of the wall
-    # the same target standing still: from the stand-off point 1.5 m from it on the
-    # observer's side, facing it
+    # the same target standing still: from where it was (look_distance 0), facing the
+    # way the observer came; with look_distance 1.5, from the stand-off point 1.5 m from it
+    # on the observer's side, facing it
     still = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5, slack=0.7))
     still.update(0.0, (2.0, 2.0, 0.0), (3.5, 2.5, 0.0, 0.0))
     d = still.update(1.5, (2.0, 2.0, 0.0), None, plan)
     assert "look where it was" in d.reason
+    assert d.goal == pytest.approx((3.5, 2.5, math.atan2(0.5, 1.5)), abs=1e-9)
+    still = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5, slack=0.7,
+                                               look_distance=1.5))
+    still.update(0.0, (2.0, 2.0, 0.0), (3.5, 2.5, 0.0, 0.0))
+    d = still.update(1.5, (2.0, 2.0, 0.0), None, plan)
     back = math.atan2(-0.5, -1.5)
     assert d.goal == pytest.approx((3.5 + 1.5 * math.cos(back), 2.5 + 1.5 * math.sin(back),
                                     back + math.pi), abs=1e-9)
@@ -269,14 +275,14 @@ def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
     assert 10.0 - roomy - 0.2 < gx <= 10.0 - roomy
     # down a corridor too narrow to turn in (1 m: 0.5 m of clearance at most), no trail:
     # it would stop and look round where its base wedges on the walls. It looks down the
-    # corridor from where it stood to see it (1.5 m short of where it was last seen), and
-    # from there goes on to the region without turning round
+    # corridor from where it was last seen, facing the way it came, and from there goes on
+    # to the region without turning round
     narrow = hall(10.0, 1.0)
     fn = FollowBehaviour(narrow, FollowConfig(lost_after=1.0, trail=4.0, distance=1.5))
     fn.update(0.0, (5.0, 0.5, 0.0), (8.3, 0.5, 0.6, 0.0))   # 2.8 m off: not close by
     d = fn.update(1.5, (5.5, 0.5, 0.0), None, [("7", (1.0, 0.5))])
     assert "trailing" not in d.reason and "look where it was" in d.reason
-    assert d.goal == pytest.approx((8.3 - 1.5, 0.5, 0.0), abs=1e-9)
+    assert d.goal == pytest.approx((8.3, 0.5, 0.0), abs=1e-9)
     d = fn.update(4.0, (6.8, 0.5, 0.0), None, [("7", (1.0, 0.5))], goal_done=True)
     assert d.goal[:2] == pytest.approx((1.0, 0.5)) and "region 7" in d.reason
     # nor does it look round there after turning to a still target lost close by
@@ -309,11 +315,12 @@ def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
 
 
 def test_a_target_lost_further_off_is_looked_for_where_it_was_seen_first():
-    """Not close by, not trailed (it stood still): the stand-off point of where it was last
-    seen, facing that place, then a look round there, then the predicted region; trail 0
-    sends the observer straight to the region."""
+    """Not close by, not trailed (it stood still): with ``look_distance`` 1.5 m, the
+    stand-off point of where it was last seen, facing that place, then a look round there,
+    then the predicted region; trail 0 sends the observer straight to the region."""
     grid = hall()
-    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5, slack=0.7))
+    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5, slack=0.7,
+                                            look_distance=1.5))
     fb.update(0.0, (2.0, 2.0, 0.0), (6.0, 3.0, 0.05, 0.0))     # 4.1 m off, standing
     plan = [("7", (1.0, 1.0))]
     d = fb.update(1.5, (2.0, 2.0, 0.0), None, plan)
@@ -331,7 +338,7 @@ def test_a_target_lost_further_off_is_looked_for_where_it_was_seen_first():
 
 
 def test_look_distance_sets_how_near_where_it_was_the_observer_looks_from():
-    """The same loss (4.1 m off, standing) with ``look_distance`` 0.6 m: the point 0.6 m
+    """A loss 4.1 m off, standing, with ``look_distance`` 0.6 m: the point 0.6 m
     from where it was on the observer's side, facing it; with 0: where it was, facing the
     way the observer came to it (from (2, 2): atan2(1, 4)), then a look round there. A lost
     point in the wall's inflation (not free): from the stand-off point at ``distance``."""
@@ -996,7 +1003,7 @@ def test_a_target_dwelling_at_the_stand_off_distance_is_not_stepped_away_from():
 def test_a_target_lost_while_stepping_aside_is_looked_for_once_there():
     """Driving to the place it steps aside to, the observer turns its back on the target:
     it keeps going (no search goal) until that goal is done or ``give_way_hold`` is up, then
-    looks for it where it was (from its stand-off point when the target is in front; turned
+    looks for it where it was (from there when the target is in front; turned
     to where it stood otherwise)."""
     grid = hall()
     cfg = FollowConfig(distance=1.5, slack=0.7, give_way=0.9, unblock=4.0, lost_after=2.0,
@@ -1012,11 +1019,11 @@ def test_a_target_lost_while_stepping_aside_is_looked_for_once_there():
         d = fb.update(t, (4.8, 2.3, 2.5), None, dest)
         assert d.mode == "give_way" and d.goal is None
     # there, facing where it stood (in view, so turning shows nothing): it goes to look
-    # where it was, from 1.5 m off, facing it
+    # where it was, from there (look_distance 0), facing the way it came
     d = fb.update(16.0, step.goal, None, dest, goal_done=True)
     assert d.mode == "search" and "look where it was" in d.reason
-    assert math.hypot(d.goal[0] - 5.9, d.goal[1] - 2.0) == pytest.approx(1.5, abs=1e-9)
-    assert d.goal[2] == pytest.approx(math.atan2(2.0 - d.goal[1], 5.9 - d.goal[0]), abs=1e-9)
+    assert d.goal == pytest.approx((5.9, 2.0, math.atan2(2.0 - step.goal[1],
+                                                         5.9 - step.goal[0])), abs=1e-9)
     # facing away from it there: it looks back at it, where it stands
     fb = FollowBehaviour(grid, cfg)
     for t in (0.0, 1.0, 2.0, 3.0, 4.0):

@@ -41,8 +41,9 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   the observer drives to the point ``trail`` seconds on from where it was last seen, at
   its last velocity, short of a wall, facing that way (it had stood in a room while the
   walker it lost in the doorway went off down the corridor). One that stood still, or is
-  not trailed (no roomy point on its way), is looked for from ``look_distance`` (the
-  stand-off distance by default) from where it was last seen, facing it; one lost close by with no room to turn, from a roomy place
+  not trailed (no roomy point on its way), is looked for from where it was last seen
+  (``look_distance`` 0; from the stand-off point when that is not free), facing the way
+  the observer came; one lost close by with no room to turn, from a roomy place
   (the stand-off point, or the nearest roomy place within ``give_way_reach``), else turned
   to where it stands (turning 0.3 m from a wall, an octagonal base wedged: aces_austin).
   Then it goes to the predicted destination region (the
