@@ -1048,6 +1048,35 @@ def test_a_target_lost_while_stepping_aside_is_looked_for_once_there():
     assert fb.update(24.5, (4.8, 2.3, 2.5), None, dest).mode == "search"
 
 
+def test_blocked_way_looks_from_where_the_observer_stood_the_way_the_target_went():
+    """The observer at (5, 2) blocks a target standing at (5.9, 2) for 4 s and steps aside.
+    Lost meanwhile, with ``blocked_way`` it is looked for from (5, 2), facing west (from
+    the target through where the observer stood: yaw pi); without it, where it was. Seen
+    again and lost 3 m off (more than ``distance`` from where it stood), or lost after
+    ``give_way_hold``, it is looked for as any target."""
+    grid = hall()
+    dest = [("east", (9.0, 2.0))]
+
+    def lost(blocked: bool, seen_again=None, t_lost: float = 16.0):
+        cfg = FollowConfig(distance=1.5, slack=0.7, give_way=0.9, unblock=4.0,
+                           lost_after=2.0, give_way_hold=20.0, blocked_way=blocked)
+        fb = FollowBehaviour(grid, cfg)
+        for t in (0.0, 1.0, 2.0, 3.0):
+            fb.update(t, (5.0, 2.0, 0.0), (5.9, 2.0, 0.0, 0.0), dest, goal_done=True)
+        step = fb.update(4.0, (5.0, 2.0, 0.0), (5.9, 2.0, 0.0, 0.0), dest, goal_done=True)
+        assert step.mode == "give_way" and "stood within" in step.reason
+        if seen_again is not None:
+            fb.update(5.0, step.goal, seen_again, dest)
+        return fb.update(t_lost, step.goal, None, dest, goal_done=True)
+
+    d = lost(True)
+    assert d.mode == "search" and "stepped out of its way" in d.reason
+    assert d.goal == pytest.approx((5.0, 2.0, math.pi), abs=1e-9)
+    assert "stepped out of its way" not in lost(False).reason
+    assert "stepped out of its way" not in lost(True, (2.9, 2.0, -0.05, 0.0)).reason
+    assert "stepped out of its way" not in lost(True, t_lost=30.0).reason
+
+
 def test_a_target_lost_after_a_give_way_is_trailed_the_way_it_went_meanwhile():
     """The observer steps aside (unblock) and waits; the target walks off east, seen, then
     is lost: the trail goes by the velocity it was seen with while the observer gave way (it

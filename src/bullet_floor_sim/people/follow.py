@@ -173,6 +173,8 @@ class FollowBehaviour:
         self._close_since: Optional[Tuple[float, float, float]] = None
         # where it steps aside to (x, y) and the nearest it has been to it since
         self._aside: Optional[Tuple[float, float, float]] = None
+        # (target x, y, observer x, y, t) of the last unblock step (FollowConfig.blocked_way)
+        self._blocked: Optional[Tuple[float, float, float, float, float]] = None
         self._parts: Optional[np.ndarray] = None    # _pockets(): the floor's parts
         self._pocket: Optional[np.ndarray] = None   # ... and which of them are pockets
         # the last goal sent: (x, y, whether it is a back-off _keeps_goal keeps)
@@ -309,6 +311,13 @@ class FollowBehaviour:
             close = near <= cfg.distance + cfg.slack and not ahead
             room = self.grid.clearance_at(rx, ry) >= cfg.roomy   # to turn (not in a doorway)
             trail = self._trail_point() if first_loss and not (close and room) else None
+            through = self._through_point(t) if first_loss else None
+            if through is not None:
+                self._search_phase = "back"
+                return FollowDecision("search", through, "target lost at (%.2f, %.2f) as the "
+                                      "observer stepped out of its way: looking from where "
+                                      "it stood, (%.2f, %.2f), the way it went through"
+                                      % (lx, ly, *through[:2]))
             if first_loss and close and room:
                 return self._look_back(rx, ry, lx, ly)
             if trail is not None:
@@ -351,6 +360,20 @@ class FollowBehaviour:
         if self._search_phase == "wait" and t - self._search_since >= cfg.search_wait:
             return self._search_next(t, robot)
         return FollowDecision("search")
+
+    def _through_point(self, t: float) -> Optional[Tuple[float, float, float]]:
+        """With ``blocked_way``, for a target lost within ``give_way_hold`` of an unblock
+        step and last seen within ``distance`` of where it stood then: where the observer
+        stood, facing away from where the target stood (None otherwise)."""
+        cfg, blocked = self.config, self._blocked
+        if not cfg.blocked_way or blocked is None or self.last_target is None:
+            return None
+        tx, ty, ox, oy, since = blocked
+        lx, ly = self.last_target
+        if (t - since > cfg.give_way_hold or math.hypot(lx - tx, ly - ty) > cfg.distance
+                or math.hypot(ox - tx, oy - ty) < 1e-6):
+            return None
+        return ox, oy, math.atan2(oy - ty, ox - tx)
 
     def _look_back(self, rx: float, ry: float, lx: float, ly: float) -> FollowDecision:
         """Turn on the spot towards where a target lost close by at (lx, ly) would be
@@ -546,6 +569,7 @@ class FollowBehaviour:
         keep = np.vstack(routes + [np.array([[tx, ty], [rx, ry]])])
         why = "the target has stood within %.1f m for %.0f s" % (cfg.distance, cfg.unblock)
         way = self._step_aside(t, (rx, ry), (tx, ty), keep, why)
+        self._blocked = (tx, ty, rx, ry, t)
         if way is None and dests:
             # no place off its ways (the observer in the doorway of a small room the target
             # heads into, where no place is give_way off the way in: seattle, 60 s blocked

@@ -138,6 +138,15 @@ class FollowConfig:
             unseen after). 0 against 1.5 m, leaving each of 18 worlds out, seeds 13-15:
             every fold chose 0, held-out trk50 83.3 % against 82.6 %, tracked 85.5 %
             against 84.9 % (docs/evaluation.md, session 65).
+        blocked_way: a target lost while the observer steps out of its way by ``unblock``
+            (within ``give_way_hold`` of the step, last seen within ``distance`` of where it
+            stood) is looked for first from where the observer stood, facing the way from
+            the target through that place: it stood there because the observer was in its
+            way, and went on through. False (the default): as any target lost (trailed at
+            the track's last velocity, or looked at where it was). The walker set off past
+            the observer as it stepped aside, out of its lidar's 180 degrees, and the track's
+            velocity from its first steps pointed the other way (aces_austin, seed 14: 485 s
+            unseen after; belgioioso_castle 707 s).
         unblock: a target that came nearer than ``distance`` - 0.2 m and has stayed within
             ``distance`` of the observer, and within ``give_way`` of where it was, this long
             (s) is taken to be blocked by it,
@@ -205,6 +214,7 @@ class FollowConfig:
     trail: float = 4.0
     look_lead: float = 4.0
     look_distance: float = 0.0
+    blocked_way: bool = False
     unblock: float = 4.0
     snug: float = 0.0
     watch: float = 0.0
