@@ -190,7 +190,8 @@ def test_a_target_lost_close_by_in_front_is_trailed_not_turned_to():
     it went behind something, and turning to where it was shows nothing (mit_csail: the
     walker left a room by its door and went down the corridor behind the wall while the
     observer, facing the door, turned to it and waited). A moving target is trailed; one that
-    stood still is looked for from its stand-off point, facing it."""
+    stood still is looked for from where it was (``look_distance`` 0), or from its stand-off
+    point with ``look_distance`` 1.5 m, facing it."""
     grid = hall()
     plan = [("7", (8.0, 3.0))]
     for side in (1.0, -1.0):            # 18 degrees to the left, then to the right
@@ -283,7 +284,7 @@ def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
     d = fn.update(1.5, (5.5, 0.5, 0.0), None, [("7", (1.0, 0.5))])
     assert "trailing" not in d.reason and "look where it was" in d.reason
     assert d.goal == pytest.approx((8.3, 0.5, 0.0), abs=1e-9)
-    d = fn.update(4.0, (6.8, 0.5, 0.0), None, [("7", (1.0, 0.5))], goal_done=True)
+    d = fn.update(4.0, (8.3, 0.5, 0.0), None, [("7", (1.0, 0.5))], goal_done=True)
     assert d.goal[:2] == pytest.approx((1.0, 0.5)) and "region 7" in d.reason
     # nor does it look round there after turning to a still target lost close by
     fs = FollowBehaviour(narrow, FollowConfig(lost_after=1.0))

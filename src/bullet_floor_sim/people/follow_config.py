@@ -110,8 +110,8 @@ class FollowConfig:
         trail: a target lost further than ``distance + slack`` off while moving is first
             looked for where it went: the observer drives to the point ``trail`` seconds on
             from where it was last seen at its last velocity (stopped short of a wall),
-            facing the way it went; one that stood still, or is not trailed, from the
-            stand-off point of where it was last seen; then the likely regions (a target
+            facing the way it went; one that stood still, or is not trailed, from
+            ``look_distance`` of where it was last seen; then the likely regions (a target
             lost nearer, and more than 75 degrees off the observer's heading, is turned to,
             moving or not, where the observer has ``roomy`` clearance; with less, a moving
             one is trailed, and one not trailed is looked at from a roomy place near by
