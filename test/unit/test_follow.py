@@ -1007,8 +1007,10 @@ def test_a_target_lost_while_stepping_aside_is_looked_for_once_there():
     looks for it where it was (from there when the target is in front; turned
     to where it stood otherwise)."""
     grid = hall()
+    # blocked_way off: the look where it was (with it, from where the observer stood:
+    # test_blocked_way_looks_from_where_the_observer_stood_the_way_the_target_went)
     cfg = FollowConfig(distance=1.5, slack=0.7, give_way=0.9, unblock=4.0, lost_after=2.0,
-                       give_way_hold=20.0)
+                       give_way_hold=20.0, blocked_way=False)
     fb = FollowBehaviour(grid, cfg)
     robot, target = (5.0, 2.0, 0.0), (5.9, 2.0, 0.0, 0.0)
     dest = [("east", (9.0, 2.0))]

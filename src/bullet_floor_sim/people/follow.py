@@ -29,8 +29,10 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   ``distance`` of the observer, and within ``give_way`` of where it was, for ``unblock``
   seconds is stepped away from, on no prediction (it may be going where the observer
   stands), and waited for the same way.
-* **search**: when no track has been seen for ``lost_after`` seconds, the observer first
-  turns to where a target lost within ``distance + slack`` and more than 75 degrees off its
+* **search**: when no track has been seen for ``lost_after`` seconds, a target lost while
+  the observer stepped out of its way so (``blocked_way``) is looked for first from where
+  the observer stood, facing the way from the target through it. Otherwise the observer
+  first turns to where a target lost within ``distance + slack`` and more than 75 degrees off its
   heading was last seen, moving or not (a moving one: where it would be ``look_lead``
   seconds on at its last velocity), where it has ``roomy`` clearance to turn (one lost as
   near in front went behind something, and is looked for as one lost further off; turning
