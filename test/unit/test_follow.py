@@ -1078,6 +1078,37 @@ def test_blocked_way_looks_from_where_the_observer_stood_the_way_the_target_went
     assert "stepped out of its way" not in lost(False).reason
     assert "stepped out of its way" not in lost(True, (2.9, 2.0, -0.05, 0.0)).reason
     assert "stepped out of its way" not in lost(True, t_lost=30.0).reason
+    # seen 3 m off and then back near where it stood: it went on from there (not through)
+    cfg = FollowConfig(distance=1.5, slack=0.7, give_way=0.9, unblock=4.0, lost_after=2.0,
+                       give_way_hold=20.0)
+    fb = FollowBehaviour(grid, cfg)
+    for t in (0.0, 1.0, 2.0, 3.0, 4.0):
+        step = fb.update(t, (5.0, 2.0, 0.0), (5.9, 2.0, 0.0, 0.0), dest, goal_done=True)
+    fb.update(5.0, step.goal, (8.9, 2.0, 0.3, 0.0), dest)
+    fb.update(6.0, step.goal, (6.5, 2.0, -0.3, 0.0), dest)
+    d = fb.update(9.0, step.goal, None, dest, goal_done=True)
+    assert d.mode == "search" and "stepped out of its way" not in d.reason
+    # once a step: lost again after it was looked for so, as any target
+    fb = FollowBehaviour(grid, cfg)
+    for t in (0.0, 1.0, 2.0, 3.0, 4.0):
+        step = fb.update(t, (5.0, 2.0, 0.0), (5.9, 2.0, 0.0, 0.0), dest, goal_done=True)
+    assert "stepped out of its way" in fb.update(16.0, step.goal, None, dest,
+                                                 goal_done=True).reason
+    fb.update(17.0, (5.0, 2.0, math.pi), (5.2, 2.6, 0.0, 0.0), dest)
+    d = fb.update(20.0, (5.0, 2.0, math.pi), None, dest, goal_done=True)
+    assert d.mode == "search" and "stepped out of its way" not in d.reason
+    # no place to step to (a 1 m corridor, nothing predicted): it stays, and a loss is
+    # not taken for one it stepped out of the way of
+    narrow = hall(10.0, 1.0)
+    fn = FollowBehaviour(narrow, FollowConfig(distance=1.5, give_way=0.9, unblock=4.0,
+                                              lost_after=2.0, give_way_reach=0.3))
+    for t in (0.0, 1.0, 2.0, 3.0, 4.0, 5.0):
+        d = fn.update(t, (5.0, 0.5, 0.0), (5.9, 0.5, 0.0, 0.0), [], goal_done=True)
+        assert d.mode == "follow"
+    d = fn.update(8.0, (5.0, 0.5, 0.0), None, [("7", (1.0, 0.5))], goal_done=True)
+    assert d.mode == "search" and "stepped out of its way" not in d.reason
+    with pytest.raises(FollowError, match="blocked_way"):
+        FollowConfig(blocked_way="false").check()
 
 
 def test_a_target_lost_after_a_give_way_is_trailed_the_way_it_went_meanwhile():

@@ -30,8 +30,9 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   seconds is stepped away from, on no prediction (it may be going where the observer
   stands), and waited for the same way.
 * **search**: when no track has been seen for ``lost_after`` seconds, a target lost while
-  the observer stepped out of its way so (``blocked_way``) is looked for first from where
-  the observer stood, facing the way from the target through it. Otherwise the observer
+  the observer stepped out of its way so (``blocked_way``: within ``give_way_hold`` of the
+  step, not seen more than ``distance`` from where it stood since) is looked for first
+  from where the observer stood, facing the way from the target through it. Otherwise the observer
   first turns to where a target lost within ``distance + slack`` and more than 75 degrees off its
   heading was last seen, moving or not (a moving one: where it would be ``look_lead``
   seconds on at its last velocity), where it has ``roomy`` clearance to turn (one lost as
@@ -175,7 +176,9 @@ class FollowBehaviour:
         self._close_since: Optional[Tuple[float, float, float]] = None
         # where it steps aside to (x, y) and the nearest it has been to it since
         self._aside: Optional[Tuple[float, float, float]] = None
-        # (target x, y, observer x, y, t) of the last unblock step (FollowConfig.blocked_way)
+        # (target x, y, observer x, y, t) of the last unblock step taken, until the target is
+        # seen more than ``distance`` from where it stood or the step is used for a search
+        # (FollowConfig.blocked_way)
         self._blocked: Optional[Tuple[float, float, float, float, float]] = None
         self._parts: Optional[np.ndarray] = None    # _pockets(): the floor's parts
         self._pocket: Optional[np.ndarray] = None   # ... and which of them are pockets
@@ -267,6 +270,9 @@ class FollowBehaviour:
             # before it: mit_csail, searched for 200 s 8 m the wrong way)
             self.last_seen, self.last_target = t, (float(target[0]), float(target[1]))
             self._last_velocity = (float(target[2]), float(target[3]))
+            if self._blocked is not None and math.hypot(
+                    target[0] - self._blocked[0], target[1] - self._blocked[1]) > cfg.distance:
+                self._blocked = None     # seen on its way from where it stood: not blocked
             plan = as_plan(destination)
             dests = [p for _, p in plan[:plan.likely]]
             way = self._give_way(t, robot, target, dests, goal_done)
@@ -364,16 +370,17 @@ class FollowBehaviour:
         return FollowDecision("search")
 
     def _through_point(self, t: float) -> Optional[Tuple[float, float, float]]:
-        """With ``blocked_way``, for a target lost within ``give_way_hold`` of an unblock
-        step and last seen within ``distance`` of where it stood then: where the observer
-        stood, facing away from where the target stood (None otherwise)."""
+        """With ``blocked_way``, for a target lost (the search starting within
+        ``give_way_hold`` of an unblock step taken, it not seen more than ``distance`` from
+        where it stood since): where the observer stood, when free, facing away from where
+        the target stood (None otherwise). Used once a step."""
         cfg, blocked = self.config, self._blocked
-        if not cfg.blocked_way or blocked is None or self.last_target is None:
+        self._blocked = None
+        if not cfg.blocked_way or blocked is None:
             return None
         tx, ty, ox, oy, since = blocked
-        lx, ly = self.last_target
-        if (t - since > cfg.give_way_hold or math.hypot(lx - tx, ly - ty) > cfg.distance
-                or math.hypot(ox - tx, oy - ty) < 1e-6):
+        if (t - since > cfg.give_way_hold or math.hypot(ox - tx, oy - ty) < 1e-6
+                or not self.grid.is_free(ox, oy)):
             return None
         return ox, oy, math.atan2(oy - ty, ox - tx)
 
@@ -571,7 +578,6 @@ class FollowBehaviour:
         keep = np.vstack(routes + [np.array([[tx, ty], [rx, ry]])])
         why = "the target has stood within %.1f m for %.0f s" % (cfg.distance, cfg.unblock)
         way = self._step_aside(t, (rx, ry), (tx, ty), keep, why)
-        self._blocked = (tx, ty, rx, ry, t)
         if way is None and dests:
             # no place off its ways (the observer in the doorway of a small room the target
             # heads into, where no place is give_way off the way in: seattle, 60 s blocked
@@ -579,6 +585,8 @@ class FollowBehaviour:
             # stands, deeper in, will do
             keep = np.array([[tx, ty], [rx, ry]] + [list(d) for d in dests])
             way = self._step_aside(t, (rx, ry), (tx, ty), keep, why + " (off its destinations)")
+        if way is not None:    # it steps out of the target's way (FollowConfig.blocked_way)
+            self._blocked = (tx, ty, rx, ry, t)
         return way
 
     def _step_aside(self, t: float, robot: Tuple[float, float], target: Tuple[float, float],

@@ -139,10 +139,11 @@ class FollowConfig:
             every fold chose 0, held-out trk50 83.3 % against 82.6 %, tracked 85.5 %
             against 84.9 % (docs/evaluation.md, session 65).
         blocked_way: a target lost while the observer steps out of its way by ``unblock``
-            (within ``give_way_hold`` of the step, last seen within ``distance`` of where it
-            stood) is looked for first from where the observer stood, facing the way from
-            the target through that place: it stood there because the observer was in its
-            way, and went on through. True (the default since session 65); False: as any
+            (the search starting within ``give_way_hold`` of the step, the target not seen
+            more than ``distance`` from where it stood since) is looked for first, before
+            the rules of ``trail`` and ``look_lead``, from where the observer stood (when
+            free), facing the way from the target through that place: it stood there
+            because the observer was in its way, and went on through. Once a step. True (the default since session 65); False: as any
             target lost (trailed at the track's last velocity, or looked at where it was).
             The walker set off past the observer as it stepped aside, out of its lidar's
             180 degrees, and the track's velocity from its first steps pointed the other way
@@ -232,6 +233,9 @@ class FollowConfig:
         check_numbers(self, ("pass_detour", "trail", "look_lead", "look_distance", "unblock", "snug",
                              "patrol_sight", "search_sight", "watch"), "follower",
                       strict=False, error=FollowError)
+        if not isinstance(self.blocked_way, bool):
+            raise FollowError("follower: blocked_way must be true or false, got %r"
+                              % (self.blocked_way,))
         if self.search_at not in SEARCH_AT:
             raise FollowError("follower: search_at must be one of %s, got %r"
                               % (", ".join(SEARCH_AT), self.search_at))
