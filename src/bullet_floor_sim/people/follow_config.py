@@ -143,8 +143,9 @@ class FollowConfig:
             more than ``distance`` from where it stood since) is looked for first, before
             the rules of ``trail`` and ``look_lead``, from where the observer stood (when
             free), facing the way from the target through that place: it stood there
-            because the observer was in its way, and went on through. Once a step. True (the default since session 65); False: as any
-            target lost (trailed at the track's last velocity, or looked at where it was).
+            because the observer was in its way, and went on through. Once a step. True
+            (the default since session 65); False: as any target lost (trailed at the
+            track's last velocity, or looked at where it was).
             The walker set off past the observer as it stepped aside, out of its lidar's
             180 degrees, and the track's velocity from its first steps pointed the other way
             (aces_austin, seed 14: 485 s unseen after; belgioioso_castle 707 s). True
