@@ -318,7 +318,6 @@ class FollowBehaviour:
                      and abs(wrap_angle(math.atan2(ly - ry, lx - rx) - ryaw)) <= _AHEAD)
             close = near <= cfg.distance + cfg.slack and not ahead
             room = self.grid.clearance_at(rx, ry) >= cfg.roomy   # to turn (not in a doorway)
-            trail = self._trail_point() if first_loss and not (close and room) else None
             through = self._through_point(t) if first_loss else None
             if through is not None:
                 self._search_phase = "back"
@@ -326,6 +325,7 @@ class FollowBehaviour:
                                       "observer stepped out of its way: looking from where "
                                       "it stood, (%.2f, %.2f), the way it went through"
                                       % (lx, ly, *through[:2]))
+            trail = self._trail_point() if first_loss and not (close and room) else None
             if first_loss and close and room:
                 return self._look_back(rx, ry, lx, ly)
             if trail is not None:
