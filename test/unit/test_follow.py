@@ -315,6 +315,38 @@ def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
         FollowConfig(trail=-1.0).check()
 
 
+def test_trail_turn_turns_a_trail_a_wall_cuts_short_by_the_least_that_frees_it():
+    """A 1.6 m corridor: a target lost going (0.4, -0.3) m/s (-36.9 degrees) would walk
+    into the south wall 0.8 m off. With ``trail_turn`` the observer trails it the least
+    turned way (in 15-degree steps, left first) free for the whole 2 m: +15 degrees
+    (-21.9) still meets the wall within 2 m (0.75 m down, 0.46 m to spare), +30 (-6.9)
+    does not; at 0 it stops short of the wall where it was lost."""
+    def trail(turn, target, plan_to=(9.0, 0.8)):
+        fb = FollowBehaviour(hall(10.0, 1.6), FollowConfig(lost_after=1.0, trail=4.0,
+                                                           trail_turn=turn))
+        fb.update(0.0, (0.5, 0.8, 0.0), target)               # 2.5 m off, ahead
+        return fb.update(1.5, (0.5, 0.8, 0.0), None, [("7", plan_to)])
+    straight = trail(0.0, (3.0, 0.8, 0.4, -0.3))
+    assert "turned" not in straight.reason
+    assert straight.goal[2] == pytest.approx(math.atan2(-0.3, 0.4))
+    assert math.hypot(straight.goal[0] - 3.0, straight.goal[1] - 0.8) < 0.5
+    turned = trail(math.pi / 2, (3.0, 0.8, 0.4, -0.3))
+    assert "turned +30 degrees" in turned.reason
+    assert turned.goal[2] == pytest.approx(math.atan2(-0.3, 0.4) + math.radians(30.0))
+    assert turned.goal[0] > 4.4            # on down the corridor, at a roomy point
+    assert turned.goal[1] == pytest.approx(0.8 + (turned.goal[0] - 3.0)
+                                           * math.tan(turned.goal[2]))
+    # 15 degrees either way is not enough: as straight on
+    assert trail(math.radians(15.0), (3.0, 0.8, 0.4, -0.3)).goal == straight.goal
+    # the corridor's east end 1 m ahead, walls 0.8 m either side: no way is free for 2 m
+    dead = trail(math.pi / 2, (9.0, 0.8, 0.5, 0.0), plan_to=(1.0, 0.8))
+    assert "turned" not in dead.reason and dead.goal[2] == pytest.approx(0.0)
+    with pytest.raises(FollowError, match="trail_turn"):
+        FollowConfig(trail_turn=4.0).check()
+    with pytest.raises(FollowError, match="trail_turn"):
+        FollowConfig(trail_turn=-0.1).check()
+
+
 def test_a_target_lost_further_off_is_looked_for_where_it_was_seen_first():
     """Not close by, not trailed (it stood still): with ``look_distance`` 1.5 m, the
     stand-off point of where it was last seen, facing that place, then a look round there,

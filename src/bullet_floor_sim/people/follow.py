@@ -95,6 +95,7 @@ from .search import PatrolTour, SearchPlan, as_plan, hub_points
 _GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps to give_way
 _MOVING = 0.15              # m/s: a target slower than this stands still
 _DETOUR = 0.5               # m: stepping aside further from its place than this: a detour
+_TRAIL_STEP = math.radians(15.0)  # the trail's turns round a wall that cuts it short
 _AT_PLACE = 1.0             # m: a search or patrol place or hub this near is reached
 _AHEAD = math.radians(75.0)  # a point this near the heading is in view (the Scitos's
                              # 180-degree lidar, less a body's width; as give_way_view)
@@ -330,9 +331,13 @@ class FollowBehaviour:
                 return self._look_back(rx, ry, lx, ly)
             if trail is not None:
                 self._search_phase = "back"
+                turn = wrap_angle(trail[2] - math.atan2(self._last_velocity[1],
+                                                        self._last_velocity[0]))
                 return FollowDecision("search", trail, "target lost at (%.2f, %.2f) going "
-                                      "(%.2f, %.2f) m/s: trailing it to (%.2f, %.2f)"
-                                      % (lx, ly, *self._last_velocity, *trail[:2]))
+                                      "(%.2f, %.2f) m/s: trailing it to (%.2f, %.2f)%s"
+                                      % (lx, ly, *self._last_velocity, *trail[:2],
+                                         ", turned %+.0f degrees: a wall was in its way"
+                                         % math.degrees(turn) if abs(turn) > 1e-6 else ""))
             if first_loss and close:
                 spot = (self._roomy_spot(rx, ry, lx, ly)
                         if cfg.trail > 0 and self.last_target is not None else None)
@@ -698,29 +703,47 @@ class FollowBehaviour:
         seen at its last velocity, stopped at the first cell the observer cannot stand on, or
         short of it at the last point with ``roomy`` clearance, facing the way it went (None:
         it stood still, ``trail`` is 0, or no point on the way is that roomy: it would wait in
-        a doorway)."""
+        a doorway). A way that a wall cuts short is turned, by up to ``trail_turn`` either
+        way in steps of 15 degrees (left first), to the least turned one free for the whole
+        trail; with none, straight on as far as it goes."""
         if self.config.trail <= 0 or self.last_target is None:
             return None
         vx, vy = self._last_velocity
         speed = math.hypot(vx, vy)
         if speed <= _MOVING:
             return None
+        heading, length = math.atan2(vy, vx), self.config.trail * speed
+        straight, whole = self._trail_along(heading, length)
+        if whole:
+            return straight
+        for k in range(1, int(self.config.trail_turn / _TRAIL_STEP + 1e-9) + 1):
+            for turn in (k * _TRAIL_STEP, -k * _TRAIL_STEP):
+                point, whole = self._trail_along(heading + turn, length)
+                if whole:
+                    return point
+        return straight
+
+    def _trail_along(self, yaw: float, length: float
+                     ) -> Tuple[Optional[Tuple[float, float, float]], bool]:
+        """The trail from where the target was last seen ``length`` m along ``yaw`` (see
+        :meth:`_trail_point`) and whether that way is free for the whole length."""
         lx, ly = self.last_target
         step = self.grid.resolution
-        n = max(1, int(self.config.trail * speed / step))
-        s = np.arange(n + 1) * step / speed
-        free = [self.grid.is_free(lx + vx * k, ly + vy * k) for k in s]
+        n = max(1, int(length / step))
+        s = np.arange(n + 1) * step
+        cx, cy = math.cos(yaw), math.sin(yaw)
+        free = [self.grid.is_free(lx + cx * k, ly + cy * k) for k in s]
         if not any(free):
-            return None
+            return None, False
         i0 = i = free.index(True)
         while i + 1 <= n and free[i + 1]:
             i += 1
         roomy = self.config.roomy
-        while i >= i0 and self.grid.clearance_at(lx + vx * s[i], ly + vy * s[i]) < roomy:
+        while i >= i0 and self.grid.clearance_at(lx + cx * s[i], ly + cy * s[i]) < roomy:
             i -= 1
         if i < i0:
-            return None
-        return lx + vx * s[i], ly + vy * s[i], math.atan2(vy, vx)
+            return None, False
+        return (lx + cx * s[i], ly + cy * s[i], yaw), all(free)
 
     def _first_turn(self, robot: Sequence[float]) -> float:
         """The look round for a target not seen yet: ``search_turn`` (at most a little under
