@@ -712,22 +712,23 @@ class FollowBehaviour:
         speed = math.hypot(vx, vy)
         if speed <= _MOVING:
             return None
+        lx, ly = self.last_target
         heading, length = math.atan2(vy, vx), self.config.trail * speed
-        straight, whole = self._trail_along(heading, length)
+        straight, whole = self._trail_along(lx, ly, heading, length)
         if whole:
             return straight
         for k in range(1, int(self.config.trail_turn / _TRAIL_STEP + 1e-9) + 1):
             for turn in (k * _TRAIL_STEP, -k * _TRAIL_STEP):
-                point, whole = self._trail_along(heading + turn, length)
+                point, whole = self._trail_along(lx, ly, heading + turn, length)
                 if whole:
                     return point
         return straight
 
-    def _trail_along(self, yaw: float, length: float
+    def _trail_along(self, lx: float, ly: float, yaw: float, length: float
                      ) -> Tuple[Optional[Tuple[float, float, float]], bool]:
-        """The trail from where the target was last seen ``length`` m along ``yaw`` (see
-        :meth:`_trail_point`) and whether that way is free for the whole length."""
-        lx, ly = self.last_target
+        """The trail from (lx, ly), where the target was last seen, ``length`` m along
+        ``yaw`` (see :meth:`_trail_point`) and whether that way is free for the whole
+        length."""
         step = self.grid.resolution
         n = max(1, int(length / step))
         s = np.arange(n + 1) * step
