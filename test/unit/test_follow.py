@@ -316,33 +316,48 @@ def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
 
 
 def test_trail_turn_turns_a_trail_a_wall_cuts_short_by_the_least_that_frees_it():
-    """A 1.6 m corridor: a target lost going (0.4, -0.3) m/s (-36.9 degrees) would walk
-    into the south wall 0.8 m off. With ``trail_turn`` the observer trails it the least
-    turned way (in 15-degree steps, left first) free for the whole 2 m: +15 degrees
-    (-21.9) still meets the wall within 2 m (0.75 m down, 0.46 m to spare), +30 (-6.9)
-    does not; at 0 it stops short of the wall where it was lost."""
-    def trail(turn, target, plan_to=(9.0, 0.8)):
-        fb = FollowBehaviour(hall(10.0, 1.6), FollowConfig(lost_after=1.0, trail=4.0,
-                                                           trail_turn=turn))
-        fb.update(0.0, (0.5, 0.8, 0.0), target)               # 2.5 m off, ahead
-        return fb.update(1.5, (0.5, 0.8, 0.0), None, [("7", plan_to)])
+    """A 1.6 m corridor (the observer's centre keeps 0.4 m off the walls): a target lost
+    going (0.4, -0.3) m/s (-36.9 degrees) would walk into the south wall. With
+    ``trail_turn`` the observer trails it the least turned way (15-degree steps, left
+    first) free for the whole 2 m: +15 degrees (-21.9) still meets the wall within 2 m,
+    +30 (-6.9) does not; at 0 it stops short of the wall where it was lost."""
+    def trail(turn, target, plan_to=(9.0, 0.8), size=(10.0, 1.6), robot=(0.5, 0.8, 0.0)):
+        fb = FollowBehaviour(hall(*size), FollowConfig(lost_after=1.0, trail=4.0,
+                                                       trail_turn=turn))
+        fb.update(0.0, robot, target)               # over 2.2 m off, ahead
+        return fb.update(1.5, robot, None, [("7", plan_to)])
+    heading = math.atan2(-0.3, 0.4)
     straight = trail(0.0, (3.0, 0.8, 0.4, -0.3))
-    assert "turned" not in straight.reason
-    assert straight.goal[2] == pytest.approx(math.atan2(-0.3, 0.4))
+    assert "turned" not in straight.reason and straight.goal[2] == pytest.approx(heading)
     assert math.hypot(straight.goal[0] - 3.0, straight.goal[1] - 0.8) < 0.5
     turned = trail(math.pi / 2, (3.0, 0.8, 0.4, -0.3))
     assert "turned +30 degrees" in turned.reason
-    assert turned.goal[2] == pytest.approx(math.atan2(-0.3, 0.4) + math.radians(30.0))
+    assert turned.goal[2] == pytest.approx(heading + math.radians(30.0))
     assert turned.goal[0] > 4.4            # on down the corridor, at a roomy point
     assert turned.goal[1] == pytest.approx(0.8 + (turned.goal[0] - 3.0)
                                            * math.tan(turned.goal[2]))
     # 15 degrees either way is not enough: as straight on
     assert trail(math.radians(15.0), (3.0, 0.8, 0.4, -0.3)).goal == straight.goal
+    # lost 0.35 m off the wall, nearer than the observer's centre may go (0.4 m): no
+    # straight trail (it looks from where it was); turned, the first cells are not free
+    # and +45 degrees (+8.1) is free from its first free cell on for the whole 2 m
+    near_wall = trail(math.pi / 2, (3.0, 0.35, 0.4, -0.3))
+    assert "not trailed" in trail(0.0, (3.0, 0.35, 0.4, -0.3)).reason
+    assert "turned +45 degrees" in near_wall.reason
+    assert near_wall.goal[:2] == pytest.approx((3.0 + 2.0 * math.cos(heading + math.pi / 4),
+                                                0.35 + 2.0 * math.sin(heading + math.pi / 4)))
     # the corridor's east end 1 m ahead, walls 0.8 m either side: no way is free for 2 m
     dead = trail(math.pi / 2, (9.0, 0.8, 0.5, 0.0), plan_to=(1.0, 0.8))
     assert "turned" not in dead.reason and dead.goal[2] == pytest.approx(0.0)
+    # head on at a wall 1.2 m ahead in an open hall, room both ways: the least turn that
+    # frees 2 m is 75 degrees (cos 75 x 2 m = 0.52 m east, short of the 0.85 m the
+    # observer's centre may go), and of +75 and -75 the left one
+    hall_way = trail(math.pi / 2, (8.8, 4.0, 0.5, 0.0), plan_to=(1.0, 4.0), size=(10.0, 8.0),
+                     robot=(5.0, 4.0, 0.0))
+    assert "turned +75 degrees" in hall_way.reason
+    assert hall_way.goal[2] == pytest.approx(math.radians(75.0)) and hall_way.goal[1] > 5.5
     with pytest.raises(FollowError, match="trail_turn"):
-        FollowConfig(trail_turn=4.0).check()
+        FollowConfig(trail_turn=2.0).check()
     with pytest.raises(FollowError, match="trail_turn"):
         FollowConfig(trail_turn=-0.1).check()
 

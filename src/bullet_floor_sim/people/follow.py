@@ -43,7 +43,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   A target lost further off while moving, or close by with no room to turn, is trailed:
   the observer drives to the point ``trail`` seconds on from where it was last seen, at
   its last velocity, short of a wall, facing that way (it had stood in a room while the
-  walker it lost in the doorway went off down the corridor). One that stood still, or is
+  walker it lost in the doorway went off down the corridor); with ``trail_turn``, a trail
+  a wall cuts short is turned the least that frees it, up to ``trail_turn``. One that stood still, or is
   not trailed (no roomy point on its way), is looked for from where it was last seen
   (``look_distance`` 0; from the stand-off point when that is not free), facing the way
   the observer came; one lost close by with no room to turn, from a roomy place
@@ -703,9 +704,11 @@ class FollowBehaviour:
         seen at its last velocity, stopped at the first cell the observer cannot stand on, or
         short of it at the last point with ``roomy`` clearance, facing the way it went (None:
         it stood still, ``trail`` is 0, or no point on the way is that roomy: it would wait in
-        a doorway). A way that a wall cuts short is turned, by up to ``trail_turn`` either
-        way in steps of 15 degrees (left first), to the least turned one free for the whole
-        trail; with none, straight on as far as it goes."""
+        a doorway). A way that a blocked cell cuts short (past the first free one: the lost
+        point may lie nearer a wall than the observer can stand) is turned, by up to
+        ``trail_turn`` either way in steps of 15 degrees (left first), to the least turned
+        way free for the whole trail with a roomy point on it, facing that way; with none,
+        straight on as far as it goes."""
         if self.config.trail <= 0 or self.last_target is None:
             return None
         vx, vy = self._last_velocity
@@ -713,38 +716,39 @@ class FollowBehaviour:
         if speed <= _MOVING:
             return None
         lx, ly = self.last_target
-        heading, length = math.atan2(vy, vx), self.config.trail * speed
-        straight, whole = self._trail_along(lx, ly, heading, length)
-        if whole:
+        straight, clear = self._trail_along(lx, ly, vx, vy, speed)
+        if clear:
             return straight
         for k in range(1, int(self.config.trail_turn / _TRAIL_STEP + 1e-9) + 1):
             for turn in (k * _TRAIL_STEP, -k * _TRAIL_STEP):
-                point, whole = self._trail_along(lx, ly, heading + turn, length)
-                if whole:
+                c, s = math.cos(turn), math.sin(turn)
+                point, clear = self._trail_along(lx, ly, vx * c - vy * s, vx * s + vy * c, speed)
+                if clear and point is not None:
                     return point
         return straight
 
-    def _trail_along(self, lx: float, ly: float, yaw: float, length: float
+    def _trail_along(self, lx: float, ly: float, vx: float, vy: float, speed: float
                      ) -> Tuple[Optional[Tuple[float, float, float]], bool]:
-        """The trail from (lx, ly), where the target was last seen, ``length`` m along
-        ``yaw`` (see :meth:`_trail_point`) and whether that way is free for the whole
-        length."""
+        """The trail from (lx, ly), where the target was last seen, at velocity (vx, vy)
+        of norm ``speed`` for ``trail`` seconds (see :meth:`_trail_point`; None: no free
+        point on it, or none roomy) and whether no blocked cell lies on it past its first
+        free one."""
         step = self.grid.resolution
-        n = max(1, int(length / step))
-        s = np.arange(n + 1) * step
-        cx, cy = math.cos(yaw), math.sin(yaw)
-        free = [self.grid.is_free(lx + cx * k, ly + cy * k) for k in s]
+        n = max(1, int(self.config.trail * speed / step))
+        s = np.arange(n + 1) * step / speed
+        free = [self.grid.is_free(lx + vx * k, ly + vy * k) for k in s]
         if not any(free):
             return None, False
         i0 = i = free.index(True)
+        clear = all(free[i0:])
         while i + 1 <= n and free[i + 1]:
             i += 1
         roomy = self.config.roomy
-        while i >= i0 and self.grid.clearance_at(lx + cx * s[i], ly + cy * s[i]) < roomy:
+        while i >= i0 and self.grid.clearance_at(lx + vx * s[i], ly + vy * s[i]) < roomy:
             i -= 1
         if i < i0:
-            return None, False
-        return (lx + cx * s[i], ly + cy * s[i], yaw), all(free)
+            return None, clear
+        return (lx + vx * s[i], ly + vy * s[i], math.atan2(vy, vx)), clear
 
     def _first_turn(self, robot: Sequence[float]) -> float:
         """The look round for a target not seen yet: ``search_turn`` (at most a little under

@@ -119,14 +119,15 @@ class FollowConfig:
             something and is looked for as one lost further off). 0: it only turns to where a
             target lost close by was last seen (see ``look_lead``), in front or not.
         trail_turn: a trail that a wall cuts short of ``trail`` seconds (the target cannot
-            have walked on into the wall: it turned) is turned by up to this much (radians)
-            either way, in steps of 15 degrees, left first, to the least turned way free
-            for the whole trail; with none, it stops short of the wall as before. 0 (the
-            default): straight on only. The walker left a room by its door, turned the
-            corner into a corridor and went on round a block; the track's last velocity
-            pointed at the corridor's far wall, the trail stopped where it was lost, and
-            the look round there saw only the block (orebro, seed 14: four losses at one
-            corner, 1100 s unseen after).
+            have walked on into the wall: it turned) is turned by up to this much (radians,
+            at most pi/2; used in whole steps of 15 degrees) either way, left first, to the
+            least turned way free for the whole trail with a roomy point on it; with none,
+            it stops short of the wall as before. A straight trail that is free but never
+            roomy (a narrow corridor) is not turned. 0 (the default): straight on only.
+            The walker left a room by its door, turned the corner into a corridor and went
+            on round a block; the track's last velocity pointed at the corridor's far wall,
+            the trail stopped where it was lost, and the look round there saw only the
+            block (orebro, seed 14: four losses at one corner, 1100 s unseen after).
         look_lead: a target lost close by is turned to where it would be this many
             seconds after it was last seen, at its last velocity (one that stood still:
             where it was); 0: where it was last seen. A walker that passed the observer's
@@ -250,9 +251,10 @@ class FollowConfig:
         if self.search_at not in SEARCH_AT:
             raise FollowError("follower: search_at must be one of %s, got %r"
                               % (", ".join(SEARCH_AT), self.search_at))
-        if self.trail_turn > math.pi:
-            raise FollowError("follower: trail_turn must be at most pi radians (a half turn "
-                              "either way covers every way), got %r" % (self.trail_turn,))
+        if self.trail_turn > math.pi / 2 + 1e-9:
+            raise FollowError("follower: trail_turn must be at most pi/2 radians (a trail "
+                              "turned further runs back the way the target came), got %r"
+                              % (self.trail_turn,))
         if self.search_turn > math.pi:
             raise FollowError("follower: search_turn must be at most pi radians (the look-round's "
                               "goal yaw wraps: 2 pi turns not at all), got %r" % (self.search_turn,))
