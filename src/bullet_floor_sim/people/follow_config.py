@@ -251,7 +251,7 @@ class FollowConfig:
         if self.search_at not in SEARCH_AT:
             raise FollowError("follower: search_at must be one of %s, got %r"
                               % (", ".join(SEARCH_AT), self.search_at))
-        if self.trail_turn > math.pi / 2 + 1e-9:
+        if self.trail_turn > math.pi / 2 + 1e-3:   # 1.5708, as typed, is pi/2
             raise FollowError("follower: trail_turn must be at most pi/2 radians (a trail "
                               "turned further runs back the way the target came), got %r"
                               % (self.trail_turn,))
