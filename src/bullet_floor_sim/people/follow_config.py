@@ -127,7 +127,7 @@ class FollowConfig:
             The walker left a room by its door, turned the corner into a corridor and went
             on round a block; the track's last velocity pointed at the corridor's far wall,
             the trail stopped where it was lost, and the look round there saw only the
-            block (orebro, seed 14: four losses at one corner, 1100 s unseen after).
+            block (orebro, seed 14: four losses at one corner, 113-302 s unseen each).
         look_lead: a target lost close by is turned to where it would be this many
             seconds after it was last seen, at its last velocity (one that stood still:
             where it was); 0: where it was last seen. A walker that passed the observer's
