@@ -196,7 +196,7 @@ def test_a_target_lost_close_by_in_front_is_trailed_not_turned_to():
     plan = [("7", (8.0, 3.0))]
     for side in (1.0, -1.0):            # 18 degrees to the left, then to the right
         fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, distance=1.5, slack=0.7,
-                                                trail=4.0))
+                                                trail=4.0, trail_turn=0.0))   # straight on
         fb.update(0.0, (2.0, 2.0, 0.0), (3.5, 2.0 + side * 0.5, 0.0, side * 0.6))   # 1.58 m
         d = fb.update(1.5, (2.0, 2.0, 0.0), None, plan)
         assert d.mode == "search" and "trailing" in d.reason
@@ -264,8 +264,10 @@ def test_look_lead_turns_to_where_a_target_lost_close_by_went_on_to():
 
 
 def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
+    """Straight on (``trail_turn`` 0; the default turns a trail a wall cuts short, as
+    test_trail_turn_turns_a_trail_a_wall_cuts_short_by_the_least_that_frees_it checks)."""
     grid = hall()                                   # 10 x 4 m
-    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=4.0))
+    fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=4.0, trail_turn=0.0))
     fb.update(0.0, (6.0, 2.0, 0.0), (8.0, 2.5, 0.6, 0.0))   # 2.4 m on would be past the wall
     d = fb.update(1.5, (5.5, 2.0, 0.0), None, [("7", (1.0, 1.0))])   # 2.55 m off
     gx, gy, gyaw = d.goal
