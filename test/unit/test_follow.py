@@ -264,8 +264,8 @@ def test_look_lead_turns_to_where_a_target_lost_close_by_went_on_to():
 
 
 def test_a_target_lost_while_moving_is_trailed_up_to_the_wall_it_went_towards():
-    """Straight on (``trail_turn`` 0; the default turns a trail a wall cuts short, as
-    test_trail_turn_turns_a_trail_a_wall_cuts_short_by_the_least_that_frees_it checks)."""
+    """Straight on (``trail_turn`` 0; the default, pi/2, turns a trail a wall cuts short:
+    test_trail_turn_turns_a_trail_a_wall_cuts_short_by_the_least_that_frees_it)."""
     grid = hall()                                   # 10 x 4 m
     fb = FollowBehaviour(grid, FollowConfig(lost_after=1.0, trail=4.0, trail_turn=0.0))
     fb.update(0.0, (6.0, 2.0, 0.0), (8.0, 2.5, 0.6, 0.0))   # 2.4 m on would be past the wall
@@ -358,6 +358,21 @@ def test_trail_turn_turns_a_trail_a_wall_cuts_short_by_the_least_that_frees_it()
                      robot=(5.0, 4.0, 0.0))
     assert "turned +75 degrees" in hall_way.reason
     assert hall_way.goal[2] == pytest.approx(math.radians(75.0)) and hall_way.goal[1] > 5.5
+    # a thin wall 0.3 m off where it was lost (nearer than the observer may stand): no
+    # way through it (the first version turned -30 degrees to (5.73, 2.30), beyond it)
+    g = np.zeros((84, 200), dtype=np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = g[60, :] = 100     # the wall at y 3.0-3.05 m
+    walled = FollowBehaviour(PlanningGrid(map_from_grid(g, RES)),
+                             FollowConfig(lost_after=1.0, trail=4.0, trail_turn=math.pi / 2))
+    walled.update(0.0, (1.0, 3.6, 0.0), (4.0, 3.3, 0.5, 0.0))
+    d = walled.update(1.5, (1.0, 3.6, 0.0), None, [("7", (9.0, 3.6))])
+    assert "trailing" not in d.reason
+    # the default is pi/2: at a hall's end wall, 2 m of room south, 1.5 m north (-60)
+    assert FollowConfig().trail_turn == pytest.approx(math.pi / 2)
+    fd = FollowBehaviour(hall(), FollowConfig(lost_after=1.0))
+    fd.update(0.0, (5.5, 2.0, 0.0), (8.0, 2.5, 0.6, 0.0))
+    assert "turned -60 degrees" in fd.update(1.5, (5.5, 2.0, 0.0), None,
+                                             [("7", (1.0, 1.0))]).reason
     with pytest.raises(FollowError, match="trail_turn"):
         FollowConfig(trail_turn=2.0).check()
     with pytest.raises(FollowError, match="trail_turn"):

@@ -705,7 +705,8 @@ class FollowBehaviour:
         short of it at the last point with ``roomy`` clearance, facing the way it went (None:
         it stood still, ``trail`` is 0, or no point on the way is that roomy: it would wait in
         a doorway). A way that a blocked cell cuts short (past the first free one: the lost
-        point may lie nearer a wall than the observer can stand) is turned, by up to
+        point may lie nearer a wall than the observer can stand; a way that starts through
+        a wall is not clear either) is turned, by up to
         ``trail_turn`` either way in steps of 15 degrees (left first), to the least turned
         way free for the whole trail with a roomy point on it, facing that way; with none,
         straight on as far as it goes."""
@@ -731,8 +732,8 @@ class FollowBehaviour:
                      ) -> Tuple[Optional[Tuple[float, float, float]], bool]:
         """The trail from (lx, ly), where the target was last seen, at velocity (vx, vy)
         of norm ``speed`` for ``trail`` seconds (see :meth:`_trail_point`; None: no free
-        point on it, or none roomy) and whether no blocked cell lies on it past its first
-        free one."""
+        point on it, or none roomy) and whether it is clear: no blocked cell on it past its
+        first free one, and no wall before that."""
         step = self.grid.resolution
         n = max(1, int(self.config.trail * speed / step))
         s = np.arange(n + 1) * step / speed
@@ -740,7 +741,11 @@ class FollowBehaviour:
         if not any(free):
             return None, False
         i0 = i = free.index(True)
-        clear = all(free[i0:])
+        # clear: free on from the first free cell, and the cells before it (the target was
+        # lost nearer a wall than the observer's centre may go) not in a wall: no way
+        # through a thin wall
+        clear = all(free[i0:]) and not (i0 and bool(self.grid.on_walls(
+            np.column_stack((lx + vx * s[:i0], ly + vy * s[:i0])), 0.0).any()))
         while i + 1 <= n and free[i + 1]:
             i += 1
         roomy = self.config.roomy
