@@ -43,11 +43,11 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   A target lost further off while moving, or close by with no room to turn, is trailed:
   the observer drives to the point ``trail`` seconds on from where it was last seen, at
   its last velocity, short of a wall, facing that way (it had stood in a room while the
-  walker it lost in the doorway went off down the corridor); with ``trail_turn``, a trail
-  a wall cuts short is turned the least that frees it, up to ``trail_turn``. One that stood still, or is
-  not trailed (no roomy point on its way), is looked for from where it was last seen
-  (``look_distance`` 0; from the stand-off point when that is not free), facing the way
-  the observer came; one lost close by with no room to turn, from a roomy place
+  walker it lost in the doorway went off down the corridor); a trail a wall cuts short
+  is turned the least that frees it, up to ``trail_turn`` (pi/2) either way. One that
+  stood still, or is not trailed (no roomy point on its way), is looked for from where it
+  was last seen (``look_distance`` 0; from the stand-off point when that is not free),
+  facing the way the observer came; one lost close by with no room to turn, from a roomy place
   (the stand-off point, or the nearest roomy place within ``give_way_reach``), else turned
   to where it stands (turning 0.3 m from a wall, an octagonal base wedged: aces_austin).
   Then it goes to the predicted destination region (the

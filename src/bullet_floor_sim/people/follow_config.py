@@ -109,15 +109,16 @@ class FollowConfig:
             run with 0, 81.1 % with 2, checked to the destination only).
         trail: a target lost further than ``distance + slack`` off while moving is first
             looked for where it went: the observer drives to the point ``trail`` seconds on
-            from where it was last seen at its last velocity (stopped short of a wall),
-            facing the way it went; one that stood still, or is not trailed, from
-            ``look_distance`` of where it was last seen; then the likely regions (a target
-            lost nearer, and more than 75 degrees off the observer's heading, is turned to,
-            moving or not, where the observer has ``roomy`` clearance; with less, a moving
-            one is trailed, and one not trailed is looked at from a roomy place near by
-            (else turned to); one lost nearer in front, in the lidar's view, went behind
-            something and is looked for as one lost further off). 0: it only turns to where a
-            target lost close by was last seen (see ``look_lead``), in front or not.
+            from where it was last seen at its last velocity (stopped short of a wall, or
+            turned round it: ``trail_turn``), facing the way it went; one that stood
+            still, or is not trailed, from ``look_distance`` of where it was last seen;
+            then the likely regions (a target lost nearer, and more than 75 degrees off the
+            observer's heading, is turned to, moving or not, where the observer has
+            ``roomy`` clearance; with less, a moving one is trailed, and one not trailed is
+            looked at from a roomy place near by (else turned to); one lost nearer in front,
+            in the lidar's view, went behind something and is looked for as one lost
+            further off). 0: it only turns to where a target lost close by was last seen
+            (see ``look_lead``), in front or not.
         trail_turn: a trail that a wall cuts short of ``trail`` seconds (the target cannot
             have walked on into the wall: it turned) is turned by up to this much (radians,
             at most pi/2; used in whole steps of 15 degrees) either way, left first, to the
