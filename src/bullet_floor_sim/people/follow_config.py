@@ -130,9 +130,9 @@ class FollowConfig:
             pointed at the corridor's far wall, the trail stopped where it was lost, and
             the look round there saw only the block (orebro, seed 14: four losses at one
             corner, 113-302 s unseen each). pi/2 against 0, leaving each of 18 worlds out,
-            seeds 13-15: every fold chose pi/2, held-out trk50 84.3 % against 83.8 %,
-            tracked 86.2 % against 85.8 %; on seeds 13 and 15 (not traced) trk50 85.2
-            against 84.1 % (docs/evaluation.md, session 66).
+            seeds 13-15: every fold chose pi/2, held-out trk50 84.2 % against 83.8 %,
+            tracked 85.9 % against 85.8 %; on seeds 13 and 15 (not traced) trk50 84.9
+            against 84.1 %; intel_lab lost at every seed (docs/evaluation.md, session 66).
         look_lead: a target lost close by is turned to where it would be this many
             seconds after it was last seen, at its last velocity (one that stood still:
             where it was); 0: where it was last seen. A walker that passed the observer's
