@@ -706,10 +706,9 @@ class FollowBehaviour:
         it stood still, ``trail`` is 0, or no point on the way is that roomy: it would wait in
         a doorway). A way that a blocked cell cuts short (past the first free one: the lost
         point may lie nearer a wall than the observer can stand; a way that starts through
-        a wall is not clear either) is turned, by up to
-        ``trail_turn`` either way in steps of 15 degrees (left first), to the least turned
-        way free for the whole trail with a roomy point on it, facing that way; with none,
-        straight on as far as it goes."""
+        a wall is not clear either) is turned, by up to ``trail_turn`` either way in steps
+        of 15 degrees (left first), to the least turned way free for the whole trail with a
+        roomy point on it, facing that way; with none, straight on as far as it goes."""
         if self.config.trail <= 0 or self.last_target is None:
             return None
         vx, vy = self._last_velocity
