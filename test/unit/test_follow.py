@@ -379,35 +379,6 @@ def test_trail_turn_turns_a_trail_a_wall_cuts_short_by_the_least_that_frees_it()
         FollowConfig(trail_turn=-0.1).check()
 
 
-def test_only_the_trail_of_a_target_followed_when_last_seen_is_turned():
-    """The observer has stepped into the alcove of a 1.2 m corridor to let the target by;
-    the target, seen going (0.5, -0.3) m/s at (5.5, 1.9), would walk into the south wall.
-    Seen so while the observer gave way, its trail is not turned (a velocity measured as
-    the observer moves round it turned a trail away from the walker: intel_lab): as with
-    ``trail_turn`` 0, no trail, looked for where it was. Seen so while followed, from the
-    same place: turned +30 degrees, on east down the corridor."""
-    dest = [("east", (10.5, 1.6))]
-    target = (5.5, 1.9, 0.5, -0.3)
-
-    def lost(turn, give_way):
-        fb = FollowBehaviour(corridor_with_alcove(), FollowConfig(
-            distance=1.5, slack=0.7, give_way=0.9, lost_after=1.0, trail=4.0,
-            trail_turn=turn))
-        at = (6.75, 2.55, -2.0)                     # in the alcove
-        if give_way:
-            at = fb.update(0.0, (6.3, 1.6, math.pi), (4.8, 1.6, 0.0, 0.0), dest).goal
-        seen = fb.update(1.0, at, target, dest if give_way else None, goal_done=True)
-        assert seen.mode == ("give_way" if give_way else "follow")
-        return fb.update(2.5, at, None, dest), at
-    stepped, at = lost(math.pi / 2, True)
-    assert math.hypot(at[0] - 6.75, at[1] - 2.55) < 0.3 and at[1] > 2.2
-    assert stepped == lost(0.0, True)[0]
-    assert "not trailed" in stepped.reason and stepped.goal[:2] == pytest.approx((5.5, 1.9))
-    followed = lost(math.pi / 2, False)[0]
-    assert "turned +30 degrees" in followed.reason
-    assert followed.goal[0] > 7.0 and 1.4 < followed.goal[1] < 1.9
-
-
 def test_a_target_lost_further_off_is_looked_for_where_it_was_seen_first():
     """Not close by, not trailed (it stood still): with ``look_distance`` 1.5 m, the
     stand-off point of where it was last seen, facing that place, then a look round there,

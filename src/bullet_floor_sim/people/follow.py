@@ -44,13 +44,10 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   the observer drives to the point ``trail`` seconds on from where it was last seen, at
   its last velocity, short of a wall, facing that way (it had stood in a room while the
   walker it lost in the doorway went off down the corridor); a trail a wall cuts short
-  is turned the least that frees it, up to ``trail_turn`` (pi/2) either way, when the
-  target was followed as it was last seen (not while the observer gave way: its
-  velocity, measured as the observer moved round it, turned a trail away from the walker:
-  intel_lab). One that stood still, or is not trailed (no roomy point on its way), is
-  looked for from where it was last seen (``look_distance`` 0; from the stand-off point
-  when that is not free), facing the way the observer came; one lost close by with no
-  room to turn, from a roomy place
+  is turned the least that frees it, up to ``trail_turn`` (pi/2) either way. One that
+  stood still, or is not trailed (no roomy point on its way), is looked for from where it
+  was last seen (``look_distance`` 0; from the stand-off point when that is not free),
+  facing the way the observer came; one lost close by with no room to turn, from a roomy place
   (the stand-off point, or the nearest roomy place within ``give_way_reach``), else turned
   to where it stands (turning 0.3 m from a wall, an octagonal base wedged: aces_austin).
   Then it goes to the predicted destination region (the
@@ -176,7 +173,6 @@ class FollowBehaviour:
         self._yield: Optional[Tuple[float, float, float]] = None  # target x, y, t when it began
         self._standing = True            # no goal under way (the last one finished)
         self._last_velocity = (0.0, 0.0)  # the target's, when last seen
-        self._seen_following = False     # ... and whether it was followed then
         self._looked = False             # looked round for a target not seen yet
         # (t, x, y): the target within distance since t, within give_way of (x, y) since
         self._close_since: Optional[Tuple[float, float, float]] = None
@@ -284,9 +280,7 @@ class FollowBehaviour:
             way = self._give_way(t, robot, target, dests, goal_done)
             if way is None:
                 way = self._unblock(t, robot, target, dests)
-            decision = way if way is not None else self._follow(t, robot, target, goal_done)
-            self._seen_following = decision.mode == "follow"
-            return decision
+            return way if way is not None else self._follow(t, robot, target, goal_done)
         self._close_since = None    # (a target seen again starts its count afresh)
         if self._stepping_aside(t, robot):
             return FollowDecision("give_way")
@@ -714,9 +708,7 @@ class FollowBehaviour:
         point may lie nearer a wall than the observer can stand; a way that starts through
         a wall is not clear either) is turned, by up to ``trail_turn`` either way in steps
         of 15 degrees (left first), to the least turned way free for the whole trail with a
-        roomy point on it, facing that way; with none, straight on as far as it goes. Only
-        the trail of a target followed when last seen is turned (not one seen as the
-        observer gave way or stepped out of its way)."""
+        roomy point on it, facing that way; with none, straight on as far as it goes."""
         if self.config.trail <= 0 or self.last_target is None:
             return None
         vx, vy = self._last_velocity
@@ -725,7 +717,7 @@ class FollowBehaviour:
             return None
         lx, ly = self.last_target
         straight, clear = self._trail_along(lx, ly, vx, vy, speed)
-        if clear or not self._seen_following:
+        if clear:
             return straight
         for k in range(1, int(self.config.trail_turn / _TRAIL_STEP + 1e-9) + 1):
             for turn in (k * _TRAIL_STEP, -k * _TRAIL_STEP):
