@@ -186,7 +186,12 @@ def test_scan_matching_finds_the_true_pose_near_a_wrong_guess():
     the guess by at least a third (the next scan's guess starts from it). Those are with every
     wall cell counted alike (``evidence`` 0); by default a wall seen by one or two of the three
     scans counts a fifth to two fifths, the prior weighs more, and the first guess is brought
-    from 3.6 to within 2.5 cm and from 0.015 to 0.01 rad of the truth."""
+    from 3.6 to within 2.5 cm and from 0.015 to 0.01 rad of the truth.
+
+    Since session 68 the likelihood field is interpolated between cell centres, which lie half
+    a cell beyond the walls' faces: end points on the faces are drawn into the walls, the
+    nearer walls (more end points) more. Here, with exact scans in a small room, the match
+    from the true pose lands 2.0 cm from it, and the first guess within 1.5 cm."""
     cfg = load_world_config(resolve_world("simple", worlds_dir()))
     w = World(dataclasses.replace(cfg, robots=[RobotSpec(name="r", pose=POSES[0], laser=EXACT,
                                                          odometry=STILL)]), seed=1)
@@ -206,16 +211,16 @@ def test_scan_matching_finds_the_true_pose_near_a_wrong_guess():
         alike = MatcherConfig(evidence=0.0)
         guess = (true[0] + 0.03, true[1] - 0.02, true[2] + 0.015)
         got = match(m, guess, *args, alike)
-        assert math.hypot(got[0] - true[0], got[1] - true[1]) <= 0.01
-        assert abs(got[2] - true[2]) <= 0.003
+        assert math.hypot(got[0] - true[0], got[1] - true[1]) <= 0.02
+        assert abs(got[2] - true[2]) <= 0.008
         got = match(m, guess, *args)
         assert math.hypot(got[0] - true[0], got[1] - true[1]) <= 0.025
         assert abs(got[2] - true[2]) <= 0.01 + 1e-9
         got = match(m, (true[0] + 0.08, true[1] - 0.06, true[2] + 0.04), *args, alike)
         assert math.hypot(got[0] - true[0], got[1] - true[1]) <= 0.1 * 2 / 3
         assert abs(got[2] - true[2]) <= 0.04 * 2 / 3
-        assert match(m, true, *args, alike) == pytest.approx(true, abs=0.01)
-        assert match(m, true, *args) == pytest.approx(true, abs=0.01)
+        assert match(m, true, *args, alike) == pytest.approx(true, abs=0.025)
+        assert match(m, true, *args) == pytest.approx(true, abs=0.025)
         assert match(OccupancyMapper(), true, *args) == true         # an empty map: the guess
         far = (true[0] + 60.0, true[1], true[2])     # no wall of the map near: the guess
         assert match(m, far, *args) == far
@@ -228,7 +233,9 @@ def test_a_wall_seen_often_outweighs_a_copy_drawn_once():
     then once more from laser poses 0.15 m off in y (a copy of each wall they see, hit once).
     A scan from elsewhere, its guess 0.08 or 0.10 m off towards the copy, is matched back to
     where it was taken: the copy counts a fifth of the wall seen fifteen times. Counted alike
-    (``evidence`` 0), the copy wins and the scan lands on it, 0.15 m off."""
+    (``evidence`` 0), the copy wins from 0.10 m and the scan lands on it, 0.15 m off. (Within
+    2.5 cm: the interpolated field draws end points into the nearer walls, test above; until
+    session 68 the match came within 1 cm, and counted alike the copy won from 0.08 m too.)"""
     cfg = load_world_config(resolve_world("simple", worlds_dir()))
     w = World(dataclasses.replace(cfg, robots=[RobotSpec(name="r", pose=POSES[0], laser=EXACT,
                                                          odometry=STILL)]), seed=1)
@@ -251,9 +258,50 @@ def test_a_wall_seen_often_outweighs_a_copy_drawn_once():
     for off in (0.08, 0.10):
         guess = (true[0], true[1] + off, true[2])
         got = match(m, guess, *args)
-        assert math.hypot(got[0] - true[0], got[1] - true[1]) <= 0.01, (off, got)
-        alike = match(m, guess, *args, MatcherConfig(evidence=0.0))
-        assert alike[1] - true[1] == pytest.approx(0.15, abs=0.01), (off, alike)
+        assert math.hypot(got[0] - true[0], got[1] - true[1]) <= 0.025, (off, got)
+    alike = match(m, (true[0], true[1] + 0.10, true[2]), *args, MatcherConfig(evidence=0.0))
+    assert alike[1] - true[1] == pytest.approx(0.15, abs=0.025), alike
+
+
+def test_an_exploration_replayed_through_the_mapper_stays_within_6_cm(monkeypatch):
+    """office's robot1 explores for 120 s of sim time, mapping at ground truth (so its path
+    does not depend on the mapper), its lidar noisy (1 cm) and its odometry too (the world's
+    defaults); each scan is kept with the odometry's laser pose and the true one. Replayed
+    through :class:`ScanMatchingMapper`, every scan taken is placed within 6 cm of where it
+    was taken, 3.5 cm on average (the search's steps are 2.5 cm and 0.6 cm). Until session
+    68 the field was read at the end point's cell, and a pose within a cell of the best
+    scored the same: the estimate wandered, 13.8 cm from the truth on average and 46 cm at
+    worst on this run."""
+    from bullet_floor_sim.geometry import compose, inverse
+    from bullet_floor_sim.mapping import exploration
+    from bullet_floor_sim.mapping.exploration import explore
+    from bullet_floor_sim.mapping.slam import ScanMatchingMapper
+
+    cfg = load_world_config(resolve_world("office", worlds_dir()))
+    w = World(dataclasses.replace(cfg, robots=[cfg.robots[0]]), seed=1)
+    spawn = tuple(float(v) for v in w.spawn[0])
+    kept = []
+    add = exploration._Localiser.add
+
+    def keep(loc, scan, t):
+        w.update_odometry()
+        kept.append((compose(w.odometry.pose[0], loc.laser),
+                     compose(compose(inverse(spawn), w.pose[0]), loc.laser), scan))
+        add(loc, scan, t)
+
+    monkeypatch.setattr(exploration._Localiser, "add", keep)
+    try:
+        explore(w, 0, 120.0)
+    finally:
+        w.close()
+    slam, errors = ScanMatchingMapper(), []
+    for odom, true, s in kept:
+        if slam.add(odom, s.ranges, s.angle_min, s.angle_increment, s.range_max):
+            est = slam.in_map(odom)
+            errors.append(math.hypot(est[0] - true[0], est[1] - true[1]))
+    assert len(errors) > 100
+    assert max(errors) < 0.06, max(errors)
+    assert np.mean(errors) < 0.04, np.mean(errors)
 
 
 def test_a_frontier_looked_at_from_a_goal_reached_no_longer_draws_the_explorer():

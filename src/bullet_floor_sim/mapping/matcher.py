@@ -6,7 +6,13 @@ the guess is scored, then the best one is refined on a grid four times finer aro
 candidate's score:
 
 * the likelihood field of the occupied cells at each end point (a Gaussian of its distance to
-  the nearest one, ``sigma``; gmapping's scan matcher scores the same way), weighted by how
+  the nearest one, ``sigma``; gmapping's scan matcher scores the same way), interpolated
+  bilinearly between the cells' centres, as Hector SLAM reads its map (since session 68:
+  read at the end point's cell, every pose within a cell of the best scored the same; on
+  replayed explorations of office and the malaga maps the estimate was 16 cm off on average,
+  7 cm interpolated; docs/mapping.md). The centres lie half a cell beyond the faces, so
+  end points are drawn into the nearer walls: from the true pose in a small room, with
+  exact scans, the match lands 2 cm off (test_mapping). The field is weighted by how
   sure the map is of that cell: its log-odds over the clamp, to the power ``evidence`` (a
   wall seen from many poses counts fully, a cell hit once about a fifth). A scan placed a
   little wrong draws a second copy of a wall; weighted so, the copy does not pull the next
@@ -144,12 +150,28 @@ class _Scorer:
         """The likelihood of the end points with free space before them, per shift."""
         th = self.guess[2] + dth
         ca, sa = np.cos(self.a + th), np.sin(self.a + th)
-        h, w = self.field.shape
 
-        def cells(d: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
-            cols = np.floor((self.guess[0] + d * ca - self.corner[0] + dx[:, None]) / self.res)
-            rows = np.floor((self.guess[1] + d * sa - self.corner[1] + dy[:, None]) / self.res)
-            return (np.clip(rows, 0, h - 1).astype(np.int64),
-                    np.clip(cols, 0, w - 1).astype(np.int64))
+        def at(d: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+            """Points ``d`` along the beams, per shift, in cells of the padded window."""
+            return ((self.guess[0] + d * ca - self.corner[0] + dx[:, None]) / self.res,
+                    (self.guess[1] + d * sa - self.corner[1] + dy[:, None]) / self.res)
 
-        return (self.field[cells(self.r)] * self.free[cells(self.r - 1.5 * self.res)]).sum(axis=1)
+        cols, rows = at(self.r - 1.5 * self.res)
+        h, w = self.free.shape
+        free = self.free[np.clip(np.floor(rows), 0, h - 1).astype(np.int64),
+                         np.clip(np.floor(cols), 0, w - 1).astype(np.int64)]
+        return (_bilinear(self.field, *at(self.r)) * free).sum(axis=1)
+
+
+def _bilinear(field: np.ndarray, cols: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``field`` (one value per cell) at points given in cells, interpolated between the cell
+    centres; beyond the outer cells' centres, the outer cells' values (the rim is 0)."""
+    h, w = field.shape
+    u, v = cols - 0.5, rows - 0.5
+    c0 = np.clip(np.floor(u), 0, w - 2)
+    r0 = np.clip(np.floor(v), 0, h - 2)
+    fu, fv = np.clip(u - c0, 0.0, 1.0), np.clip(v - r0, 0.0, 1.0)
+    c, r = c0.astype(np.int64), r0.astype(np.int64)
+    top = field[r, c] + fu * (field[r, c + 1] - field[r, c])
+    bottom = field[r + 1, c] + fu * (field[r + 1, c + 1] - field[r + 1, c])
+    return top + fv * (bottom - top)
