@@ -23,10 +23,10 @@ candidate's score:
 * less a prior on the correction, ``prior`` x points x (squared share of the search window):
   at the default (0.3) a correction to the window's edge costs 0.3 of a point per point, so
   a scan moves that far only when it fits much better there. Odometry errs by millimetres
-  between two scans (0.25 m or 0.25 rad apart); with every wall cell counted alike
-  (``evidence`` 0) a guess 3.6 cm off is corrected to 0.2 cm (test_mapping), one 10 cm off
-  only to about 4 cm, the next scan going on from there; by default walls seen by one or two
-  scans count less against the prior, and the 3.6 cm guess comes within 2 cm;
+  between two scans (0.25 m or 0.25 rad apart); in test_mapping's small room, with every
+  wall cell counted alike (``evidence`` 0), a guess 3.6 cm off is corrected to 1.5 cm and
+  one 10 cm off to 2.4 cm (the pull into the nearer walls above), the next scan going on
+  from there; by default walls seen by one or two scans count less against the prior;
   a second copy of a wall a few cells away (the grid redraws a wall where a scan placed
   slightly wrong puts it) or a corridor's few features do not pull the scan to them.
   (0.1 until session 27: on office the estimate hopped between two copies of a wall.)
