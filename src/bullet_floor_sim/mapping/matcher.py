@@ -148,6 +148,8 @@ class _Scorer:
 
     def _fit(self, dth: float, dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
         """The likelihood of the end points with free space before them, per shift."""
+        from scipy.ndimage import map_coordinates
+
         th = self.guess[2] + dth
         ca, sa = np.cos(self.a + th), np.sin(self.a + th)
 
@@ -160,18 +162,8 @@ class _Scorer:
         h, w = self.free.shape
         free = self.free[np.clip(np.floor(rows), 0, h - 1).astype(np.int64),
                          np.clip(np.floor(cols), 0, w - 1).astype(np.int64)]
-        return (_bilinear(self.field, *at(self.r)) * free).sum(axis=1)
-
-
-def _bilinear(field: np.ndarray, cols: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """``field`` (one value per cell) at points given in cells, interpolated between the cell
-    centres; beyond the outer cells' centres, the outer cells' values (the rim is 0)."""
-    h, w = field.shape
-    u, v = cols - 0.5, rows - 0.5
-    c0 = np.clip(np.floor(u), 0, w - 2)
-    r0 = np.clip(np.floor(v), 0, h - 2)
-    fu, fv = np.clip(u - c0, 0.0, 1.0), np.clip(v - r0, 0.0, 1.0)
-    c, r = c0.astype(np.int64), r0.astype(np.int64)
-    top = field[r, c] + fu * (field[r, c + 1] - field[r, c])
-    bottom = field[r + 1, c] + fu * (field[r + 1, c + 1] - field[r + 1, c])
-    return top + fv * (bottom - top)
+        # the field between the cells' centres (linear; beyond the outer centres the outer
+        # cells' values, the rim's 0)
+        cols, rows = at(self.r)
+        field = map_coordinates(self.field, [rows - 0.5, cols - 0.5], order=1, mode="nearest")
+        return (field * free).sum(axis=1)
