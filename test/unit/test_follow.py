@@ -1536,3 +1536,33 @@ def test_a_hub_the_observer_did_not_get_to_is_not_watched():
     assert not any("at hub 1" in r or "watching at hub" in r for r in reasons[:went + 2])
     assert reasons[went + 1].startswith("hub 1 not reached (10.0 m short); ")
     assert "patrolling" in reasons[went + 1]
+
+
+def corridor_beside_room():
+    """A 10 x 5 m hall split along its length by a one-cell wall at y = 1 m: a corridor
+    0.95 m wide (y 0.05-1.0) below, a room above, no way between them on this map."""
+    g = np.zeros((int(round(5.0 / RES)), int(round(10.0 / RES))), dtype=np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+    g[int(round(1.0 / RES)), :] = 100
+    return PlanningGrid(map_from_grid(g, RES))
+
+
+def test_a_standoff_point_with_sight_is_not_behind_the_corridors_wall():
+    grid = corridor_beside_room()
+    target, robot = (6.0, 0.525), (2.0, 0.525)
+    straight_back = (4.5, 0.525)
+    assert grid.is_free(*straight_back) and grid.clearance_at(*straight_back) < 0.6
+    # without sight: the first roomy point within 90 degrees, in the room past the wall
+    p = standoff_point(grid, target, robot, 1.5, roomy=0.6)
+    assert p[1] > 1.05 and grid.clearance_at(*p) >= 0.6
+    assert not grid.in_sight(np.array([p]), target)[0]
+    # with sight: nothing roomy is in view, so the first free point in view, straight back
+    q = standoff_point(grid, target, robot, 1.5, roomy=0.6, sight=True)
+    assert q == pytest.approx(straight_back, abs=1e-9)
+    assert grid.in_sight(np.array([q]), target)[0]
+    # the observer following with standoff_sight sends that goal, facing the target
+    fb = FollowBehaviour(grid, FollowConfig(distance=1.5, roomy=0.6, standoff_sight=True))
+    d = fb.update(0.0, (*robot, 0.0), (*target, 0.5, 0.0))
+    assert d.mode == "follow" and d.goal[:2] == pytest.approx(straight_back, abs=1e-9)
+    with pytest.raises(FollowError, match="standoff_sight must be true or false"):
+        FollowConfig(standoff_sight="yes").check()

@@ -105,31 +105,37 @@ __all__ = ["FollowError", "FollowConfig", "FollowDecision", "FollowBehaviour", "
 
 
 def standoff_point(grid: PlanningGrid, target: Sequence[float], robot: Sequence[float],
-                   distance: float, direction: Optional[float] = None, roomy: float = 0.0
-                   ) -> Optional[Tuple[float, float]]:
+                   distance: float, direction: Optional[float] = None, roomy: float = 0.0,
+                   sight: bool = False) -> Optional[Tuple[float, float]]:
     """A free point ``distance`` from ``target``, as close as possible to the direction of
     ``robot`` (or to the bearing ``direction`` from the target, when given; candidates every 15
     degrees on the circle, then on smaller circles). A point with at least ``roomy`` metres of
     wall clearance (not in a doorway) on the observer's side of the target (within 90 degrees
     of the robot's bearing from it: the observer is not sent past the target) comes first.
-    None when no free point lies within ``distance`` of the target."""
+    With ``sight``, only points with no wall between them and the target
+    (:meth:`PlanningGrid.in_sight`) come first, on any circle; a point without comes only when
+    no free point has it. None when no free point lies within ``distance`` of the target."""
     tx, ty = float(target[0]), float(target[1])
     own = math.atan2(float(robot[1]) - ty, float(robot[0]) - tx)
     base = own if direction is None else float(direction)
-    first = None
+    first = first_seen = None
     for radius in (distance, 0.75 * distance, 0.5 * distance):
         for k in range(13):  # 0, +15, -15, +30, ... +-180 degrees
             a = base + math.radians(15.0 * ((k + 1) // 2) * (1 if k % 2 else -1))
             x, y = tx + radius * math.cos(a), ty + radius * math.sin(a)
-            if grid.is_free(x, y):
-                if first is None:
-                    first = (x, y)
-                if (radius == distance and abs(wrap_angle(a - own)) <= 0.5 * math.pi + 1e-9
-                        and grid.clearance_at(x, y) >= roomy):
-                    return x, y
-        if first is not None:
-            return first
-    return None
+            if not grid.is_free(x, y):
+                continue
+            seen = not sight or bool(grid.in_sight(np.array([[x, y]]), (tx, ty))[0])
+            if first is None:
+                first = (x, y)
+            if seen and first_seen is None:
+                first_seen = (x, y)
+            if (seen and radius == distance and abs(wrap_angle(a - own)) <= 0.5 * math.pi + 1e-9
+                    and grid.clearance_at(x, y) >= roomy):
+                return x, y
+        if first_seen is not None:
+            return first_seen
+    return first
 
 
 class FollowBehaviour:
@@ -777,9 +783,11 @@ class FollowBehaviour:
         3 m away stood in the room beside it for 120 s (orebro)."""
         assert self.last_target is not None
         cfg, (lx, ly) = self.config, self.last_target
-        point = standoff_point(self.grid, (lx, ly), (rx, ry), cfg.look_distance, None, cfg.roomy)
+        point = standoff_point(self.grid, (lx, ly), (rx, ry), cfg.look_distance, None, cfg.roomy,
+                               cfg.standoff_sight)
         if point is None and cfg.look_distance != cfg.distance:
-            point = standoff_point(self.grid, (lx, ly), (rx, ry), cfg.distance, None, cfg.roomy)
+            point = standoff_point(self.grid, (lx, ly), (rx, ry), cfg.distance, None, cfg.roomy,
+                                   cfg.standoff_sight)
         if point is None:
             return None
         px, py = point
@@ -843,7 +851,8 @@ class FollowBehaviour:
         to ``give_way_reach`` away, ``give_way`` from the target and reached without passing
         it (:func:`give_way_point`); None: neither is roomy."""
         cfg = self.config
-        point = standoff_point(self.grid, (tx, ty), (rx, ry), cfg.distance, None, cfg.roomy)
+        point = standoff_point(self.grid, (tx, ty), (rx, ry), cfg.distance, None, cfg.roomy,
+                               cfg.standoff_sight)
         if point is None or self.grid.clearance_at(*point) < cfg.roomy:
             point = give_way_point(self.grid, np.array([[tx, ty]]), (rx, ry), (tx, ty),
                                    cfg.give_way, cfg.give_way_reach, cfg.roomy,
@@ -893,7 +902,7 @@ class FollowBehaviour:
             side = 1.0 if wrap_angle(facing + math.pi - heading) >= 0 else -1.0
             direction = heading + side * math.pi / 2
         point = standoff_point(self.grid, (tx, ty), (rx, ry), cfg.distance, direction,
-                               cfg.roomy)
+                               cfg.roomy, cfg.standoff_sight)
         self._goal_target, self._goal_time = (tx, ty), t
         if point is None:
             return FollowDecision("follow", (rx, ry, facing), "no free stand-off point: turning")
