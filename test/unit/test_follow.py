@@ -1564,5 +1564,36 @@ def test_a_standoff_point_with_sight_is_not_behind_the_corridors_wall():
     fb = FollowBehaviour(grid, FollowConfig(distance=1.5, roomy=0.6, standoff_sight=True))
     d = fb.update(0.0, (*robot, 0.0), (*target, 0.5, 0.0))
     assert d.mode == "follow" and d.goal[:2] == pytest.approx(straight_back, abs=1e-9)
+    assert d.goal[2] == pytest.approx(0.0, abs=1e-9)
     with pytest.raises(FollowError, match="standoff_sight must be true or false"):
         FollowConfig(standoff_sight="yes").check()
+
+
+def test_a_standoff_point_with_sight_comes_from_a_smaller_circle_before_one_behind_a_wall():
+    g = np.zeros((int(round(5.0 / RES)), int(round(10.0 / RES))), dtype=np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+    g[int(round(1.0 / RES)), :] = 100
+    g[:int(round(1.0 / RES)), 44] = 100          # the corridor ends at x = 2.2 m
+    grid = PlanningGrid(map_from_grid(g, RES))
+    target, robot = (1.0, 0.525), (2.0, 3.0)     # the observer in the room above
+    p = standoff_point(grid, target, robot, 1.5, roomy=0.6)
+    assert p[1] > 1.05 and not grid.in_sight(np.array([p]), target)[0]
+    q = standoff_point(grid, target, robot, 1.5, roomy=0.6, sight=True)
+    assert q[1] < 1.0 and grid.in_sight(np.array([q]), target)[0]
+    assert math.hypot(q[0] - 1.0, q[1] - 0.525) == pytest.approx(0.75, abs=1e-9)
+
+
+def test_a_standoff_point_with_sight_and_nothing_in_view_is_the_one_without():
+    grid = corridor_beside_room()
+    # a track in the dividing wall's cell: every line to it ends in a wall; the first free
+    # candidate is in the corridor (0.4 m of clearance), a roomy one lies in the room
+    target, robot = (6.0, 1.02), (2.0, 0.525)
+    assert not grid.is_free(*target)
+    p = standoff_point(grid, target, robot, 1.5, roomy=0.6)
+    assert p is not None and grid.clearance_at(*p) >= 0.6
+    assert standoff_point(grid, target, robot, 1.5, roomy=0.6, sight=True) == p
+    # in the open, a roomy point on the observer's side in view: the same with and without
+    h = hall()
+    assert standoff_point(h, (6.0, 2.0), (2.0, 2.0), 1.5, roomy=0.6, sight=True) \
+        == standoff_point(h, (6.0, 2.0), (2.0, 2.0), 1.5, roomy=0.6) \
+        == pytest.approx((4.5, 2.0), abs=1e-9)

@@ -108,19 +108,21 @@ def standoff_point(grid: PlanningGrid, target: Sequence[float], robot: Sequence[
                    distance: float, direction: Optional[float] = None, roomy: float = 0.0,
                    sight: bool = False) -> Optional[Tuple[float, float]]:
     """A free point ``distance`` from ``target``, as close as possible to the direction of
-    ``robot`` (or to the bearing ``direction`` from the target, when given; candidates every 15
-    degrees on the circle, then on smaller circles). A point with at least ``roomy`` metres of
-    wall clearance (not in a doorway) on the observer's side of the target (within 90 degrees
-    of the robot's bearing from it: the observer is not sent past the target) comes first.
-    With ``sight``, only points with no wall between them and the target
-    (:meth:`PlanningGrid.in_sight`) come first, on any circle; a point without comes only when
-    no free point has it. None when no free point lies within ``distance`` of the target."""
+    ``robot`` (or to the bearing ``direction`` from the target, when given; candidates within
+    90 degrees of it either side, every 15 degrees, then on circles 0.75 and 0.5 times as
+    big). A point with at least ``roomy`` metres of wall clearance (not in a doorway) on the
+    observer's side of the target (within 90 degrees of the robot's bearing from it: the
+    observer is not sent past the target) comes first. With ``sight``, only points with no
+    wall between them and the target (:meth:`PlanningGrid.in_sight`) are taken, in the same
+    order (the largest circle with one); when no free point is in sight (a target tracked in
+    a wall's cell, or behind a corner from every candidate), the point chosen without
+    ``sight``. None when no free point lies within ``distance`` of the target."""
     tx, ty = float(target[0]), float(target[1])
     own = math.atan2(float(robot[1]) - ty, float(robot[0]) - tx)
     base = own if direction is None else float(direction)
     first = first_seen = None
     for radius in (distance, 0.75 * distance, 0.5 * distance):
-        for k in range(13):  # 0, +15, -15, +30, ... +-180 degrees
+        for k in range(13):  # 0, +15, -15, +30, ... +-90 degrees
             a = base + math.radians(15.0 * ((k + 1) // 2) * (1 if k % 2 else -1))
             x, y = tx + radius * math.cos(a), ty + radius * math.sin(a)
             if not grid.is_free(x, y):
@@ -135,6 +137,8 @@ def standoff_point(grid: PlanningGrid, target: Sequence[float], robot: Sequence[
                 return x, y
         if first_seen is not None:
             return first_seen
+    if sight and first is not None:   # none in sight: as without
+        return standoff_point(grid, target, robot, distance, direction, roomy)
     return first
 
 
@@ -847,7 +851,7 @@ class FollowBehaviour:
                     ) -> Optional[Tuple[float, float, float]]:
         """A place with ``roomy`` clearance, to turn in, facing the target at (tx, ty): the
         stand-off point (:func:`standoff_point`: on the observer's side when one there is
-        roomy), or when it is not roomy (a long narrow corridor) the nearest roomy place up
+        roomy; with ``standoff_sight``, in view of the target when one is), or when it is not roomy (a long narrow corridor) the nearest roomy place up
         to ``give_way_reach`` away, ``give_way`` from the target and reached without passing
         it (:func:`give_way_point`); None: neither is roomy."""
         cfg = self.config

@@ -169,10 +169,11 @@ class FollowConfig:
             seeds 13 and 15 alone (not traced) a tie (docs/evaluation.md, session 65).
         standoff_sight: the stand-off point (following, and the places to look from or to
             turn in that are built on it: :func:`people.follow.standoff_point`) is one with
-            no wall between it and the target when any free one has that; without, the
-            first free one in the order of the candidates (towards the observer, then
-            turned 15 degrees at a time), even behind a wall. False (the default): as
-            before. On intel_lab (seed 13, 30 legs) 22 of 172 follow goals had a wall
+            no wall between it and the target when any free one has that (a roomy one on
+            the observer's side first, else the first in the candidates' order: towards the
+            observer, or to the side of an approaching target's path, then turned 15
+            degrees at a time), even if not roomy; when none has, the point chosen without
+            this. False (the default): as before, a roomy point first even behind a wall. On intel_lab (seed 13, 30 legs) 22 of 172 follow goals had a wall
             between them and the target: a roomy point turned up to 90 degrees from the
             observer's bearing can lie in the room beside the corridor.
         unblock: a target that came nearer than ``distance`` - 0.2 m and has stayed within
