@@ -851,9 +851,10 @@ class FollowBehaviour:
                     ) -> Optional[Tuple[float, float, float]]:
         """A place with ``roomy`` clearance, to turn in, facing the target at (tx, ty): the
         stand-off point (:func:`standoff_point`: on the observer's side when one there is
-        roomy; with ``standoff_sight``, in view of the target when one is), or when it is not roomy (a long narrow corridor) the nearest roomy place up
-        to ``give_way_reach`` away, ``give_way`` from the target and reached without passing
-        it (:func:`give_way_point`); None: neither is roomy."""
+        roomy; with ``standoff_sight``, in view of the target when one is), or when it is
+        not roomy (a long narrow corridor) the nearest roomy place up to ``give_way_reach``
+        away, ``give_way`` from the target and reached without passing it
+        (:func:`give_way_point`); None: neither is roomy."""
         cfg = self.config
         point = standoff_point(self.grid, (tx, ty), (rx, ry), cfg.distance, None, cfg.roomy,
                                cfg.standoff_sight)

@@ -173,9 +173,10 @@ class FollowConfig:
             the observer's side first, else the first in the candidates' order: towards the
             observer, or to the side of an approaching target's path, then turned 15
             degrees at a time), even if not roomy; when none has, the point chosen without
-            this. False (the default): as before, a roomy point first even behind a wall. On intel_lab (seed 13, 30 legs) 22 of 172 follow goals had a wall
-            between them and the target: a roomy point turned up to 90 degrees from the
-            observer's bearing can lie in the room beside the corridor.
+            this. False (the default): as before, a roomy point first even behind a wall.
+            On intel_lab (seed 13, 30 legs) 22 of 172 follow goals had a wall between them
+            and the target: a roomy point turned up to 90 degrees from the observer's
+            bearing can lie in the room beside the corridor.
         unblock: a target that came nearer than ``distance`` - 0.2 m and has stayed within
             ``distance`` of the observer, and within ``give_way`` of where it was, this long
             (s) is taken to be blocked by it,
