@@ -1538,12 +1538,15 @@ def test_a_hub_the_observer_did_not_get_to_is_not_watched():
     assert "patrolling" in reasons[went + 1]
 
 
-def corridor_beside_room():
+def corridor_beside_room(end_col=None):
     """A 10 x 5 m hall split along its length by a one-cell wall at y = 1 m: a corridor
-    0.95 m wide (y 0.05-1.0) below, a room above, no way between them on this map."""
+    0.95 m wide (y 0.05-1.0) below, a room above, no way between them on this map; with
+    ``end_col``, a wall across the corridor in that column."""
     g = np.zeros((int(round(5.0 / RES)), int(round(10.0 / RES))), dtype=np.int8)
     g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
     g[int(round(1.0 / RES)), :] = 100
+    if end_col is not None:
+        g[:int(round(1.0 / RES)), end_col] = 100
     return PlanningGrid(map_from_grid(g, RES))
 
 
@@ -1570,11 +1573,7 @@ def test_a_standoff_point_with_sight_is_not_behind_the_corridors_wall():
 
 
 def test_a_standoff_point_with_sight_comes_from_a_smaller_circle_before_one_behind_a_wall():
-    g = np.zeros((int(round(5.0 / RES)), int(round(10.0 / RES))), dtype=np.int8)
-    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
-    g[int(round(1.0 / RES)), :] = 100
-    g[:int(round(1.0 / RES)), 44] = 100          # the corridor ends at x = 2.2 m
-    grid = PlanningGrid(map_from_grid(g, RES))
+    grid = corridor_beside_room(end_col=44)       # the corridor ends at x = 2.2 m
     target, robot = (1.0, 0.525), (2.0, 3.0)     # the observer in the room above
     p = standoff_point(grid, target, robot, 1.5, roomy=0.6)
     assert p[1] > 1.05 and not grid.in_sight(np.array([p]), target)[0]
