@@ -1175,6 +1175,37 @@ def test_blocked_way_looks_from_where_the_observer_stood_the_way_the_target_went
         FollowConfig(blocked_way="false").check()
 
 
+def test_give_way_through_looks_from_where_the_observer_stood_after_a_step_off_its_way():
+    """The observer at (6.3, 1.6) stands on the way of a target at (4.8, 1.6) predicted to
+    walk east, and steps into the alcove. The target, last seen with a velocity pointing
+    back west (a track's first steps), is lost meanwhile: with ``give_way_through`` it is
+    looked for from (6.3, 1.6), facing east (from the target through where the observer
+    stood); without it, or with ``blocked_way`` off, it is looked for where it was, as
+    before (a trail west has no roomy point in the corridor)."""
+    grid = corridor_with_alcove()
+    dest = [("east", (10.5, 1.6))]
+
+    def lost(through: bool, blocked: bool = True):
+        fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9,
+                                                lost_after=2.0, give_way_hold=20.0,
+                                                blocked_way=blocked,
+                                                give_way_through=through))
+        step = fb.update(0.0, (6.3, 1.6, math.pi), (4.8, 1.6, -0.4, 0.0), dest)
+        assert step.mode == "give_way" and "likely destination" in step.reason
+        fb.update(1.0, (6.4, 2.0, 1.2), None, dest)
+        return fb.update(4.0, step.goal, None, dest, goal_done=True)
+
+    d = lost(True)
+    assert d.mode == "search" and "stepped out of its way" in d.reason
+    assert d.goal == pytest.approx((6.3, 1.6, 0.0), abs=1e-9)
+    for through, blocked in ((False, True), (True, False)):
+        d = lost(through, blocked)
+        assert d.mode == "search" and "stepped out of its way" not in d.reason
+        assert "look where it was" in d.reason and d.goal[:2] == pytest.approx((4.8, 1.6))
+    with pytest.raises(FollowError, match="give_way_through"):
+        FollowConfig(give_way_through=1).check()
+
+
 def test_a_target_lost_after_a_give_way_is_trailed_the_way_it_went_meanwhile():
     """The observer steps aside (unblock) and waits; the target walks off east, seen, then
     is lost: the trail goes by the velocity it was seen with while the observer gave way (it

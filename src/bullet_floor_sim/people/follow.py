@@ -31,7 +31,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   stands), and waited for the same way.
 * **search**: when no track has been seen for ``lost_after`` seconds, a target lost while
   the observer stepped out of its way so (``blocked_way``: within ``give_way_hold`` of the
-  step, not seen more than ``distance`` from where it stood since) is looked for first
+  step, not seen more than ``distance`` from where it stood since; with ``give_way_through``,
+  a step off its predicted way too) is looked for first
   from where the observer stood, facing the way from the target through it. Otherwise the observer
   first turns to where a target lost within ``distance + slack`` and more than 75 degrees off its
   heading was last seen, moving or not (a moving one: where it would be ``look_lead``
@@ -549,8 +550,11 @@ class FollowBehaviour:
             return None
         if cfg.pass_detour > 0 and self._passes_by((tx, ty), (rx, ry), dests):
             return None   # on its way, but it goes round: the observer keeps it in view
-        return self._step_aside(t, (rx, ry), (tx, ty), route,
-                                "on the target's way to %d likely destination(s)" % len(dests))
+        way = self._step_aside(t, (rx, ry), (tx, ty), route,
+                               "on the target's way to %d likely destination(s)" % len(dests))
+        if way is not None and cfg.give_way_through:   # (FollowConfig.give_way_through)
+            self._blocked = (tx, ty, rx, ry, t)
+        return way
 
     def _stepping_aside(self, t: float, robot: Sequence[float]) -> bool:
         """Still on the way to the place it steps aside to, within ``give_way_hold`` and

@@ -167,6 +167,15 @@ class FollowConfig:
             against False, leaving each of 18 worlds out, seeds 13-15: every fold chose
             True, held-out trk50 84.0 % against 83.3 %, tracked 85.8 % against 85.5 %; on
             seeds 13 and 15 alone (not traced) a tie (docs/evaluation.md, session 65).
+        give_way_through: a target lost while the observer steps off its predicted way
+            (give way, not only ``unblock``) is looked for as ``blocked_way`` says (with
+            it on): from where the observer stood, facing the way from where the target
+            was through that place. False (the default): trailed at the track's last
+            velocity, or looked at where it was. The walker passed the observer 0.75 m off
+            as it stepped aside, out of its lidar's 180 degrees; the track's last velocity
+            pointed into the room it had come from, the trail went there, and the search
+            of the regions the track made likely left it unseen for 319 s in the corridor
+            it took (intel_lab, seed 13).
         standoff_sight: the stand-off point (following, and the places to look from or to
             turn in that are built on it: :func:`people.follow.standoff_point`) is one with
             no wall between it and the target when any free one has that (a roomy one on
@@ -250,6 +259,7 @@ class FollowConfig:
     look_lead: float = 4.0
     look_distance: float = 0.0
     blocked_way: bool = True
+    give_way_through: bool = False
     standoff_sight: bool = False
     unblock: float = 4.0
     snug: float = 0.0
@@ -265,7 +275,7 @@ class FollowConfig:
         check_numbers(self, ("pass_detour", "trail", "trail_turn", "look_lead", "look_distance",
                              "unblock", "snug", "patrol_sight", "search_sight", "watch"), "follower",
                       strict=False, error=FollowError)
-        for name in ("blocked_way", "standoff_sight"):
+        for name in ("blocked_way", "give_way_through", "standoff_sight"):
             if not isinstance(getattr(self, name), bool):
                 raise FollowError("follower: %s must be true or false, got %r"
                                   % (name, getattr(self, name)))
