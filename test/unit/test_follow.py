@@ -1180,26 +1180,34 @@ def test_give_way_through_looks_from_where_the_observer_stood_after_a_step_off_i
     walk east, and steps into the alcove. The target, last seen with a velocity pointing
     back west (a track's first steps), is lost meanwhile: with ``give_way_through`` it is
     looked for from (6.3, 1.6), facing east (from the target through where the observer
-    stood); without it, or with ``blocked_way`` off, it is looked for where it was, as
-    before (a trail west has no roomy point in the corridor)."""
+    stood); not so when the observer never got within 1 m of the place it stepped to;
+    without it, or with ``blocked_way`` off, it is looked for where it was, as before (a
+    trail west has no roomy point in the corridor)."""
     grid = corridor_with_alcove()
     dest = [("east", (10.5, 1.6))]
 
-    def lost(through: bool, blocked: bool = True):
+    def lost(through: bool, blocked: bool = True, far=None):
         fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9,
                                                 lost_after=2.0, give_way_hold=20.0,
                                                 blocked_way=blocked,
                                                 give_way_through=through))
         step = fb.update(0.0, (6.3, 1.6, math.pi), (4.8, 1.6, -0.4, 0.0), dest)
         assert step.mode == "give_way" and "likely destination" in step.reason
-        fb.update(1.0, (6.4, 2.0, 1.2), None, dest)
-        return fb.update(4.0, step.goal, None, dest, goal_done=True)
+        fb.update(1.0, far or (6.4, 2.0, 1.2), None, dest)
+        return step.goal, fb.update(4.0, far or step.goal, None, dest, goal_done=True)
 
-    d = lost(True)
+    goal, d = lost(True)
     assert d.mode == "search" and "stepped out of its way" in d.reason
     assert d.goal == pytest.approx((6.3, 1.6, 0.0), abs=1e-9)
+    # a place it never got within 1 m of (the way there went round the target): not
+    # looked for from where it stood, which is in the target's way
+    far = (8.8, 1.6, 0.0)
+    assert math.hypot(far[0] - goal[0], far[1] - goal[1]) > 1.0
+    assert math.hypot(6.3 - goal[0], 1.6 - goal[1]) > 1.0
+    d = lost(True, far=far)[1]
+    assert d.mode == "search" and "stepped out of its way" not in d.reason
     for through, blocked in ((False, True), (True, False)):
-        d = lost(through, blocked)
+        d = lost(through, blocked)[1]
         assert d.mode == "search" and "stepped out of its way" not in d.reason
         assert "look where it was" in d.reason and d.goal[:2] == pytest.approx((4.8, 1.6))
     with pytest.raises(FollowError, match="give_way_through"):

@@ -189,10 +189,12 @@ class FollowBehaviour:
         self._close_since: Optional[Tuple[float, float, float]] = None
         # where it steps aside to (x, y) and the nearest it has been to it since
         self._aside: Optional[Tuple[float, float, float]] = None
-        # (target x, y, observer x, y, t) of the last unblock step taken, until the target is
-        # seen more than ``distance`` from where it stood or the step is used for a search
+        # (target x, y, observer x, y, t) of the last unblock step taken (with
+        # give_way_through, or give-way step), until the target is seen more than
+        # ``distance`` from where it stood or the step is used for a search
         # (FollowConfig.blocked_way)
         self._blocked: Optional[Tuple[float, float, float, float, float]] = None
+        self._blocked_give_way = False   # ... and whether that step was a give-way step
         self._parts: Optional[np.ndarray] = None    # _pockets(): the floor's parts
         self._pocket: Optional[np.ndarray] = None   # ... and which of them are pockets
         # the last goal sent: (x, y, whether it is a back-off _keeps_goal keeps)
@@ -331,7 +333,7 @@ class FollowBehaviour:
                      and abs(wrap_angle(math.atan2(ly - ry, lx - rx) - ryaw)) <= _AHEAD)
             close = near <= cfg.distance + cfg.slack and not ahead
             room = self.grid.clearance_at(rx, ry) >= cfg.roomy   # to turn (not in a doorway)
-            through = self._through_point(t) if first_loss else None
+            through = self._through_point(t, rx, ry) if first_loss else None
             if through is not None:
                 self._search_phase = "back"
                 return FollowDecision("search", through, "target lost at (%.2f, %.2f) as the "
@@ -386,14 +388,22 @@ class FollowBehaviour:
             return self._search_next(t, robot)
         return FollowDecision("search")
 
-    def _through_point(self, t: float) -> Optional[Tuple[float, float, float]]:
+    def _through_point(self, t: float, rx: float, ry: float
+                       ) -> Optional[Tuple[float, float, float]]:
         """With ``blocked_way``, for a target lost (the search starting within
         ``give_way_hold`` of an unblock step taken, it not seen more than ``distance`` from
-        where it stood since): where the observer stood, when free, facing away from where
-        the target stood (None otherwise). Used once a step."""
+        where it stood since; with ``give_way_through``, of a give-way step too, when the
+        observer at (rx, ry) is or has been within _AT_PLACE of the place it stepped to: one
+        it never got to was across the target's way, and going back put it in that way
+        again): where the
+        observer stood, when free, facing away from where the target stood (None
+        otherwise). Used once a step."""
         cfg, blocked = self.config, self._blocked
         self._blocked = None
         if not cfg.blocked_way or blocked is None:
+            return None
+        if self._blocked_give_way and (self._aside is None or min(
+                self._aside[2], math.hypot(rx - self._aside[0], ry - self._aside[1])) > _AT_PLACE):
             return None
         tx, ty, ox, oy, since = blocked
         if (t - since > cfg.give_way_hold or math.hypot(ox - tx, oy - ty) < 1e-6
@@ -553,7 +563,7 @@ class FollowBehaviour:
         way = self._step_aside(t, (rx, ry), (tx, ty), route,
                                "on the target's way to %d likely destination(s)" % len(dests))
         if way is not None and cfg.give_way_through:   # (FollowConfig.give_way_through)
-            self._blocked = (tx, ty, rx, ry, t)
+            self._blocked, self._blocked_give_way = (tx, ty, rx, ry, t), True
         return way
 
     def _stepping_aside(self, t: float, robot: Sequence[float]) -> bool:
@@ -606,7 +616,7 @@ class FollowBehaviour:
             keep = np.array([[tx, ty], [rx, ry]] + [list(d) for d in dests])
             way = self._step_aside(t, (rx, ry), (tx, ty), keep, why + " (off its destinations)")
         if way is not None:    # it steps out of the target's way (FollowConfig.blocked_way)
-            self._blocked = (tx, ty, rx, ry, t)
+            self._blocked, self._blocked_give_way = (tx, ty, rx, ry, t), False
         return way
 
     def _step_aside(self, t: float, robot: Tuple[float, float], target: Tuple[float, float],

@@ -170,8 +170,11 @@ class FollowConfig:
         give_way_through: a target lost while the observer steps off its predicted way
             (give way, not only ``unblock``) is looked for as ``blocked_way`` says (with
             it on): from where the observer stood, facing the way from where the target
-            was through that place. False (the default): trailed at the track's last
-            velocity, or looked at where it was. The walker passed the observer 0.75 m off
+            was through that place, once the observer got within 1 m of the place it
+            stepped to (one it never got to lay across the target's way: going back, it
+            stood in that way again, four times in a minute, and the walker gave its leg
+            up). False (the default): trailed at the track's last velocity, or looked at
+            where it was. The walker passed the observer 0.75 m off
             as it stepped aside, out of its lidar's 180 degrees; the track's last velocity
             pointed into the room it had come from, the trail went there, and the search
             of the regions the track made likely left it unseen for 319 s in the corridor
