@@ -1199,7 +1199,7 @@ def test_give_way_through_looks_from_where_the_observer_stood_after_a_step_off_i
     goal, d = lost(True)
     assert d.mode == "search" and "stepped out of its way" in d.reason
     assert d.goal == pytest.approx((6.3, 1.6, 0.0), abs=1e-9)
-    # a place it never got within 1 m of (the way there went round the target): not
+    # a place it never got within 1 m of (it drove off east, the long way round): not
     # looked for from where it stood, which is in the target's way
     far = (8.8, 1.6, 0.0)
     assert math.hypot(far[0] - goal[0], far[1] - goal[1]) > 1.0

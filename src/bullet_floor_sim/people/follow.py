@@ -32,7 +32,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
 * **search**: when no track has been seen for ``lost_after`` seconds, a target lost while
   the observer stepped out of its way so (``blocked_way``: within ``give_way_hold`` of the
   step, not seen more than ``distance`` from where it stood since; with ``give_way_through``,
-  a step off its predicted way too) is looked for first
+  a step off its predicted way too, once the observer got within 1 m of the place it stepped
+  to) is looked for first
   from where the observer stood, facing the way from the target through it. Otherwise the observer
   first turns to where a target lost within ``distance + slack`` and more than 75 degrees off its
   heading was last seen, moving or not (a moving one: where it would be ``look_lead``
@@ -187,10 +188,11 @@ class FollowBehaviour:
         self._looked = False             # looked round for a target not seen yet
         # (t, x, y): the target within distance since t, within give_way of (x, y) since
         self._close_since: Optional[Tuple[float, float, float]] = None
-        # where it steps aside to (x, y) and the nearest it has been to it since
+        # where it steps aside to (x, y) and the nearest it has been to it since: at the
+        # step, then each tick _stepping_aside runs (the target unseen, under way there)
         self._aside: Optional[Tuple[float, float, float]] = None
-        # (target x, y, observer x, y, t) of the last unblock step taken (with
-        # give_way_through, or give-way step), until the target is seen more than
+        # (target x, y, observer x, y, t) of the last unblock step (or, with
+        # give_way_through, give-way step) taken, until the target is seen more than
         # ``distance`` from where it stood or the step is used for a search
         # (FollowConfig.blocked_way)
         self._blocked: Optional[Tuple[float, float, float, float, float]] = None
@@ -393,11 +395,11 @@ class FollowBehaviour:
         """With ``blocked_way``, for a target lost (the search starting within
         ``give_way_hold`` of an unblock step taken, it not seen more than ``distance`` from
         where it stood since; with ``give_way_through``, of a give-way step too, when the
-        observer at (rx, ry) is or has been within _AT_PLACE of the place it stepped to: one
-        it never got to was across the target's way, and going back put it in that way
-        again): where the
-        observer stood, when free, facing away from where the target stood (None
-        otherwise). Used once a step."""
+        observer at (rx, ry), or the nearest ``_aside`` has it, is within _AT_PLACE of the
+        place it stepped to: one it never got to was across the target's way, and going
+        back put it in that way again; a step shorter than _AT_PLACE always counts, and
+        where it stood is then at most that far): where the observer stood, when free,
+        facing away from where the target stood (None otherwise). Used once a step."""
         cfg, blocked = self.config, self._blocked
         self._blocked = None
         if not cfg.blocked_way or blocked is None:
