@@ -814,32 +814,6 @@ def test_an_observer_on_the_targets_way_steps_aside_and_waits_until_it_passed():
     assert d.mode == "follow"
 
 
-def test_give_way_moving_steps_off_the_way_of_a_moving_target_only():
-    """The observer at (6.3, 1.6) on the way of a target at (4.8, 1.6) predicted to walk
-    east: with ``give_way_moving`` it gives way when the target moves (0.4 m/s), not when
-    it stands (the track's 0.1 m/s); standing within ``distance`` for ``unblock`` seconds,
-    it is stepped away from all the same. Without it, it gives way to the standing one."""
-    dest = [("east", (10.5, 1.6))]
-
-    def first(moving_only: bool, v: float):
-        fb = FollowBehaviour(corridor_with_alcove(), FollowConfig(
-            distance=1.5, slack=0.7, give_way=0.9, unblock=4.0, give_way_moving=moving_only))
-        return fb, fb.update(0.0, (6.3, 1.6, math.pi), (4.8, 1.6, v, 0.0), dest)
-
-    assert first(True, 0.4)[1].mode == "give_way"
-    assert first(False, 0.1)[1].mode == "give_way"
-    fb, d = first(True, 0.1)
-    assert d.mode == "follow"
-    # standing 1.2 m off (within distance, nearer than distance - 0.2 m) for unblock (4 s)
-    for t in (1.0, 2.0, 3.0, 4.0):
-        d = fb.update(t, (6.3, 1.6, math.pi), (5.1, 1.6, 0.1, 0.0), dest, goal_done=True)
-        assert d.mode == "follow"
-    d = fb.update(5.0, (6.3, 1.6, math.pi), (5.1, 1.6, 0.1, 0.0), dest, goal_done=True)
-    assert d.mode == "give_way" and "stood within" in d.reason
-    with pytest.raises(FollowError, match="give_way_moving"):
-        FollowConfig(give_way_moving="yes").check()
-
-
 def test_an_observer_the_target_can_go_round_stays_where_it_sees_it():
     # a room 8 x 5 m: the observer stands on the target's straight way east, but the target
     # goes round it (0.3 m further): no stepping aside; in the corridor it cannot, and does

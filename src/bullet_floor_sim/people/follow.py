@@ -14,8 +14,7 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   point nearer than ``replan_distance`` is not driven to, only turned at.
   Within ``distance + slack`` of a target that stands still, the observer only turns to face
   it (a lidar sees 180 degrees ahead).
-* **give way**: near the target (within ``distance + slack``; with ``give_way_moving``, one
-  that moves faster than 0.15 m/s), the observer plans the target's
+* **give way**: near the target (within ``distance + slack``), the observer plans the target's
   routes to its likely destinations (the search plan's regions: up to ``search_regions`` of
   at least ``search_min_probability``; a leg's first prediction is often wrong) and, when it
   stands within ``give_way`` - 0.2 metres of one and the target cannot go round it (by a way
@@ -552,8 +551,6 @@ class FollowBehaviour:
             self._yield = None
         if not dests or math.hypot(tx - rx, ty - ry) > cfg.distance + cfg.slack:
             return None
-        if cfg.give_way_moving and math.hypot(float(target[2]), float(target[3])) <= _MOVING:
-            return None   # standing: only ``unblock`` steps away (FollowConfig.give_way_moving)
         route = self._target_routes(t, (tx, ty), dests)
         if not len(route):
             return None      # no destination it can be planned to from where it is seen

@@ -179,13 +179,6 @@ class FollowConfig:
             pointed into the room it had come from, the trail went there, and the search
             of the regions the track made likely left it unseen for 319 s in the corridor
             it took (intel_lab, seed 13).
-        give_way_moving: the observer steps off the predicted way (give way) only of a
-            target that moves (faster than 0.15 m/s, by its track); one that stands is
-            stepped away from only by ``unblock`` (after it stood within ``distance`` that
-            long). False (the default): of a standing target too. Stepping aside for a walker
-            that stood between legs, the observer drove off with its back to it: of the ticks
-            the walker went untracked while the observer gave way, a quarter (seattle, seed
-            14) to a half (mit_csail, seed 15) were between its legs.
         standoff_sight: the stand-off point (following, and the places to look from or to
             turn in that are built on it: :func:`people.follow.standoff_point`) is one with
             no wall between it and the target when any free one has that (a roomy one on
@@ -270,7 +263,6 @@ class FollowConfig:
     look_distance: float = 0.0
     blocked_way: bool = True
     give_way_through: bool = False
-    give_way_moving: bool = False
     standoff_sight: bool = False
     unblock: float = 4.0
     snug: float = 0.0
@@ -286,7 +278,7 @@ class FollowConfig:
         check_numbers(self, ("pass_detour", "trail", "trail_turn", "look_lead", "look_distance",
                              "unblock", "snug", "patrol_sight", "search_sight", "watch"), "follower",
                       strict=False, error=FollowError)
-        for name in ("blocked_way", "give_way_through", "give_way_moving", "standoff_sight"):
+        for name in ("blocked_way", "give_way_through", "standoff_sight"):
             if not isinstance(getattr(self, name), bool):
                 raise FollowError("follower: %s must be true or false, got %r"
                                   % (name, getattr(self, name)))
