@@ -181,7 +181,7 @@ class FollowConfig:
             13). On against off, leaving each of 18 worlds out, seeds 13-15: every fold
             kept it off, held-out trk50 84.2 %; on, trk50 83.9 against 84.2 % and tracked
             86.0 against 85.9 %; intel_lab tracked 68.0 -> 79.3 % at seed 13, but seattle
-            at seed 14 gave up 5.7 % of its legs and malaga_corridor lost 6.4 points of
+            at seed 14 gave up 5.7 % of its legs and malaga_corridor lost 6.3 points of
             trk50 (docs/evaluation.md, session 70).
         standoff_sight: the stand-off point (following, and the places to look from or to
             turn in that are built on it: :func:`people.follow.standoff_point`) is one with
