@@ -191,12 +191,11 @@ class FollowBehaviour:
         # where it steps aside to (x, y) and the nearest it has been to it since: at the
         # step, then each tick _stepping_aside runs (the target unseen, under way there)
         self._aside: Optional[Tuple[float, float, float]] = None
-        # (target x, y, observer x, y, t) of the last unblock step (or, with
-        # give_way_through, give-way step) taken, until the target is seen more than
-        # ``distance`` from where it stood or the step is used for a search
+        # (target x, y, observer x, y, t, whether a give-way step) of the last unblock step
+        # (or, with give_way_through, give-way step) taken, until the target is seen more
+        # than ``distance`` from where it stood or the step is used for a search
         # (FollowConfig.blocked_way)
-        self._blocked: Optional[Tuple[float, float, float, float, float]] = None
-        self._blocked_give_way = False   # ... and whether that step was a give-way step
+        self._blocked: Optional[Tuple[float, float, float, float, float, bool]] = None
         self._parts: Optional[np.ndarray] = None    # _pockets(): the floor's parts
         self._pocket: Optional[np.ndarray] = None   # ... and which of them are pockets
         # the last goal sent: (x, y, whether it is a back-off _keeps_goal keeps)
@@ -404,10 +403,10 @@ class FollowBehaviour:
         self._blocked = None
         if not cfg.blocked_way or blocked is None:
             return None
-        if self._blocked_give_way and (self._aside is None or min(
+        tx, ty, ox, oy, since, give_way = blocked
+        if give_way and (self._aside is None or min(
                 self._aside[2], math.hypot(rx - self._aside[0], ry - self._aside[1])) > _AT_PLACE):
             return None
-        tx, ty, ox, oy, since = blocked
         if (t - since > cfg.give_way_hold or math.hypot(ox - tx, oy - ty) < 1e-6
                 or not self.grid.is_free(ox, oy)):
             return None
@@ -565,7 +564,7 @@ class FollowBehaviour:
         way = self._step_aside(t, (rx, ry), (tx, ty), route,
                                "on the target's way to %d likely destination(s)" % len(dests))
         if way is not None and cfg.give_way_through:   # (FollowConfig.give_way_through)
-            self._blocked, self._blocked_give_way = (tx, ty, rx, ry, t), True
+            self._blocked = (tx, ty, rx, ry, t, True)
         return way
 
     def _stepping_aside(self, t: float, robot: Sequence[float]) -> bool:
@@ -618,7 +617,7 @@ class FollowBehaviour:
             keep = np.array([[tx, ty], [rx, ry]] + [list(d) for d in dests])
             way = self._step_aside(t, (rx, ry), (tx, ty), keep, why + " (off its destinations)")
         if way is not None:    # it steps out of the target's way (FollowConfig.blocked_way)
-            self._blocked, self._blocked_give_way = (tx, ty, rx, ry, t), False
+            self._blocked = (tx, ty, rx, ry, t, False)
         return way
 
     def _step_aside(self, t: float, robot: Tuple[float, float], target: Tuple[float, float],
