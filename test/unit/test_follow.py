@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from bullet_floor_sim.sim.floormap import map_from_grid
-from bullet_floor_sim.people.follow import (FollowBehaviour, FollowConfig, FollowError, _past,
+from bullet_floor_sim.people.follow import (FollowBehaviour, FollowConfig, FollowError,
                                             standoff_point)
+from bullet_floor_sim.people.follow_geometry import point_past
 from bullet_floor_sim.people.search import (SearchPlan, as_plan, likely_count, in_view, patrol_points,
                                             hub_points, lookout_points,
                                             pick_target, search_plan,
@@ -841,14 +842,14 @@ def test_the_stretch_past_the_observer_is_where_the_path_first_gets_that_far_bey
     path = np.column_stack([np.arange(101) * 0.1, np.zeros(101)])     # x 0..10 m along y 0
     # nearest to the observer at x 5 (0.2 m off); from there the first point 2.68 m from it:
     # hypot(x - 5, 0.2) >= 2.68 first at x 7.7 (2.6 m would be 2.608)
-    assert _past(path, (1.0, 0.0), (5.0, 0.2), 0.9, 2.68) == pytest.approx((7.7, 0.0))
+    assert point_past(path, (1.0, 0.0), (5.0, 0.2), 0.9, 2.68) == pytest.approx((7.7, 0.0))
     # only the points from the target's on count: one already past the observer is not
     # held up by it (its nearest approach from x 6 on is 1.02 m)
-    assert _past(path, (6.0, 0.0), (5.0, 0.2), 0.9, 2.68) is None
-    assert _past(path[50:51], (5.0, 0.0), (5.0, 0.2), 0.9, 2.68) == pytest.approx((5.0, 0.0))
-    assert _past(path, (1.0, 0.0), (5.0, 2.0), 0.9, 2.68) is None     # never within 0.9 m
-    assert _past(path, (1.0, 0.0), (9.0, 0.2), 0.9, 2.68) == pytest.approx((10.0, 0.0))  # end
-    assert _past(None, (1.0, 0.0), (5.0, 0.2), 0.9, 2.68) is None
+    assert point_past(path, (6.0, 0.0), (5.0, 0.2), 0.9, 2.68) is None
+    assert point_past(path[50:51], (5.0, 0.0), (5.0, 0.2), 0.9, 2.68) == pytest.approx((5.0, 0.0))
+    assert point_past(path, (1.0, 0.0), (5.0, 2.0), 0.9, 2.68) is None     # never within 0.9 m
+    assert point_past(path, (1.0, 0.0), (9.0, 0.2), 0.9, 2.68) == pytest.approx((10.0, 0.0))  # end
+    assert point_past(None, (1.0, 0.0), (5.0, 0.2), 0.9, 2.68) is None
 
 
 def test_an_observer_on_a_loop_gives_way_unless_the_long_way_round_is_short_enough():
@@ -883,7 +884,7 @@ def test_the_pass_by_check_plans_again_from_a_target_off_its_kept_route():
     dests, robot = [(10.3, 1.7)], (6.3, 1.7)
     fb = FollowBehaviour(grid, FollowConfig(distance=1.5, slack=0.7, give_way=0.9))
     fb._target_routes(0.0, (4.8, 6.3), dests)
-    assert _past(fb._route_paths[0], (4.8, 6.3), robot, 0.88, 2.68) is None
+    assert point_past(fb._route_paths[0], (4.8, 6.3), robot, 0.88, 2.68) is None
     assert fb._passes_by((4.8, 1.7), robot, dests) is False
 
 
@@ -905,7 +906,7 @@ def test_an_observer_in_one_of_two_aisles_stays_when_the_other_is_hardly_longer(
                             robot[1] + 0.34 * np.sin(np.linspace(0, 2 * math.pi, 12, False))])
     free = path_length(grid.plan(target, dest))
     assert path_length(grid.plan(target, dest, obstacles=body)) - free < 2.0
-    end = _past(grid.plan(target, dest), target, robot, 0.88, 2.68)
+    end = point_past(grid.plan(target, dest), target, robot, 0.88, 2.68)
     assert end is not None and end != dest
     assert path_length(grid.plan(target, end, obstacles=body)) \
         - path_length(grid.plan(target, end)) > 10.0
