@@ -69,8 +69,10 @@ def leave_one_out(scores: Scores, worlds: Sequence[str], given_up: Optional[Scor
     return picks
 
 
-def parse_eval_line(line: str) -> Optional[dict]:
-    """The fields of an ``EVAL key=value ...`` line (numbers as floats), or None."""
+def parse_eval_line(line: str, required: Sequence[str] = ("world", "seed", "legs_asked")
+                    ) -> Optional[dict]:
+    """The fields of an ``EVAL key=value ...`` line (numbers as floats), or None (no such
+    line, or one without each of the ``required`` fields)."""
     text = line.strip()
     if text.startswith("done: "):
         text = text[len("done: "):]
@@ -83,7 +85,7 @@ def parse_eval_line(line: str) -> Optional[dict]:
             out[k] = v if k in TEXT else float(v.rstrip("sx"))
         except ValueError:
             out[k] = v
-    return out if {"world", "seed", "legs_asked"} <= set(out) else None
+    return out if set(required) <= set(out) else None
 
 
 def read_runs(path: str, legs: int) -> Dict[Tuple[str, int], dict]:
