@@ -1,4 +1,5 @@
-"""people/follow.py: the observer's follow / search decisions, on a hand-made map."""
+"""people/follow.py and the modules of its rules (follow_give_way, follow_search,
+follow_geometry): the observer's follow / search decisions, on a hand-made map."""
 import math
 
 import numpy as np

@@ -674,7 +674,7 @@ class Navigator:
         otherwise (and with ``keep_way`` or without the heading rule). Never with
         ``give_way``: the observer, blocked by the walker it keeps in view, stepped out of
         the way and lost it (mit_csail, seed 3: tracked 74 -> 69 %); its follower has its
-        own way out (people/follow.py's unblock)."""
+        own way out (people/follow_give_way.py's unblock)."""
         from .passing import heads_west_or_south
 
         cfg = self.config

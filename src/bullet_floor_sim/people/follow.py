@@ -80,6 +80,9 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
 
 Everything is plain numbers in, plain numbers out. The parameters, and why each is what it
 is, are in people/follow_config.py; the patrol's tour and the search points in people/search.py.
+This module decides which rule acts and follows; the give-way rules are in
+people/follow_give_way.py, the search and patrol in people/follow_search.py, and the geometry
+they share (the stand-off point, the target as a body) in people/follow_geometry.py.
 """
 from __future__ import annotations
 

@@ -184,7 +184,7 @@ class FollowConfig:
             at seed 14 gave up 5.7 % of its legs and malaga_corridor lost 6.3 points of
             trk50 (docs/evaluation.md, session 70).
         standoff_sight: the stand-off point (following, and the places to look from or to
-            turn in that are built on it: :func:`people.follow.standoff_point`) is one with
+            turn in that are built on it: :func:`people.follow_geometry.standoff_point`) is one with
             no wall between it and the target when any free one has that (a roomy one on
             the observer's side first, else the first in the candidates' order: towards the
             observer, or to the side of an approaching target's path, then turned 15

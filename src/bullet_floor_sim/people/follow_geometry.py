@@ -14,6 +14,9 @@ import numpy as np
 from ..geometry import wrap_angle
 from ..nav.planner import PlanningGrid, disc_points
 
+__all__ = ["GIVE_WAY_HYSTERESIS", "MOVING", "standoff_point", "target_body", "on_path",
+           "point_past", "distance_to"]
+
 GIVE_WAY_HYSTERESIS = 0.2  # m: in the way below give_way less this; it steps to give_way
 MOVING = 0.15              # m/s: a target slower than this stands still
 
@@ -58,7 +61,7 @@ def standoff_point(grid: PlanningGrid, target: Sequence[float], robot: Sequence[
 
 def target_body(grid: PlanningGrid, tx: float, ty: float) -> np.ndarray:
     """The target at (tx, ty) as the planner's obstacles: a body of the observer's radius
-    (as FollowBehaviour._passes_by has it), not a point. As a point, the place to step aside
+    (as GiveWayRules._passes_by has it), not a point. As a point, the place to step aside
     to could lie past the target in a 2 m corridor, where the observer could not get by it
     (aces_austin: it stood behind the walker, blocking it, until the walker went 80 m round
     the loop)."""
@@ -72,7 +75,7 @@ def on_path(path: Optional[np.ndarray], target: Sequence[float], within: float) 
 
 
 def point_past(path: Optional[np.ndarray], target: Sequence[float], robot: Sequence[float],
-          near: float, beyond: float) -> Optional[Tuple[float, float]]:
+               near: float, beyond: float) -> Optional[Tuple[float, float]]:
     """The first point of ``path`` (N, 2), from its point nearest ``target`` on, that is
     ``beyond`` metres from ``robot`` after the path's nearest approach to it, or its last
     point; None when there is no path or it never comes within ``near`` of the robot."""

@@ -200,7 +200,7 @@ class GiveWayRules:
         ok = True
         for path, dest in zip(paths, dests):
             end = point_past(path, target, robot, 2.0 * (radius + self.grid.resolution),
-                        2.0 * radius + detour)
+                             2.0 * radius + detour)
             if end is None:
                 continue
             near = self._round_within(target, end, body)
