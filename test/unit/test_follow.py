@@ -14,7 +14,7 @@ from bullet_floor_sim.people.search import (SearchPlan, as_plan, likely_count, i
                                             pick_target, search_plan,
                                             search_point, search_points)
 from bullet_floor_sim.nav.planner import PlanError, PlanningGrid, give_way_point, path_length
-from bullet_floor_sim.nav.navigator import path_headings
+from bullet_floor_sim.nav.give_way import path_headings
 
 RES = 0.05
 
@@ -788,7 +788,7 @@ def test_a_give_way_point_towards_the_target_comes_before_a_nearer_one_behind():
     off = abs(math.atan2(ahead[1] - 1.6, ahead[0] - 7.0) - math.pi)
     assert off < math.radians(75.0) and abs(math.atan2(behind[1] - 1.6, behind[0] - 7.0)
                                             - math.pi) > math.radians(75.0)
-    # the bearing that counts is the way the observer sets off (navigator.path_headings):
+    # the bearing that counts is the way the observer sets off (nav/give_way.path_headings):
     # to the west alcove it drives west along the corridor, at the target, so that alcove
     # comes first even within 10 degrees (its straight line is 22 degrees off)
     c, r = grid.to_cell(*ahead)

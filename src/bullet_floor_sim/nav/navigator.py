@@ -2,20 +2,21 @@
 
 It plans on a :class:`~bullet_floor_sim.nav.grid.PlanningGrid`, drives with a
 :class:`~bullet_floor_sim.nav.pursuit.PathFollower`, re-plans around other robots, backs off
-when stalled and, with ``give_way``, yields to a robot it meets (:func:`give_way_point`).
+when stalled and, with ``give_way``, yields to a robot it meets (nav/give_way.py's
+:func:`give_way_point`, or a passing place: nav/passing.py). Its parameters and its status
+are in nav/navigator_config.py.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
 from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..errors import BulletFloorSimError
-from ..geometry import wrap_angle, wrap_angles
-from ..sim.checks import check_numbers
+from ..geometry import wrap_angle
+from .give_way import give_way_point
 from .grid import PlanError, PlanningGrid, path_length
+from .navigator_config import NavigatorConfig, NavStatus
 from .pursuit import FollowerCommand, PathFollower, to_map
 
 __all__ = ["GOAL_TAKEN", "NavStatus", "Navigator", "NavigatorConfig", "give_way_point"]
@@ -38,231 +39,6 @@ _GOAL_MARGIN = 0.1
 #: person crossing it)
 _TAKEN_FOR = 1.0
 _MAX_REBASES = 20   # new plans a goal whose length restarts the progress count
-
-
-
-def give_way_point(grid: PlanningGrid, route: np.ndarray, robot: Sequence[float],
-                   target: Sequence[float], clear: float, reach: float, roomy: float = 0.0,
-                   obstacles: Optional[np.ndarray] = None, in_view: float = 0.0
-                   ) -> Optional[Tuple[float, float]]:
-    """The free planning-cell centre nearest to ``robot`` that is at least ``clear`` metres from
-    every point of ``route`` (an (N, 2) polyline sampled finely, e.g. a plan) and from the
-    ``target``, within ``reach`` metres of the robot and reachable from it without passing
-    ``obstacles`` (map-frame points, inflated as the planner does); one with ``roomy`` metres
-    of wall clearance first, and of those (then of the rest) one that sees the target (no wall
-    between: the lidar finds it from there, where it waits) and whose way from the robot sets
-    off within ``in_view`` radians of the target's bearing (:func:`path_headings`: driving
-    there, a forward-looking lidar keeps the target in view), then one that sees it, then one
-    within that bearing (0: neither preference). None when there is none. By the straight
-    line's bearing instead, the observer on freiburg_079 stepped to a place 3.3 m off whose
-    way first led away from the walker, turned its back on it, and lost it (tracked 62 %;
-    69 % by the way's heading)."""
-    from scipy.ndimage import label
-
-    rx, ry = float(robot[0]), float(robot[1])
-    c0, r0 = grid.to_cell(rx, ry)
-    n = int(math.ceil(reach / grid.resolution))
-    cols = np.arange(max(0, c0 - n), min(grid.width, c0 + n + 1))
-    rows = np.arange(max(0, r0 - n), min(grid.height, r0 + n + 1))
-    if not len(cols) or not len(rows):
-        return None
-    window = grid.cost[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1]
-    if obstacles is not None and len(obstacles):
-        window = window.copy()
-        grid._stamp_obstacles(window, np.asarray(obstacles, dtype=float).reshape(-1, 2),
-                              (rx, ry), corner=(int(cols[0]), int(rows[0])))
-    free = np.isfinite(window)
-    # 4-connected: the planner's 8-connected A* cuts no corner, so it joins no more than
-    # that (8-connected parts offered places it could not plan to, and the observer stood
-    # where it was, in the walker's way, for good)
-    parts, _ = label(free)
-    r, c = r0 - rows[0], c0 - cols[0]
-    near = parts[max(r - 2, 0):r + 3, max(c - 2, 0):c + 3]   # its cell, or one next to it
-    near = near[near > 0]
-    if not len(near):
-        return None
-    own = int(np.bincount(near).argmax())
-    R, C = np.nonzero(parts == own)
-    R, C = R + rows[0], C + cols[0]
-    k = grid.factor
-    x, y = grid.fmap.cell_to_world((C + 0.5) * k - 0.5, (R + 0.5) * k - 0.5)
-    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
-    d_robot = np.hypot(x - rx, y - ry)
-    ok = (d_robot <= reach) & (np.hypot(x - float(target[0]), y - float(target[1])) >= clear)
-    pts = np.asarray(route, dtype=float).reshape(-1, 2)
-    if len(pts):
-        from scipy.spatial import cKDTree
-
-        ok &= cKDTree(pts).query(np.stack([x, y], axis=1))[0] >= clear
-    if not ok.any():
-        return None
-    roomy_ok = ok & (grid.clearance[R, C] >= roomy)
-    tiers = [roomy_ok, ok]
-    if in_view > 0.0:
-        bearing = math.atan2(float(target[1]) - ry, float(target[0]) - rx)
-        head = np.full(len(x), np.nan)
-        head[ok] = path_headings(grid, (rx, ry), R[ok], C[ok], 2.0 * reach)
-        head = np.where(np.isnan(head), np.arctan2(y - ry, x - rx), head)
-        seen = np.abs(wrap_angles(head - bearing)) <= in_view
-        sight = np.zeros_like(ok)
-        sight[ok] = grid.in_sight(np.stack([x[ok], y[ok]], axis=1), target)
-        tiers = [roomy_ok & sight & seen, roomy_ok & sight, roomy_ok & seen, roomy_ok,
-                 ok & sight & seen, ok & sight, ok & seen, ok]
-    pick = next(t for t in tiers if t.any())
-    i = int(np.argmin(np.where(pick, d_robot, np.inf)))
-    return float(x[i]), float(y[i])
-
-
-
-def path_headings(grid: PlanningGrid, start: Sequence[float], rows: np.ndarray,
-                  cols: np.ndarray, reach: float, ahead: float = 0.7) -> np.ndarray:
-    """For planning cells (rows, cols), the bearing from ``start`` of the point ``ahead``
-    metres out along the cheapest way to each on the planner's graph (the way the robot
-    sets off; from the nearest passable cell when its own is not, as the planner starts),
-    searched up to step costs of 2 x ``reach`` / resolution (at least 1 a cell, more near
-    walls); NaN for a cell not reached. A place whose straight line from the robot lies
-    towards a target can lie down a path that first leads away from it (round a wall). The
-    graph has no target in it: a way through the target's own body counts as towards it."""
-    from scipy.sparse.csgraph import dijkstra
-
-    graph, node = grid.graph()
-    out = np.full(len(rows), np.nan)
-    near = grid.free_cell_near(float(start[0]), float(start[1]))
-    if near is None or not len(rows):
-        return out
-    c0, r0 = near
-    dist, pred = dijkstra(graph, directed=False, indices=int(node[r0, c0]),
-                          return_predecessors=True,
-                          limit=2.0 * reach / grid.resolution)   # weights: >= 1 a cell step
-    cells = grid.node_cells()
-    cur = node[np.asarray(rows), np.asarray(cols)]
-    live = (cur >= 0)
-    live[live] = np.isfinite(dist[cur[live]])
-    sx, sy = float(start[0]), float(start[1])
-    for _ in range(int(4.0 * reach / grid.resolution)):
-        px, py = grid.centres(cells[cur, 1], cells[cur, 0])
-        far = live & (np.hypot(px - sx, py - sy) > ahead)
-        far[far] = pred[cur[far]] >= 0
-        if not far.any():
-            break
-        cur[far] = pred[cur[far]]
-    px, py = grid.centres(cells[cur, 1], cells[cur, 0])
-    out[live] = np.arctan2(py[live] - sy, px[live] - sx)
-    return out
-
-
-@dataclass
-class NavigatorConfig:
-    """Recovery behaviour of :class:`Navigator` (times in sim seconds).
-
-    Attributes:
-        replan_after: blocked this long -> plan again, around the obstacles in the scan.
-        blocked_timeout: blocked this long in total since the last 0.1 m of progress towards
-            the goal -> abort.
-        progress_timeout: no 0.1 m of progress along the path to the goal for this long -> abort
-            (a new plan, such as the long way round what blocks it, starts the count afresh
-            from its length, up to 20 times a goal; the time does not restart, except after
-            giving way: the time spent backing off and waiting is not a lack of progress).
-        obstacle_range: scan points farther than this (m) are ignored when replanning.
-        sidestep: how far (m) to step aside when no path passes an obstacle.
-        stall_time: commanded to move but moved less than 2 cm and turned less than 0.05 rad
-            for this long -> stalled (pressed against another robot the scan does not show
-            ahead): plan again at once, around the obstacles in the scan; stalled again soon
-            after (it cannot even turn): back up 0.15 m when that brings it no nearer a wall
-            of the map and the scan shows nothing behind; a back-off that did not move it
-            is followed by a nudge forward, and the other way round.
-        give_way: when no path passes what blocks it, yield at once (the observer): retreat
-            to the nearest passing place (nav/passing.py: out of the way of the narrow
-            passage's middle, within ``passing_reach`` m), else to the nearest free place (a
-            roomy one first) at least ``give_way_clear`` m from every point the map does not
-            know, within ``give_way_reach`` m; wait there and go on to the goal, at most 3
-            times a goal.
-        heading_rule: without ``give_way``, a robot that meets another head-on in a passage
-            too narrow for two yields (as above) by nav/passing.gives_way's rule (the one
-            nearer its passing place, else by heading): of two robots facing each other
-            exactly one does.
-        keep_way: never yield by that rule (the walker, a stand-in person: the observer
-            yields to it); only as the deadlock fallback.
-        passing: False: no yielding to passing places at all, only ``give_way``'s, and
-            progress as the crow flies, which a new plan does not restart (a map being
-            built: its passing places and plans are as partial as it is, and a frontier
-            that gets no nearer is given up).
-        deadlock_time: no progress this long, within ``goal_taken_within`` m of the goal,
-            with something the map does not show standing on it (1 s or more), the goal is
-            given up with ``passing`` ("the goal is taken"; people/agents.WalkerAgent then
-            draws another in the region, or ends the leg there). Blocked with no progress
-            towards the goal this long, a robot the rule
-            told to yield that has not (it could not) yields; one that has the right of way,
-            or keeps its way, after twice as long (what blocks it does not yield: a robot
-            parked, or one with another rule). Unequal, so the two do not back off at once.
-            With a way round each time and still no progress (each planned past the other's
-            unseen far side and stopped on it again: two robots nose to nose in a corridor
-            wide enough for two, under a ROS graph's delays), it yields too (not with
-            ``give_way``): when what blocks it lies west or south of it
-            (nav/passing.heads_west_or_south of the bearing), after this long; any other
-            after twice as long; where the nearest passing place is where it stands, it steps
-            ``sidestep`` m aside (right first) and waits there; when it cannot yield it
-            takes the way round.
-        other_radius: the radius (m) of what it meets, for the passing places (default: its
-            own).
-        pass_wait_max: the longest wait (s) at a passing place; it waits as long as what it
-            yielded to takes to come that far at 0.4 m/s, at least ``give_way_wait``.
-        goal_taken_within: see ``deadlock_time`` (WalkerAgent's ``regoal_within``: further
-            off, a goal given up ends the leg; 0: never).
-        detour, detour_wait: a way round what blocks it that is more than ``detour`` m longer
-            than the way it was on is taken only once it has been blocked ``detour_wait`` s
-            (with ``passing``): what blocks it may give way first. The walker, blocked by the
-            observer for 2 s, walked 80 m round aces_austin's loop instead of waiting for it
-            to step aside, and its leg timed out. 0: any way round at once.
-    """
-
-    replan_after: float = 2.0
-    blocked_timeout: float = 30.0
-    progress_timeout: float = 60.0
-    obstacle_range: float = 3.0
-    sidestep: float = 0.45
-    stall_time: float = 1.5
-    give_way: bool = False
-    give_way_clear: float = 1.2
-    give_way_reach: float = 5.0
-    give_way_wait: float = 3.0
-    heading_rule: bool = True
-    keep_way: bool = False
-    passing: bool = True
-    deadlock_time: float = 10.0
-    other_radius: Optional[float] = None
-    passing_reach: float = 25.0
-    pass_wait_max: float = 30.0
-    detour: float = 10.0
-    detour_wait: float = 10.0
-    goal_taken_within: float = 1.5
-
-    def check(self) -> None:
-        """Raises BulletFloorSimError naming the first number that is not finite and > 0
-        (>= 0 for the distances and waits that may be none: ``sidestep``,
-        ``give_way_clear``, ``give_way_wait``, ``detour``, ``detour_wait``,
-        ``goal_taken_within``; ``other_radius`` may also be None)."""
-        zero_ok = ("sidestep", "give_way_clear", "give_way_wait", "detour", "detour_wait",
-                   "goal_taken_within")
-        numbers = [f.name for f in fields(self) if f.type in ("float", "Optional[float]")]
-        check_numbers(self, [n for n in numbers if n not in zero_ok and not (
-            n == "other_radius" and self.other_radius is None)], "navigator",
-            error=BulletFloorSimError)
-        check_numbers(self, zero_ok, "navigator", strict=False, error=BulletFloorSimError)
-
-
-@dataclass
-class NavStatus:
-    """What :meth:`Navigator.update` decided: a command and the goal's state.
-
-    ``state`` is ``active``, ``succeeded`` or ``aborted`` (``message`` says why).
-    """
-
-    v: float
-    w: float
-    state: str
-    message: str = ""
-    distance_to_goal: float = 0.0
 
 
 def _ahead(pose: Sequence[float], world: np.ndarray) -> bool:

@@ -45,7 +45,7 @@ def passing_place(grid: PlanningGrid, axis: np.ndarray, robot: Sequence[float],
     """The nearest passing place (see the module doc) the robot at ``robot`` (x, y) reaches
     within ``reach`` m without passing ``blocker`` (map-frame points of what it meets, which
     it also keeps that far from); None when there is none."""
-    from .navigator import give_way_point
+    from .give_way import give_way_point
 
     clear = _passing_clearance(grid, other_radius, margin)
     rx, ry = float(robot[0]), float(robot[1])

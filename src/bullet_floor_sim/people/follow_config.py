@@ -98,7 +98,7 @@ class FollowConfig:
             leaves 15 for the path's bends.
             Stepping aside the other way, it turned its back on the target (a fifth of a
             200-leg run on malaga_corridor went untracked so). Before the bearing, a place
-            that sees the target (no wall on the line between: navigator.give_way_point)
+            that sees the target (no wall on the line between: nav/give_way.give_way_point)
             comes first: on freiburg_079 it gave way round a corner from a walker in a
             room, and tracked it 46 % of its time giving way. 0: neither preference.
         pass_detour: an observer on the target's way stays where it is (the target in view)

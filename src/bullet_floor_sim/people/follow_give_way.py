@@ -133,7 +133,7 @@ class GiveWayRules:
     def _step_aside(self, t: float, robot: Tuple[float, float], target: Tuple[float, float],
                     keep: np.ndarray, why: str) -> Optional[FollowDecision]:
         """Go to the nearest place ``give_way`` from the target and from the points ``keep``
-        (navigator.give_way_point: a roomy one in view first), facing the target, and hold
+        (nav/give_way.give_way_point: a roomy one in view first), facing the target, and hold
         there as giving way; None when there is no such place."""
         cfg = self.config
         tx, ty = target

@@ -17,7 +17,7 @@ Parameters (defaults suit a Scitos A5): ``~robot_radius`` 0.34, ``~inflation_rad
 ``~blocked_timeout`` 30, ``~progress_timeout`` 60, ``~give_way`` false (true: when blocked
 where no path passes, retreat to a wider place, wait and go on: nav/planner.Navigator),
 ``~keep_way`` false (true: in a passage too narrow for two, never yield by the passing rule,
-only after 20 s blocked: the walker, nav/navigator.NavigatorConfig), ``~reverse_within`` 0
+only after 20 s blocked: the walker, nav/navigator_config.NavigatorConfig), ``~reverse_within`` 0
 (m; > 0: a goal at most this far behind, on a straight way, that faces the robot's own way is
 reached backing up, nav/pursuit.FollowerConfig: demo.launch's observer, 2), ``~detour`` 10 and
 ``~detour_wait`` 10 (a way round what blocks it more than 10 m longer is taken only after
