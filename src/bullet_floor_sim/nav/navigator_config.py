@@ -1,6 +1,6 @@
 """The Navigator's recovery parameters (:class:`NavigatorConfig`, each with its reason) and
 what it decides each update (:class:`NavStatus`); nav/navigator.Navigator reads them, the
-path_follower node sets them from ``~<field>`` parameters."""
+path_follower node sets some of them from ``~<field>`` parameters (ros/path_follower.py)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
@@ -14,7 +14,7 @@ __all__ = ["NavigatorConfig", "NavStatus"]
 
 @dataclass
 class NavigatorConfig:
-    """Recovery behaviour of :class:`Navigator` (times in sim seconds).
+    """Recovery behaviour of :class:`~bullet_floor_sim.nav.navigator.Navigator` (times in sim seconds).
 
     Attributes:
         replan_after: blocked this long -> plan again, around the obstacles in the scan.
@@ -114,7 +114,7 @@ class NavigatorConfig:
 
 @dataclass
 class NavStatus:
-    """What :meth:`Navigator.update` decided: a command and the goal's state.
+    """What :meth:`~bullet_floor_sim.nav.navigator.Navigator.update` decided: a command and the goal's state.
 
     ``state`` is ``active``, ``succeeded`` or ``aborted`` (``message`` says why).
     """

@@ -18,8 +18,9 @@ installed). It localises from ground truth: it is legs, not a SLAM system.
 Everything is plain numbers in, plain numbers out; ``bullet_floor_sim.ros.path_follower``
 wraps it in a move_base-compatible action server.
 The parts live in :mod:`.grid` (the planning grid and A*), :mod:`.pursuit` (the path
-follower) and :mod:`.navigator` (goals, re-planning, giving way); this module is their one
-import for the nodes and the evaluation.
+follower), :mod:`.navigator` (goals, re-planning, giving way), :mod:`.navigator_config`
+(its parameters and status) and :mod:`.give_way` (where to step out of the way); this
+module is their one import for the nodes and the evaluation.
 """
 from __future__ import annotations
 
