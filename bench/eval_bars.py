@@ -68,12 +68,13 @@ def table(runs: Runs) -> List[str]:
         def each(field: str) -> str:
             return " / ".join("%.1f" % (100 * r[field]) if field in r else "-" for r in rs)
 
-        def least(field: str, sign: float = 1.0) -> str:
-            vals = [sign * r[field] for r in rs if field in r]
-            return "%.2f" % (sign * min(vals)) if vals else "-"
+        def least(field: str) -> str:
+            vals = [r[field] for r in rs if field in r]
+            return "%.2f" % min(vals) if vals else "-"
 
-        bad = ["seed %d: %s" % (s, ", ".join(m)) for s, r in zip(seeds, rs) if (m := misses(r))]
-        under += ["%s %d" % (w, s) for s, r in zip(seeds, rs) if misses(r)]
+        missed = [(s, m) for s, m in ((s, misses(r)) for s, r in zip(seeds, rs)) if m]
+        bad = ["seed %d: %s" % (s, ", ".join(m)) for s, m in missed]
+        under += ["%s:%d" % (w, s) for s, _ in missed]
         worst = max((r["given_up"] for r in rs if "given_up" in r), default=None)
         out.append("| %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
             w, " ".join(map(str, seeds)), each("tracked"), each("trk50"), each("gt50"),
@@ -81,7 +82,7 @@ def table(runs: Runs) -> List[str]:
             least("ll_margin"), "; ".join(bad) or "none"))
     out.append("")
     out.append("BARS runs=%d worlds=%d under=%d %s" % (len(runs), len(worlds), len(under),
-                                                      " ".join(u.replace(" ", ":") for u in under)))
+                                                      " ".join(under)))
     return out
 
 
