@@ -1,6 +1,7 @@
 """A robot backs up to a goal close behind it that faces its own way (FollowerConfig
-.reverse_within): the observer gives way facing the target instead of turning its back on it.
-On the core world's physics and by hand."""
+.reverse_within), or along a path to a goal that faces back the way there (.reverse_path):
+the observer gives way facing the target instead of turning its back on it. On the core
+world's physics and by hand."""
 from __future__ import annotations
 
 import math
@@ -14,7 +15,7 @@ from bullet_floor_sim.nav.planner import (FollowerConfig, Navigator, NavigatorCo
 from bullet_floor_sim.sim.world import World
 
 
-def _go(reverse_within: float, goal, other=None):
+def _go(reverse_within: float, goal, other=None, reverse_path: float = 0.0):
     """robot2 of the simple room ((3, 3), facing -x) driven to ``goal`` on the physics, its
     scan given to its Navigator (robot1 moved to ``other`` first, when given): the end state
     and pose, the largest turn off its first heading on the way, the least forward speed."""
@@ -23,7 +24,8 @@ def _go(reverse_within: float, goal, other=None):
         if other is not None:
             world.set_pose(0, other)
         nav = Navigator(PlanningGrid(world.fmap),
-                        PathFollower(FollowerConfig(reverse_within=reverse_within)),
+                        PathFollower(FollowerConfig(reverse_within=reverse_within,
+                                                    reverse_path=reverse_path)),
                         NavigatorConfig(give_way=True))
         lp = world.models[1].laser_pose
         lp = (lp[0], lp[1], lp[3])   # (x, y, yaw) of the laser in base_footprint
@@ -132,3 +134,50 @@ def test_backing_up_counts_progress_and_stops_for_what_a_scan_shows_behind():
     behind = np.array([[-0.55, 0.05]])   # 0.21 m behind the footprint's back (stop_distance 0.3)
     assert f.compute((-0.7, 0.0, 0.0), behind).state == "blocked"
     assert f.compute((-0.7, 0.0, 0.0), np.array([[-0.55, 1.0], [-0.8, 0.0]])).state == "reversing"
+
+
+def test_a_goal_round_a_pillar_facing_back_the_way_there_is_reached_backing_along_the_path():
+    # from (3, 3) facing -x to (5.2, 0.6) facing +y: 3.8 m, east of the pillar, arriving
+    # southwards; reverse_within (2 m, a straight way) does not reach it, reverse_path does
+    goal = (5.2, 0.6, math.pi / 2)
+    state, pose, turned, least_v = _go(2.0, goal, reverse_path=5.0)
+    assert state == "succeeded" and math.hypot(pose[0] - 5.2, pose[1] - 0.6) < 0.2
+    assert "reversing" in _go.messages and least_v < -0.1
+    assert turned < 2.0    # from facing -x to facing +y: never facing the way it went
+    state, pose, turned, least_v = _go(2.0, goal, reverse_path=3.0)   # too far along
+    assert state == "succeeded" and turned > 2.5 and least_v >= 0.0
+
+
+def _bent(goal_yaw):
+    """A path 2.6 m long that goes 1.5 m along -x, then 1.1 m along +y, to ``goal_yaw``."""
+    f = PathFollower(FollowerConfig(reverse_path=3.0))
+    f.set_path(np.vstack([np.linspace((0.0, 0.0), (-1.5, 0.0), 16)[:-1],
+                          np.linspace((-1.5, 0.0), (-1.5, 1.1), 12)]), goal_yaw)
+    return f
+
+
+@pytest.mark.parametrize("goal_yaw, backs", [
+    (-math.pi / 2, True),            # facing back along the last metre (arriving along +y)
+    (-math.pi / 2 + 0.8, True),      # within rotate_in_place (0.9 rad) of it
+    (-math.pi / 2 + 1.0, False),
+    (math.pi / 2, False),            # facing the way it arrives: forward
+    (None, False)])
+def test_which_paths_are_backed_along(goal_yaw, backs):
+    cmd = _bent(goal_yaw).compute((0.0, 0.0, 0.0))   # its back to the path's start
+    assert (cmd.state == "reversing") == backs
+    if backs:   # the look-ahead point 0.6 m behind it, on the line: straight back
+        assert cmd.v < 0 and abs(cmd.w) < 1e-9
+    f = _bent(goal_yaw)
+    f.config.reverse_path = 2.5   # shorter than the path
+    assert f.compute((0.0, 0.0, 0.0)).state != "reversing"
+
+
+def test_backing_along_a_path_turns_its_back_to_it_and_stops_for_a_point_behind():
+    f = _bent(-math.pi / 2)
+    cmd = f.compute((0.0, 0.0, -math.pi / 2))   # its back to +y, the path goes -x
+    assert cmd.state == "rotating" and cmd.v == 0.0 and cmd.w > 0   # left: its back to -x
+    f = _bent(-math.pi / 2)
+    behind = np.array([[-0.6, 0.0]])    # 0.26 m behind the footprint (stop_distance 0.3)
+    assert f.compute((0.0, 0.0, 0.0), behind).state == "blocked"
+    f = _bent(-math.pi / 2)   # ahead of it, not in its way backing up
+    assert f.compute((0.0, 0.0, 0.0), np.array([[0.6, 0.0]])).state == "reversing"

@@ -50,6 +50,13 @@ class FollowerConfig:
             0 (the default): never. The observer backs up so to give way (demo.launch): turned
             round, it lost the target it gave way to. Backing up, the robot sees nothing
             behind it but what its path avoids on the map.
+        reverse_path: a goal at most this far along its path (m), whose heading is within
+            ``rotate_in_place`` of the path's last metre turned round (the robot arrives
+            facing back the way it came), is reached backing up along the path: pure pursuit
+            on the robot's back, at most ``reverse_speed``, after a turn on the spot that
+            points its back along the path. ``reverse_within`` decides first. 0 (the
+            default): never. For the observer that gives way round a corner or further than
+            ``reverse_within``, its front to the target it gives way to.
         reverse_speed: the speed (m/s) of backing up.
     """
 
@@ -67,13 +74,14 @@ class FollowerConfig:
     robot_radius: float = 0.34
     sweep: float = 1.5
     reverse_within: float = 0.0
+    reverse_path: float = 0.0
     reverse_speed: float = 0.25
 
     def check(self) -> None:
         """Raises BulletFloorSimError naming the first field that is not a finite number
-        > 0 (>= 0 for the margins, ``min_linear`` and ``reverse_within``; ``yaw_tolerance``
-        may also be None)."""
-        zero_ok = ("reverse_within", "side_margin", "stop_distance", "min_linear")
+        > 0 (>= 0 for the margins, ``min_linear``, ``reverse_within`` and ``reverse_path``;
+        ``yaw_tolerance`` may also be None)."""
+        zero_ok = ("reverse_within", "reverse_path", "side_margin", "stop_distance", "min_linear")
         check_numbers(self, [f.name for f in fields(self) if f.name not in zero_ok
                              and not (f.name == "yaw_tolerance" and self.yaw_tolerance is None)],
                       "path follower", error=BulletFloorSimError)
@@ -83,6 +91,8 @@ class FollowerConfig:
 #: Farthest (m) a path to back up along may stray from the straight line to its goal (a
 #: grid path to a goal off its axes zigzags up to about a cell and a half).
 _STRAIGHT = 0.3
+#: The length (m) of the end of a path whose direction the robot arrives in (reverse_path).
+_LAST = 1.0
 
 
 @dataclass
@@ -114,6 +124,7 @@ class PathFollower:
         self._index = 0
         self._aligning = False
         self._reverse: Optional[bool] = None   # backing up to this path's goal (decided once)
+        self._back_along = False   # ... along the path (reverse_path), decided with it
         # no backing up until the next goal (the Navigator's start): it stalled doing so
         self.no_reverse = False
         # wall clearance (m) at map-frame points (N, 2) (the Navigator gives its grid's): the
@@ -128,6 +139,7 @@ class PathFollower:
         self._index = 0
         self._aligning = False
         self._reverse = None
+        self._back_along = False
         self._path_clear = (self.clearance(self.path) if self.clearance is not None
                             and len(self.path) else None)
 
@@ -178,6 +190,22 @@ class PathFollower:
             return True
         need = min(cfg.robot_radius + cfg.side_margin, float(self._path_clear.min()))
         return self._line_clearance(np.array([x, y]), goal) >= need - 0.01
+
+    def _backs_along(self) -> bool:
+        """Whether this path's goal is reached backing up along it (``reverse_path``): at
+        most that far along, its heading within ``rotate_in_place`` of the way the path's
+        last ``_LAST`` metres arrive, turned round."""
+        cfg = self.config
+        if cfg.reverse_path <= 0 or self.goal_yaw is None or len(self.path) < 2:
+            return False
+        steps = np.hypot(*np.diff(self.path, axis=0).T)
+        if float(steps.sum()) > cfg.reverse_path:
+            return False
+        to_end = np.cumsum(steps[::-1])[::-1]     # from each point but the last to the goal
+        start = self.path[int(np.flatnonzero(to_end >= min(_LAST, to_end[0]))[-1])]
+        goal = self.path[-1]
+        arrive = math.atan2(goal[1] - start[1], goal[0] - start[0])
+        return abs(wrap_angle(self.goal_yaw - arrive - math.pi)) <= cfg.rotate_in_place
 
     def _back_up(self, x: float, y: float, yaw: float, goal: np.ndarray, dist_goal: float,
                  obstacles: Optional[np.ndarray]) -> Optional[FollowerCommand]:
@@ -312,10 +340,34 @@ class PathFollower:
         self._index += int(np.argmin(d))
         if self._reverse is None:
             self._reverse = self._backs_up(x, y, yaw)
+            self._back_along = not self._reverse and self._backs_along()
         if self._reverse and not self.no_reverse:
             back = self._back_up(x, y, yaw, goal, dist_goal, obstacles)
             if back is not None:
                 return back
+        if self._back_along and not self.no_reverse:
+            return self._pursue_backwards(x, y, yaw, dist_goal, obstacles, known)
+        return self._pursue(x, y, yaw, dist_goal, obstacles, known, cfg.max_linear)
+
+    def _pursue_backwards(self, x: float, y: float, yaw: float, dist_goal: float,
+                          obstacles: Optional[np.ndarray], known: Optional[np.ndarray]
+                          ) -> FollowerCommand:
+        """Pure pursuit along the path with the robot's back as its front (reverse_path):
+        the same command for the robot turned round (scan points too), backwards. The turn
+        rate is the same either way round."""
+        back = None if obstacles is None else -np.asarray(obstacles, dtype=float)
+        cmd = self._pursue(x, y, wrap_angle(yaw + math.pi), dist_goal, back, known,
+                           min(self.config.reverse_speed, self.config.max_linear))
+        state = "reversing" if cmd.state == "following" else cmd.state
+        return FollowerCommand(-cmd.v, cmd.w, state, cmd.distance_to_goal)
+
+    def _pursue(self, x: float, y: float, yaw: float, dist_goal: float,
+                obstacles: Optional[np.ndarray], known: Optional[np.ndarray],
+                max_linear: float) -> FollowerCommand:
+        """Pure pursuit from (x, y, yaw) to the look-ahead point, at most ``max_linear``:
+        turning on the spot, stopped (``blocked``) or following."""
+        cfg = self.config
+        goal = self.path[-1]
         # look-ahead point: first point at least `lookahead` away, else the goal; close to an
         # obstacle the look-ahead shrinks so that the robot follows the path's detours tightly
         free = self.free_ahead(obstacles)
@@ -346,11 +398,11 @@ class PathFollower:
             return FollowerCommand(0.0, 0.0, "blocked", dist_goal)
         ld = max(math.hypot(lx, ly), 1e-6)
         curvature = 2.0 * ly / (ld * ld)
-        v = cfg.max_linear * min(1.0, dist_goal / cfg.slow_radius)
+        v = max_linear * min(1.0, dist_goal / cfg.slow_radius)
         v *= max(0.2, math.cos(alpha))
         v = max(v, cfg.min_linear)
         # slow down when something is ahead, to stop in time (scan and control lag)
-        v = min(v, cfg.max_linear * max(0.2, min(1.0, (free - cfg.stop_distance) / 0.8)))
+        v = min(v, max_linear * max(0.2, min(1.0, (free - cfg.stop_distance) / 0.8)))
         if abs(curvature) * v > cfg.max_angular:
             v = cfg.max_angular / abs(curvature)
         return FollowerCommand(v, _clip(curvature * v, cfg.max_angular), "following", dist_goal)
