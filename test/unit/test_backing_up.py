@@ -70,7 +70,7 @@ def test_the_path_follower_node_logs_backing_up_to_a_goal():
         retreat = None
 
     assert _recovery(_Nav(), NavStatus(-0.25, 0.0, "active", "reversing", 1.2)) == \
-        "backing up to a goal behind it (~reverse_within)"
+        "backing up to a goal behind it (~reverse_within, ~reverse_path)"
     assert _recovery(_Nav(), NavStatus(0.3, 0.0, "active", "following", 1.2)) == ""
 
 

@@ -45,6 +45,7 @@ _GT, _GE = " must be a finite number > 0, got ", " must be a finite number >= 0,
 @pytest.mark.parametrize("params, message", [
     (PathFollowerParams(max_linear=-0.5), r"^path_follower: ~max_linear" + _GT + r"-0\.5$"),
     (PathFollowerParams(reverse_within=-1.0), r"~reverse_within" + _GE + r"-1\.0"),
+    (PathFollowerParams(reverse_path=-1.0), r"~reverse_path" + _GE + r"-1\.0"),
     (PathFollowerParams(controller_frequency=float("nan")), r"~controller_frequency" + _GT + "nan"),
     (PathFollowerParams(inflation_radius=-0.1), r"~inflation_radius" + _GE + r"-0\.1"),
     (PathFollowerParams(detour=-1.0), r"~detour" + _GE + r"-1\.0"),

@@ -19,7 +19,9 @@ where no path passes, retreat to a wider place, wait and go on: nav/planner.Navi
 ``~keep_way`` false (true: in a passage too narrow for two, never yield by the passing rule,
 only after 20 s blocked: the walker, nav/navigator_config.NavigatorConfig), ``~reverse_within`` 0
 (m; > 0: a goal at most this far behind, on a straight way, that faces the robot's own way is
-reached backing up, nav/pursuit.FollowerConfig: demo.launch's observer, 2), ``~detour`` 10 and
+reached backing up, nav/pursuit.FollowerConfig: demo.launch's observer, 2), ``~reverse_path`` 0
+(m; > 0: a goal at most this far along its path that faces back the way it arrives is reached
+backing along the path), ``~detour`` 10 and
 ``~detour_wait`` 10 (a way round what blocks it more than 10 m longer is taken only after
 10 s blocked; 0: at once), ``~goal_taken_within`` 1.5 (within this of its goal, with
 something not on the map standing on the goal for 1 s and no progress for 10 s, the goal is
@@ -80,6 +82,7 @@ class PathFollowerParams:
     give_way: bool = False
     keep_way: bool = False
     reverse_within: float = 0.0
+    reverse_path: float = 0.0
     detour: float = NavigatorConfig.detour
     detour_wait: float = NavigatorConfig.detour_wait
     goal_taken_within: float = NavigatorConfig.goal_taken_within
@@ -91,9 +94,10 @@ class PathFollowerParams:
     def check(self) -> None:
         """Raises BulletFloorSimError naming the first parameter that is not a finite number
         > 0 (>= 0 for ``inflation_radius``, ``detour``, ``goal_taken_within`` and
-        ``reverse_within``: 0 turns each off)."""
+        ``reverse_within`` and ``reverse_path``: 0 turns each off)."""
         numbers = [f.name for f in fields(self) if isinstance(getattr(self, f.name), float)]
-        zero_ok = ("inflation_radius", "detour", "goal_taken_within", "reverse_within")
+        zero_ok = ("inflation_radius", "detour", "goal_taken_within", "reverse_within",
+                   "reverse_path")
         check_params(self, "path_follower", [n for n in numbers if n not in zero_ok])
         check_params(self, "path_follower", list(zero_ok), strict=False)
         if self.localisation not in ("ground_truth", "tf"):
@@ -114,7 +118,7 @@ class PathFollowerNode:
         self.follower_cfg = FollowerConfig(
             robot_radius=p.robot_radius, max_linear=p.max_linear, max_angular=p.max_angular,
             xy_tolerance=p.xy_goal_tolerance, yaw_tolerance=p.yaw_goal_tolerance,
-            reverse_within=p.reverse_within)
+            reverse_within=p.reverse_within, reverse_path=p.reverse_path)
         self.nav_cfg = NavigatorConfig(blocked_timeout=p.blocked_timeout,
                                        progress_timeout=p.progress_timeout, give_way=p.give_way,
                                        keep_way=p.keep_way, detour=p.detour,
@@ -357,8 +361,8 @@ def _recovery(nav: Navigator, st) -> str:
         return "blocked by something the scan shows on the path: planning around it"
     if st.message in ("stalled", "backing up", "nudging forward", "giving way"):
         return st.message
-    if st.message == "reversing":   # the controller's own: to a goal within ~reverse_within
-        return "backing up to a goal behind it (~reverse_within)"
+    if st.message == "reversing":   # the controller's own: ~reverse_within, ~reverse_path
+        return "backing up to a goal behind it (~reverse_within, ~reverse_path)"
     return ""
 
 
