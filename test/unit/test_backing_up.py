@@ -177,7 +177,20 @@ def test_backing_along_a_path_turns_its_back_to_it_and_stops_for_a_point_behind(
     cmd = f.compute((0.0, 0.0, -math.pi / 2))   # its back to +y, the path goes -x
     assert cmd.state == "rotating" and cmd.v == 0.0 and cmd.w > 0   # left: its back to -x
     f = _bent(-math.pi / 2)
+    assert f.compute((0.0, 0.0, 0.0)).state == "reversing"   # decided with nothing seen
     behind = np.array([[-0.6, 0.0]])    # 0.26 m behind the footprint (stop_distance 0.3)
     assert f.compute((0.0, 0.0, 0.0), behind).state == "blocked"
     f = _bent(-math.pi / 2)   # ahead of it, not in its way backing up
     assert f.compute((0.0, 0.0, 0.0), np.array([[0.6, 0.0]])).state == "reversing"
+
+
+@pytest.mark.parametrize("seen, known, backs", [
+    ([[0.6, 0.0]], None, True),                 # ahead: the path leads away from it
+    ([[-1.0, -1.1]], None, True),               # 1.1 m off the path: far enough
+    ([[-1.0, -0.6]], None, False),              # 0.6 m off the path, 1.17 m off now
+    ([[-1.0, -0.6]], [True], True),             # the same on the map's walls
+    ([[0.6, 0.0], [-2.2, 0.5]], [False, False], False)])   # one past the path's bend
+def test_a_path_is_not_backed_along_past_what_the_scan_shows_and_the_map_lacks(seen, known, backs):
+    cmd = _bent(-math.pi / 2).compute((0.0, 0.0, 0.0), np.array(seen, dtype=float),
+                                      None if known is None else np.array(known))
+    assert (cmd.state == "reversing") == backs

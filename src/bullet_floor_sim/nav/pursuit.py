@@ -93,6 +93,10 @@ class FollowerConfig:
 _STRAIGHT = 0.3
 #: The length (m) of the end of a path whose direction the robot arrives in (reverse_path).
 _LAST = 1.0
+#: How near (m) a path backed along (reverse_path) may come to what the scan shows and the
+#: map lacks (a person, a robot) when that is nearer than the robot stands to it now (less
+#: _NEARER_BACK): backing, the robot cannot see it.
+_BACK_CLEAR, _NEARER_BACK = 1.0, 0.1
 
 
 @dataclass
@@ -191,10 +195,13 @@ class PathFollower:
         need = min(cfg.robot_radius + cfg.side_margin, float(self._path_clear.min()))
         return self._line_clearance(np.array([x, y]), goal) >= need - 0.01
 
-    def _backs_along(self) -> bool:
+    def _backs_along(self, pose: Tuple[float, float, float], obstacles: Optional[np.ndarray],
+                     known: Optional[np.ndarray]) -> bool:
         """Whether this path's goal is reached backing up along it (``reverse_path``): at
         most that far along, its heading within ``rotate_in_place`` of the way the path's
-        last ``_LAST`` metres arrive, turned round."""
+        last ``_LAST`` metres arrive, turned round, and the path no nearer than _BACK_CLEAR
+        to a scan point off the map's walls (all, without ``known``) that the robot stands
+        further from (the target a give-way passes by, behind the robot backing up)."""
         cfg = self.config
         if cfg.reverse_path <= 0 or self.goal_yaw is None or len(self.path) < 2:
             return False
@@ -205,7 +212,20 @@ class PathFollower:
         start = self.path[int(np.flatnonzero(to_end >= min(_LAST, to_end[0]))[-1])]
         goal = self.path[-1]
         arrive = math.atan2(goal[1] - start[1], goal[0] - start[0])
-        return abs(wrap_angle(self.goal_yaw - arrive - math.pi)) <= cfg.rotate_in_place
+        if abs(wrap_angle(self.goal_yaw - arrive - math.pi)) > cfg.rotate_in_place:
+            return False
+        if obstacles is None or not len(obstacles):
+            return True
+        pts = np.asarray(obstacles, dtype=float).reshape(-1, 2)
+        if known is not None:
+            pts = pts[~np.asarray(known, dtype=bool)]
+        if not len(pts):
+            return True
+        seen = to_map(pose, pts)
+        now = np.hypot(seen[:, 0] - pose[0], seen[:, 1] - pose[1])
+        along = np.hypot(seen[:, None, 0] - self.path[None, :, 0],
+                         seen[:, None, 1] - self.path[None, :, 1]).min(axis=1)
+        return bool(np.all(along >= np.minimum(_BACK_CLEAR, now - _NEARER_BACK)))
 
     def _back_up(self, x: float, y: float, yaw: float, goal: np.ndarray, dist_goal: float,
                  obstacles: Optional[np.ndarray]) -> Optional[FollowerCommand]:
@@ -340,7 +360,8 @@ class PathFollower:
         self._index += int(np.argmin(d))
         if self._reverse is None:
             self._reverse = self._backs_up(x, y, yaw)
-            self._back_along = not self._reverse and self._backs_along()
+            self._back_along = not self._reverse and self._backs_along((x, y, yaw), obstacles,
+                                                                        known)
         if self._reverse and not self.no_reverse:
             back = self._back_up(x, y, yaw, goal, dist_goal, obstacles)
             if back is not None:
