@@ -165,11 +165,22 @@ def _bent(goal_yaw):
 def test_which_paths_are_backed_along(goal_yaw, backs):
     cmd = _bent(goal_yaw).compute((0.0, 0.0, 0.0))   # its back to the path's start
     assert (cmd.state == "reversing") == backs
-    if backs:   # the look-ahead point 0.6 m behind it, on the line: straight back
-        assert cmd.v < 0 and abs(cmd.w) < 1e-9
+    if backs:   # the look-ahead point 0.6 m behind it, on the line: straight back, at
+        assert cmd.v == -0.25 and abs(cmd.w) < 1e-9   # reverse_speed (max_linear 0.6)
     f = _bent(goal_yaw)
     f.config.reverse_path = 2.5   # shorter than the path
     assert f.compute((0.0, 0.0, 0.0)).state != "reversing"
+
+
+def test_the_way_a_path_arrives_is_its_last_metre():
+    # 1.5 m along -x, then 0.9 m along +y and a last 0.1 m step along -x: the last metre
+    # arrives at about 96 degrees (+y, a little -x), the last step at 180
+    path = np.vstack([np.linspace((0.0, 0.0), (-1.5, 0.0), 16)[:-1],
+                      np.linspace((-1.5, 0.0), (-1.5, 0.9), 10), [[-1.6, 0.9]]])
+    for goal_yaw, backs in ((-math.pi / 2, True), (0.0, False)):
+        f = PathFollower(FollowerConfig(reverse_path=3.0))
+        f.set_path(path, goal_yaw)
+        assert (f.compute((0.0, 0.0, 0.0)).state == "reversing") == backs
 
 
 def test_backing_along_a_path_turns_its_back_to_it_and_stops_for_a_point_behind():

@@ -246,7 +246,7 @@ class Navigator:
         before)."""
         cfg = self.config
         self.stalls += 1
-        backing = cmd.state == "reversing"   # to a goal behind (FollowerConfig.reverse_within)
+        backing = cmd.state == "reversing"   # FollowerConfig.reverse_within / reverse_path
         if backing:   # into something it cannot see: forward, by the plan, until the next goal
             self.follower.no_reverse = True
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])

@@ -54,8 +54,11 @@ class FollowerConfig:
             ``rotate_in_place`` of the path's last metre turned round (the robot arrives
             facing back the way it came), is reached backing up along the path: pure pursuit
             on the robot's back, at most ``reverse_speed``, after a turn on the spot that
-            points its back along the path. ``reverse_within`` decides first. 0 (the
-            default): never. For the observer that gives way round a corner or further than
+            points its back along the path; unless the path comes nearer than 1 m to a
+            point of the scan (at the first command for the path) off the map's walls that
+            the robot stands further from, which it could not see backing up (without a
+            scan, no such check). ``reverse_within`` decides first. 0 (the default): never.
+            For the observer that gives way round a corner or further than
             ``reverse_within``, its front to the target it gives way to.
         reverse_speed: the speed (m/s) of backing up.
     """
@@ -104,7 +107,8 @@ class FollowerCommand:
     """One control output: body velocities and the follower's state.
 
     ``state`` is ``following``, ``rotating`` (turning on the spot towards the path),
-    ``reversing`` (backing up to a goal close behind), ``aligning`` (at the goal, turning to
+    ``reversing`` (backing up: to a goal close behind, or along the path, see
+    ``FollowerConfig.reverse_within`` and ``reverse_path``), ``aligning`` (at the goal, turning to
     its heading), ``blocked`` (an obstacle ahead) or ``done``.
     """
 

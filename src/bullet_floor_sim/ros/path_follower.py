@@ -21,7 +21,8 @@ only after 20 s blocked: the walker, nav/navigator_config.NavigatorConfig), ``~r
 (m; > 0: a goal at most this far behind, on a straight way, that faces the robot's own way is
 reached backing up, nav/pursuit.FollowerConfig: demo.launch's observer, 2), ``~reverse_path`` 0
 (m; > 0: a goal at most this far along its path that faces back the way it arrives is reached
-backing along the path), ``~detour`` 10 and
+backing along the path, unless the path passes nearer than 1 m to something the scan shows off
+the map), ``~detour`` 10 and
 ``~detour_wait`` 10 (a way round what blocks it more than 10 m longer is taken only after
 10 s blocked; 0: at once), ``~goal_taken_within`` 1.5 (within this of its goal, with
 something not on the map standing on the goal for 1 s and no progress for 10 s, the goal is
