@@ -214,9 +214,10 @@ def test_the_study_runs_with_the_changed_observer():
 
 
 def test_the_observers_path_following_is_a_section_of_its_own():
-    from bullet_floor_sim.people.evaluation.scenario import OBSERVER_REVERSE
+    from bullet_floor_sim.people.evaluation.scenario import OBSERVER_REVERSE, OBSERVER_REVERSE_PATH
 
     assert choose_by_folds.shipped_default("drive.reverse_within") == OBSERVER_REVERSE
+    assert choose_by_folds.shipped_default("drive.reverse_path") == OBSERVER_REVERSE_PATH
     with pytest.raises(BulletFloorSimError, match="reverse_speed must be a finite number > 0"):
         eval_worlds.parse_sets(["drive.reverse_speed=0"])
     assert eval_worlds.parse_sets(["drive.side_margin=0"]) == {"drive": {"side_margin": "0"}}
@@ -230,6 +231,8 @@ def test_the_observers_path_following_is_a_section_of_its_own():
     # the study as shipped, its config built without eval_worlds
     with scenario(EvalConfig(legs=1, seed=1, world="simple")) as sc:
         assert sc.drive.nav.follower.config.reverse_within == OBSERVER_REVERSE
+        assert sc.drive.nav.follower.config.reverse_path == OBSERVER_REVERSE_PATH
+        assert sc.nav_walker.follower.config.reverse_path == 0.0
 
 
 def test_the_people_tracker_is_a_section_of_its_own():

@@ -103,9 +103,11 @@ def test_demo_builtin_and_auto():
     assert params["/robot2/people_tracker/pose_source"] == "ground_truth"
     assert params["/robot2/follower/pose_source"] == "ground_truth"
     # the observer backs up to give way as the study's does; the walker never backs up
-    from bullet_floor_sim.people.evaluation.scenario import OBSERVER_REVERSE
+    from bullet_floor_sim.people.evaluation.scenario import OBSERVER_REVERSE, OBSERVER_REVERSE_PATH
     assert float(params["/robot2/path_follower/reverse_within"]) == OBSERVER_REVERSE
+    assert float(params["/robot2/path_follower/reverse_path"]) == OBSERVER_REVERSE_PATH
     assert float(params.get("/robot1/path_follower/reverse_within", 0.0)) == 0.0
+    assert float(params.get("/robot1/path_follower/reverse_path", 0.0)) == 0.0
     nodes, _ = load("demo.launch", "nav:=builtin", "observe:=false")
     assert not any("people_tracker" in n or "follower" == n.rsplit("/", 1)[-1] for n in nodes)
     nodes, _ = load("demo.launch")  # nav:=auto: nav_bringup decides at run time

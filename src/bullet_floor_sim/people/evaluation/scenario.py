@@ -325,11 +325,14 @@ def study_tracker() -> TrackerConfig:
 #: The observer backs up to a goal this close behind it (FollowerConfig.reverse_within; as
 #: demo.launch's observer, ``~reverse_within``): it gives way facing the target.
 OBSERVER_REVERSE = 2.0
+#: ... and along a path this long to a goal that faces back the way there
+#: (FollowerConfig.reverse_path, ``~reverse_path``): round a corner too (docs/defaults.md).
+OBSERVER_REVERSE_PATH = 6.0
 
 
 def observer_follower() -> FollowerConfig:
     """The observer's path following as shipped (demo.launch's robot2 path_follower)."""
-    return FollowerConfig(reverse_within=OBSERVER_REVERSE)
+    return FollowerConfig(reverse_within=OBSERVER_REVERSE, reverse_path=OBSERVER_REVERSE_PATH)
 
 
 class ObserverDrive:
