@@ -12,13 +12,16 @@ import pytest
 from bullet_floor_sim.geometry import wrap_angle
 from bullet_floor_sim.nav.planner import (FollowerConfig, Navigator, NavigatorConfig,
                                           PathFollower, PlanningGrid, obstacles_in_base)
+from bullet_floor_sim.sim.floormap import map_from_grid
 from bullet_floor_sim.sim.world import World
 
 
-def _go(reverse_within: float, goal, other=None, reverse_path: float = 0.0):
+def _go(reverse_within: float, goal, other=None, reverse_path: float = 0.0,
+        resend: float = 0.0):
     """robot2 of the simple room ((3, 3), facing -x) driven to ``goal`` on the physics, its
-    scan given to its Navigator (robot1 moved to ``other`` first, when given): the end state
-    and pose, the largest turn off its first heading on the way, the least forward speed."""
+    scan given to its Navigator (robot1 moved to ``other`` first, when given; the goal sent
+    again every ``resend`` s, as the observer's follower does): the end state and pose, the
+    largest turn off its first heading on the way, the least forward speed."""
     world = World.from_name("simple", seed=1)
     try:
         if other is not None:
@@ -33,8 +36,13 @@ def _go(reverse_within: float, goal, other=None, reverse_path: float = 0.0):
         now, turned, least_v, obstacles = 0.0, 0.0, math.inf, None
         _go.messages = set()
         nav.start(world.view(1).pose, goal, now)
+        sent = now
         while now < 60.0:
             pose = world.view(1).pose
+            if resend and now - sent >= resend - 1e-9:
+                nav.start(pose, goal, now)
+                sent = now
+            _go.stalls = nav.stalls
             turned = max(turned, abs(wrap_angle(pose[2] - yaw0)))
             st = nav.update(pose, obstacles, now)
             _go.messages.add(st.message)
@@ -108,6 +116,31 @@ def test_backing_into_something_it_cannot_see_it_goes_forward_round_it():
     state, pose, turned, least_v = _go(2.0, (4.7, 3.0, math.pi), other=(4.0, 3.0, 0.0))
     assert state == "succeeded" and math.hypot(pose[0] - 4.7, pose[1] - 3.0) < 0.2
     assert least_v < 0 and turned > 2.5 and _go.no_reverse
+
+
+def test_a_goal_sent_again_is_not_backed_into_what_stalled_it_again():
+    # the same, the goal sent again every 4 s: each new goal backed into robot1 anew (28
+    # stalls in the minute); now it turns once backing up stalled there, and goes forward.
+    # (Each goal is planned on the map alone, through robot1, so it does not get there in
+    # the minute either way: blocked, it plans round after replan_after, then the goal comes
+    # again.)
+    state, pose, turned, least_v = _go(2.0, (4.7, 3.0, math.pi), other=(4.0, 3.0, 0.0),
+                                       resend=4.0)
+    assert least_v < 0 and turned > 2.5
+    assert 1 <= _go.stalls <= 6
+
+
+def test_a_robot_that_got_away_from_where_backing_up_stalled_backs_up_again():
+    g = np.zeros((60, 60), dtype=np.int8)   # a 6 m room, walls round it
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
+    nav = Navigator(PlanningGrid(map_from_grid(g, 0.1)),
+                    PathFollower(FollowerConfig(reverse_within=2.0)))
+    nav._backed_into = (3.0, 3.0)
+    nav.start((3.2, 3.0, math.pi), (4.2, 3.0, math.pi), 0.0)   # 0.2 m off: still held
+    assert nav.follower.no_reverse
+    nav.start((2.7, 3.0, math.pi), (3.7, 3.0, math.pi), 1.0)   # 0.3 m off: free again
+    assert not nav.follower.no_reverse and nav._backed_into is None
+    assert nav.update((2.7, 3.0, math.pi), None, 1.1).message == "reversing"
 
 
 def test_a_way_past_a_wall_or_round_something_is_not_backed_up():

@@ -39,6 +39,10 @@ _GOAL_MARGIN = 0.1
 #: person crossing it)
 _TAKEN_FOR = 1.0
 _MAX_REBASES = 20   # new plans a goal whose length restarts the progress count
+#: m: a robot that stalled backing up (into what its scan does not show behind it) does not
+#: back up again, for any goal, until it is this far from where it stalled (the move a
+#: stall must make to count as getting free, below)
+_STUCK_MOVE = 0.25
 
 
 def _ahead(pose: Sequence[float], world: np.ndarray) -> bool:
@@ -92,6 +96,7 @@ class Navigator:
         self._wait_for = self.config.give_way_wait  # at the place it retreats to
         self._axis: Optional[np.ndarray] = None   # nav/passing.narrow_axis, on first need
         self._taken_since: Optional[float] = None  # something stands on the goal since then
+        self._backed_into: Optional[Tuple[float, float]] = None  # where backing up stalled
 
     @property
     def path(self) -> np.ndarray:
@@ -113,7 +118,7 @@ class Navigator:
         path = self.grid.plan(pose, goal)
         self.goal = (float(goal[0]), float(goal[1]), None if yaw is None else float(yaw))
         self.follower.set_path(path, self.goal[2])
-        self.follower.no_reverse = False
+        self.follower.no_reverse = self._held_back(pose)
         self.replans = 0
         self._blocked_since = None
         self._blocked_total = 0.0
@@ -236,6 +241,16 @@ class Navigator:
                                % (now - self._best_t, cmd.distance_to_goal), cmd)
         return NavStatus(cmd.v, cmd.w, "active", cmd.state, cmd.distance_to_goal)
 
+    def _held_back(self, pose: Sequence[float]) -> bool:
+        """Whether a new goal is followed forwards only: backing up stalled within
+        _STUCK_MOVE of ``pose`` (what it backed into may still be there: a goal sent again
+        every 4 s, each backed into it anew, stalled 28 times a minute)."""
+        spot = self._backed_into
+        if spot is not None and math.hypot(float(pose[0]) - spot[0],
+                                           float(pose[1]) - spot[1]) > _STUCK_MOVE:
+            self._backed_into = spot = None
+        return spot is not None
+
     def _on_stall(self, pose: Sequence[float], obstacles: Optional[np.ndarray], now: float,
                   cmd: FollowerCommand) -> NavStatus:
         """Stalled: plan again around what the scan shows; stalled again soon after (it cannot
@@ -247,11 +262,12 @@ class Navigator:
         cfg = self.config
         self.stalls += 1
         backing = cmd.state == "reversing"   # FollowerConfig.reverse_within / reverse_path
-        if backing:   # into something it cannot see: forward, by the plan, until the next goal
-            self.follower.no_reverse = True
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+        if backing:   # into something it cannot see: forward, by the plan, until it got away
+            self.follower.no_reverse = True
+            self._backed_into = (x, y)
         st = self._stuck
-        if st is None or math.hypot(x - st[1], y - st[2]) > 0.25 \
+        if st is None or math.hypot(x - st[1], y - st[2]) > _STUCK_MOVE \
                 or abs(wrap_angle(yaw - st[3])) > 0.3:
             self._stuck = (now, x, y, yaw)
         elif now - st[0] > cfg.blocked_timeout:
