@@ -34,7 +34,7 @@ def _go(reverse_within: float, goal, other=None, reverse_path: float = 0.0,
         lp = (lp[0], lp[1], lp[3])   # (x, y, yaw) of the laser in base_footprint
         yaw0 = world.view(1).pose[2]
         now, turned, least_v, obstacles = 0.0, 0.0, math.inf, None
-        _go.messages = set()
+        _go.messages, _go.after_stall = set(), set()
         nav.start(world.view(1).pose, goal, now)
         sent = now
         while now < 60.0:
@@ -46,6 +46,8 @@ def _go(reverse_within: float, goal, other=None, reverse_path: float = 0.0,
             turned = max(turned, abs(wrap_angle(pose[2] - yaw0)))
             st = nav.update(pose, obstacles, now)
             _go.messages.add(st.message)
+            if nav.stalls:
+                _go.after_stall.add(st.message)
             if st.state != "active":
                 _go.no_reverse = nav.follower.no_reverse   # backing up given up on the way
                 return st.state, world.view(1).pose, turned, least_v
@@ -120,14 +122,15 @@ def test_backing_into_something_it_cannot_see_it_goes_forward_round_it():
 
 def test_a_goal_sent_again_is_not_backed_into_what_stalled_it_again():
     # the same, the goal sent again every 4 s: each new goal backed into robot1 anew (28
-    # stalls in the minute); now it turns once backing up stalled there, and goes forward.
+    # stalls in the minute); now it turns once backing up stalled there, and backs up no
+    # more.
     # (Each goal is planned on the map alone, through robot1, so it does not get there in
     # the minute either way: blocked, it plans round after replan_after, then the goal comes
     # again.)
     state, pose, turned, least_v = _go(2.0, (4.7, 3.0, math.pi), other=(4.0, 3.0, 0.0),
                                        resend=4.0)
     assert least_v < 0 and turned > 2.5
-    assert 1 <= _go.stalls <= 6
+    assert 1 <= _go.stalls <= 6 and "reversing" not in _go.after_stall
 
 
 def test_a_robot_that_got_away_from_where_backing_up_stalled_backs_up_again():
@@ -135,11 +138,18 @@ def test_a_robot_that_got_away_from_where_backing_up_stalled_backs_up_again():
     g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = 100
     nav = Navigator(PlanningGrid(map_from_grid(g, 0.1)),
                     PathFollower(FollowerConfig(reverse_within=2.0)))
-    nav._backed_into = (3.0, 3.0)
+    nav.backed_into = (3.0, 3.0)
     nav.start((3.2, 3.0, math.pi), (4.2, 3.0, math.pi), 0.0)   # 0.2 m off: still held
     assert nav.follower.no_reverse
+    # a node's Navigator for the next goal (path_follower makes one a goal) takes it on
+    then = Navigator(nav.grid, PathFollower(FollowerConfig(reverse_within=2.0)), after=nav)
+    then.start((3.2, 3.0, math.pi), (4.2, 3.0, math.pi), 0.0)
+    assert then.follower.no_reverse
+    fresh = Navigator(nav.grid, PathFollower(FollowerConfig(reverse_within=2.0)))
+    fresh.start((3.2, 3.0, math.pi), (4.2, 3.0, math.pi), 0.0)
+    assert not fresh.follower.no_reverse
     nav.start((2.7, 3.0, math.pi), (3.7, 3.0, math.pi), 1.0)   # 0.3 m off: free again
-    assert not nav.follower.no_reverse and nav._backed_into is None
+    assert not nav.follower.no_reverse and nav.backed_into is None
     assert nav.update((2.7, 3.0, math.pi), None, 1.1).message == "reversing"
 
 

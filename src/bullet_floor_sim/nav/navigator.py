@@ -39,9 +39,9 @@ _GOAL_MARGIN = 0.1
 #: person crossing it)
 _TAKEN_FOR = 1.0
 _MAX_REBASES = 20   # new plans a goal whose length restarts the progress count
-#: m: a robot that stalled backing up (into what its scan does not show behind it) does not
-#: back up again, for any goal, until it is this far from where it stalled (the move a
-#: stall must make to count as getting free, below)
+#: m: a robot that stalled backing up (into what its scan does not show behind it) backs up
+#: no more that goal, nor any goal it starts within this distance of where it stalled (the
+#: move a stall must make to count as getting free, below)
 _STUCK_MOVE = 0.25
 
 
@@ -60,10 +60,14 @@ class Navigator:
         grid: the planning grid.
         follower: the pure-pursuit controller.
         config: recovery parameters.
+        after: the Navigator of the goal before, for a node that makes one a goal
+            (ros/path_follower.py): where its backing up stalled carries over, as it does
+            for one Navigator given goal after goal (the study's).
     """
 
     def __init__(self, grid: PlanningGrid, follower: Optional[PathFollower] = None,
-                 config: Optional[NavigatorConfig] = None) -> None:
+                 config: Optional[NavigatorConfig] = None,
+                 after: Optional["Navigator"] = None) -> None:
         self.grid = grid
         self.follower = follower or PathFollower()
         self.follower.clearance = grid.clearance_along
@@ -96,7 +100,9 @@ class Navigator:
         self._wait_for = self.config.give_way_wait  # at the place it retreats to
         self._axis: Optional[np.ndarray] = None   # nav/passing.narrow_axis, on first need
         self._taken_since: Optional[float] = None  # something stands on the goal since then
-        self._backed_into: Optional[Tuple[float, float]] = None  # where backing up stalled
+        #: where backing up last stalled (x, y), kept while goals start near it
+        self.backed_into: Optional[Tuple[float, float]] = (None if after is None
+                                                            else after.backed_into)
 
     @property
     def path(self) -> np.ndarray:
@@ -243,12 +249,12 @@ class Navigator:
 
     def _held_back(self, pose: Sequence[float]) -> bool:
         """Whether a new goal is followed forwards only: backing up stalled within
-        _STUCK_MOVE of ``pose`` (what it backed into may still be there: a goal sent again
-        every 4 s, each backed into it anew, stalled 28 times a minute)."""
-        spot = self._backed_into
+        _STUCK_MOVE of ``pose`` (what it backed into may still be there: the same goal sent
+        every 2 or 4 s, each backed into it anew, stalled 28-29 times a minute)."""
+        spot = self.backed_into
         if spot is not None and math.hypot(float(pose[0]) - spot[0],
                                            float(pose[1]) - spot[1]) > _STUCK_MOVE:
-            self._backed_into = spot = None
+            self.backed_into = spot = None
         return spot is not None
 
     def _on_stall(self, pose: Sequence[float], obstacles: Optional[np.ndarray], now: float,
@@ -263,9 +269,9 @@ class Navigator:
         self.stalls += 1
         backing = cmd.state == "reversing"   # FollowerConfig.reverse_within / reverse_path
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
-        if backing:   # into something it cannot see: forward, by the plan, until it got away
+        if backing:   # into something it cannot see: forward, by the plan (_held_back)
             self.follower.no_reverse = True
-            self._backed_into = (x, y)
+            self.backed_into = (x, y)
         st = self._stuck
         if st is None or math.hypot(x - st[1], y - st[2]) > _STUCK_MOVE \
                 or abs(wrap_angle(yaw - st[3])) > 0.3:

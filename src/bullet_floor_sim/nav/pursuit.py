@@ -133,7 +133,8 @@ class PathFollower:
         self._aligning = False
         self._reverse: Optional[bool] = None   # backing up to this path's goal (decided once)
         self._back_along = False   # ... along the path (reverse_path), decided with it
-        # no backing up until the next goal (the Navigator's start): it stalled doing so
+        # no backing up: it stalled doing so (the Navigator sets it for the goal, and for
+        # each new goal that starts within 0.25 m of where that stall was)
         self.no_reverse = False
         # wall clearance (m) at map-frame points (N, 2) (the Navigator gives its grid's): the
         # look-ahead chord then never runs nearer a wall than the path itself does

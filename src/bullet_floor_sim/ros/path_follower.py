@@ -130,6 +130,7 @@ class PathFollowerNode:
         self.rate_hz = p.controller_frequency
         self.global_frame = p.global_frame
         self.grid: Optional[PlanningGrid] = None
+        self._last_nav: Optional[Navigator] = None   # the last goal's
         self.pose = None  # (x, y, yaw) in map
         self.base_frame = ""
         self.obstacles: Optional[np.ndarray] = None
@@ -278,7 +279,9 @@ class PathFollowerNode:
                                         "(is the simulator running and /map published?)")
                 return
             rospy.sleep(0.1)
-        nav = Navigator(self.grid, PathFollower(self.follower_cfg), self.nav_cfg)
+        nav = Navigator(self.grid, PathFollower(self.follower_cfg), self.nav_cfg,
+                        after=self._last_nav)
+        self._last_nav = nav
         t0 = rospy.Time.now()
         try:
             target = self._goal_in_map(goal.target_pose)
