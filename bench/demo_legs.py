@@ -108,6 +108,7 @@ def run_world(world: str, n: int, rtf: float, seed: int, timeout: float, port: i
     """One demo run until ``n`` legs have ended (or ``timeout`` wall seconds), with
     ``people`` people (-1: as the world file says); every ``memory_every`` wall seconds
     (0: never) a line of each node's resident memory."""
+    label = world_label(world)   # a corpus world's name, where ``world`` is its path
     home = tempfile.mkdtemp(prefix="bfs_demo_legs_")
     log = open(os.path.join(home, "launch.log"), "w")
     env = dict(os.environ, ROS_HOME=home, ROS_MASTER_URI="http://127.0.0.1:%d" % port)
@@ -134,12 +135,12 @@ def run_world(world: str, n: int, rtf: float, seed: int, timeout: float, port: i
                 usage.take()
             if memory_every > 0 and now >= next_memory:
                 next_memory = now + memory_every
-                print("  %s: memory at %.0f s: %s" % (world, now - t0, ", ".join(
+                print("  %s: memory at %.0f s: %s" % (label, now - t0, ", ".join(
                     "%s %.0f MB" % (k, v[1]) for k, v in sorted(usage.samples[-1][1].items()))),
                     file=sys.stderr, flush=True)
             if now - last > 30.0:
                 last = now
-                print("  %s: %d/%d legs" % (world, done, n), file=sys.stderr, flush=True)
+                print("  %s: %d/%d legs" % (label, done, n), file=sys.stderr, flush=True)
             time.sleep(1.0)
         ended = proc.poll()        # demo.launch stopped by itself (a required node died)
         usage.take()
@@ -155,10 +156,10 @@ def run_world(world: str, n: int, rtf: float, seed: int, timeout: float, port: i
         out["ended"] = "demo.launch ended (exit code %d) after %d of %d legs: %s" % (
             ended, len(got), n, _why_ended(os.path.join(home, "launch.log")))
     kept = os.path.join(tempfile.gettempdir(),  # one name per run, so runs can go side by side
-                        "bfs_demo_legs_%s_rtf%g_seed%d.log" % (world_label(world), rtf, seed))
+                        "bfs_demo_legs_%s_rtf%g_seed%d.log" % (label, rtf, seed))
     shutil.move(os.path.join(home, "launch.log"), kept)  # the nodes' output, for a look
     shutil.rmtree(home, ignore_errors=True)
-    print("  %s: the nodes' output is in %s" % (world, kept), file=sys.stderr)
+    print("  %s: the nodes' output is in %s" % (label, kept), file=sys.stderr)
     return out
 
 
@@ -221,8 +222,8 @@ def main() -> int:
         _listen(port, "robot1", legs)
         for w in worlds:
             current = world_label(w)
-            print("== %s: demo.launch rtf:=%g, %d legs, seed %d" % (w, args.rtf, args.legs,
-                                                                      args.seed),
+            print("== %s: demo.launch rtf:=%g, %d legs, seed %d%s" % (
+                current, args.rtf, args.legs, args.seed, "" if current == w else " (%s)" % w),
                   file=sys.stderr, flush=True)
             rows.append(run_world(w, args.legs, args.rtf, args.seed, args.timeout, port, legs,
                                   args.people, args.memory_every))
