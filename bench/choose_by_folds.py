@@ -17,6 +17,10 @@ Each world is checked before any run (eval_worlds.py's map check); for a ``clean
 ``planner`` field, with each value too: a world that any value makes refuse is left out of
 every value's runs, with a note (a world named with ``--worlds`` stops it instead).
 
+With ``--together`` the arguments are ``SECTION.FIELD=VALUE`` changes, tried as one
+candidate (all at once, labelled ``together``) against the shipped defaults: the folds then
+say whether the change as a whole holds on each world left out.
+
 The runs' EVAL lines are kept in ``--out DIR`` (default: one directory per commit under
 ~/.ros/bullet_floor_sim/folds; one file per value, a line as each task ends): a run cut
 short, or run again with more values or seeds, runs only what is missing. The default's
@@ -202,13 +206,15 @@ def main() -> int:
                    help="the default's runs done now also keep their moments in DIR, as "
                         "eval_worlds.py --save does (for choose_prediction.py and "
                         "calibrate_prediction.py --cache): one run serves both folds")
+    p.add_argument("--together", action="store_true",
+                   help="the arguments are SECTION.FIELD=VALUE changes, tried as one "
+                        "candidate (all at once) against the shipped defaults")
     args = p.parse_args()
-    section, _, field = args.param.partition(".")
     if not 0.0 <= args.max_given_up <= 1.0:
         p.error("--max-given-up must be a share in [0, 1], got %g" % args.max_given_up)
     try:
-        default = shipped_default(args.param)
-        values = candidates(args.param, args.values, default)
+        tries = (together([args.param] + args.values) if args.together
+                 else one_field(args.param, args.values))
     except BulletFloorSimError as e:
         p.error(str(e))
     out = args.out or os.path.join(os.environ.get("ROS_HOME", os.path.expanduser("~/.ros")),
@@ -216,31 +222,64 @@ def main() -> int:
     os.makedirs(out, exist_ok=True)
     worlds, notes = eval_worlds.checked(args.worlds or eval_worlds.shipped(),
                                         bool(args.worlds), False)
-    if section in MAP_SECTIONS:   # each value's map check too: the folds need the same worlds
-        for v in values:
-            worlds, more = eval_worlds.checked(worlds, bool(args.worlds), False,
-                                               {section: {field: v}})
-            notes += ["%s=%s: %s" % (args.param, v, n) for n in more]
+    for label, sets, name in tries[1:]:   # each candidate's map check too: the same worlds
+        if set(sets) & set(MAP_SECTIONS):
+            worlds, more = eval_worlds.checked(worlds, bool(args.worlds), False, sets)
+            notes += ["%s: %s" % (name, n) for n in more]
     for n in notes:
         print("note: %s" % n, file=sys.stderr, flush=True)
     names = [world_label(w) for w in worlds]
     if len(set(names)) < 2 or len(set(names)) < len(names):
         p.error("the folds need two worlds or more, each once (got: %s)" % " ".join(names))
-    labels = ["%r (default)" % default] + values
+    labels = [label for label, _, _ in tries]
     runs = {}
-    for label in labels:
-        value = label.split()[0]
-        sets = {} if label.endswith("(default)") else {section: {field: value}}
-        name = "default" if not sets else "%s=%s" % (args.param, value)
+    for label, sets, name in tries:
         runs[label] = run_value(os.path.join(out, name + ".log"), sets, worlds, args.seed,
                                 args.legs, args.workers, "" if sets else args.save)
+    what = (" ".join([args.param] + args.values) + " together" if args.together
+            else args.param)
     print("%s, %d legs, seed(s) %s; each fold keeps the value with the best mean %s on the "
           "other worlds, of those that gave up at most %g %% of the legs there\n"
-          % (args.param, args.legs, " ".join(map(str, args.seed)), args.score,
+          % (what, args.legs, " ".join(map(str, args.seed)), args.score,
              100 * args.max_given_up))
     for line in table(runs, labels, names, args.seed, args.score, args.max_given_up):
         print(line)
     return 0
+
+
+Try = Tuple[str, Dict[str, Dict[str, str]], str]   # label, --set changes, log file's name
+
+
+def one_field(param: str, values: List[str]) -> List[Try]:
+    """The shipped default and each candidate value of ``param`` (SECTION.FIELD), as
+    (label, changes, log name) with the default first.
+
+    Raises:
+        BulletFloorSimError: a bad field or value, or no value beside the default.
+    """
+    section, _, field = param.partition(".")
+    default = shipped_default(param)
+    return ([("%r (default)" % default, {}, "default")]
+            + [(v, {section: {field: v}}, "%s=%s" % (param, v))
+               for v in candidates(param, values, default)])
+
+
+def together(items: List[str]) -> List[Try]:
+    """The shipped defaults and one candidate that makes every change of ``items``
+    (``SECTION.FIELD=VALUE`` each, checked) at once, labelled ``together``.
+
+    Raises:
+        BulletFloorSimError: a bad item, or one that sets a field to its shipped default.
+    """
+    sets = eval_worlds.parse_sets(items)
+    for item in items:
+        key, _, value = (part.strip() for part in item.partition("="))
+        default = shipped_default(key)
+        if convert(key, value, default) == default:
+            raise BulletFloorSimError("--together %s: %s is already the shipped default"
+                                      % (item, key))
+    name = "together_" + ",".join(sorted(i.replace(" ", "") for i in items))
+    return [("default", {}, "default"), ("together", sets, name)]
 
 
 def candidates(param: str, values: List[str], default: object) -> List[str]:

@@ -157,6 +157,34 @@ def test_candidates_drop_repeats_and_the_default():
     assert choose_by_folds.shipped_default("follow.pass_detour") == FollowConfig().pass_detour
 
 
+def test_changes_together_are_one_candidate_beside_the_shipped_defaults():
+    tries = choose_by_folds.together(["drive.side_margin=0", "follow.pass_detour = 3"])
+    assert [label for label, _, _ in tries] == ["default", "together"]
+    assert tries[0][1] == {} and tries[0][2] == "default"
+    # both changes at once, and a log of their own whatever order they are given in
+    assert tries[1][1] == {"drive": {"side_margin": "0"}, "follow": {"pass_detour": "3"}}
+    assert tries[1][2] == "together_drive.side_margin=0,follow.pass_detour=3"
+    again = choose_by_folds.together(["follow.pass_detour=3", "drive.side_margin=0"])
+    assert again[1][2] == tries[1][2]
+
+
+def test_a_change_together_that_is_the_shipped_default_is_refused():
+    default = FollowConfig().pass_detour
+    with pytest.raises(BulletFloorSimError,
+                       match="follow.pass_detour is already the shipped default"):
+        choose_by_folds.together(["drive.side_margin=0", "follow.pass_detour=%r" % default])
+    with pytest.raises(BulletFloorSimError, match="no section 'nope'"):
+        choose_by_folds.together(["nope.x=1"])
+
+
+def test_one_field_labels_the_default_and_each_value():
+    tries = choose_by_folds.one_field("follow.pass_detour", ["1", "1.0", "3"])
+    default = FollowConfig().pass_detour
+    assert tries == [("%r (default)" % default, {}, "default"),
+                     ("1", {"follow": {"pass_detour": "1"}}, "follow.pass_detour=1"),
+                     ("3", {"follow": {"pass_detour": "3"}}, "follow.pass_detour=3")]
+
+
 def test_a_set_change_reaches_the_config_converted_and_checked():
     sets = eval_worlds.parse_sets(["follow.pass_detour=1", "prediction.beta=5"])
     cfg = eval_worlds.eval_config("office", 3, 4, False, sets)
