@@ -496,6 +496,88 @@ def test_after_its_rounds_a_search_takes_the_other_regions_once_each_then_patrol
     assert "patrolling" in [r for r, _ in goals if "searching" in r or "patrolling" in r][4]
 
 
+def test_after_patrol_return_seconds_of_patrol_the_search_goes_back_to_the_plan():
+    """With patrol_return 10 s: the plan (region 7 twice, 4, 5), patrol places for 10 s, the
+    plan again from region 7, patrol again, ...; with 0 the patrol goes on for good."""
+    grid = hall(12.0, 4.0)
+    plan = SearchPlan([("7", (10.0, 2.0)), ("4", (1.0, 1.0)), ("5", (6.0, 3.0))], likely=1)
+    cfg = FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=2, trail=0.0,
+                       patrol_sight=0.0, patrol_return=10.0)
+    fb = FollowBehaviour(grid, cfg)
+    fb.update(0.0, (2.0, 2.0, 0.0), (6.0, 2.0, 0.0, 0.0))
+    t, robot, sent = 2.0, (2.0, 2.0, 0.0), []   # (time, reason, (x, y)) of each place
+    d = fb.update(t, robot, None, plan)
+    for _ in range(80):
+        if d.goal is not None and "looking round" not in d.reason:
+            sent.append((t, d.reason, d.goal[:2]))
+        if d.goal is not None:
+            robot = d.goal
+        t += 1.5
+        d = fb.update(t, robot, None, plan, goal_done=d.goal is not None)
+    kinds = ["patrol" if "patrolling" in r else "plan" if "region" in r else r
+             for _, r, _ in sent]
+    back = [i for i, (_, r, _) in enumerate(sent) if "back to the likely regions" in r]
+    assert len(back) >= 2, kinds
+    first_patrol = kinds.index("patrol")
+    assert [g for _, _, g in sent[:first_patrol]] == [
+        (10.0, 2.0), (10.0, 2.0), (1.0, 1.0), (6.0, 3.0)]
+    # back at region 7 once the place after 10 s of patrol is due, the whole plan again
+    assert sent[back[0]][2] == (10.0, 2.0) and "region 7 (1 of 3)" in sent[back[0]][1]
+    assert sent[back[0] - 1][0] - sent[first_patrol][0] < 10.0 <= (
+        sent[back[0]][0] - sent[first_patrol][0])
+    assert [g for _, _, g in sent[back[0]:back[0] + 4]] == [
+        (10.0, 2.0), (10.0, 2.0), (1.0, 1.0), (6.0, 3.0)]
+    assert kinds[back[0] + 4] == "patrol"
+    # off: the plan once, then only the patrol
+    cfg.patrol_return = 0.0
+    goals = lost_and_searching(FollowBehaviour(grid, cfg), plan, ticks=80)
+    went = [r for r, _ in goals if "searching" in r or "patrolling" in r]
+    assert sum("searching" in r for r in went) == 4 and len(went) > 12
+
+
+def test_a_return_to_the_plan_goes_on_to_the_next_hub_afterwards():
+    """With watches, each patrol after a return to the plan starts at the next hub (three in
+    a 30 m corridor), not at the first again."""
+    grid = hall(30.0, 3.0)
+    cfg = FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=2, trail=0.0,
+                       patrol_sight=0.0, watch=4.0, patrol_return=6.0)
+    goals = lost_and_searching(FollowBehaviour(grid, cfg), [("7", (28.0, 1.5))], ticks=120)
+    hubs = [r.split("(hub ")[1].rstrip(")") for r, _ in goals if "(hub " in r]
+    returns = [r for r, _ in goals if "back to the likely regions" in r]
+    assert hubs[:3] == ["1 of 3", "2 of 3", "3 of 3"] and len(returns) >= 3
+    assert hubs[3] == "1 of 3"
+
+
+def test_a_target_seen_again_and_lost_again_gets_the_whole_plan_first():
+    """After a return to the plan and patrol, the target is seen, then lost again: the new
+    search takes the plan's regions in order (two rounds of the likely one), not back at
+    once."""
+    grid = hall(12.0, 4.0)
+    plan = SearchPlan([("7", (10.0, 2.0)), ("4", (1.0, 1.0)), ("5", (6.0, 3.0))], likely=1)
+    cfg = FollowConfig(lost_after=1.0, search_wait=1.0, search_rounds=2, trail=0.0,
+                       patrol_sight=0.0, patrol_return=10.0)
+    fb = FollowBehaviour(grid, cfg)
+    lost_and_searching(fb, plan, ticks=36)     # searched, patrolled, back, patrolling
+    assert fb._patrol_since is not None
+    robot = (6.0, 2.0, 0.0)
+    fb.update(100.0, robot, (8.0, 2.0, 0.0, 0.0), plan)          # seen again
+    t, d, sent = 102.0, fb.update(102.0, robot, None, plan), []   # lost again
+    for _ in range(14):   # (first it looks back where the target was lost, close by)
+        if d.goal is not None and "region" in d.reason and "looking round" not in d.reason:
+            sent.append((d.reason, d.goal[:2]))
+        if d.goal is not None:
+            robot = d.goal
+        t += 1.5
+        d = fb.update(t, robot, None, plan, goal_done=d.goal is not None)
+    assert [g for _, g in sent[:4]] == [(10.0, 2.0), (10.0, 2.0), (1.0, 1.0), (6.0, 3.0)]
+    assert not any("back to the likely regions" in r for r, _ in sent[:4])
+
+
+def test_patrol_return_must_be_a_number_at_least_zero():
+    with pytest.raises(FollowError, match="patrol_return"):
+        FollowConfig(patrol_return=-1.0).check()
+
+
 def test_search_plan_with_the_rest_ranks_every_region_and_counts_the_likely():
     probs = {"1": 0.02, "2": 0.5, "3": 0.3, "4": 0.1, "5": 0.08}
     goals = {"2": [(0.0, 0.0), (5.0, 5.0)], "3": [(1.0, 1.0)], "5": [(9.0, 9.0)]}

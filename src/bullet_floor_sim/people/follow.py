@@ -65,7 +65,8 @@ them to ``<robot>/move_base`` and the evaluation sends them to the embedded navi
   ``search_rounds`` rounds, each other region of the plan once, most likely first, and then
   the patrol (with ``watch`` set, by turns with watches at the building's hubs: the places
   most ways across it pass, :func:`hub_points`; it looks round there for ``watch`` seconds,
-  then patrols as long, then watches at the next hub); a track seen again ends the search.
+  then patrols as long, then watches at the next hub; with ``patrol_return`` set, after
+  that long on patrol the plan again, and so on); a track seen again ends the search.
   (Looking in one region only, the observer sat for good where the walker was not: a
   fifth of a 200-leg evaluation. Patrolling nearest first straight after the likely
   regions, it went the length of office while the walker dwelt in a room 6 m from where it
@@ -132,6 +133,7 @@ class FollowBehaviour(GiveWayRules, SearchRules):
         # after the plan: ("watch" | "patrol", hub index, until when; None: not begun)
         self._watch: Optional[Tuple[str, int, Optional[float]]] = None
         self._hubs: Optional[np.ndarray] = None
+        self._patrol_since: Optional[float] = None   # when the patrol after the plan began
         self._search_since = -math.inf
         # (target x, y, time, destinations) of self._route
         self._route_key: Optional[Tuple[float, float, float, List[Tuple[float, float]]]] = None

@@ -42,6 +42,7 @@ class SearchRules:
     _search_phase: str
     _watch: Optional[Tuple[str, int, Optional[float]]]
     _hubs: Optional[np.ndarray]
+    _patrol_since: Optional[float]
     _search_since: float
     _last_velocity: Tuple[float, float]
     _looked: bool
@@ -80,7 +81,7 @@ class SearchRules:
             first_loss = self.mode != "search"
             self.mode, self._search, self._search_index, self._rounds = "search", plan, 0, 0
             self._unreached = 0
-            self._tour.goal, self._watch = None, None
+            self._tour.goal, self._watch, self._patrol_since = None, None, None
             lx, ly = self.last_target if self.last_target is not None else (rx, ry)
             # lost close by and behind: turned to where there is room to turn, else trailed
             # or looked at from a roomy place near by, else turned to (an octagonal base
@@ -214,10 +215,18 @@ class SearchRules:
     def _search_next(self, t: float, robot: Sequence[float]) -> FollowDecision:
         """On from a region searched in vain: the next likely one, round after round, for
         ``search_rounds`` rounds; then each other region of the plan once, most likely
-        first; then the patrol and the watches (:meth:`_patrol_or_watch`)."""
+        first; then the patrol and the watches (:meth:`_patrol_or_watch`), and after
+        ``patrol_return`` seconds of them the plan again from its most likely region."""
         cfg, plan = self.config, self._search
         rx, ry = float(robot[0]), float(robot[1])
         likely = max(1, plan.likely)
+        if (cfg.patrol_return > 0 and self._patrol_since is not None
+                and t - self._patrol_since >= cfg.patrol_return):
+            self._search_index, self._rounds, self._patrol_since = 0, 0, None
+            if self._watch is not None:   # the next patrol goes on to the next hub
+                self._watch = ("patrol", self._watch[1], -math.inf)
+            return self._search_go(rx, ry, "not found on %g s of patrol: back to the likely "
+                                   "regions, region" % cfg.patrol_return)
         if self._rounds < cfg.search_rounds:
             self._search_index = (self._search_index + 1) % likely
             self._rounds += 1 if self._search_index == 0 else 0
@@ -228,6 +237,8 @@ class SearchRules:
             self._search_index += 1
             return self._search_go(rx, ry, "not found in %d rounds of its likely regions: "
                                    "searching the next likeliest, region" % self._rounds)
+        if self._patrol_since is None:
+            self._patrol_since = t
         return self._patrol_or_watch(t, robot)
 
     def _patrol_or_watch(self, t: float, robot: Sequence[float]) -> FollowDecision:
