@@ -186,8 +186,10 @@ def table(runs: Dict[str, Dict[Tuple[str, int], dict]], labels: List[str], world
 
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("param", help="SECTION.FIELD, as eval_worlds.py --set takes it")
-    p.add_argument("values", nargs="+", help="the candidates beside the shipped default")
+    p.add_argument("param", help="SECTION.FIELD, as eval_worlds.py --set takes it (with "
+                                 "--together, the first SECTION.FIELD=VALUE change)")
+    p.add_argument("values", nargs="*", help="the candidates beside the shipped default (with "
+                                             "--together, the other changes)")
     p.add_argument("--legs", type=int, default=100)
     p.add_argument("--seed", type=int, nargs="+", default=[12])
     p.add_argument("--worlds", nargs="*", default=None,
@@ -210,6 +212,8 @@ def main() -> int:
                    help="the arguments are SECTION.FIELD=VALUE changes, tried as one "
                         "candidate (all at once) against the shipped defaults")
     args = p.parse_args()
+    if not (args.values or args.together):
+        p.error("no value to try beside the shipped default of %s" % args.param)
     if not 0.0 <= args.max_given_up <= 1.0:
         p.error("--max-given-up must be a share in [0, 1], got %g" % args.max_given_up)
     try:
