@@ -158,13 +158,13 @@ def test_candidates_drop_repeats_and_the_default():
 
 
 def test_changes_together_are_one_candidate_beside_the_shipped_defaults():
-    tries = choose_by_folds.together(["drive.side_margin=0", "follow.pass_detour = 3"])
+    tries = choose_by_folds.together(["drive.lookahead=0.8", "follow.pass_detour = 3"])
     assert [label for label, _, _ in tries] == ["default", "together"]
     assert tries[0][1] == {} and tries[0][2] == "default"
     # both changes at once, and a log of their own whatever order they are given in
-    assert tries[1][1] == {"drive": {"side_margin": "0"}, "follow": {"pass_detour": "3"}}
-    assert tries[1][2] == "together_drive.side_margin=0,follow.pass_detour=3"
-    again = choose_by_folds.together(["follow.pass_detour=3", "drive.side_margin=0"])
+    assert tries[1][1] == {"drive": {"lookahead": "0.8"}, "follow": {"pass_detour": "3"}}
+    assert tries[1][2] == "together_drive.lookahead=0.8,follow.pass_detour=3"
+    again = choose_by_folds.together(["follow.pass_detour=3", "drive.lookahead=0.8"])
     assert again[1][2] == tries[1][2]
 
 
@@ -172,7 +172,7 @@ def test_a_change_together_that_is_the_shipped_default_is_refused():
     default = FollowConfig().pass_detour
     with pytest.raises(BulletFloorSimError,
                        match="follow.pass_detour is already the shipped default"):
-        choose_by_folds.together(["drive.side_margin=0", "follow.pass_detour=%r" % default])
+        choose_by_folds.together(["drive.lookahead=0.8", "follow.pass_detour=%r" % default])
     with pytest.raises(BulletFloorSimError, match="no section 'nope'"):
         choose_by_folds.together(["nope.x=1"])
 
@@ -248,7 +248,7 @@ def test_the_observers_path_following_is_a_section_of_its_own():
     assert choose_by_folds.shipped_default("drive.reverse_path") == OBSERVER_REVERSE_PATH
     with pytest.raises(BulletFloorSimError, match="reverse_speed must be a finite number > 0"):
         eval_worlds.parse_sets(["drive.reverse_speed=0"])
-    assert eval_worlds.parse_sets(["drive.side_margin=0"]) == {"drive": {"side_margin": "0"}}
+    assert eval_worlds.parse_sets(["drive.lookahead=0.8"]) == {"drive": {"lookahead": "0.8"}}
     with pytest.raises(BulletFloorSimError, match="reverse_within must be a finite number >= 0"):
         eval_worlds.parse_sets(["drive.reverse_within=-1"])
     cfg = eval_worlds.eval_config("simple", 1, 1, False,
@@ -261,6 +261,14 @@ def test_the_observers_path_following_is_a_section_of_its_own():
         assert sc.drive.nav.follower.config.reverse_within == OBSERVER_REVERSE
         assert sc.drive.nav.follower.config.reverse_path == OBSERVER_REVERSE_PATH
         assert sc.nav_walker.follower.config.reverse_path == 0.0
+        # the observer's less fussy driving; the walker keeps FollowerConfig's defaults
+        from bullet_floor_sim.nav.pursuit import FollowerConfig
+        from bullet_floor_sim.people.evaluation.scenario import OBSERVER_DRIVE
+        for field, value in OBSERVER_DRIVE.items():
+            assert getattr(sc.drive.nav.follower.config, field) == value
+            assert getattr(sc.nav_walker.follower.config, field) == getattr(FollowerConfig(),
+                                                                            field)
+            assert value != getattr(FollowerConfig(), field)
 
 
 def test_the_people_tracker_is_a_section_of_its_own():

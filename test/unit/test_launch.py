@@ -108,6 +108,13 @@ def test_demo_builtin_and_auto():
     assert float(params["/robot2/path_follower/reverse_path"]) == OBSERVER_REVERSE_PATH
     assert float(params.get("/robot1/path_follower/reverse_within", 0.0)) == 0.0
     assert float(params.get("/robot1/path_follower/reverse_path", 0.0)) == 0.0
+    # ... and drives as the study's observer does (config/observer_drive.yaml); the walker
+    # keeps the path_follower's defaults
+    from bullet_floor_sim.people.evaluation.scenario import OBSERVER_DRIVE
+    by_param = {("xy_goal_tolerance" if k == "xy_tolerance" else k): v
+                for k, v in OBSERVER_DRIVE.items()}
+    assert {k: float(params["/robot2/path_follower/" + k]) for k in by_param} == by_param
+    assert not any("/robot1/path_follower/" + k in params for k in by_param)
     nodes, _ = load("demo.launch", "nav:=builtin", "observe:=false")
     assert not any("people_tracker" in n or "follower" == n.rsplit("/", 1)[-1] for n in nodes)
     nodes, _ = load("demo.launch")  # nav:=auto: nav_bringup decides at run time

@@ -46,6 +46,10 @@ _GT, _GE = " must be a finite number > 0, got ", " must be a finite number >= 0,
     (PathFollowerParams(max_linear=-0.5), r"^path_follower: ~max_linear" + _GT + r"-0\.5$"),
     (PathFollowerParams(reverse_within=-1.0), r"~reverse_within" + _GE + r"-1\.0"),
     (PathFollowerParams(reverse_path=-1.0), r"~reverse_path" + _GE + r"-1\.0"),
+    (PathFollowerParams(rotate_in_place=0.0), r"~rotate_in_place" + _GT + r"0\.0"),
+    (PathFollowerParams(slow_radius=float("inf")), r"~slow_radius" + _GT + "inf"),
+    (PathFollowerParams(stop_distance=-0.1), r"~stop_distance" + _GE + r"-0\.1"),
+    (PathFollowerParams(side_margin=-0.1), r"~side_margin" + _GE + r"-0\.1"),
     (PathFollowerParams(controller_frequency=float("nan")), r"~controller_frequency" + _GT + "nan"),
     (PathFollowerParams(inflation_radius=-0.1), r"~inflation_radius" + _GE + r"-0\.1"),
     (PathFollowerParams(detour=-1.0), r"~detour" + _GE + r"-1\.0"),
@@ -67,6 +71,7 @@ def test_the_defaults_and_the_documented_zeros_pass_their_checks():
     for cls in (PathFollowerParams, RecorderParams, RoiManagerParams, ViewerParams):
         cls().check()
     PathFollowerParams(inflation_radius=0.0, goal_taken_within=0.0).check()   # none; never
+    PathFollowerParams(stop_distance=0.0, side_margin=0.0).check()   # no stop check; none beside
     RoiManagerParams(sync_period=0.0, save_quiet=0.0).check()         # no sync; save at once
     RecorderParams(flush_every=0.0, path_rate=0.0).check()            # every pose; no path
     assert PathFollowerParams().robot_radius == 0.34 and ViewerParams().max_poses == 100000

@@ -13,7 +13,12 @@ The plan is published where stock move_base with global_planner publishes it,
 
 Parameters (defaults suit a Scitos A5): ``~robot_radius`` 0.34, ``~inflation_radius`` 0.6,
 ``~planning_resolution`` 0.1, ``~max_linear`` 0.6, ``~max_angular`` 1.2,
-``~xy_goal_tolerance`` 0.15, ``~yaw_goal_tolerance`` 0.15, ``~controller_frequency`` 10,
+``~xy_goal_tolerance`` 0.15, ``~yaw_goal_tolerance`` 0.15, ``~rotate_in_place`` 0.9 (rad:
+turn on the spot above this heading error), ``~slow_radius`` 1 (m from the goal where the speed
+starts to fall), ``~stop_distance`` 0.3 (m of free space needed ahead to keep driving; 0: none),
+``~side_margin`` 0.03 (m beside the footprint in the stop check; 0: none; these four are
+nav/pursuit.FollowerConfig's; demo.launch's observer sets them and ``~xy_goal_tolerance``
+from config/observer_drive.yaml), ``~controller_frequency`` 10,
 ``~blocked_timeout`` 30, ``~progress_timeout`` 60, ``~give_way`` false (true: when blocked
 where no path passes, retreat to a wider place, wait and go on: nav/planner.Navigator),
 ``~keep_way`` false (true: in a passage too narrow for two, never yield by the passing rule,
@@ -77,6 +82,10 @@ class PathFollowerParams:
     max_angular: float = 1.2
     xy_goal_tolerance: float = 0.15
     yaw_goal_tolerance: float = 0.15
+    rotate_in_place: float = FollowerConfig.rotate_in_place
+    slow_radius: float = FollowerConfig.slow_radius
+    stop_distance: float = FollowerConfig.stop_distance
+    side_margin: float = FollowerConfig.side_margin
     controller_frequency: float = 10.0
     blocked_timeout: float = NavigatorConfig.blocked_timeout
     progress_timeout: float = NavigatorConfig.progress_timeout
@@ -94,11 +103,12 @@ class PathFollowerParams:
 
     def check(self) -> None:
         """Raises BulletFloorSimError naming the first parameter that is not a finite number
-        > 0 (>= 0 for ``inflation_radius``, ``detour``, ``goal_taken_within`` and
-        ``reverse_within`` and ``reverse_path``: 0 turns each off)."""
+        > 0 (>= 0 for ``inflation_radius``, ``detour``, ``goal_taken_within``,
+        ``reverse_within``, ``reverse_path``, ``stop_distance`` and ``side_margin``: 0 turns
+        each off)."""
         numbers = [f.name for f in fields(self) if isinstance(getattr(self, f.name), float)]
         zero_ok = ("inflation_radius", "detour", "goal_taken_within", "reverse_within",
-                   "reverse_path")
+                   "reverse_path", "stop_distance", "side_margin")
         check_params(self, "path_follower", [n for n in numbers if n not in zero_ok])
         check_params(self, "path_follower", list(zero_ok), strict=False)
         if self.localisation not in ("ground_truth", "tf"):
@@ -119,6 +129,8 @@ class PathFollowerNode:
         self.follower_cfg = FollowerConfig(
             robot_radius=p.robot_radius, max_linear=p.max_linear, max_angular=p.max_angular,
             xy_tolerance=p.xy_goal_tolerance, yaw_tolerance=p.yaw_goal_tolerance,
+            rotate_in_place=p.rotate_in_place, slow_radius=p.slow_radius,
+            stop_distance=p.stop_distance, side_margin=p.side_margin,
             reverse_within=p.reverse_within, reverse_path=p.reverse_path)
         self.nav_cfg = NavigatorConfig(blocked_timeout=p.blocked_timeout,
                                        progress_timeout=p.progress_timeout, give_way=p.give_way,

@@ -330,9 +330,20 @@ OBSERVER_REVERSE = 2.0
 OBSERVER_REVERSE_PATH = 6.0
 
 
+#: ... and it is less fussy than FollowerConfig's defaults (which the walker keeps): it
+#: counts a goal reached 0.25 m off, turns on the spot only beyond 1.3 rad (which also
+#: lets it back up to a goal whose heading is that far off its own), slows within 0.5 m of
+#: a goal, and stops for what is 0.15 m ahead, within its footprint's radius (demo.launch:
+#: config/observer_drive.yaml, by the path_follower's parameter names; chosen together by
+#: folds over the corpus, docs/defaults.md section 3c).
+OBSERVER_DRIVE = {"xy_tolerance": 0.25, "rotate_in_place": 1.3, "slow_radius": 0.5,
+                  "stop_distance": 0.15, "side_margin": 0.0}
+
+
 def observer_follower() -> FollowerConfig:
     """The observer's path following as shipped (demo.launch's robot2 path_follower)."""
-    return FollowerConfig(reverse_within=OBSERVER_REVERSE, reverse_path=OBSERVER_REVERSE_PATH)
+    return FollowerConfig(reverse_within=OBSERVER_REVERSE, reverse_path=OBSERVER_REVERSE_PATH,
+                          **OBSERVER_DRIVE)
 
 
 class ObserverDrive:
