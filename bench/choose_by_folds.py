@@ -212,8 +212,6 @@ def main() -> int:
                    help="the arguments are SECTION.FIELD=VALUE changes, tried as one "
                         "candidate (all at once) against the shipped defaults")
     args = p.parse_args()
-    if not (args.values or args.together):
-        p.error("no value to try beside the shipped default of %s" % args.param)
     if not 0.0 <= args.max_given_up <= 1.0:
         p.error("--max-given-up must be a share in [0, 1], got %g" % args.max_given_up)
     try:
@@ -276,12 +274,13 @@ def together(items: List[str]) -> List[Try]:
         BulletFloorSimError: a bad item, or one that sets a field to its shipped default.
     """
     sets = eval_worlds.parse_sets(items)
-    for item in items:
-        key, _, value = (part.strip() for part in item.partition("="))
-        default = shipped_default(key)
-        if convert(key, value, default) == default:
-            raise BulletFloorSimError("--together %s: %s is already the shipped default"
-                                      % (item, key))
+    for section, changes in sets.items():
+        for field, value in changes.items():
+            key = "%s.%s" % (section, field)
+            default = shipped_default(key)
+            if convert(key, value, default) == default:
+                raise BulletFloorSimError("--together %s=%s: %s is already the shipped "
+                                          "default" % (key, value, key))
     name = "together_" + ",".join(sorted(i.replace(" ", "") for i in items))
     return [("default", {}, "default"), ("together", sets, name)]
 
