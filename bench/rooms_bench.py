@@ -21,6 +21,8 @@ the means are of those held-out runs. Usage::
 
     bench/rooms_bench.py --maps DIR          # or ROOMS_BENCH_MAPS=DIR bench/rooms_bench.py
     bench/rooms_bench.py --maps DIR --fixed  # just the default RoomConfig, no search
+    bench/rooms_bench.py --maps DIR --grid seed_height=0.05,0.1,0.2 --grid min_room_area=1,2,4
+        # search these fields instead (the others at their defaults)
 """
 from __future__ import annotations
 
@@ -30,7 +32,7 @@ import os
 import sys
 import time
 from multiprocessing import Pool
-from typing import Dict, List, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 from scipy import ndimage as ndi
@@ -54,6 +56,8 @@ PAPER = (("Voronoi", (95.0, 94.8, 86.6, 94.5)),
 # the search grid: graph parameters (each needs a new watershed) x merge parameters
 GRAPH_GRID = {"furniture_area": (1.0, 2.0)}
 MERGE_GRID = {"door_ratio": (0.6, 0.7, 0.8), "max_door_width": (1.6, 2.0, 2.5)}
+#: the RoomConfig fields basin_graph reads (a new watershed per value); the others only merge
+GRAPH_FIELDS = ("furniture_area", "wall_length", "seed_height")
 
 Combo = Tuple[Tuple[str, float], ...]
 Score = Tuple[float, float, float, float, int, int, float]  # R, P, Rw, Pw, gt, ours, seconds
@@ -103,12 +107,45 @@ def precision_recall(gt: np.ndarray, n_gt: int, seg: np.ndarray) -> Tuple[float,
 # --------------------------------------------------------------------------------------------
 
 
-def grid(fixed: bool) -> Tuple[List[Combo], List[Combo]]:
-    """The graph and merge parameter combinations (just the defaults when fixed)."""
+Grid = Dict[str, Tuple[float, ...]]
+
+
+def parse_grid(items: Sequence[str]) -> Grid:
+    """``--grid NAME=V1,V2,...`` items as {field: values}.
+
+    Raises:
+        ValueError: an item without ``=``, a field RoomConfig lacks, a value that is not a
+            number, or a field given twice (named).
+    """
+    fields = set(RoomConfig.__dataclass_fields__)
+    out: Grid = {}
+    for item in items:
+        name, sep, values = item.partition("=")
+        if not sep or not values:
+            raise ValueError("--grid %r: expected NAME=V1,V2,..." % item)
+        if name not in fields:
+            raise ValueError("--grid %r: RoomConfig has no field %r (fields: %s)"
+                             % (item, name, ", ".join(sorted(fields))))
+        if name in out:
+            raise ValueError("--grid %r: %s is given twice" % (item, name))
+        try:
+            out[name] = tuple(float(v) for v in values.split(","))
+        except ValueError:
+            raise ValueError("--grid %r: values must be numbers" % item) from None
+    return out
+
+
+def grid(fixed: bool, search: Optional[Grid] = None) -> Tuple[List[Combo], List[Combo]]:
+    """The graph and merge parameter combinations: the product of ``search`` (default:
+    GRAPH_GRID and MERGE_GRID), split by whether basin_graph reads the field; just the
+    defaults when fixed."""
     if fixed:
         return [()], [()]
-    graph = [tuple(zip(GRAPH_GRID, v)) for v in itertools.product(*GRAPH_GRID.values())]
-    merge = [tuple(zip(MERGE_GRID, v)) for v in itertools.product(*MERGE_GRID.values())]
+    search = search or {**GRAPH_GRID, **MERGE_GRID}
+    graph_grid = {k: v for k, v in search.items() if k in GRAPH_FIELDS}
+    merge_grid = {k: v for k, v in search.items() if k not in GRAPH_FIELDS}
+    graph = [tuple(zip(graph_grid, v)) for v in itertools.product(*graph_grid.values())]
+    merge = [tuple(zip(merge_grid, v)) for v in itertools.product(*merge_grid.values())]
     return graph, merge
 
 
@@ -119,12 +156,12 @@ def read_gray(path: str) -> np.ndarray:
         return np.asarray(img.convert("L"))
 
 
-def score_map(job: Tuple[str, str, str, bool]) -> Tuple[str, str, Dict[Combo, Score]]:
+def score_map(job: Tuple[str, str, str, bool, Grid]) -> Tuple[str, str, Dict[Combo, Score]]:
     """Every grid combination on one map variant."""
-    maps, name, variant, fixed = job
+    maps, name, variant, fixed, search = job
     free = read_gray(os.path.join(maps, name + variant + ".png")) >= 250
     gt, n_gt = gt_rooms(read_gray(os.path.join(maps, name + "_gt_segmentation.png")))
-    graphs, merges = grid(fixed)
+    graphs, merges = grid(fixed, search)
     out: Dict[Combo, Score] = {}
     for g in graphs:
         t0 = time.perf_counter()
@@ -139,17 +176,41 @@ def score_map(job: Tuple[str, str, str, bool]) -> Tuple[str, str, Dict[Combo, Sc
     return name, variant, out
 
 
+def mean_score(results: Dict[Tuple[str, str], Dict[Combo, Score]], names: Sequence[str],
+               combo: Combo) -> float:
+    """A combination's mean (recall + precision) / 2 over names, both variants."""
+    return float(np.mean([(results[(n, v)][combo][0] + results[(n, v)][combo][1]) / 2.0
+                          for n in names for v in VARIANTS]))
+
+
+def shipped_fields(combo: Combo) -> int:
+    """How many of a combination's values are RoomConfig's shipped defaults."""
+    return sum(1 for k, v in combo if getattr(RoomConfig(), k) == v)
+
+
 def choose(results: Dict[Tuple[str, str], Dict[Combo, Score]], names: Sequence[str]) -> Combo:
-    """The combination with the best mean (recall + precision) / 2 over names, both variants
-    (the first in grid order on a tie)."""
+    """The combination with the best mean (recall + precision) / 2 over names, both variants;
+    on a tie, the one with more shipped defaults (then the first in grid order), so a value
+    that changes nothing never replaces a default."""
     combos = list(next(iter(results.values())))
     best, best_score = combos[0], -1.0
     for combo in combos:
-        score = np.mean([(results[(n, v)][combo][0] + results[(n, v)][combo][1]) / 2.0
-                         for n in names for v in VARIANTS])
-        if score > best_score + 1e-12:
-            best, best_score = combo, float(score)
+        score = mean_score(results, names, combo)
+        tie = abs(score - best_score) <= 1e-12
+        if score > best_score + 1e-12 or (tie and shipped_fields(combo) > shipped_fields(best)):
+            best, best_score = combo, score
     return best
+
+
+def print_scores(results: Dict[Tuple[str, str], Dict[Combo, Score]], top: int = 12) -> None:
+    """The grid's best combinations on all maps (not held out: to see ties and spreads)."""
+    combos = list(next(iter(results.values())))
+    ranked = sorted(combos, key=lambda c: -mean_score(results, MAPS, c))
+    print("## the grid on all 20 maps, not held out: mean (recall + precision) / 2, %\n")
+    for combo in ranked[:top]:
+        print("- %.3f  %s" % (100 * mean_score(results, MAPS, combo), show(combo)))
+    print("- (%d combinations; the worst %.3f)\n"
+          % (len(ranked), 100 * mean_score(results, MAPS, ranked[-1])))
 
 
 def median(chosen: List[Combo]) -> Combo:
@@ -171,7 +232,16 @@ def main(argv: Sequence[str] = ()) -> int:
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="worker processes")
     parser.add_argument("--fixed", action="store_true",
                         help="score the default RoomConfig only (no search, no folds)")
+    parser.add_argument("--grid", action="append", default=[], metavar="NAME=V1,V2,...",
+                        help="search these values of a RoomConfig field (repeatable); the "
+                             "fields not given stay at their defaults (default: the grid of "
+                             "furniture_area, door_ratio and max_door_width)")
     args = parser.parse_args(list(argv) or None)
+    try:
+        search = parse_grid(args.grid)
+    except ValueError as err:
+        print("rooms_bench: %s" % err, file=sys.stderr)
+        return 2
     if not args.maps:
         print("rooms_bench: no maps directory: pass --maps DIR or set ROOMS_BENCH_MAPS", file=sys.stderr)
         return 2
@@ -186,7 +256,7 @@ def main(argv: Sequence[str] = ()) -> int:
         print("rooms_bench: --folds must be 2..%d" % len(MAPS), file=sys.stderr)
         return 2
 
-    jobs = [(args.maps, n, v, args.fixed) for v in VARIANTS for n in MAPS]
+    jobs = [(args.maps, n, v, args.fixed, search) for v in VARIANTS for n in MAPS]
     with Pool(max(1, args.jobs)) as pool:
         results = {(n, v): out for n, v, out in pool.imap_unordered(score_map, jobs)}
 
@@ -201,6 +271,11 @@ def main(argv: Sequence[str] = ()) -> int:
         for n in fold:
             for v in VARIANTS:
                 held[(n, v)] = (k + 1, results[(n, v)][combo])
+    if not args.fixed:
+        print("searched: %s\n" % "; ".join("%s in {%s}" % (k, ", ".join("%g" % x for x in v))
+                                           for k, v in (search or {**GRAPH_GRID, **MERGE_GRID}).items()))
+    if not args.fixed:
+        print_scores(results)
     report(held, folds, chosen, args.fixed)
     return 0
 
