@@ -238,9 +238,13 @@ def main(argv: Sequence[str] = ()) -> int:
                              "furniture_area, door_ratio and max_door_width)")
     args = parser.parse_args(list(argv) or None)
     try:
-        search = parse_grid(args.grid)
+        search = parse_grid(args.grid) or {**GRAPH_GRID, **MERGE_GRID}
     except ValueError as err:
         print("rooms_bench: %s" % err, file=sys.stderr)
+        return 2
+    if args.fixed and args.grid:
+        print("rooms_bench: --fixed scores the defaults only: drop --grid, or --fixed",
+              file=sys.stderr)
         return 2
     if not args.maps:
         print("rooms_bench: no maps directory: pass --maps DIR or set ROOMS_BENCH_MAPS", file=sys.stderr)
@@ -273,8 +277,7 @@ def main(argv: Sequence[str] = ()) -> int:
                 held[(n, v)] = (k + 1, results[(n, v)][combo])
     if not args.fixed:
         print("searched: %s\n" % "; ".join("%s in {%s}" % (k, ", ".join("%g" % x for x in v))
-                                           for k, v in (search or {**GRAPH_GRID, **MERGE_GRID}).items()))
-    if not args.fixed:
+                                           for k, v in search.items()))
         print_scores(results)
     report(held, folds, chosen, args.fixed)
     return 0

@@ -69,6 +69,41 @@ def test_choose_takes_the_best_mean():
     assert got == high
 
 
+def test_choose_takes_a_better_value_over_the_shipped_one():
+    shipped, high = (("seed_height", 0.1),), (("seed_height", 0.2),)
+    got = rooms_bench.choose(_results({shipped: (0.9, 0.9), high: (0.95, 0.9)}), rooms_bench.MAPS)
+    assert got == high
+
+
+def test_choose_keeps_grid_order_between_tied_values_that_are_not_shipped():
+    low, high = (("seed_height", 0.05),), (("seed_height", 0.2),)
+    got = rooms_bench.choose(_results({low: (0.9, 0.9), high: (0.9, 0.9)}), rooms_bench.MAPS)
+    assert got == low
+
+
+@pytest.mark.parametrize("argv", [["--maps", "/nonexistent", "--grid", "x"],
+                                  ["--maps", "/nonexistent", "--fixed", "--grid", "seed_height=0.1"]])
+def test_main_refuses_a_bad_grid_before_reading_maps(argv, capsys):
+    assert rooms_bench.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("rooms_bench: ") and "--" in err
+
+
+def test_merge_fields_leave_the_basin_graph_alone():
+    # a room and a closet joined by a door: the graph the bench builds once per graph combo must
+    # not depend on the fields it treats as merge-only
+    free = np.zeros((60, 100), dtype=bool)
+    free[5:55, 5:60] = True
+    free[20:40, 65:95] = True
+    free[28:32, 60:65] = True
+    ref = rooms_bench.basin_graph(free, 0.05, rooms_bench.RoomConfig())
+    for field in ("door_ratio", "max_door_width", "min_room_area"):
+        cfg = rooms_bench.RoomConfig(**{field: 2 * getattr(rooms_bench.RoomConfig(), field)})
+        got = rooms_bench.basin_graph(free, 0.05, cfg)
+        assert np.array_equal(got.basins, ref.basins) and np.array_equal(got.passes, ref.passes)
+        assert field not in rooms_bench.GRAPH_FIELDS
+
+
 def test_choose_keeps_the_shipped_default_on_a_tie():
     # 0.05 comes first in grid order; the shipped seed_height (0.1) ties it and is kept
     low, shipped = (("seed_height", 0.05),), (("seed_height", 0.1),)
