@@ -273,7 +273,11 @@ def run_tasks(tasks: List[Tuple[str, int]], legs: int, allow: bool = False, save
     rows = []
     for j in jobs:
         print("== %s: %d legs, seed %d" % (j[0], legs, j[2]), file=sys.stderr, flush=True)
-        rows.append(done(row(*j)))
+        try:
+            r = row(*j)
+        except BulletFloorSimError as e:   # a world the simulator refuses: one line
+            sys.exit("eval_worlds: %s, seed %d: %s (the rows above were done)" % (j[0], j[2], e))
+        rows.append(done(r))
     return rows
 
 

@@ -2,11 +2,14 @@
 geometry joined by one door."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
 from bullet_floor_sim.building import Building, person_footprint, robot_footprint
 from bullet_floor_sim.building.check import check_building, study_problems
+from bullet_floor_sim.errors import ConfigError
 from bullet_floor_sim.people.evaluation import EvalConfig, EvaluationError, run
 from bullet_floor_sim.ros import check_world
 from bullet_floor_sim.sim.config import load_world_config, world_label
@@ -143,3 +146,96 @@ def test_footprints_and_labels(tmp_path):
     assert world_label("office") == "office"
     assert world_label(str(tmp_path / "world.yaml")) == tmp_path.name
     assert world_label("/data/my maps/lab3.yaml") == "lab3"
+
+
+def test_a_rooms_section_sets_how_auto_rooms_are_found(tmp_path):
+    # the 2.3 m opening is wider than the default max_door_width (2 m): one room; with
+    # rooms: {max_door_width: 3.0} it is a door (1.15 m half-width, under 0.7 of the rooms'
+    # ~2 m clearance), so the two rooms stay apart
+    path = two_rooms(tmp_path, door=2.3, clean="rooms: {max_door_width: 3.0}")
+    yml = tmp_path / "world.yaml"
+    yml.write_text(yml.read_text().replace("rois: rois.yaml", "rois: auto"))
+    cfg = load_world_config(path)
+    assert cfg.rooms.max_door_width == 3.0 and cfg.rooms.door_ratio == 0.7
+    report = check_building(Building(cfg))
+    assert len(report.regions) == 2
+    assert study_problems(report, "robot1", "robot2") == []
+
+
+@pytest.mark.parametrize("rooms, words", [
+    ("rooms: {max_door_width: -1}", "rooms: max_door_width must be a finite number >= 0"),
+    ("rooms: {door_ratio: 1.5}", "rooms: door_ratio must be at most 1"),
+    ("rooms: {door_width: 3}", "door_width"),
+    ("rooms: 3", "rooms: expected a mapping"),
+])
+def test_a_bad_rooms_section_is_one_line_naming_it(tmp_path, rooms, words):
+    path = two_rooms(tmp_path, door=1.0, clean=rooms)
+    yml = tmp_path / "world.yaml"
+    yml.write_text(yml.read_text().replace("rois: rois.yaml", "rois: auto"))
+    with pytest.raises(ConfigError, match=re.escape(words)) as err:
+        load_world_config(path)
+    assert str(tmp_path / "world.yaml") in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_rooms_section_without_auto_rois_is_refused(tmp_path):
+    path = two_rooms(tmp_path, door=1.0, clean="rooms: {max_door_width: 3.0}")
+    with pytest.raises(ConfigError, match="rooms sets how rois: auto finds the rooms"):
+        load_world_config(path)
+
+
+def _regions(tmp_path, split: float) -> str:
+    """two_rooms with its regions cut at x = split instead of the wall (x 0.1-8.1)."""
+    path = two_rooms(tmp_path, door=1.0)
+    (tmp_path / "rois.yaml").write_text(
+        'map_name: rooms\nconfig: "1"\nrois:\n'
+        '  - {id: "1", type: office, points: [[0.1, 0.1], [%g, 0.1], [%g, 4.1], [0.1, 4.1]]}\n'
+        '  - {id: "2", type: lab, points: [[%g, 0.1], [8.1, 0.1], [8.1, 4.1], [%g, 4.1]]}\n'
+        % (split, split, split, split))
+    return path
+
+
+def test_one_region_that_is_most_of_the_floor_is_warned_about(tmp_path):
+    from bullet_floor_sim.people.evaluation.scenario import refuse_unreachable
+
+    path = _regions(tmp_path, 6.1)              # 6 x 4 = 24 m^2 against 2 x 4 = 8 m^2
+    b = Building(load_world_config(path))
+    report = check_building(b)
+    assert report.largest_region() == ("1", pytest.approx(0.75))
+    lines = report.lines()
+    summary = [line for line in lines if line.startswith("regions: ")]
+    assert summary and summary[0].startswith('regions: 2; the largest, "1"')
+    assert summary[0].endswith("is 24 m^2, 75 % of their area")
+    assert any(line.startswith('  warning: region "1"') and "75 %" in line
+               and "max_door_width" in line for line in lines)
+    notes = refuse_unreachable(b, EvalConfig(world=path), b)
+    assert notes == ["warning: " + report.one_region_warning()]
+
+
+def test_regions_that_share_the_floor_evenly_get_no_warning(tmp_path):
+    report = check_building(Building(load_world_config(_regions(tmp_path, 4.1))))
+    assert report.largest_region()[1] == pytest.approx(0.5)
+    assert report.one_region_warning() == ""
+    assert not any("warning" in line for line in report.lines())
+
+
+def test_a_start_inside_the_footprint_of_a_wall_is_refused_as_the_simulator_refuses_it(tmp_path):
+    from bullet_floor_sim.sim.world import World
+
+    # robot2 at x 7.9: its cell's centre (7.925) is 4 cells from the wall's (x 8.1-8.15),
+    # 0.2 m less half a cell to the wall's edge: 0.175 m, inside the 0.34 m footprint
+    path = two_rooms(tmp_path, door=1.0, robot2=(7.9, 2.0))
+    cfg = load_world_config(path)
+    report = check_building(Building(cfg))
+    start = report.footprint("robot").starts[1]
+    assert start.name == "robot2" and start.wall == pytest.approx(0.175)
+    problems = study_problems(report, "robot1", "robot2")
+    assert problems == ["robot2 at (7.9, 2.0) starts 0.18 m from a wall, inside its 0.34 m "
+                        "footprint radius: the simulator refuses a body that overlaps a wall, "
+                        "and the planner treats the cell as lethal; move the start"]
+    assert any(line.strip() == problems[0] for line in report.lines())
+    with pytest.raises(ConfigError, match="robot 'robot2' spawns overlapping a wall"):
+        World(cfg, seed=0)
+    # 0.5 m from the wall (0.425 m to its edge) is clear for both
+    ok = load_world_config(two_rooms(tmp_path, door=1.0, robot2=(7.6, 2.0)))
+    assert study_problems(check_building(Building(ok)), "robot1", "robot2") == []
+    World(ok, seed=0).close()

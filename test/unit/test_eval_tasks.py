@@ -93,3 +93,25 @@ def test_two_machines_fill_one_mongodb_table(serial, tmp_path, capsys):
 def test_show_results_refuses_a_database_that_is_not_there(tmp_path):
     with pytest.raises(SystemExit, match="no such database"):
         show_results(str(tmp_path / "nothing"), journal_dir=str(tmp_path / "journal"))
+
+
+def test_a_world_the_simulator_refuses_stops_the_serial_run_with_one_line(tmp_path):
+    # simple's two robots at one pose: the map check has nothing to say, the simulator refuses
+    from bullet_floor_sim.paths import worlds_dir
+
+    src = os.path.join(worlds_dir(), "simple")
+    world = tmp_path / "simple" / "world.yaml"
+    world.parent.mkdir()
+    text = open(os.path.join(src, "world.yaml")).read()
+    for name in os.listdir(src):
+        if name != "world.yaml":
+            os.symlink(os.path.join(src, name), str(world.parent / name))
+    import yaml
+    doc = yaml.safe_load(text)
+    doc["robots"][1]["pose"] = list(doc["robots"][0]["pose"])
+    world.write_text(yaml.safe_dump(doc))
+    with pytest.raises(SystemExit) as stop:
+        eval_worlds.run_tasks([(str(world), 1)], 1, workers=1)
+    msg = str(stop.value.code)
+    assert msg.startswith("eval_worlds: %s, seed 1: " % world) and "\n" not in msg
+    assert "robot 'robot1' spawns overlapping robot 'robot2'" in msg

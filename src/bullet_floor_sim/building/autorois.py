@@ -1,7 +1,8 @@
 """``rois: auto`` in a world.yaml: the regions are the map's rooms, found automatically
 (building/rooms.py), the ones the world's first robot can reach.
 
-The ROI file is written once per map, map handling and robot start, to
+The ROI file is written once per map, map handling, robot start and ``rooms:`` section
+(the segmentation's RoomConfig), to
 ``$ROS_HOME/bullet_floor_sim/rois/<world>_<digest>.yaml`` (beside the map cache; a temporary
 directory when BULLET_FLOOR_SIM_CACHE is empty), and the world's ``rois`` points at it, so the
 simulator, the ROI manager, the walker and the evaluation all read the same regions. Rooms
@@ -18,6 +19,7 @@ from dataclasses import replace
 from typing import List, Tuple
 
 from ..data.rois import Roi
+from ..roomconfig import RoomConfig
 from ..sim.config import WorldConfig
 from ..sim.floormap import load_map
 from ..sim.mapcache import map_cache_dir, map_key
@@ -36,6 +38,8 @@ def auto_rois_path(cfg: WorldConfig) -> str:
     h = hashlib.sha1()
     h.update(map_key(fmap.grid, fmap.resolution, fmap.origin, cfg.map_handling).encode())
     h.update(repr((_VERSION, [r.pose[:2] for r in cfg.robots[:1]])).encode())
+    if cfg.rooms != RoomConfig():   # the default keeps the digest files written before rooms:
+        h.update(repr(cfg.rooms).encode())
     cache = map_cache_dir()
     base = os.path.join(os.path.dirname(cache), "rois") if cache else \
         os.path.join(tempfile.gettempdir(), "bullet_floor_sim_rois")
@@ -55,7 +59,7 @@ def _reachable_rooms(cfg: WorldConfig, fmap) -> Tuple[List[Roi], List[str]]:
     from . import Building, robot_footprint
     from .rooms import auto_rois
 
-    rooms = auto_rois(fmap, cfg.map_handling, map_name=cfg.name or "world")
+    rooms = auto_rois(fmap, cfg.map_handling, map_name=cfg.name or "world", rooms=cfg.rooms)
     b = Building(cfg, fmap)
     sampler = b.sampler(robot_footprint())
     if cfg.robots:

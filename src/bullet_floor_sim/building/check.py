@@ -11,23 +11,30 @@ For each footprint (the robot's, a person's) :func:`check_building` reports
   edges): the least width of the floor (to a map cell) along the cheapest path the planner gives,
   and where it is;
 
-and what each map-handling rule changed (sim/solidmap.py). :func:`study_problems` turns the
+what each map-handling rule changed (sim/solidmap.py), and how the regions share the
+floor: one region that is most of it (over :data:`ONE_REGION_SHARE` of their area) gets a
+warning line, as a walk "to" it goes almost anywhere. :func:`study_problems` turns the
 report into what would make a study degrade silently: a region the walker cannot reach, an
 observer that cannot reach the walker's floor.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
+from shapely.geometry import Polygon
 
 from ..data.rois import Roi
 from ..people.walker import region_label
 from . import Building, Footprint, person_footprint, robot_footprint
 
 __all__ = ["Passage", "StartReach", "FootprintCheck", "WorldCheck", "check_building",
-           "study_problems", "world_study_problems", "robot_label", "FIXES"]
+           "study_problems", "world_study_problems", "robot_label", "FIXES", "ONE_REGION_SHARE"]
+
+#: Above this share of the regions' area, one region is most of the building: a warning.
+ONE_REGION_SHARE = 0.5
 
 #: What a user can do about a region or a start cut off, in the order worth trying.
 FIXES = ("remove furniture specks from the map (world.yaml clean: {speckle: 0.05}, in m^2)",
@@ -67,6 +74,15 @@ class StartReach:
     share: float
     reachable: List[str]
     unreachable: List[str]
+    wall: float = math.inf              # m from the start to the nearest solid cell's edge
+
+
+    def too_close(self, radius: float) -> str:
+        """What a start closer to a wall than ``radius`` means."""
+        return ("%s at (%.1f, %.1f) starts %.2f m from a wall, inside its %.2f m footprint "
+                "radius: the simulator refuses a body that overlaps a wall, and the planner "
+                "treats the cell as lethal; move the start" % (self.name, self.xy[0],
+                                                              self.xy[1], self.wall, radius))
 
 
 @dataclass
@@ -91,11 +107,13 @@ class WorldCheck:
     handling: List[str]                 # one line per change the map handling made
     regions: Dict[str, str]             # id -> label
     footprints: List[FootprintCheck]
+    region_areas: Dict[str, float] = field(default_factory=dict)   # id -> polygon area, m^2
 
     def lines(self) -> List[str]:
         """The report as text, one fact a line."""
         out = ["world %s (%s): %.0f m^2 of floor not solid" % (self.world, self.path, self.free)]
         out += ["map handling: %s" % h for h in self.handling] or ["map handling: changed nothing"]
+        out += self._region_lines()
         for fc in self.footprints:
             fp = fc.footprint
             out.append("%s footprint (radius %.2f m, goals %.2f m from walls): %.0f m^2 to plan "
@@ -107,12 +125,44 @@ class WorldCheck:
                                len(s.reachable), len(self.regions),
                                "" if not s.unreachable else
                                "; cut off: " + ", ".join(self._names(s.unreachable))))
+                if s.wall < fp.radius:
+                    out.append("  %s" % s.too_close(fp.radius))
             if fc.no_goal:
                 out.append("  no goal point in: " + ", ".join(self._names(fc.no_goal)))
             for p in sorted(fc.passages, key=lambda p: p.width):
                 out.append("  passage %s - %s: %s" % (self.regions[p.a], self.regions[p.b],
                                                      p.describe()))
         return out
+
+    def largest_region(self) -> Tuple[str, float]:
+        """The largest region's id and its share of all regions' area ("", 0 without any)."""
+        total = sum(self.region_areas.values())
+        if not total:
+            return "", 0.0
+        rid = max(self.region_areas, key=lambda i: self.region_areas[i])
+        return rid, self.region_areas[rid] / total
+
+    def one_region_warning(self) -> str:
+        """A warning when one region is over ONE_REGION_SHARE of the regions' area ("" if
+        not)."""
+        rid, share = self.largest_region()
+        if share <= ONE_REGION_SHARE + 1e-9 or len(self.region_areas) < 2:   # float noise
+            return ""
+        return ("region %s is %.0f %% of the regions' area: a walk to it may end almost "
+                "anywhere, so predicting it says little. With rois: auto, rooms joined by "
+                "openings wider than rooms.max_door_width merge: set it above their width "
+                "(world.yaml rooms: {max_door_width: 4.0}, docs/rooms.md), or draw the regions"
+                % (self._names([rid])[0], 100 * share))
+
+    def _region_lines(self) -> List[str]:
+        rid, share = self.largest_region()
+        if not rid:
+            return []
+        warning = self.one_region_warning()
+        return (["regions: %d; the largest, %s, is %.0f m^2, %.0f %% of their area"
+                 % (len(self.region_areas), self._names([rid])[0], self.region_areas[rid],
+                    100 * share)]
+                + (["  warning: " + warning] if warning else []))
 
     def _names(self, ids: Sequence[str]) -> List[str]:
         return ['"%s" (%s)' % (i, self.regions[i]) for i in ids]
@@ -132,7 +182,8 @@ def check_building(b: Building, robots: Optional[Sequence[str]] = None) -> World
     solid = b.solid
     free = float((np.asarray(solid.fmap.grid) == 0).sum()) * b.fmap.resolution ** 2
     return WorldCheck(b.name, b.config.path, free, list(solid.report),
-                      {r.id: region_label(r) for r in rois}, fps)
+                      {r.id: region_label(r) for r in rois}, fps,
+                      {r.id: float(Polygon(r.vertices).area) for r in rois})
 
 
 def _footprint_check(b: Building, fp: Footprint, rois: List[Roi],
@@ -160,10 +211,24 @@ def _footprint_check(b: Building, fp: Footprint, rois: List[Roi],
         got = [i for i, s in comps.items() if k and k in s]
         reach.append(StartReach(name, xy, k, float(area[k]) if k else 0.0,
                                 float(area[k]) / passable if k and passable else 0.0, got,
-                                [i for i, s in comps.items() if s and i not in got]))
+                                [i for i, s in comps.items() if s and i not in got],
+                                _wall_distance(b, xy)))
     mask = np.isin(sampler.labels, [s.component for s in reach if s.component])
     return FootprintCheck(fp, passable, reach, no_goal, _passages(b, sampler, rois, comps),
                           mask)
+
+
+def _wall_distance(b: Building, xy: Tuple[float, float]) -> float:
+    """m from (x, y)'s cell centre to the nearest solid cell's edge (0 on a solid cell or off
+    the map)."""
+    solid = b.solid
+    cells = solid.fmap.world_to_cell(*xy)
+    col, row = int(cells[0]), int(cells[1])
+    grid = np.asarray(solid.fmap.grid)
+    if not (0 <= row < grid.shape[0] and 0 <= col < grid.shape[1]) or solid.distance is None:
+        return 0.0
+    res = solid.fmap.resolution
+    return max(0.0, float(solid.distance[row, col]) * res - res / 2.0)
 
 
 #: The disc radius (m) of the fallback route that shows where a cut-off region's way narrows.
@@ -279,6 +344,8 @@ def study_problems(report: WorldCheck, walker: str, observer: Optional[str]) -> 
     elif len(w.reachable) < 2:
         out.append("%s reaches %d region(s) (%s): a walk between regions needs 2"
                    % (walker, len(w.reachable), ", ".join(w.reachable) or "none"))
+    out += [s.too_close(fc.footprint.radius) for n, s in starts.items()
+            if n in (walker, observer) and s.wall < fc.footprint.radius]
     if observer is not None and observer in starts:
         o = starts[observer]
         if o.component != w.component:

@@ -38,6 +38,7 @@ from shapely.geometry import Polygon
 
 from ..data.rois import Roi, save_rois, validate_roi
 from ..nav.grid import largest_part
+from ..roomconfig import RoomConfig
 from ..sim.floormap import FloorMap
 from ..sim.solidmap import MapHandling, solid_map
 
@@ -45,32 +46,6 @@ __all__ = ["BasinGraph", "RoomConfig", "auto_rois", "basin_graph", "rooms_from_b
            "rooms_to_rois", "segment_rooms", "write_rois"]
 
 _EIGHT = np.ones((3, 3), dtype=bool)
-
-
-@dataclass(frozen=True)
-class RoomConfig:
-    """Parameters of :func:`segment_rooms`, in metres and square metres (never cells).
-
-    Attributes:
-        furniture_area: m²; obstacle blobs (8-connected) up to this area, touching no other
-            obstacle, are looked through when rooms are found (their cells get no label),
-            unless they are wall pieces.
-        wall_length: m; a blob at least this long (major axis) and four times longer than
-            its mean width is a piece of wall (between two doors), never furniture.
-        seed_height: m; a clearance maximum seeds a basin when it rises this much above every
-            path to a higher one (h-maximum); smaller wobbles of a wall do not.
-        door_ratio: a pass whose clearance is below this fraction of the smaller of the two
-            sides' largest clearances separates them (a door); wider passes merge them.
-        max_door_width: m; passes at least this wide always merge (open-plan openings).
-        min_room_area: m²; smaller rooms join the neighbour with the longest common border.
-    """
-
-    furniture_area: float = 1.0
-    wall_length: float = 1.0
-    seed_height: float = 0.1
-    door_ratio: float = 0.7
-    max_door_width: float = 2.0
-    min_room_area: float = 2.0
 
 
 def segment_rooms(free: np.ndarray, resolution: float,

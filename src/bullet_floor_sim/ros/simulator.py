@@ -498,13 +498,15 @@ class SimulatorNode:
 def _log_check(world: World) -> None:
     """The map check (building/check.py, as ``check_world`` prints it) in the log: what the
     map handling changed, what each footprint reaches; a warning for each region the first
-    robot cannot reach and a second robot cut off from it."""
+    robot cannot reach, a second robot cut off from it, and one region that is most of the
+    building."""
     from ..building import Building
     from ..building.check import check_building, world_study_problems
 
     report = check_building(Building(world.config, world.fmap))
     for line in report.lines():
-        rospy.loginfo("simulator: check_world: %s", line)
+        log = rospy.logwarn if line.lstrip().startswith("warning:") else rospy.loginfo
+        log("simulator: check_world: %s", line)
     if world.config.robots and world.config.rois:
         for p in world_study_problems(report, world.config):
             rospy.logwarn("simulator: check_world: %s", p)

@@ -8,6 +8,7 @@ names the file, the section and the key (as flatland's EnsureAccessedAllKeys doe
     rois: rois.yaml          # or auto: the map's rooms, found automatically (building/autorois.py)
     unknown: wall            # wall | free: what unknown map cells are (sim/solidmap.py)
     clean: {close_gaps: 0.15, speckle: 0.005, unknown_slivers: 0.3}   # sim/solidmap.py
+    rooms: {max_door_width: 2.0, ...}   # with rois: auto, the segmentation's RoomConfig
     robots:
       - name: robot1
         model: scitos_a5     # urdf/<model>.urdf.xacro
@@ -30,6 +31,7 @@ from typing import Any, Dict, List, Optional, Tuple
 
 from ..errors import ConfigError
 from ..people.crowd.config import PeopleConfig, parse_people
+from ..roomconfig import RoomConfig
 from .checks import (finite_positive as _finite_positive, is_number as _is_number,
                      check_numbers as _check_numbers, reject_unknown as _reject_unknown,
                      section as _section)
@@ -140,6 +142,7 @@ class WorldConfig:
     robots: List[RobotSpec] = field(default_factory=list)
     map_handling: MapHandling = MapHandling()
     people: PeopleConfig = PeopleConfig()
+    rooms: RoomConfig = RoomConfig()    # how rois: auto finds the rooms
 
     @property
     def name(self) -> str:
@@ -147,7 +150,7 @@ class WorldConfig:
         return os.path.basename(os.path.dirname(self.path))
 
 
-_WORLD_KEYS = ("map", "wall_height", "rois", "robots", "unknown", "clean", "people")
+_WORLD_KEYS = ("map", "wall_height", "rois", "robots", "unknown", "clean", "people", "rooms")
 _CLEAN_KEYS = ("close_gaps", "speckle", "unknown_slivers")
 _ROBOT_KEYS = ("name", "model", "pose", "drive")   # and a section per sensor kind
 
@@ -209,6 +212,9 @@ def load_world_config(path: str) -> WorldConfig:
     rois = doc.get("rois")
     if rois is not None and not isinstance(rois, str):
         raise ConfigError("%s: rois must be a file name or auto, got %r" % (path, rois))
+    if doc.get("rooms") is not None and rois != "auto":
+        raise ConfigError("%s: rooms sets how rois: auto finds the rooms; this world's rois is "
+                          "%r (drop rooms, or set rois: auto)" % (path, rois))
     robots_doc = doc.get("robots", [])
     if not isinstance(robots_doc, list):
         raise ConfigError("%s: robots must be a list, got %s" % (path, type(robots_doc).__name__))
@@ -220,7 +226,8 @@ def load_world_config(path: str) -> WorldConfig:
     cfg = WorldConfig(path=os.path.abspath(path), map_yaml=map_yaml, wall_height=float(wall_height),
                       rois=rois if rois in (None, "auto") else _rel(base, rois), robots=robots,
                       map_handling=_parse_map_handling(doc, path),
-                      people=parse_people(doc.get("people"), path, base))
+                      people=parse_people(doc.get("people"), path, base),
+                      rooms=_section(RoomConfig, doc.get("rooms"), "%s: rooms" % path))
     if cfg.rois == "auto":   # rooms found automatically (building/autorois.py)
         from ..building.autorois import auto_rois_path
 

@@ -99,7 +99,8 @@ def refuse_unreachable(world, cfg: EvalConfig, building=None) -> List[str]:
     """The map check of a study (building/check.py) of ``world`` (a sim World, or anything
     with its ``config``, such as a Building): raises EvaluationError naming what the
     walker cannot reach (and the passages, and the fixes) unless ``cfg.allow_unreachable``;
-    then returns it as warnings that say the run went on."""
+    then returns it as warnings that say the run went on, and the check's warning of one
+    region that is most of the building, if any."""
     from ...building.check import FIXES, check_building, world_study_problems
 
     b = building or Building(world.config, world.fmap)
@@ -107,12 +108,15 @@ def refuse_unreachable(world, cfg: EvalConfig, building=None) -> List[str]:
     if max(cfg.walker, cfg.observer) >= n:
         raise EvaluationError("evaluate: world %s has %d robot(s); robots %d and %d are needed"
                               % (cfg.world, n, cfg.walker, cfg.observer))
-    problems = world_study_problems(check_building(b), world.config, cfg.walker, cfg.observer)
+    report = check_building(b)
+    problems = world_study_problems(report, world.config, cfg.walker, cfg.observer)
     if problems and not cfg.allow_unreachable:
         raise EvaluationError("evaluate: world %s: %s. Fixes: %s; or allow it with "
                               "--allow-unreachable" % (cfg.world, "; ".join(problems),
                                                        "; ".join(FIXES)))
-    return ["going on as allowed (--allow-unreachable): %s" % p for p in problems]
+    warning = report.one_region_warning()
+    return (["going on as allowed (--allow-unreachable): %s" % p for p in problems]
+            + (["warning: " + warning] if warning else []))
 
 
 def world_model(world_name: str, prediction: Optional[PredictionConfig] = None
