@@ -275,7 +275,8 @@ def run_tasks(tasks: List[Tuple[str, int]], legs: int, allow: bool = False, save
         print("== %s: %d legs, seed %d" % (j[0], legs, j[2]), file=sys.stderr, flush=True)
         try:
             r = row(*j)
-        except BulletFloorSimError as e:   # a world the simulator refuses: one line
+        except BulletFloorSimError as e:   # bad input met in a run (a world the simulator
+            # refuses, a plan that fails): one line, as the worker processes give it
             sys.exit("eval_worlds: %s, seed %d: %s (the rows above were done)" % (j[0], j[2], e))
         rows.append(done(r))
     return rows

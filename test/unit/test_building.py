@@ -157,6 +157,13 @@ def test_a_rooms_section_sets_how_auto_rooms_are_found(tmp_path):
     yml.write_text(yml.read_text().replace("rois: rois.yaml", "rois: auto"))
     cfg = load_world_config(path)
     assert cfg.rooms.max_door_width == 3.0 and cfg.rooms.door_ratio == 0.7
+    without = yml.read_text().replace("rooms: {max_door_width: 3.0}", "")
+    (tmp_path / "plain").mkdir()
+    for name in ("map.yaml", "map.pgm"):
+        (tmp_path / "plain" / name).write_bytes((tmp_path / name).read_bytes())
+    (tmp_path / "plain" / "world.yaml").write_text(without)
+    plain = check_building(Building(load_world_config(str(tmp_path / "plain" / "world.yaml"))))
+    assert len(plain.regions) == 1                # the default joins them
     report = check_building(Building(cfg))
     assert len(report.regions) == 2
     assert study_problems(report, "robot1", "robot2") == []
@@ -179,7 +186,8 @@ def test_a_bad_rooms_section_is_one_line_naming_it(tmp_path, rooms, words):
 
 def test_a_rooms_section_without_auto_rois_is_refused(tmp_path):
     path = two_rooms(tmp_path, door=1.0, clean="rooms: {max_door_width: 3.0}")
-    with pytest.raises(ConfigError, match="rooms sets how rois: auto finds the rooms"):
+    with pytest.raises(ConfigError, match="rooms sets how rois: auto finds the rooms; this "
+                                          "world has rois: .*rois.yaml"):
         load_world_config(path)
 
 
@@ -218,24 +226,35 @@ def test_regions_that_share_the_floor_evenly_get_no_warning(tmp_path):
     assert not any("warning" in line for line in report.lines())
 
 
-def test_a_start_inside_the_footprint_of_a_wall_is_refused_as_the_simulator_refuses_it(tmp_path):
+def test_a_start_inside_the_footprint_of_a_wall_is_warned_of_and_the_simulator_decides(
+        tmp_path):
+    from bullet_floor_sim.people.evaluation.scenario import refuse_unreachable
     from bullet_floor_sim.sim.world import World
 
-    # robot2 at x 7.9: its cell's centre (7.925) is 4 cells from the wall's (x 8.1-8.15),
-    # 0.2 m less half a cell to the wall's edge: 0.175 m, inside the 0.34 m footprint
+    # the wall's cells start at x 8.1: robot2 at x 7.9 is 0.2 m from it (inside the 0.34 m
+    # footprint; the Scitos body reaches 0.30-0.32 m: the simulator refuses it)
     path = two_rooms(tmp_path, door=1.0, robot2=(7.9, 2.0))
     cfg = load_world_config(path)
-    report = check_building(Building(cfg))
+    b = Building(cfg)
+    report = check_building(b)
     start = report.footprint("robot").starts[1]
-    assert start.name == "robot2" and start.wall == pytest.approx(0.175)
-    problems = study_problems(report, "robot1", "robot2")
-    assert problems == ["robot2 at (7.9, 2.0) starts 0.18 m from a wall, inside its 0.34 m "
-                        "footprint radius: the simulator refuses a body that overlaps a wall, "
-                        "and the planner treats the cell as lethal; move the start"]
-    assert any(line.strip() == problems[0] for line in report.lines())
+    assert start.name == "robot2" and start.wall == pytest.approx(0.2)
+    assert report.footprint("person").starts[0].wall == float("inf")
+    warning = ("robot2 at (7.90, 2.00) starts 0.20 m from a wall, inside its 0.34 m footprint "
+               "radius: if the robot's body overlaps the wall, the simulator refuses to spawn "
+               "it; give it room")
+    assert report.warnings() == [warning]
+    assert "  warning: " + warning in report.lines()
+    assert study_problems(report, "robot1", "robot2") == []       # a warning, not a refusal
+    assert refuse_unreachable(b, EvalConfig(world=path), b) == ["warning: " + warning]
     with pytest.raises(ConfigError, match="robot 'robot2' spawns overlapping a wall"):
         World(cfg, seed=0)
-    # 0.5 m from the wall (0.425 m to its edge) is clear for both
+    # 0.33 m from the wall: warned of (inside 0.34 m), and the simulator takes it
+    near = load_world_config(two_rooms(tmp_path, door=1.0, robot2=(7.77, 2.0)))
+    near_report = check_building(Building(near))
+    assert near_report.footprint("robot").starts[1].wall == pytest.approx(0.33)
+    assert len(near_report.warnings()) == 1
+    World(near, seed=0).close()
+    # 0.5 m from the wall: nothing to say
     ok = load_world_config(two_rooms(tmp_path, door=1.0, robot2=(7.6, 2.0)))
-    assert study_problems(check_building(Building(ok)), "robot1", "robot2") == []
-    World(ok, seed=0).close()
+    assert check_building(Building(ok)).warnings() == []

@@ -74,15 +74,13 @@ class StartReach:
     share: float
     reachable: List[str]
     unreachable: List[str]
-    wall: float = math.inf              # m from the start to the nearest solid cell's edge
-
+    wall: float = math.inf              # m from the start to the nearest solid cell (robots)
 
     def too_close(self, radius: float) -> str:
-        """What a start closer to a wall than ``radius`` means."""
-        return ("%s at (%.1f, %.1f) starts %.2f m from a wall, inside its %.2f m footprint "
-                "radius: the simulator refuses a body that overlaps a wall, and the planner "
-                "treats the cell as lethal; move the start" % (self.name, self.xy[0],
-                                                              self.xy[1], self.wall, radius))
+        """The warning for a start closer to a wall than ``radius``."""
+        return ("%s at (%.2f, %.2f) starts %.2f m from a wall, inside its %.2f m footprint "
+                "radius: if the robot's body overlaps the wall, the simulator refuses to spawn "
+                "it; give it room" % (self.name, self.xy[0], self.xy[1], self.wall, radius))
 
 
 @dataclass
@@ -126,7 +124,7 @@ class WorldCheck:
                                "" if not s.unreachable else
                                "; cut off: " + ", ".join(self._names(s.unreachable))))
                 if s.wall < fp.radius:
-                    out.append("  %s" % s.too_close(fp.radius))
+                    out.append("  warning: %s" % s.too_close(fp.radius))
             if fc.no_goal:
                 out.append("  no goal point in: " + ", ".join(self._names(fc.no_goal)))
             for p in sorted(fc.passages, key=lambda p: p.width):
@@ -150,9 +148,18 @@ class WorldCheck:
             return ""
         return ("region %s is %.0f %% of the regions' area: a walk to it may end almost "
                 "anywhere, so predicting it says little. With rois: auto, rooms joined by "
-                "openings wider than rooms.max_door_width merge: set it above their width "
+                "openings at least rooms.max_door_width wide merge: set it above their width "
                 "(world.yaml rooms: {max_door_width: 4.0}, docs/rooms.md), or draw the regions"
                 % (self._names([rid])[0], 100 * share))
+
+    def warnings(self) -> List[str]:
+        """What the report warns of: robot starts closer to a wall than the footprint's
+        radius, and one region that is most of the building."""
+        fc = self.footprint("robot")
+        out = [s.too_close(fc.footprint.radius) for s in fc.starts
+               if s.wall < fc.footprint.radius]
+        region = self.one_region_warning()
+        return out + ([region] if region else [])
 
     def _region_lines(self) -> List[str]:
         rid, share = self.largest_region()
@@ -196,6 +203,7 @@ def _footprint_check(b: Building, fp: Footprint, rois: List[Roi],
     passable = float(area.sum())
     comps = {r.id: set(int(v) for v in sampler.cells_in(r)[2]) for r in rois}
     no_goal = [i for i, s in comps.items() if not s]
+    robots = bool(starts)
     if not starts:   # a person starts where most regions are (walkable_regions' main part)
         counts: Dict[int, int] = {}
         for s in comps.values():
@@ -212,23 +220,29 @@ def _footprint_check(b: Building, fp: Footprint, rois: List[Roi],
         reach.append(StartReach(name, xy, k, float(area[k]) if k else 0.0,
                                 float(area[k]) / passable if k and passable else 0.0, got,
                                 [i for i, s in comps.items() if s and i not in got],
-                                _wall_distance(b, xy)))
+                                _wall_distance(b, xy) if robots else math.inf))
     mask = np.isin(sampler.labels, [s.component for s in reach if s.component])
     return FootprintCheck(fp, passable, reach, no_goal, _passages(b, sampler, rois, comps),
                           mask)
 
 
-def _wall_distance(b: Building, xy: Tuple[float, float]) -> float:
-    """m from (x, y)'s cell centre to the nearest solid cell's edge (0 on a solid cell or off
-    the map)."""
-    solid = b.solid
-    cells = solid.fmap.world_to_cell(*xy)
-    col, row = int(cells[0]), int(cells[1])
-    grid = np.asarray(solid.fmap.grid)
-    if not (0 <= row < grid.shape[0] and 0 <= col < grid.shape[1]) or solid.distance is None:
-        return 0.0
-    res = solid.fmap.resolution
-    return max(0.0, float(solid.distance[row, col]) * res - res / 2.0)
+def _wall_distance(b: Building, xy: Tuple[float, float], search: float = 1.0) -> float:
+    """m from the point (x, y) to the nearest solid cell (its square) within ``search`` m;
+    inf when none is that near."""
+    fmap = b.solid.fmap
+    res = fmap.resolution
+    cells = fmap.world_to_cell(*xy)
+    col, row, k = int(cells[0]), int(cells[1]), int(math.ceil(search / res))
+    r0, c0 = max(0, row - k), max(0, col - k)
+    rows, cols = np.nonzero(np.asarray(fmap.grid)[r0:row + k + 1, c0:col + k + 1] == 100)
+    if not len(rows):
+        return math.inf
+    cx, cy = fmap.cell_to_world(cols + c0, rows + r0)
+    yaw = fmap.origin[2]
+    dx, dy = xy[0] - cx, xy[1] - cy       # to each cell's centre, turned into the grid's axes
+    du = np.abs(math.cos(yaw) * dx + math.sin(yaw) * dy) - res / 2.0
+    dv = np.abs(-math.sin(yaw) * dx + math.cos(yaw) * dy) - res / 2.0
+    return float(np.hypot(np.maximum(du, 0.0), np.maximum(dv, 0.0)).min())
 
 
 #: The disc radius (m) of the fallback route that shows where a cut-off region's way narrows.
@@ -344,8 +358,6 @@ def study_problems(report: WorldCheck, walker: str, observer: Optional[str]) -> 
     elif len(w.reachable) < 2:
         out.append("%s reaches %d region(s) (%s): a walk between regions needs 2"
                    % (walker, len(w.reachable), ", ".join(w.reachable) or "none"))
-    out += [s.too_close(fc.footprint.radius) for n, s in starts.items()
-            if n in (walker, observer) and s.wall < fc.footprint.radius]
     if observer is not None and observer in starts:
         o = starts[observer]
         if o.component != w.component:

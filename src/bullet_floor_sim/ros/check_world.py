@@ -4,8 +4,9 @@ robots and people can reach on a world's floor, before a study runs on it.
 Reports, for the robot's footprint (the planner's robot_radius) and a person's: the floor
 each can plan on and the share connected to each start, the regions reached and cut off,
 the narrowest passage on the route between each pair of neighbouring regions, what each
-map-handling rule changed, a start closer to a wall than the footprint's radius, and the
-regions' sizes (a warning when one is over half their area) (building/check.py). Then the
+map-handling rule changed, the regions' sizes, and warnings: a robot that starts closer to a
+wall than the footprint's radius, one region over half of the regions' area
+(building/check.py). Then the
 study's verdict for the walker (the
 first robot) and the observer (the second): ``study: ok`` or ``study: would refuse: ...``.
 ``--write-cleaned NAME`` writes the map with the handling's changes made (NAME.pgm,

@@ -213,8 +213,9 @@ def load_world_config(path: str) -> WorldConfig:
     if rois is not None and not isinstance(rois, str):
         raise ConfigError("%s: rois must be a file name or auto, got %r" % (path, rois))
     if doc.get("rooms") is not None and rois != "auto":
-        raise ConfigError("%s: rooms sets how rois: auto finds the rooms; this world's rois is "
-                          "%r (drop rooms, or set rois: auto)" % (path, rois))
+        raise ConfigError("%s: rooms sets how rois: auto finds the rooms; this world has %s "
+                          "(drop rooms, or set rois: auto)"
+                          % (path, "no rois" if rois is None else "rois: %s" % rois))
     robots_doc = doc.get("robots", [])
     if not isinstance(robots_doc, list):
         raise ConfigError("%s: robots must be a list, got %s" % (path, type(robots_doc).__name__))

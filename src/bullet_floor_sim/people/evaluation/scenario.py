@@ -99,8 +99,8 @@ def refuse_unreachable(world, cfg: EvalConfig, building=None) -> List[str]:
     """The map check of a study (building/check.py) of ``world`` (a sim World, or anything
     with its ``config``, such as a Building): raises EvaluationError naming what the
     walker cannot reach (and the passages, and the fixes) unless ``cfg.allow_unreachable``;
-    then returns it as warnings that say the run went on, and the check's warning of one
-    region that is most of the building, if any."""
+    then returns it as warnings that say the run went on, and the check's own warnings (a
+    start close to a wall, one region that is most of the building)."""
     from ...building.check import FIXES, check_building, world_study_problems
 
     b = building or Building(world.config, world.fmap)
@@ -114,9 +114,8 @@ def refuse_unreachable(world, cfg: EvalConfig, building=None) -> List[str]:
         raise EvaluationError("evaluate: world %s: %s. Fixes: %s; or allow it with "
                               "--allow-unreachable" % (cfg.world, "; ".join(problems),
                                                        "; ".join(FIXES)))
-    warning = report.one_region_warning()
     return (["going on as allowed (--allow-unreachable): %s" % p for p in problems]
-            + (["warning: " + warning] if warning else []))
+            + ["warning: " + w for w in report.warnings()])
 
 
 def world_model(world_name: str, prediction: Optional[PredictionConfig] = None
