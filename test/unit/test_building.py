@@ -258,3 +258,19 @@ def test_a_start_inside_the_footprint_of_a_wall_is_warned_of_and_the_simulator_d
     # 0.5 m from the wall: nothing to say
     ok = load_world_config(two_rooms(tmp_path, door=1.0, robot2=(7.6, 2.0)))
     assert check_building(Building(ok)).warnings() == []
+
+
+def test_a_walker_whose_region_joins_no_other_stops_the_study(tmp_path):
+    # the regions stop 0.6 m short of the wall on each side: no vertex of one is within 0.2 m
+    # of the other's, so the chain keeps the walker in region 1 for good
+    path = two_rooms(tmp_path, door=1.0)
+    (tmp_path / "rois.yaml").write_text(
+        'map_name: rooms\nconfig: "1"\nrois:\n'
+        '  - {id: "1", type: office, points: [[0.1, 0.1], [3.5, 0.1], [3.5, 4.1], [0.1, 4.1]]}\n'
+        '  - {id: "2", type: lab, points: [[4.7, 0.1], [8.1, 0.1], [8.1, 4.1], [4.7, 4.1]]}\n')
+    with pytest.raises(EvaluationError, match=r'the walker starts in region "1" \(office 1\), '
+                                              r"which the chain joins to no other region"):
+        run(EvalConfig(world=path, legs=1))
+    r = run(EvalConfig(world=path, legs=1, allow_unreachable=True))
+    assert any(w.startswith('going on as allowed (--allow-unreachable): the walker starts in '
+                            'region "1"') for w in r.warnings)

@@ -118,6 +118,27 @@ def refuse_unreachable(world, cfg: EvalConfig, building=None) -> List[str]:
             + ["warning: " + w for w in report.warnings()])
 
 
+def _walks_in_one_region(chain: MarkovChain, walker: Walker, pose, cfg: EvalConfig
+                         ) -> List[str]:
+    """Raise EvaluationError when the walker starts in a region the chain joins to no other
+    (every walk would stay in it, and every prediction would be right) unless
+    ``cfg.allow_unreachable``; then the warning that says the run went on."""
+    here = walker.origin_region(float(pose[0]), float(pose[1]))
+    part = next((p for p in chain.components() if here in p), [here])
+    if len(part) > 1 or len(chain.ids) < 2:   # fewer than two: the map check says so
+        return []
+    why = ('the walker starts in region "%s" (%s), which the chain joins to no other region '
+           "(no vertex within 0.2 m of another's): every walk would stay in it"
+           % (here, walker.label(here)))
+    if not cfg.allow_unreachable:
+        raise EvaluationError("evaluate: world %s: %s. Fixes: draw regions that share "
+                              "vertices at their doors (with rois: auto, a region with "
+                              "others inside it: rooms: {max_door_width: ...}, docs/rooms.md); "
+                              "move the walker's start; or allow it with --allow-unreachable"
+                              % (cfg.world, why))
+    return ["going on as allowed (--allow-unreachable): %s" % why]
+
+
 def world_model(world_name: str, prediction: Optional[PredictionConfig] = None
                 ) -> DestinationModel:
     """The destination model :func:`run` builds for a world (its regions the walker can
@@ -151,7 +172,9 @@ class _Scenario:
         self.uniform = {r: 1.0 / len(chain.ids) for r in chain.ids}
         # the agents the nodes run: markov_walker, people_tracker (observer.launch's
         # centre_offset for the Scitos body), destination_predictor, follower
-        self.walker = WalkerAgent(Walker(chain, rois, sampler, WalkerConfig(), seed=cfg.seed))
+        walker = Walker(chain, rois, sampler, WalkerConfig(), seed=cfg.seed)
+        self.warnings += _walks_in_one_region(chain, walker, world.pose[cfg.walker], cfg)
+        self.walker = WalkerAgent(walker)
         self.tracker = TrackerAgent.for_map(world.fmap, cfg.tracker_config or study_tracker(),
                                             handling=world.config.map_handling)
         follow = cfg.follow_config or FollowConfig()
