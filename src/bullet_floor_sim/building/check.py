@@ -13,7 +13,9 @@ For each footprint (the robot's, a person's) :func:`check_building` reports
 
 what each map-handling rule changed (sim/solidmap.py), and how the regions share the
 floor: one region that is most of it (over :data:`ONE_REGION_SHARE` of their area) gets a
-warning line, as a walk "to" it goes almost anywhere. :func:`study_problems` turns the
+warning line, as a walk "to" it goes almost anywhere, and so does a robot that starts closer
+to a wall than the footprint's radius (:meth:`WorldCheck.warnings`). :func:`study_problems`
+turns the
 report into what would make a study degrade silently: a region the walker cannot reach, an
 observer that cannot reach the walker's floor.
 """
