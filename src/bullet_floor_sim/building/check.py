@@ -15,9 +15,8 @@ what each map-handling rule changed (sim/solidmap.py), and how the regions share
 floor: one region that is most of it (over :data:`ONE_REGION_SHARE` of their area) gets a
 warning line, as a walk "to" it goes almost anywhere, and so does a robot that starts closer
 to a wall than the footprint's radius (:meth:`WorldCheck.warnings`). :func:`study_problems`
-turns the
-report into what would make a study degrade silently: a region the walker cannot reach, an
-observer that cannot reach the walker's floor.
+turns the report into what would make a study degrade silently: a region the walker cannot
+reach, an observer that cannot reach the walker's floor.
 """
 from __future__ import annotations
 
