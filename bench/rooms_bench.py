@@ -56,6 +56,8 @@ PAPER = (("Voronoi", (95.0, 94.8, 86.6, 94.5)),
 # the search grid: graph parameters (each needs a new watershed) x merge parameters
 GRAPH_GRID = {"furniture_area": (1.0, 2.0)}
 MERGE_GRID = {"door_ratio": (0.6, 0.7, 0.8), "max_door_width": (1.6, 2.0, 2.5)}
+#: what is searched without --grid
+DEFAULT_SEARCH = {**GRAPH_GRID, **MERGE_GRID}
 #: the RoomConfig fields basin_graph reads (a new watershed per value); the others only merge
 GRAPH_FIELDS = ("furniture_area", "wall_length", "seed_height")
 
@@ -141,7 +143,7 @@ def grid(fixed: bool, search: Optional[Grid] = None) -> Tuple[List[Combo], List[
     defaults when fixed."""
     if fixed:
         return [()], [()]
-    search = search or {**GRAPH_GRID, **MERGE_GRID}
+    search = search or DEFAULT_SEARCH
     graph_grid = {k: v for k, v in search.items() if k in GRAPH_FIELDS}
     merge_grid = {k: v for k, v in search.items() if k not in GRAPH_FIELDS}
     graph = [tuple(zip(graph_grid, v)) for v in itertools.product(*graph_grid.values())]
@@ -238,7 +240,7 @@ def main(argv: Sequence[str] = ()) -> int:
                              "furniture_area, door_ratio and max_door_width)")
     args = parser.parse_args(list(argv) or None)
     try:
-        search = parse_grid(args.grid) or {**GRAPH_GRID, **MERGE_GRID}
+        search = parse_grid(args.grid) or DEFAULT_SEARCH
     except ValueError as err:
         print("rooms_bench: %s" % err, file=sys.stderr)
         return 2
