@@ -17,7 +17,7 @@ from bullet_floor_sim.paths import worlds_dir
 from bullet_floor_sim.sim.solidmap import MapHandling
 from bullet_floor_sim.people.tracking import (Detection, PoseHistory, StaticMap, Tracker, TrackerConfig,
                                             TrackingError, cluster, detect, detect_scan,
-                                            scan_points)
+                                            scan_detections, scan_points, view_edge)
 from bullet_floor_sim.sim.world import World
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
@@ -166,6 +166,31 @@ def test_detect_finds_round_bodies_at_their_centres_and_ignores_walls_and_long_o
     # min_points: a thin post (3 cm) at 2.5 m gives 1 point
     ranges, amin, inc = synthetic_scan(laser, [(0.5, 2.0, 0.015)])
     assert detect_scan(ranges, amin, inc, laser, static) == []
+
+
+def test_view_edge_marks_the_first_and_last_beam_of_a_fan_and_none_of_a_full_circle():
+    wrap, edge = view_edge(np.array([0, 5, 179, 180]), 181, math.radians(1.0))
+    assert not wrap and edge.tolist() == [True, False, False, True]
+    wrap, edge = view_edge(np.array([0, 359]), 360, math.radians(1.0))
+    assert wrap and edge is None
+
+
+def test_edge_drop_leaves_out_a_body_the_view_edge_cuts_and_keeps_one_in_view():
+    static = StaticMap(simple_room_map(), 0.2)
+    laser = (3.0, 2.0, math.pi)              # beam 0 points north (+y), beam 180 south
+    cut = (3.12, 3.2, 0.25)                  # across beam 0: only its west part is in view
+    whole = (1.5, 1.2, 0.25)
+    ranges, amin, inc = synthetic_scan(laser, [cut, whole])
+    dets = detect_scan(ranges, amin, inc, laser, static, TrackerConfig())
+    assert len(dets) == 2
+    d = min(dets, key=lambda q: math.hypot(q.x - cut[0], q.y - cut[1]))
+    # the points left lie west of the body's centre: the detection is off by over 0.1 m
+    assert cut[0] - d.x > 0.1, d
+    dets, pts = scan_detections(ranges, amin, inc, laser, static, TrackerConfig(edge_drop=True))
+    assert len(pts) == 181 and len(dets) == 1
+    assert math.hypot(dets[0].x - whole[0], dets[0].y - whole[1]) < 0.02
+    with pytest.raises(TrackingError, match="edge_drop"):
+        TrackerConfig(edge_drop=1).check()
 
 
 def test_detect_pushes_the_centroid_away_from_the_sensor():

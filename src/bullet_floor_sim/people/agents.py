@@ -27,7 +27,7 @@ from ..errors import BulletFloorSimError
 from .follow import FollowBehaviour, FollowConfig, FollowDecision
 from .search import SearchPlan, TrackLike, lookout_points, pick_target, search_plan
 from .prediction import DestinationModel, Prediction, PredictorPool
-from .tracking import StaticMap, Track, Tracker, TrackerConfig, detect, scan_points
+from .tracking import StaticMap, Track, Tracker, TrackerConfig, scan_detections
 from .walker import GoalSampler, Leg, Walker, WalkerError
 
 __all__ = ["WalkerAgent", "WalkerStep", "REGOAL_WITHIN", "MAX_REGOALS", "TrackerAgent",
@@ -291,8 +291,8 @@ class TrackerAgent:
         """Track on one scan (anything with ``ranges``, ``angle_min``, ``angle_increment``)
         taken at time ``t`` from ``laser_pose`` (x, y, yaw in the map). A scan older than the
         tracker's last (a bag looped, the simulation restarted) starts it afresh."""
-        pts = scan_points(scan.ranges, scan.angle_min, scan.angle_increment, laser_pose)
-        dets = detect(pts, self.static, laser_pose[:2], self.config)
+        dets, pts = scan_detections(scan.ranges, scan.angle_min, scan.angle_increment,
+                                    laser_pose, self.static, self.config)
         try:
             return TrackerStep(self.tracker.update(dets, t), pts)
         except BulletFloorSimError as e:   # time went backwards

@@ -7,7 +7,9 @@ No ground truth of the targets is used: only the scans, the laser's pose and the
    cell); those are dropped.
 3. :func:`detect` clusters the rest along the scan (consecutive points closer than
    ``cluster_gap``), keeps clusters of a plausible size and estimates each one's centre: the
-   centroid pushed ``centre_offset`` away from the sensor (a lidar sees only the near surface).
+   centroid pushed ``centre_offset`` away from the sensor (a lidar sees only the near surface);
+   with ``edge_drop``, a cluster on the first or last beam of a scan that is not a full
+   circle is dropped (the view's edge cuts it). :func:`scan_detections` does 1-3 for a scan.
 4. :class:`Tracker` runs one constant-velocity Kalman filter per track in the map frame
    (state x, y, vx, vy), gates detections by the chi-square distance of the innovation and
    associates by global nearest neighbour (``scipy.optimize.linear_sum_assignment``). A new
@@ -20,8 +22,10 @@ Anything not on the map is tracked, moving or not (a parked robot gives a still 
 from __future__ import annotations
 
 from .config import TrackerConfig, TrackingError
-from .detection import Detection, StaticMap, cluster, detect, detect_scan, scan_points
+from .detection import (Detection, StaticMap, cluster, detect, detect_scan, scan_detections,
+                        scan_points, view_edge)
 from .tracker import PoseHistory, Track, Tracker
 
 __all__ = ["TrackingError", "TrackerConfig", "StaticMap", "Detection", "Track", "Tracker",
-           "scan_points", "cluster", "detect", "detect_scan", "PoseHistory"]
+           "scan_points", "cluster", "detect", "detect_scan", "scan_detections", "view_edge",
+           "PoseHistory"]

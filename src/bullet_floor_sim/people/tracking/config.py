@@ -47,6 +47,13 @@ class TrackerConfig:
             clutter that the map does not explain (furniture, or door jambs smeared by a pose
             that lags the scan while the robot turns), at the price of not reporting an
             entity until it has moved.
+        edge_drop: a cluster on the first or last beam of a scan that is not a full circle
+            is not a detection. The edge of the view cuts a body standing across it: its
+            points lie to one side of its centre, and as it leaves the view their centroid
+            slides along the edge, which a track takes for motion. On the ipa production
+            plant a standing walker leaving the observer's 180-degree view at its side
+            became a track going 0.35 m/s the other way; the observer trailed it there and
+            searched for 1384 s (docs/evaluation.md, session 78). False: such clusters count.
     """
 
     static_tolerance: float = 0.2
@@ -63,6 +70,7 @@ class TrackerConfig:
     tentative_max_age: float = 0.25
     max_speed: float = 2.0
     min_travel: float = 0.0
+    edge_drop: bool = False
 
     def check(self) -> None:
         """Raise TrackingError naming the first bad parameter."""
@@ -72,6 +80,9 @@ class TrackerConfig:
                              "gate", "max_age", "tentative_max_age", "max_speed"),
                       "tracker", error=TrackingError)
         check_integers(self, ("min_points", "confirm_hits"), "tracker", error=TrackingError)
+        if not isinstance(self.edge_drop, bool):
+            raise TrackingError("tracker: edge_drop must be true or false, got %r"
+                                % (self.edge_drop,))
         if self.max_size < self.min_size:
             raise TrackingError("tracker: max_size (%g m) must be >= min_size (%g m)"
                                 % (self.max_size, self.min_size))

@@ -155,7 +155,8 @@ class Detection:
 
 
 def detect(points: np.ndarray, static: StaticMap, laser_xy: Sequence[float],
-           config: Optional[TrackerConfig] = None, wrap: bool = False) -> List[Detection]:
+           config: Optional[TrackerConfig] = None, wrap: bool = False,
+           edge: Optional[np.ndarray] = None) -> List[Detection]:
     """Entities that the map does not explain, among a scan's points.
 
     Args:
@@ -164,18 +165,24 @@ def detect(points: np.ndarray, static: StaticMap, laser_xy: Sequence[float],
         laser_xy: (x, y) of the laser in the map frame (the centre is pushed away from it).
         config: detection parameters (``TrackerConfig()`` when None).
         wrap: the scan is a full circle (see :func:`cluster`).
+        edge: (N,) bool, the point is on the first or last beam of a scan that is not a full
+            circle (:func:`view_edge`); with ``config.edge_drop``, a cluster holding one is
+            not a detection. None: no point is.
 
     Returns:
         One Detection per cluster of ``min_points`` or more points with an extent within
-        [min_size, max_size], in beam order.
+        [min_size, max_size] (and, with ``edge_drop``, off the view's edge), in beam order.
     """
     cfg = config or TrackerConfig()
     pts = _as_points(points, "points")
-    pts = pts[~static.explained(pts)]
+    keep = ~static.explained(pts)
+    pts = pts[keep]
+    at_edge = (np.asarray(edge, dtype=bool)[keep] if edge is not None and cfg.edge_drop
+               else None)
     sensor = np.asarray(laser_xy, dtype=float).reshape(2)
     out = []
     for idx in cluster(pts, cfg.cluster_gap, wrap):
-        if len(idx) < cfg.min_points:
+        if len(idx) < cfg.min_points or (at_edge is not None and at_edge[idx].any()):
             continue
         q = pts[idx]
         diff = q[:, None, :] - q[None, :, :]
@@ -191,15 +198,36 @@ def detect(points: np.ndarray, static: StaticMap, laser_xy: Sequence[float],
     return out
 
 
+def view_edge(beams: np.ndarray, n_beams: int, angle_increment: float
+              ) -> Tuple[bool, Optional[np.ndarray]]:
+    """Whether a scan of ``n_beams`` beams ``angle_increment`` apart is a full circle, and,
+    when it is not, which of the points on ``beams`` (:func:`scan_points`' beam indices) lie
+    on its first or last beam: the edges of its view, which cut a body standing across them
+    (the points left lie to one side of the body's centre, and move as it leaves the view;
+    issue 33's trace of the ipa production plant, docs/evaluation.md, session 78)."""
+    if abs(angle_increment) * n_beams >= 2.0 * math.pi - 1e-6:
+        return True, None
+    b = np.asarray(beams)
+    return False, (b == 0) | (b == n_beams - 1)
+
+
+def scan_detections(ranges: Sequence[float], angle_min: float, angle_increment: float,
+                    laser_pose: Sequence[float], static: StaticMap,
+                    config: Optional[TrackerConfig] = None
+                    ) -> Tuple[List[Detection], np.ndarray]:
+    """:func:`scan_points` then :func:`detect` for one scan (a ``Scan``'s or a LaserScan's
+    fields): its detections and its points. A scan whose beams cover a full circle wraps
+    around; one that does not has edges (:func:`view_edge`)."""
+    pts, beams = scan_points(ranges, angle_min, angle_increment, laser_pose, return_beams=True)
+    wrap, edge = view_edge(beams, len(np.asarray(ranges).reshape(-1)), angle_increment)
+    return detect(pts, static, laser_pose[:2], config, wrap, edge), pts
+
+
 def detect_scan(ranges: Sequence[float], angle_min: float, angle_increment: float,
                 laser_pose: Sequence[float], static: StaticMap,
                 config: Optional[TrackerConfig] = None) -> List[Detection]:
-    """:func:`scan_points` then :func:`detect` for one scan (a ``Scan``'s or a LaserScan's
-    fields); a scan whose beams cover a full circle wraps around."""
-    pts = scan_points(ranges, angle_min, angle_increment, laser_pose)
-    n = len(np.asarray(ranges).reshape(-1))
-    wrap = abs(angle_increment) * n >= 2.0 * math.pi - 1e-6
-    return detect(pts, static, laser_pose[:2], config, wrap)
+    """The detections of one scan (:func:`scan_detections`)."""
+    return scan_detections(ranges, angle_min, angle_increment, laser_pose, static, config)[0]
 
 
 def _as_points(points: Any, what: str) -> np.ndarray:
