@@ -7,6 +7,10 @@ from dataclasses import dataclass
 from ...errors import BulletFloorSimError
 from ...sim.checks import check_integers, check_numbers
 
+#: TrackerConfig.edge_cut's values.
+EDGE_CUT = ("use", "hold", "drop")
+
+
 class TrackingError(BulletFloorSimError):
     """Bad tracker parameters or inputs (the message names the field or input)."""
 
@@ -47,13 +51,15 @@ class TrackerConfig:
             clutter that the map does not explain (furniture, or door jambs smeared by a pose
             that lags the scan while the robot turns), at the price of not reporting an
             entity until it has moved.
-        edge_drop: a cluster on the first or last beam of a scan that is not a full circle
-            is not a detection. The edge of the view cuts a body standing across it: its
+        edge_cut: what a cluster on the first or last beam of a scan that is not a full
+            circle counts for. The edge of the view cuts a body standing across it: its
             points lie to one side of its centre, and as it leaves the view their centroid
             slides along the edge, which a track takes for motion. On the ipa production
             plant a standing walker leaving the observer's 180-degree view at its side
             became a track going 0.35 m/s the other way; the observer trailed it there and
-            searched for 1384 s (docs/evaluation.md, session 78). False: such clusters count.
+            searched for 1384 s (docs/evaluation.md, session 78). ``use``: a detection like
+            any other; ``hold``: it keeps the track it gates to alive, without moving it
+            (the track coasts), and starts none; ``drop``: it is no detection.
     """
 
     static_tolerance: float = 0.2
@@ -70,7 +76,7 @@ class TrackerConfig:
     tentative_max_age: float = 0.25
     max_speed: float = 2.0
     min_travel: float = 0.0
-    edge_drop: bool = False
+    edge_cut: str = "use"
 
     def check(self) -> None:
         """Raise TrackingError naming the first bad parameter."""
@@ -80,9 +86,9 @@ class TrackerConfig:
                              "gate", "max_age", "tentative_max_age", "max_speed"),
                       "tracker", error=TrackingError)
         check_integers(self, ("min_points", "confirm_hits"), "tracker", error=TrackingError)
-        if not isinstance(self.edge_drop, bool):
-            raise TrackingError("tracker: edge_drop must be true or false, got %r"
-                                % (self.edge_drop,))
+        if self.edge_cut not in EDGE_CUT:
+            raise TrackingError("tracker: edge_cut must be one of %s, got %r"
+                                % (", ".join(EDGE_CUT), self.edge_cut))
         if self.max_size < self.min_size:
             raise TrackingError("tracker: max_size (%g m) must be >= min_size (%g m)"
                                 % (self.max_size, self.min_size))

@@ -146,12 +146,15 @@ class Detection:
         x, y: estimated centre in the map frame (m).
         size: extent of its points, the largest distance between two of them (m).
         n_points: number of scan points.
+        cut: it holds a point on the edge of the scan's view (TrackerConfig.edge_cut
+            ``hold``: it keeps a track alive, without moving it).
     """
 
     x: float
     y: float
     size: float
     n_points: int
+    cut: bool = False
 
 
 def detect(points: np.ndarray, static: StaticMap, laser_xy: Sequence[float],
@@ -166,23 +169,24 @@ def detect(points: np.ndarray, static: StaticMap, laser_xy: Sequence[float],
         config: detection parameters (``TrackerConfig()`` when None).
         wrap: the scan is a full circle (see :func:`cluster`).
         edge: (N,) bool, the point is on the first or last beam of a scan that is not a full
-            circle (:func:`view_edge`); with ``config.edge_drop``, a cluster holding one is
-            not a detection. None: no point is.
+            circle (:func:`view_edge`); a cluster holding one is ``cut`` (with
+            ``config.edge_cut`` ``drop``: no detection). None: no point is.
 
     Returns:
         One Detection per cluster of ``min_points`` or more points with an extent within
-        [min_size, max_size] (and, with ``edge_drop``, off the view's edge), in beam order.
+        [min_size, max_size], in beam order.
     """
     cfg = config or TrackerConfig()
     pts = _as_points(points, "points")
     keep = ~static.explained(pts)
     pts = pts[keep]
-    at_edge = (np.asarray(edge, dtype=bool)[keep] if edge is not None and cfg.edge_drop
-               else None)
+    at_edge = (np.asarray(edge, dtype=bool)[keep] if edge is not None and cfg.edge_cut != "use"
+               else np.zeros(len(pts), dtype=bool))
     sensor = np.asarray(laser_xy, dtype=float).reshape(2)
     out = []
     for idx in cluster(pts, cfg.cluster_gap, wrap):
-        if len(idx) < cfg.min_points or (at_edge is not None and at_edge[idx].any()):
+        cut = bool(at_edge[idx].any())
+        if len(idx) < cfg.min_points or (cut and cfg.edge_cut == "drop"):
             continue
         q = pts[idx]
         diff = q[:, None, :] - q[None, :, :]
@@ -194,7 +198,8 @@ def detect(points: np.ndarray, static: StaticMap, laser_xy: Sequence[float],
         norm = math.hypot(u[0], u[1])
         if norm > 0.0:
             c = c + u * (cfg.centre_offset / norm)
-        out.append(Detection(x=float(c[0]), y=float(c[1]), size=size, n_points=len(idx)))
+        out.append(Detection(x=float(c[0]), y=float(c[1]), size=size, n_points=len(idx),
+                             cut=cut))
     return out
 
 

@@ -139,7 +139,10 @@ class Tracker:
         pairs, gated = self._associate(z)
         hit = np.zeros(len(self._tracks), dtype=bool)
         for i, j in pairs:
-            self._correct(self._tracks[i], z[j], t)
+            if detections[j].cut:    # (edge_cut hold) alive, coasting
+                self._tracks[i].last_seen = t
+            else:
+                self._correct(self._tracks[i], z[j], t)
             hit[i] = True
         # deletion: too long without a hit
         keep = []
@@ -155,7 +158,7 @@ class Tracker:
         # track's gate that lost the assignment is most likely a piece of that entity)
         used = {j for _, j in pairs}
         for j in range(len(z)):
-            if j not in used and not gated[j]:
+            if j not in used and not gated[j] and not detections[j].cut:
                 self._birth(z[j], t)
         return self.confirmed()
 
