@@ -168,51 +168,62 @@ def test_detect_finds_round_bodies_at_their_centres_and_ignores_walls_and_long_o
     assert detect_scan(ranges, amin, inc, laser, static) == []
 
 
-def test_view_edge_marks_the_first_and_last_beam_of_a_fan_and_none_of_a_full_circle():
-    wrap, edge = view_edge(np.array([0, 5, 179, 180]), 181, math.radians(1.0))
+def test_view_edge_marks_the_first_and_last_beam_that_reads_of_a_fan_and_none_of_a_circle():
+    inc = math.radians(1.0)
+    ranges = np.full(181, 3.0)
+    wrap, edge = view_edge(ranges, np.array([0, 5, 179, 180]), inc)
     assert not wrap and edge.tolist() == [True, False, False, True]
-    wrap, edge = view_edge(np.array([0, 359]), 360, math.radians(1.0))
+    # NaN and -inf do not say where the view ends: the edge is the next beam in; +inf does
+    ranges[[0, 1, 180]] = [np.nan, -np.inf, np.inf]
+    wrap, edge = view_edge(ranges, np.array([2, 3, 179]), inc)
+    assert edge.tolist() == [True, False, False]
+    wrap, edge = view_edge(np.ones(360), np.array([0, 359]), inc)
     assert wrap and edge is None
 
 
 def test_a_body_the_view_edge_cuts_is_a_cut_detection_off_its_centre_or_none_with_drop():
     static = StaticMap(simple_room_map(), 0.2)
     laser = (3.0, 2.0, math.pi)              # beam 0 points north (+y), beam 180 south
-    cut = (3.12, 3.2, 0.25)                  # across beam 0: only its west part is in view
     whole = (1.5, 1.2, 0.25)
-    ranges, amin, inc = synthetic_scan(laser, [cut, whole])
-    for mode in ("use", "hold"):
-        dets = detect_scan(ranges, amin, inc, laser, static, TrackerConfig(edge_cut=mode))
-        assert len(dets) == 2
-        d = min(dets, key=lambda q: math.hypot(q.x - cut[0], q.y - cut[1]))
-        # the points left lie west of the body's centre: the detection is off by over 0.1 m
-        assert cut[0] - d.x > 0.1, d
-        assert d.cut == (mode == "hold") and not any(q.cut for q in dets if q is not d)
-    dets, pts = scan_detections(ranges, amin, inc, laser, static, TrackerConfig(edge_cut="drop"))
-    assert len(pts) == 181 and len(dets) == 1 and not dets[0].cut
-    assert math.hypot(dets[0].x - whole[0], dets[0].y - whole[1]) < 0.02
-    with pytest.raises(TrackingError, match="edge_cut must be one of use, hold, drop"):
-        TrackerConfig(edge_cut="keep").check()
+    # across beam 0 (only its west part in view), and across beam 180, after the wall
+    # points the map explains in beam order (only its west part in view)
+    for cut in ((3.12, 3.2, 0.25), (3.12, 0.9, 0.25)):
+        ranges, amin, inc = synthetic_scan(laser, [cut, whole])
+        for mode in ("use", "position"):
+            dets = detect_scan(ranges, amin, inc, laser, static, TrackerConfig(edge_cut=mode))
+            assert len(dets) == 2
+            d = min(dets, key=lambda q: math.hypot(q.x - cut[0], q.y - cut[1]))
+            # the points left lie west of the body's centre: over 0.1 m off
+            assert cut[0] - d.x > 0.1, d
+            assert d.cut == (mode == "position") and not any(q.cut for q in dets if q is not d)
+        dets, pts = scan_detections(ranges, amin, inc, laser, static,
+                                    TrackerConfig(edge_cut="drop"))
+        assert len(dets) == 1 and not dets[0].cut
+        assert math.hypot(dets[0].x - whole[0], dets[0].y - whole[1]) < 0.02
+    with pytest.raises(TrackingError, match="edge_cut must be one of use, position, drop"):
+        TrackerConfig(edge_cut="hold").check()
 
 
-def test_a_cut_detection_keeps_its_track_alive_coasting_and_starts_none():
-    tracker = Tracker(TrackerConfig(edge_cut="hold", max_age=1.0))
+def test_a_cut_detection_corrects_its_track_s_position_not_its_velocity_and_starts_none():
+    tracker = Tracker(TrackerConfig(edge_cut="position"))
     for k in range(6):                       # walking +x at 0.5 m/s, 0.1 s scans
         tracker.update([Detection(0.05 * k, 0.0, 0.4, 10)], 0.1 * k)
     (tr,) = tracker.confirmed()
     assert tr.vx == pytest.approx(0.5, abs=0.15)
-    x, vx, vy = tr.x, tr.vx, tr.vy
-    # 2 s of cut detections sliding the other way (-x): the track lives on (past max_age),
-    # coasting at its own velocity, not pulled by them
+    vx, vy = tr.vx, tr.vy
+    # 2 s of cut detections standing at x = 0.4 (the body stopped across the edge): the
+    # track lives on, its velocity untouched, its position kept near them (not coasting)
     for k in range(1, 21):
-        out = tracker.update([Detection(x - 0.03 * k, 0.0, 0.3, 5, cut=True)], 0.5 + 0.1 * k)
-        assert len(out) == 1 and out[0].id == tr.id
-        assert (out[0].vx, out[0].vy) == pytest.approx((vx, vy))
-        assert out[0].x == pytest.approx(x + vx * 0.1 * k)
-    # once they stop, it dies after max_age; a cut detection alone starts no track
-    tracker.update([], 3.6)
+        (out,) = tracker.update([Detection(0.4, 0.0, 0.3, 5, cut=True)], 0.5 + 0.1 * k)
+        assert out.id == tr.id and (out.vx, out.vy) == pytest.approx((vx, vy))
+    assert 0.4 < out.x < 0.4 + 0.5 * vx and abs(out.y) < 0.05
+    # a plain detection there corrects the velocity again, towards standing
+    (out,) = tracker.update([Detection(0.4, 0.0, 0.4, 10)], 2.6)
+    assert out.vx < vx - 0.05
+    # once nothing comes, it dies after max_age; a cut detection alone starts no track
+    tracker.update([], 3.7)
     assert tracker.tracks == []
-    tracker.update([Detection(5.0, 5.0, 0.4, 10, cut=True)], 3.7)
+    tracker.update([Detection(5.0, 5.0, 0.4, 10, cut=True)], 3.8)
     assert tracker.tracks == []
 
 

@@ -8,7 +8,7 @@ from ...errors import BulletFloorSimError
 from ...sim.checks import check_integers, check_numbers
 
 #: TrackerConfig.edge_cut's values.
-EDGE_CUT = ("use", "hold", "drop")
+EDGE_CUT = ("use", "position", "drop")
 
 
 class TrackingError(BulletFloorSimError):
@@ -58,8 +58,8 @@ class TrackerConfig:
             plant a standing walker leaving the observer's 180-degree view at its side
             became a track going 0.35 m/s the other way; the observer trailed it there and
             searched for 1384 s (docs/evaluation.md, session 78). ``use``: a detection like
-            any other; ``hold``: it keeps the track it gates to alive, without moving it
-            (the track coasts), and starts none; ``drop``: it is no detection.
+            any other; ``position``: it corrects the position of the track it is assigned,
+            not its velocity, and starts no track; ``drop``: it is no detection.
     """
 
     static_tolerance: float = 0.2

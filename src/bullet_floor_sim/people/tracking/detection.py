@@ -146,8 +146,9 @@ class Detection:
         x, y: estimated centre in the map frame (m).
         size: extent of its points, the largest distance between two of them (m).
         n_points: number of scan points.
-        cut: it holds a point on the edge of the scan's view (TrackerConfig.edge_cut
-            ``hold``: it keeps a track alive, without moving it).
+        cut: it holds a point on the edge of the scan's view, and TrackerConfig.edge_cut
+            is ``position`` (the tracker corrects a track's position with it, not its
+            velocity, and starts no track from it).
     """
 
     x: float
@@ -168,9 +169,9 @@ def detect(points: np.ndarray, static: StaticMap, laser_xy: Sequence[float],
         laser_xy: (x, y) of the laser in the map frame (the centre is pushed away from it).
         config: detection parameters (``TrackerConfig()`` when None).
         wrap: the scan is a full circle (see :func:`cluster`).
-        edge: (N,) bool, the point is on the first or last beam of a scan that is not a full
-            circle (:func:`view_edge`); a cluster holding one is ``cut`` (with
-            ``config.edge_cut`` ``drop``: no detection). None: no point is.
+        edge: (N,) bool, the point is on an edge of the view of a scan that is not a full
+            circle (:func:`view_edge`); unless ``config.edge_cut`` is ``use``, a cluster
+            holding one is ``cut`` (``drop``: no detection). None: no point is.
 
     Returns:
         One Detection per cluster of ``min_points`` or more points with an extent within
@@ -203,17 +204,23 @@ def detect(points: np.ndarray, static: StaticMap, laser_xy: Sequence[float],
     return out
 
 
-def view_edge(beams: np.ndarray, n_beams: int, angle_increment: float
+def view_edge(ranges: Sequence[float], beams: np.ndarray, angle_increment: float
               ) -> Tuple[bool, Optional[np.ndarray]]:
-    """Whether a scan of ``n_beams`` beams ``angle_increment`` apart is a full circle, and,
-    when it is not, which of the points on ``beams`` (:func:`scan_points`' beam indices) lie
-    on its first or last beam: the edges of its view, which cut a body standing across them
-    (the points left lie to one side of the body's centre, and move as it leaves the view;
-    issue 33's trace of the ipa production plant, docs/evaluation.md, session 78)."""
-    if abs(angle_increment) * n_beams >= 2.0 * math.pi - 1e-6:
+    """Whether a scan (REP 117 ``ranges``, beams ``angle_increment`` apart) is a full circle,
+    and, when it is not, which of the points on ``beams`` (:func:`scan_points`' beam indices)
+    lie on an edge of its view: its first or last beam that reads (a return, or +inf: none
+    in range; NaN and -inf, an invalid or too-close reading, do not say where the view
+    ends, so the edge is the next beam in). The edge cuts a body standing across it: the
+    points left lie to one side of the body's centre, and move as it leaves the view
+    (issue 33's trace of the ipa production plant, docs/evaluation.md, session 78)."""
+    r = np.asarray(ranges, dtype=float).reshape(-1)
+    if abs(angle_increment) * len(r) >= 2.0 * math.pi - 1e-6:
         return True, None
     b = np.asarray(beams)
-    return False, (b == 0) | (b == n_beams - 1)
+    reads = np.flatnonzero(~np.isnan(r) & (r != -np.inf))
+    if not len(reads):
+        return False, np.zeros(len(b), dtype=bool)
+    return False, (b == reads[0]) | (b == reads[-1])
 
 
 def scan_detections(ranges: Sequence[float], angle_min: float, angle_increment: float,
@@ -224,7 +231,7 @@ def scan_detections(ranges: Sequence[float], angle_min: float, angle_increment: 
     fields): its detections and its points. A scan whose beams cover a full circle wraps
     around; one that does not has edges (:func:`view_edge`)."""
     pts, beams = scan_points(ranges, angle_min, angle_increment, laser_pose, return_beams=True)
-    wrap, edge = view_edge(beams, len(np.asarray(ranges).reshape(-1)), angle_increment)
+    wrap, edge = view_edge(ranges, beams, angle_increment)
     return detect(pts, static, laser_pose[:2], config, wrap, edge), pts
 
 

@@ -139,10 +139,7 @@ class Tracker:
         pairs, gated = self._associate(z)
         hit = np.zeros(len(self._tracks), dtype=bool)
         for i, j in pairs:
-            if detections[j].cut:    # (edge_cut hold) alive, coasting
-                self._tracks[i].last_seen = t
-            else:
-                self._correct(self._tracks[i], z[j], t)
+            self._correct(self._tracks[i], z[j], t, detections[j].cut)
             hit[i] = True
         # deletion: too long without a hit
         keep = []
@@ -194,10 +191,15 @@ class Tracker:
         pairs = [(int(i), int(j)) for i, j in zip(rows, cols) if inside[i, j]]
         return pairs, gated
 
-    def _correct(self, tr: Track, z: np.ndarray, t: float) -> None:
+    def _correct(self, tr: Track, z: np.ndarray, t: float, cut: bool = False) -> None:
+        """The Kalman update with detection ``z``; a ``cut`` one (edge_cut ``position``)
+        corrects the position only (its gain on the velocity is zero; the Joseph form
+        keeps the covariance right for that gain)."""
         P = tr.cov
         S = P[:2, :2] + self._R
         K = P[:, :2] @ _inv2(S)                             # (4, 2)
+        if cut:
+            K[2:, :] = 0.0
         s = tr.state + K @ (z - np.array([tr.x, tr.y]))
         IKH = np.eye(4)
         IKH[:, :2] -= K
