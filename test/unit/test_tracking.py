@@ -204,7 +204,7 @@ def test_a_body_the_view_edge_cuts_is_a_cut_detection_off_its_centre_or_none_wit
         TrackerConfig(edge_cut="hold").check()
 
 
-def test_a_cut_detection_corrects_its_track_s_position_not_its_velocity_and_starts_none():
+def test_a_cut_detection_corrects_its_track_s_position_not_its_velocity():
     tracker = Tracker(TrackerConfig(edge_cut="position"))
     for k in range(6):                       # walking +x at 0.5 m/s, 0.1 s scans
         tracker.update([Detection(0.05 * k, 0.0, 0.4, 10)], 0.1 * k)
@@ -220,11 +220,14 @@ def test_a_cut_detection_corrects_its_track_s_position_not_its_velocity_and_star
     # a plain detection there corrects the velocity again, towards standing
     (out,) = tracker.update([Detection(0.4, 0.0, 0.4, 10)], 2.6)
     assert out.vx < vx - 0.05
-    # once nothing comes, it dies after max_age; a cut detection alone starts no track
+    # once nothing comes, it dies after max_age
     tracker.update([], 3.7)
     assert tracker.tracks == []
-    tracker.update([Detection(5.0, 5.0, 0.4, 10, cut=True)], 3.8)
-    assert tracker.tracks == []
+    # a track a cut detection starts stands while cut ones slide (a body entering the view)
+    for k in range(5):
+        tracker.update([Detection(5.0 + 0.05 * k, 5.0, 0.3, 5, cut=True)], 3.8 + 0.1 * k)
+    (new_tr,) = tracker.confirmed()
+    assert (new_tr.vx, new_tr.vy) == (0.0, 0.0) and new_tr.x > 5.1
 
 
 def test_detect_pushes_the_centroid_away_from_the_sensor():

@@ -18,7 +18,7 @@ No ground truth of the targets is used: only the scans, the laser's pose and the
    track is tentative until ``confirm_hits`` hits and is deleted after ``max_age`` seconds
    without one (``tentative_max_age`` for a tentative track). With ``edge_cut``
    ``position``, a cut detection corrects the position of the track it is assigned, not its
-   velocity, and starts none.
+   velocity (a track it starts stands until a whole body is seen).
 
 Anything not on the map is tracked, moving or not (a parked robot gives a still track);
 ``Track.speed`` tells them apart. Everything is plain numbers in, plain numbers out.

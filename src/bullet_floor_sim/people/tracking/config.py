@@ -59,7 +59,8 @@ class TrackerConfig:
             became a track going 0.35 m/s the other way; the observer trailed it there and
             searched for 1384 s (docs/evaluation.md, session 78). ``use``: a detection like
             any other; ``position``: it corrects the position of the track it is assigned,
-            not its velocity, and starts no track; ``drop``: it is no detection.
+            not its velocity (a track it starts stands until a whole body is seen);
+            ``drop``: it is no detection.
     """
 
     static_tolerance: float = 0.2

@@ -148,7 +148,7 @@ class Detection:
         n_points: number of scan points.
         cut: it holds a point on the edge of the scan's view, and TrackerConfig.edge_cut
             is ``position`` (the tracker corrects a track's position with it, not its
-            velocity, and starts no track from it).
+            velocity).
     """
 
     x: float

@@ -155,7 +155,7 @@ class Tracker:
         # track's gate that lost the assignment is most likely a piece of that entity)
         used = {j for _, j in pairs}
         for j in range(len(z)):
-            if j not in used and not gated[j] and not detections[j].cut:
+            if j not in used and not gated[j]:
                 self._birth(z[j], t)
         return self.confirmed()
 
