@@ -10,8 +10,7 @@ No ground truth of the targets is used: only the scans, the laser's pose and the
    centroid pushed ``centre_offset`` away from the sensor (a lidar sees only the near surface);
    unless ``edge_cut`` is ``use``, a cluster on the first or last beam that reads of a scan
    that is not a full circle is ``cut`` (the view's edge cuts it; ``edge_cut`` says what it
-   counts for). :func:`scan_detections` does
-   1-3 for a scan.
+   counts for). :func:`scan_detections` does 1-3 for a scan.
 4. :class:`Tracker` runs one constant-velocity Kalman filter per track in the map frame
    (state x, y, vx, vy), gates detections by the chi-square distance of the innovation and
    associates by global nearest neighbour (``scipy.optimize.linear_sum_assignment``). A new

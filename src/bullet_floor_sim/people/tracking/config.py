@@ -51,16 +51,17 @@ class TrackerConfig:
             clutter that the map does not explain (furniture, or door jambs smeared by a pose
             that lags the scan while the robot turns), at the price of not reporting an
             entity until it has moved.
-        edge_cut: what a cluster on the first or last beam of a scan that is not a full
-            circle counts for. The edge of the view cuts a body standing across it: its
-            points lie to one side of its centre, and as it leaves the view their centroid
-            slides along the edge, which a track takes for motion. On the ipa production
-            plant a standing walker leaving the observer's 180-degree view at its side
-            became a track going 0.35 m/s the other way; the observer trailed it there and
-            searched for 1384 s (docs/evaluation.md, session 78). ``use``: a detection like
-            any other; ``position``: it corrects the position of the track it is assigned,
-            not its velocity (a track it starts stands until a whole body is seen);
-            ``drop``: it is no detection.
+        edge_cut: what a cluster on the first or last beam that reads (detection.view_edge)
+            of a scan that is not a full circle counts for. The edge of the view cuts a body
+            standing across it: its points lie to one side of its centre, and as it leaves
+            the view their centroid slides along the edge, which a track takes for motion.
+            On the ipa production plant a standing walker leaving the observer's 180-degree
+            view at its side became a track going 0.35 m/s the other way; the observer
+            trailed it there and searched for 1384 s (docs/evaluation.md, session 78).
+            ``use``: a detection like any other; ``position``: it corrects the position of
+            the track it is assigned, not its velocity (a track it starts stands until a
+            whole body is seen); ``drop``: it is no detection. The folds keep ``use``
+            (docs/defaults.md).
     """
 
     static_tolerance: float = 0.2
