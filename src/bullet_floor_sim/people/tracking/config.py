@@ -57,7 +57,7 @@ class TrackerConfig:
             the view their centroid slides along the edge, which a track takes for motion.
             On the ipa production plant a standing walker leaving the observer's 180-degree
             view at its side became a track going 0.35 m/s the other way; the observer
-            trailed it there and searched for 1384 s (docs/evaluation.md, session 78).
+            trailed it there and lost the walker for 1384 s (docs/evaluation.md, session 78).
             ``use``: a detection like any other; ``position``: it corrects the position of
             the track it is assigned, not its velocity (a track it starts stands until a
             whole body is seen); ``drop``: it is no detection. The folds keep ``use``
