@@ -269,7 +269,9 @@ def test_a_walker_whose_region_joins_no_other_stops_the_study(tmp_path):
         '  - {id: "1", type: office, points: [[0.1, 0.1], [3.5, 0.1], [3.5, 4.1], [0.1, 4.1]]}\n'
         '  - {id: "2", type: lab, points: [[4.7, 0.1], [8.1, 0.1], [8.1, 4.1], [4.7, 4.1]]}\n')
     with pytest.raises(EvaluationError, match=r'the walker starts in region "1" \(office 1\), '
-                                              r"which the chain joins to no other region"):
+                                              r"which the chain joins to no other region "
+                                              r"\(no vertex within 0.2 m of another ROI's "
+                                              r"vertex\)"):
         run(EvalConfig(world=path, legs=1))
     r = run(EvalConfig(world=path, legs=1, allow_unreachable=True))
     assert any(w.startswith('going on as allowed (--allow-unreachable): the walker starts in '

@@ -128,8 +128,7 @@ def _walks_in_one_region(chain: MarkovChain, walker: Walker, pose, cfg: EvalConf
     if len(part) > 1 or len(chain.ids) < 2:   # fewer than two: the map check says so
         return []
     why = ('the walker starts in region "%s" (%s), which the chain joins to no other region '
-           "(no vertex within 0.2 m of another's): every walk would stay in it"
-           % (here, walker.label(here)))
+           "(%s): every walk would stay in it" % (here, walker.label(here), chain.isolated_reason))
     if not cfg.allow_unreachable:
         raise EvaluationError("evaluate: world %s: %s. Fixes: draw regions that share "
                               "vertices at their doors (with rois: auto, a region with "

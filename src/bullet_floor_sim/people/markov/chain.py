@@ -47,6 +47,8 @@ class MarkovChain:
         map_name: the map the regions belong to ("" when unknown).
         config: the ROI config the regions belong to ("" when unknown).
         warnings: one line per problem found while building (isolated regions, separate parts).
+        isolated_reason: why a region without neighbours has none (the adjacency rule, as
+            :meth:`from_rois` states it).
     """
 
     ids: List[str]
@@ -54,6 +56,7 @@ class MarkovChain:
     map_name: str = ""
     config: str = ""
     warnings: List[str] = field(default_factory=list)
+    isolated_reason: str = "no neighbour"
 
     def __post_init__(self) -> None:
         self.matrix = np.asarray(self.matrix, dtype=float)
@@ -125,7 +128,8 @@ class MarkovChain:
                 if r != o:
                     nb[index[r]].add(index[o])
                     nb[index[o]].add(index[r])
-        chain = cls(ids=ids, matrix=transition_matrix(nb), map_name=map_name, config=config)
+        chain = cls(ids=ids, matrix=transition_matrix(nb), map_name=map_name, config=config,
+                    isolated_reason=why_isolated)
         for k, s in enumerate(nb):
             if not s:
                 chain.warnings.append('region "%s" is isolated (%s): it keeps P(%s -> %s) = 1'
