@@ -290,6 +290,8 @@ class PathFollowerNode:
                                         "(is the simulator running and /map published?)")
                 return
             rospy.sleep(0.1)
+        if rospy.is_shutdown():   # shut down before a map or a pose came: _execute aborts
+            return
         nav = Navigator(self.grid, PathFollower(self.follower_cfg), self.nav_cfg,
                         after=self._last_nav)
         self._last_nav = nav
