@@ -274,9 +274,9 @@ class PathFollowerNode:
             quiet_at_shutdown(self._run_goal)(goal)
         finally:
             if self.server.is_active() and rospy.core.is_shutdown_requested():
-                # the abort first: it sets the status before it publishes, so a closed topic
-                # cannot leave the goal open (a stop published first and raising skipped the
-                # abort in one CI run, session 79); then the stop, each on its own
+                # the abort first: actionlib sets the status before it publishes, so a topic
+                # the shutdown closed cannot leave the goal open (a stop published first
+                # could raise and skip the abort); then the stop, each quiet on its own
                 quiet_at_shutdown(self.server.set_aborted)(
                     MoveBaseResult(), "path_follower stopped (shutdown) before the goal ended")
                 quiet_at_shutdown(self.cmd_pub.publish)(Twist())
