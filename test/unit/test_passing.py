@@ -20,7 +20,7 @@ def test_the_narrow_axis_is_the_corridor_and_passing_places_are_in_the_halls():
     world = World.from_name("corridor", seed=1)
     try:
         grid = PlanningGrid(world.fmap)
-        axis = narrow_axis(grid, 0.34)
+        axis = narrow_axis(grid, 0.34, 0.1)
         # the corridor's middle line (clearance 0.7 < 0.34 + 0.34 + 0.05), nothing in the halls
         assert len(axis) > 150
         assert np.all(np.abs(axis[:, 1] - 3.65) <= 0.1)
@@ -29,13 +29,13 @@ def test_the_narrow_axis_is_the_corridor_and_passing_places_are_in_the_halls():
         # a robot at x 8 facing one at x 10 in the corridor: the nearest place is in the west
         # hall, 0.78 m (two radii and the margin) off the corridor's line
         blocker = np.array([[9.7, 3.65], [9.75, 3.4], [9.75, 3.9]])
-        p = passing_place(grid, axis, (8.0, 3.65), blocker, 0.34, 25.0)
+        p = passing_place(grid, axis, (8.0, 3.65), blocker, 0.34, 25.0, 0.1)
         assert p is not None and p[0] < 4.65
         d = np.min(np.hypot(axis[:, 0] - p[0], axis[:, 1] - p[1]))
         assert 0.78 - 0.01 <= d <= 0.78 + 0.2
         # out of reach, or cut off by the blocker: none
-        assert passing_place(grid, axis, (8.0, 3.65), blocker, 0.34, 3.0) is None
-        assert passing_place(grid, axis, (12.0, 3.65), blocker, 0.34, 25.0)[0] > 24.95
+        assert passing_place(grid, axis, (8.0, 3.65), blocker, 0.34, 3.0, 0.1) is None
+        assert passing_place(grid, axis, (12.0, 3.65), blocker, 0.34, 25.0, 0.1)[0] > 24.95
     finally:
         world.close()
 

@@ -562,9 +562,10 @@ def test_predictor_pool_same_entity_keeps_a_leg_taken_over_by_place(model):
     assert pool.predictors[1] is walker and pool.knows(1) and pool.handovers == 1
 
 
-def test_predictor_pool_hands_over_only_to_a_near_new_track_soon_enough(model):
-    cfg = model.config   # handover_time 4 s, handover_speed 1.5 m/s, plus 0.5 m
-    pool = PredictorPool(model, forget_after=10.0)
+def test_predictor_pool_hands_over_only_to_a_near_new_track_soon_enough(world):
+    cfg = PredictionConfig(prior_mix=0.0, length_exponent=0.0, forget_after=10.0)
+    model = DestinationModel(*world, cfg, goal_points=GOALS)
+    pool = PredictorPool(model)   # handover_time 4 s, handover_speed 1.5 m/s, plus 0.5 m
     pool.update(0.0, [(1, 5.0, 5.75, 0.5, 0.0)])
     pool.update(0.1, [(1, 5.05, 5.75, 0.5, 0.0)])
     first = pool.predictors[1]
@@ -644,6 +645,7 @@ def test_office_corridor_walk_east_from_office_1s_door(office):
     ("max_goals_per_region", 2.5, r"max_goals_per_region must be an integer >= 1, got 2.5"),
     ("heading_epsilon", 1.0, r"heading_epsilon must be a number in \[0, 1\), got 1.0"),
     ("dwell_time", "3", r"dwell_time must be a finite number >= 0, got '3'"),
+    ("forget_after", 3.0, r"forget_after must be a finite number >= 4, got 3.0"),   # < handover_time
 ])
 def test_bad_config_names_the_field(world, field, value, message):
     cfg = PredictionConfig(**{field: value})

@@ -497,7 +497,7 @@ class Navigator:
             return False
         rule = (not cfg.keep_way and cfg.heading_rule
                 and gives_way(self.grid, self._narrow_axis(), pose, world,
-                              self._other_radius(), cfg.passing_reach))
+                              self._other_radius(), cfg.passing_reach, cfg.passing_margin))
         stuck = 0.0 if self._last_t is None else self._last_t - self._best_t
         return rule or stuck >= cfg.deadlock_time * (2.0 if cfg.keep_way or not
                                                      cfg.heading_rule else 1.0)
@@ -510,14 +510,16 @@ class Navigator:
         from .passing import narrow_axis
 
         if self._axis is None:
-            self._axis = narrow_axis(self.grid, self._other_radius())
+            self._axis = narrow_axis(self.grid, self._other_radius(),
+                                     self.config.passing_margin)
         return self._axis
 
     def _in_narrow(self, point: Sequence[float]) -> bool:
         """Whether ``point`` is where what it meets must pass (nav/passing.on_the_way)."""
         from .passing import on_the_way
 
-        return on_the_way(self.grid, self._narrow_axis(), point, self._other_radius())
+        return on_the_way(self.grid, self._narrow_axis(), point, self._other_radius(),
+                          self.config.passing_margin)
 
     def _to_passing_place(self, pose: Sequence[float], world: np.ndarray
                           ) -> Optional[np.ndarray]:
@@ -526,7 +528,7 @@ class Navigator:
 
         return self._plan_aside(pose, world, passing_place(
             self.grid, self._narrow_axis(), pose, world, self._other_radius(),
-            self.config.passing_reach))
+            self.config.passing_reach, self.config.passing_margin))
 
     def _plan_aside(self, pose: Sequence[float], world: np.ndarray,
                     point: Optional[Tuple[float, float]]) -> Optional[np.ndarray]:

@@ -66,6 +66,11 @@ class NavigatorConfig:
             takes the way round.
         other_radius: the radius (m) of what it meets, for the passing places (default: its
             own).
+        passing_margin: the gap (m) left between two discs passing side by side: where the
+            floor is narrower than both diameters and this, the passage is too narrow for
+            two (nav/passing.py); a passing place keeps both radii and this from its middle.
+            0.1 m: the Scitos' two 0.34 m radii then ask for 1.46 m, so a 1.4 m corridor
+            is one-way and a 1.6 m one is not.
         pass_wait_max: the longest wait (s) at a passing place; it waits as long as what it
             yielded to takes to come that far at 0.4 m/s, at least ``give_way_wait``.
         goal_taken_within: see ``deadlock_time`` (WalkerAgent's ``regoal_within``: further
@@ -93,6 +98,7 @@ class NavigatorConfig:
     deadlock_time: float = 10.0
     other_radius: Optional[float] = None
     passing_reach: float = 25.0
+    passing_margin: float = 0.1
     pass_wait_max: float = 30.0
     detour: float = 10.0
     detour_wait: float = 10.0
@@ -102,9 +108,9 @@ class NavigatorConfig:
         """Raises BulletFloorSimError naming the first number that is not finite and > 0
         (>= 0 for the distances and waits that may be none: ``sidestep``,
         ``give_way_clear``, ``give_way_wait``, ``detour``, ``detour_wait``,
-        ``goal_taken_within``; ``other_radius`` may also be None)."""
+        ``goal_taken_within``, ``passing_margin``; ``other_radius`` may also be None)."""
         zero_ok = ("sidestep", "give_way_clear", "give_way_wait", "detour", "detour_wait",
-                   "goal_taken_within")
+                   "goal_taken_within", "passing_margin")
         numbers = [f.name for f in fields(self) if f.type in ("float", "Optional[float]")]
         check_numbers(self, [n for n in numbers if n not in zero_ok and not (
             n == "other_radius" and self.other_radius is None)], "navigator",

@@ -18,17 +18,13 @@ import numpy as np
 
 from .grid import PlanningGrid, disc_points
 
-__all__ = ["narrow_axis", "passing_place", "on_the_way", "gives_way", "heads_west_or_south",
-           "PASSING_MARGIN"]
-
-#: The gap (m) left between two discs passing side by side.
-PASSING_MARGIN = 0.1
+__all__ = ["narrow_axis", "passing_place", "on_the_way", "gives_way", "heads_west_or_south"]
 
 
-def narrow_axis(grid: PlanningGrid, other_radius: float, margin: float = PASSING_MARGIN
-                ) -> np.ndarray:
+def narrow_axis(grid: PlanningGrid, other_radius: float, margin: float) -> np.ndarray:
     """Map-frame points (N, 2) of the floor's medial axis where a disc of the grid's radius
-    and one of ``other_radius`` cannot pass side by side (planning-cell centres)."""
+    and one of ``other_radius`` cannot pass side by side with ``margin`` m between them
+    (planning-cell centres; the Navigator's ``passing_margin``)."""
     from skimage.morphology import skeletonize
 
     axis = skeletonize(np.isfinite(grid.cost))
@@ -41,7 +37,7 @@ def narrow_axis(grid: PlanningGrid, other_radius: float, margin: float = PASSING
 
 def passing_place(grid: PlanningGrid, axis: np.ndarray, robot: Sequence[float],
                   blocker: np.ndarray, other_radius: float, reach: float,
-                  margin: float = PASSING_MARGIN) -> Optional[Tuple[float, float]]:
+                  margin: float) -> Optional[Tuple[float, float]]:
     """The nearest passing place (see the module doc) the robot at ``robot`` (x, y) reaches
     within ``reach`` m without passing ``blocker`` (map-frame points of what it meets, which
     it also keeps that far from); None when there is none."""
@@ -58,7 +54,7 @@ def passing_place(grid: PlanningGrid, axis: np.ndarray, robot: Sequence[float],
 
 
 def on_the_way(grid: PlanningGrid, axis: np.ndarray, point: Sequence[float],
-               other_radius: float, margin: float = PASSING_MARGIN) -> bool:
+               other_radius: float, margin: float) -> bool:
     """Whether ``point`` is where what the robot meets must pass: nearer the narrow axis
     than a passing place is."""
     if not len(axis):
@@ -73,7 +69,8 @@ def _passing_clearance(grid: PlanningGrid, other_radius: float, margin: float) -
 
 
 def gives_way(grid: PlanningGrid, axis: np.ndarray, pose: Sequence[float], blocker: np.ndarray,
-              other_radius: float, reach: float, heading_rule: bool = True) -> bool:
+              other_radius: float, reach: float, margin: float, heading_rule: bool = True
+              ) -> bool:
     """Whether the robot at ``pose`` (x, y, yaw) yields to what it meets head-on (``blocker``,
     the scan points of it), by a rule that robot applies too: the one whose passing place is
     nearer, by more than a metre, yields; one with no passing place never does (the other
@@ -81,7 +78,7 @@ def gives_way(grid: PlanningGrid, axis: np.ndarray, pose: Sequence[float], block
     What it meets is taken to be a disc of
     ``other_radius`` just beyond its points (the robot itself as a disc of its own)."""
     x, y = float(pose[0]), float(pose[1])
-    mine = passing_place(grid, axis, (x, y), blocker, other_radius, reach)
+    mine = passing_place(grid, axis, (x, y), blocker, other_radius, reach, margin)
     if mine is None:
         return False
     pts = np.asarray(blocker, dtype=float).reshape(-1, 2)
@@ -89,7 +86,7 @@ def gives_way(grid: PlanningGrid, axis: np.ndarray, pose: Sequence[float], block
     away = centre - (x, y)
     centre = centre + 0.7 * other_radius * away / max(float(np.hypot(*away)), 1e-9)
     me = disc_points(x, y, 0.8 * grid.config.robot_radius)
-    theirs = passing_place(grid, axis, centre, me, other_radius, reach)
+    theirs = passing_place(grid, axis, centre, me, other_radius, reach, margin)
     d_mine = math.hypot(mine[0] - x, mine[1] - y)
     if theirs is None:
         return True

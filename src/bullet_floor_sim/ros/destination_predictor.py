@@ -4,8 +4,8 @@ On every track update (``tracks``, bullet_floor_sim/TrackArray from people_track
 each track's position and velocity to an online predictor (people/prediction.py; a new track
 that appears soon after and near where another was lost takes over that track's leg:
 PredictorPool, ``~handover_time``, ``~handover_speed``; so does a new track the follower takes
-for the target it lost, ``target_id`` (std_msgs/UInt32), lost up to 30 s before and no farther
-off than ``~handover_speed`` allows): the track's legs are segmented by
+for the target it lost, ``target_id`` (std_msgs/UInt32), lost up to ``~forget_after`` (30 s)
+before and no farther off than ``~handover_speed`` allows): the track's legs are segmented by
 its dwells, and for the current leg a posterior over destination regions
 is computed: the Markov chain row of the region the leg started in (prior) times how well the
 observed motion agrees with an efficient path to each region (cost-to-go on the inflated map).

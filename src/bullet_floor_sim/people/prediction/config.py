@@ -67,9 +67,12 @@ class PredictionConfig:
             with no better log-loss held out, and lost a 20-person crowd 3-8 points: a new
             track then can take over someone else's leg (docs/evaluation.md, session 50).
             The follower's target has a looser one: a new track the follower takes for it
-            goes on with its leg when it was lost up to 30 s, within the same distance
-            (PredictorPool.same_entity; session 51).
+            goes on with its leg when it was lost up to ``forget_after``, within the same
+            distance (PredictorPool.same_entity; session 51).
         handover_speed: ... near enough: within 0.5 m + this speed (m/s) x the gap.
+        forget_after: a track not updated for this long is forgotten, with its leg
+            (PredictorPool); no shorter than ``handover_time``. 30 s: set by hand before the
+            runs of session 51 (docs/defaults.md, section 5).
         temperature, prior_mix: calibration (prediction/calibration.py): the evidence
             tempered by 1/temperature, then the prior mixed back in with weight prior_mix.
             Chosen by bench/calibrate_prediction.py with beta 3, on the same moments, leaving
@@ -91,6 +94,7 @@ class PredictionConfig:
     snap_distance: float = 0.6
     handover_time: float = 4.0
     handover_speed: float = 1.5
+    forget_after: float = 30.0
     temperature: float = 1.0
     prior_mix: float = 0.05
 
@@ -100,6 +104,8 @@ class PredictionConfig:
         check_numbers(self, ("beta", "length_exponent", "clearance", "margin", "stop_speed",
                              "dwell_time", "snap_distance", "handover_time", "handover_speed"),
                       "prediction", strict=False, error=PredictionError)
+        check_numbers(self, ("forget_after",), "prediction", least=self.handover_time,
+                      strict=False, error=PredictionError)
         check_integers(self, ("max_goals_per_region",), "prediction", error=PredictionError)
         check_numbers(self, ("temperature",), "prediction", least=1.0, strict=False,
                       error=PredictionError)

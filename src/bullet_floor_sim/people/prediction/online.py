@@ -230,20 +230,18 @@ class PredictorPool:
     the walked part of the leg missing. A track id seen for the first time takes over the
     predictor of a track that is gone (not in this update), last updated at most
     ``handover_time`` seconds ago within 0.5 m + ``handover_speed`` x the gap (the nearest
-    such). Predictors of tracks gone for ``forget_after`` seconds are dropped. A track the
-    observer's follower took for the one it lost takes over that one's leg when it was lost
-    longer, up to ``forget_after`` (:meth:`same_entity`).
+    such). Predictors of tracks gone for ``forget_after`` seconds (the config's) are dropped.
+    A track the observer's follower took for the one it lost takes over that one's leg when
+    it was lost longer, up to ``forget_after`` (:meth:`same_entity`).
 
     Args:
-        model: the destination model.
-        forget_after: seconds.
+        model: the destination model (its config gives the hand-over's times).
     """
 
     _NEAR = 0.5
 
-    def __init__(self, model: DestinationModel, forget_after: float = 30.0) -> None:
+    def __init__(self, model: DestinationModel) -> None:
         self.model = model
-        self.forget_after = float(forget_after)
         self.predictors = {}  # type: Dict[int, OnlinePredictor]
         self._last = {}  # type: Dict[int, Tuple[float, float, float]]
         self._first = {}  # type: Dict[int, float]
@@ -283,7 +281,7 @@ class PredictorPool:
                 continue
             self._last[k] = (t, x, y)
             self._first.setdefault(k, t)
-        for k in [k for k, (tl, _, _) in self._last.items() if t - tl > self.forget_after]:
+        for k in [k for k, (tl, _, _) in self._last.items() if t - tl > cfg.forget_after]:
             self._drop(k)
             self.predictors.pop(k, None)
         return out
