@@ -5,7 +5,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
+from bullet_floor_sim.errors import BulletFloorSimError
 from bullet_floor_sim.nav.passing import narrow_axis, passing_place
 from bullet_floor_sim.nav.planner import Navigator, NavigatorConfig, PlanningGrid, obstacles_in_base
 from bullet_floor_sim.sim.world import World
@@ -38,6 +40,24 @@ def test_the_narrow_axis_is_the_corridor_and_passing_places_are_in_the_halls():
         assert passing_place(grid, axis, (12.0, 3.65), blocker, 0.34, 25.0, 0.1)[0] > 24.95
     finally:
         world.close()
+
+
+def test_the_navigators_passing_margin_sets_its_narrow_axis():
+    world = World.from_name("corridor", seed=1)
+    try:
+        grid = PlanningGrid(world.fmap)
+        axes = [Navigator(grid, config=NavigatorConfig(passing_margin=m))._narrow_axis()
+                for m in (0.1, 3.0)]
+        # 0.1 m: the corridor alone (x 4.80 .. 24.80, its mouths a disc's radius on);
+        # 3 m (two discs need 4.36 m): the halls' middles within 2.18 m of a wall too
+        assert not np.any((axes[0][:, 0] < 4.4) | (axes[0][:, 0] > 25.2))
+        assert len(axes[1]) > len(axes[0]) + 50
+        assert axes[1][:, 0].min() < 3.0 and axes[1][:, 0].max() > 26.5
+    finally:
+        world.close()
+    with pytest.raises(BulletFloorSimError,
+                       match=r"navigator: passing_margin must be a finite number >= 0, got -0.1"):
+        NavigatorConfig(passing_margin=-0.1).check()
 
 
 def _meet(configs, seed=2):

@@ -645,7 +645,8 @@ def test_office_corridor_walk_east_from_office_1s_door(office):
     ("max_goals_per_region", 2.5, r"max_goals_per_region must be an integer >= 1, got 2.5"),
     ("heading_epsilon", 1.0, r"heading_epsilon must be a number in \[0, 1\), got 1.0"),
     ("dwell_time", "3", r"dwell_time must be a finite number >= 0, got '3'"),
-    ("forget_after", 3.0, r"forget_after must be a finite number >= 4, got 3.0"),   # < handover_time
+    ("forget_after", 3.0, r"forget_after must be a finite number >= handover_time \(4\), got 3.0"),
+    ("forget_after", float("nan"), r"forget_after must be a finite number >= handover_time \(4\)"),
 ])
 def test_bad_config_names_the_field(world, field, value, message):
     cfg = PredictionConfig(**{field: value})

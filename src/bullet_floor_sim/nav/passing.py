@@ -38,9 +38,10 @@ def narrow_axis(grid: PlanningGrid, other_radius: float, margin: float) -> np.nd
 def passing_place(grid: PlanningGrid, axis: np.ndarray, robot: Sequence[float],
                   blocker: np.ndarray, other_radius: float, reach: float,
                   margin: float) -> Optional[Tuple[float, float]]:
-    """The nearest passing place (see the module doc) the robot at ``robot`` (x, y) reaches
-    within ``reach`` m without passing ``blocker`` (map-frame points of what it meets, which
-    it also keeps that far from); None when there is none."""
+    """The nearest passing place (see the module doc; ``margin`` m the gap between the two)
+    the robot at ``robot`` (x, y) reaches within ``reach`` m without passing ``blocker``
+    (map-frame points of what it meets, which it also keeps that far from); None when
+    there is none."""
     from .give_way import give_way_point
 
     clear = _passing_clearance(grid, other_radius, margin)
@@ -56,7 +57,7 @@ def passing_place(grid: PlanningGrid, axis: np.ndarray, robot: Sequence[float],
 def on_the_way(grid: PlanningGrid, axis: np.ndarray, point: Sequence[float],
                other_radius: float, margin: float) -> bool:
     """Whether ``point`` is where what the robot meets must pass: nearer the narrow axis
-    than a passing place is."""
+    than a passing place is (both radii and ``margin``)."""
     if not len(axis):
         return False
     d = np.hypot(axis[:, 0] - float(point[0]), axis[:, 1] - float(point[1]))
@@ -76,7 +77,8 @@ def gives_way(grid: PlanningGrid, axis: np.ndarray, pose: Sequence[float], block
     nearer, by more than a metre, yields; one with no passing place never does (the other
     must); within a metre, the one :func:`heads_west_or_south` when ``heading_rule``.
     What it meets is taken to be a disc of
-    ``other_radius`` just beyond its points (the robot itself as a disc of its own)."""
+    ``other_radius`` just beyond its points (the robot itself as a disc of its own), and
+    the passing places leave ``margin`` m between the two."""
     x, y = float(pose[0]), float(pose[1])
     mine = passing_place(grid, axis, (x, y), blocker, other_radius, reach, margin)
     if mine is None:

@@ -104,8 +104,10 @@ class PredictionConfig:
         check_numbers(self, ("beta", "length_exponent", "clearance", "margin", "stop_speed",
                              "dwell_time", "snap_distance", "handover_time", "handover_speed"),
                       "prediction", strict=False, error=PredictionError)
-        check_numbers(self, ("forget_after",), "prediction", least=self.handover_time,
-                      strict=False, error=PredictionError)
+        v = self.forget_after
+        if not (_is_number(v) and math.isfinite(v) and v >= self.handover_time):
+            raise PredictionError("prediction: forget_after must be a finite number >= "
+                                  "handover_time (%g), got %r" % (self.handover_time, v))
         check_integers(self, ("max_goals_per_region",), "prediction", error=PredictionError)
         check_numbers(self, ("temperature",), "prediction", least=1.0, strict=False,
                       error=PredictionError)
