@@ -159,6 +159,9 @@ class PlannerConfig:
             the folds split, no held-out gain), and 6.0 gave up 8 % of aces_austin's legs
             (docs/evaluation.md, session 54).
         resolution: planning cell size (m); rounded to a multiple of the map resolution.
+            0.1 m: with 0.15 m the map check refuses 7 of 18 corpus worlds (ways in read
+            as shut) and with 0.05 m one; every fold of the other 10 keeps 0.1 m
+            (docs/evaluation.md, session 81).
         unknown_is_obstacle: unknown (-1) areas are walls for planning (``unknown: wall`` of
             sim/solidmap.py: unseen slivers inside an open hall are floor); False: floor.
         path_spacing: spacing (m) of the resampled output path.

@@ -71,7 +71,8 @@ class NavigatorConfig:
             two (nav/passing.py); a passing place keeps both radii and this from its middle.
             0.1 m: the Scitos' two 0.34 m radii then ask for 1.46 m (about 1.5 m, as the
             clearance is read at the 0.1 m planning cells' centres), so a 1.4 m corridor is
-            one-way and a 1.6 m one is not.
+            one-way and a 1.6 m one is not. Every fold keeps it against 0.05 and 0.2 m
+            (docs/evaluation.md, session 81).
         pass_wait_max: the longest wait (s) at a passing place; it waits as long as what it
             yielded to takes to come that far at 0.4 m/s, at least ``give_way_wait``.
         goal_taken_within: see ``deadlock_time`` (WalkerAgent's ``regoal_within``: further

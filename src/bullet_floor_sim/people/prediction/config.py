@@ -72,7 +72,8 @@ class PredictionConfig:
         handover_speed: ... near enough: within 0.5 m + this speed (m/s) x the gap.
         forget_after: a track not updated for this long is forgotten, with its leg
             (PredictorPool); no shorter than ``handover_time``. 30 s: set by hand before the
-            runs of session 51 (docs/defaults.md, section 5).
+            runs of session 51; every fold keeps it against 10 and 60 s (docs/evaluation.md,
+            session 81).
         temperature, prior_mix: calibration (prediction/calibration.py): the evidence
             tempered by 1/temperature, then the prior mixed back in with weight prior_mix.
             Chosen by bench/calibrate_prediction.py with beta 3, on the same moments, leaving
