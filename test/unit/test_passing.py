@@ -53,6 +53,10 @@ def test_the_navigators_passing_margin_sets_its_narrow_axis():
         assert not np.any((axes[0][:, 0] < 4.4) | (axes[0][:, 0] > 25.2))
         assert len(axes[1]) > len(axes[0]) + 50
         assert axes[1][:, 0].min() < 3.0 and axes[1][:, 0].max() > 26.5
+        # worked out once a grid: a second robot (the ROS node: a Navigator a goal) shares it
+        again = Navigator(grid, config=NavigatorConfig(passing_margin=0.1))._narrow_axis()
+        assert again is axes[0] and not again.flags.writeable
+        assert np.array_equal(again, narrow_axis(grid, 0.34, 0.1))
     finally:
         world.close()
     with pytest.raises(BulletFloorSimError,

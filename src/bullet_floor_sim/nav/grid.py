@@ -15,7 +15,7 @@ import heapq
 import math
 import threading
 from dataclasses import dataclass
-from typing import Any, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -248,6 +248,7 @@ class PlanningGrid:
         self._graph: Optional[Tuple[Any, np.ndarray]] = None
         self._node_cells: Optional[np.ndarray] = None   # node_cells()
         self._roomiest: Optional[np.ndarray] = None
+        self._narrow: Dict[Tuple[float, float], np.ndarray] = {}   # narrow_axis()
         self._search_buffers: Optional[Tuple[Any, Any, Any]] = None   # _buffers()
         self._searches = 0   # the number of the last A* search (_search's gen)
         self._search_lock = threading.Lock()
@@ -262,6 +263,19 @@ class PlanningGrid:
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         self._search_lock = threading.Lock()
+
+    def narrow_axis(self, other_radius: float, margin: float) -> np.ndarray:
+        """nav/passing.narrow_axis on this grid (read-only): worked out once for each
+        (other_radius, margin) and shared by every Navigator that plans on the grid."""
+        from .passing import narrow_axis
+
+        key = (float(other_radius), float(margin))
+        axis = self._narrow.get(key)
+        if axis is None:
+            axis = narrow_axis(self, *key)
+            axis.setflags(write=False)
+            self._narrow[key] = axis
+        return axis
 
     # -- coordinates -----------------------------------------------------------------------
     def to_cell(self, x: float, y: float) -> Tuple[int, int]:

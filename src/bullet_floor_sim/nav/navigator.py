@@ -98,7 +98,6 @@ class Navigator:
         self._rebase = False       # a new path to the goal: progress counts along it
         self._rebases = 0
         self._wait_for = self.config.give_way_wait  # at the place it retreats to
-        self._axis: Optional[np.ndarray] = None   # nav/passing.narrow_axis, on first need
         self._taken_since: Optional[float] = None  # something stands on the goal since then
         #: where backing up last stalled (x, y), kept while goals start near it
         self.backed_into: Optional[Tuple[float, float]] = (None if after is None
@@ -507,12 +506,8 @@ class Navigator:
         return self.grid.config.robot_radius if r is None else r
 
     def _narrow_axis(self) -> np.ndarray:
-        from .passing import narrow_axis
-
-        if self._axis is None:
-            self._axis = narrow_axis(self.grid, self._other_radius(),
-                                     self.config.passing_margin)
-        return self._axis
+        """The grid's narrow axis for this robot and the other (PlanningGrid.narrow_axis)."""
+        return self.grid.narrow_axis(self._other_radius(), self.config.passing_margin)
 
     def _in_narrow(self, point: Sequence[float]) -> bool:
         """Whether ``point`` is where what it meets must pass (nav/passing.on_the_way)."""
