@@ -29,7 +29,8 @@ class TrackerConfig:
         min_points: clusters with fewer points are dropped (stray returns, far thin objects).
         min_size, max_size: bounds on a cluster's extent (largest distance between two of its
             points): from a leg (0.05 m) to a robot seen from the side (1.0 m); walls that the
-            map does not explain (a moved cupboard) are longer.
+            map does not explain (a moved cupboard) are longer. Every fold keeps 0.05 m
+            against 0.02 and 0.1 m (docs/evaluation.md, session 82).
         centre_offset: the detection's centre is the cluster's centroid moved this far away
             from the sensor. The default, 0.2 m, suits a round body about 0.5 m wide: for a
             cylinder of radius 0.25 m seen with 1-degree beams the centroid of its near arc
