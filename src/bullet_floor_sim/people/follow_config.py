@@ -38,7 +38,8 @@ class FollowConfig:
             a stand-off point nearer than this to the observer is turned at, not driven to
             (a back-off under way, out of a narrow passage or from a target too close, is
             kept while it is still this far off and ``distance`` - 0.2 m from the target).
-        goal_period: while the target moves, a new goal at least this often.
+        goal_period: while the target moves, a new goal at least this often. Every fold
+            keeps 2 s against 1 s (docs/evaluation.md, session 82).
         lost_after: no track for this long -> search.
         search_turn: after reaching the search point, turn this much (radians, at most pi: the
             look-round is a goal's yaw, which wraps, so 2 pi would not turn at all) to look round.
