@@ -38,6 +38,7 @@ class FollowConfig:
             a stand-off point nearer than this to the observer is turned at, not driven to
             (a back-off under way, out of a narrow passage or from a target too close, is
             kept while it is still this far off and ``distance`` - 0.2 m from the target).
+            Every fold keeps 0.5 m against 0.3 m (docs/evaluation.md, session 82).
         goal_period: while the target moves, a new goal at least this often. Every fold
             keeps 2 s against 1 s (docs/evaluation.md, session 82).
         lost_after: no track for this long -> search.
