@@ -52,7 +52,8 @@ class PredictionConfig:
         stop_speed: below this speed (m/s) the entity is standing (dwelling).
         dwell_time: standing this long ends a leg. 3 s: the walker dwells 5-20 s at a goal,
             while it also stands still mid-leg for up to ~2.6 s (turning on the spot, waiting
-            2 s before a replan), which must not cut a leg in two.
+            2 s before a replan), which must not cut a leg in two. Every fold keeps 3 s
+            against 2 s (docs/evaluation.md, session 82).
         min_progress: a leg starts once the entity is this far from where it stood, so that
             shuffling on the spot is no leg.
         heading_epsilon: probability mass the heading baseline spreads over the candidates it
