@@ -38,6 +38,7 @@ class TrackerConfig:
             would want 0.25 m. The Scitos A5 (an octagon 0.64 m across) wants 0.25 m.
         process_noise: standard deviation of the white acceleration noise of the
             constant-velocity model (m/s^2); people and robots change speed by about 1 m/s^2.
+            Every fold keeps 1 m/s^2 against 0.5 m/s^2 (docs/evaluation.md, session 82).
         measurement_noise: standard deviation of a detection's centre (m), per axis. Shape
             and viewpoint move the centre by more than the range noise does.
         gate: chi-square gate on the squared Mahalanobis distance of the innovation (2 degrees
