@@ -55,7 +55,8 @@ class PredictionConfig:
             2 s before a replan), which must not cut a leg in two. Every fold keeps 3 s
             against 2 s (docs/evaluation.md, session 82).
         min_progress: a leg starts once the entity is this far from where it stood, so that
-            shuffling on the spot is no leg.
+            shuffling on the spot is no leg. Every fold keeps 0.3 m against 0.6 m
+            (docs/evaluation.md, session 82).
         heading_epsilon: probability mass the heading baseline spreads over the candidates it
             did not choose (so its log-loss stays finite).
         snap_distance: a position in a lethal cell uses the nearest free cell within this
