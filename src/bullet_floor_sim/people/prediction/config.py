@@ -49,7 +49,8 @@ class PredictionConfig:
             0.45 m).
         margin: a goal point keeps at least this distance from its region's boundary (the
             walker's 0.5 m; halved, then 0, for regions too narrow for it, as the walker does).
-        stop_speed: below this speed (m/s) the entity is standing (dwelling).
+        stop_speed: below this speed (m/s) the entity is standing (dwelling). Every fold
+            keeps 0.1 m/s against 0.05 m/s (docs/evaluation.md, session 83).
         dwell_time: standing this long ends a leg. 3 s: the walker dwells 5-20 s at a goal,
             while it also stands still mid-leg for up to ~2.6 s (turning on the spot, waiting
             2 s before a replan), which must not cut a leg in two. Every fold keeps 3 s
