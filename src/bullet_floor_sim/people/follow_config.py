@@ -84,6 +84,7 @@ class FollowConfig:
         patrol_after: a target not seen this long from the start, with nothing predicted, is
             looked for on patrol (it may come by: a crowd's person, a walker dwelling).
         search_min_probability: ... each at least this likely (the most likely one always).
+            Every fold keeps 0.05 against 0.02 (docs/evaluation.md, session 83).
         roomy: the wall clearance (m) of a place the observer waits at: a stand-off point is
             chosen with at least this much when one exists, and an observer standing still
             with less (in a doorway: 0.47-0.51 m in the office world, its corridor 0.89 m)
