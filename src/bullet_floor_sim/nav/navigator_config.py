@@ -36,8 +36,9 @@ class NavigatorConfig:
             to the nearest passing place (nav/passing.py: out of the way of the narrow
             passage's middle, within ``passing_reach`` m), else to the nearest free place (a
             roomy one first) at least ``give_way_clear`` m from every point the map does not
-            know, within ``give_way_reach`` m; wait there and go on to the goal, at most 3
-            times a goal.
+            know, within ``give_way_reach`` m; wait there ``give_way_wait`` s and go on to
+            the goal, at most 3 times a goal. Every fold keeps 3 s against 6 s
+            (docs/evaluation.md, session 83).
         heading_rule: without ``give_way``, a robot that meets another head-on in a passage
             too narrow for two yields (as above) by nav/passing.gives_way's rule (the one
             nearer its passing place, else by heading): of two robots facing each other
