@@ -24,6 +24,7 @@ class NavigatorConfig:
             (a new plan, such as the long way round what blocks it, starts the count afresh
             from its length, up to 20 times a goal; the time does not restart, except after
             giving way: the time spent backing off and waiting is not a lack of progress).
+            Every fold keeps 60 s against 30 s (docs/evaluation.md, session 83).
         obstacle_range: scan points farther than this (m) are ignored when replanning.
         sidestep: how far (m) to step aside when no path passes an obstacle.
         stall_time: commanded to move but moved less than 2 cm and turned less than 0.05 rad
