@@ -30,7 +30,8 @@ The speckle default was chosen on the corpus of real buildings by leaving each o
 floor in two for the robot's footprint. The same folds prefer no closing of slits (the
 simulated lidar then reads 1.3 % more of the logged beams as the real one did), but with 0
 the observer tracked the walker 9 % of a study on acapulco_convention (92 % with 0.15 m), so
-close_gaps stays 0.15.
+close_gaps stays 0.15. On the study's score every fold keeps 0.15 m against 0.3 m
+(docs/evaluation.md, session 83).
 
 Everything it changes is counted in :attr:`SolidMap.report` (the simulator logs it); the
 user's map file is never rewritten, and map_server still serves it as it is. The solid cells,
