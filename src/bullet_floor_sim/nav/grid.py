@@ -157,7 +157,8 @@ class PlannerConfig:
         cost_weight: how much a fully inflated cell adds to the length of a step (x1 + w).
             1.5 and 6.0 scored within 0.5 points of 3.0's trk50 over 16 worlds (two seeds;
             the folds split, no held-out gain), and 6.0 gave up 8 % of aces_austin's legs
-            (docs/evaluation.md, session 54).
+            (docs/evaluation.md, session 54). Every fold keeps 3.0 against 1.5 on 18
+            worlds (session 83).
         resolution: planning cell size (m); rounded to a multiple of the map resolution.
             0.1 m: with 0.15 m the map check refuses 7 of 18 corpus worlds (ways in read
             as shut) and with 0.05 m one; every fold of the other 10 keeps 0.1 m
