@@ -45,6 +45,8 @@ class PredictionConfig:
         On seed 13's moments (18 worlds, session 61) every fold keeps length_exponent 1 and
         24 points, while 15 folds pick beta 5 and 3 pick 8: a tenth of a point of top-1
         held out, with a worse calibrated log-loss (0.386 against 0.382), so beta stays 3.
+        In the closed loop (choose_by_folds.py, seed 13, 18 worlds) every fold keeps 3
+        against 5 (docs/evaluation.md, session 83).
         clearance: a goal point keeps at least this distance from every wall (the walker's
             0.45 m).
         margin: a goal point keeps at least this distance from its region's boundary (the
