@@ -33,7 +33,8 @@ class PredictionConfig:
             point of top-1 held out, but in the closed loop (choose_by_folds.py
             prediction.goal_spacing 0.5) the study's trk50 ties (83.8 %), 12 folds keep 1 m
             and 0.5 m put orebro's tracked share at 69.7 % (docs/evaluation.md, session 61).
-            On the observer of session 83 every fold of the closed loop keeps 1 m.
+            In the closed loop every fold keeps 1 m against 0.5 m on today's observer
+            (docs/evaluation.md, session 83).
         max_goals_per_region: at most this many goal points per region (spread over the
             lattice), one Dijkstra each.
 
