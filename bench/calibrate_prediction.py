@@ -38,6 +38,7 @@ from bullet_floor_sim.people.evaluation import (FRACTIONS, PIPELINES, rescore,  
 from bullet_floor_sim.people.prediction import (PredictionConfig, log_loss,  # noqa: E402
                                                 posterior_or_prior, top1)
 from bullet_floor_sim.people.prediction.calibration import brier, calibrate  # noqa: E402
+from bullet_floor_sim.sim.config import world_label  # noqa: E402
 from choose_by_folds import leave_one_out  # noqa: E402
 from choose_prediction import recorded  # noqa: E402
 from eval_worlds import checked, shipped  # noqa: E402
@@ -116,8 +117,8 @@ def fold_heading(worlds: list, args) -> None:
         best = min(EPSILONS, key=lambda e: table[w][e][0])
         got = table[w][picks[w]]
         print("| %s | %g | %.3f | %.3f | %g (%.3f) | %.3f | %.1f %% |" % (
-            w, picks[w], got[0], table[w][shipped_eps][0], best, table[w][best][0], got[1],
-            100 * got[2]))
+            world_label(w), picks[w], got[0], table[w][shipped_eps][0], best,
+            table[w][best][0], got[1], 100 * got[2]))
     votes = {e: sum(1 for w in worlds if picks[w] == e) for e in order}
     chosen = max(order, key=lambda e: (votes[e], -order.index(e)))
     print("\nHEADING folds=%d chosen=\"heading_epsilon=%g\" votes=\"%s\" held_out_ll=%.3f "
@@ -164,8 +165,8 @@ def main() -> int:
                     continue
                 ll, pl, br, t1, n = got[p, k]
                 print("| %s | %g, %g | %d %% | %s | %.3f | %.3f | %.3f | %.3f | %.1f %% | %d |"
-                      % (w, best[0], best[1], round(100 * FRACTIONS[k]), p, ll, raw[p, k][0],
-                         pl, br, 100 * t1, n))
+                      % (world_label(w), best[0], best[1], round(100 * FRACTIONS[k]), p, ll,
+                         raw[p, k][0], pl, br, 100 * t1, n))
     below = all(table[picks[w], w][p, k][0] < table[picks[w], w][p, k][1]
                 for w in worlds for p in PIPELINES for k in SCORED if (p, k) in table[picks[w], w])
     votes = {c: sum(1 for w in worlds if picks[w] == c) for c in cands}
