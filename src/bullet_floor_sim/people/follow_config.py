@@ -51,7 +51,8 @@ class FollowConfig:
             patrol the building: the roomiest place of every ``patrol_spacing`` block of the
             map, nearest first, each once before any again (the target walked on to regions
             its last prediction did not name, and out of sight of them).
-        patrol_spacing: the side (m) of the blocks that give the patrol its places.
+        patrol_spacing: the side (m) of the blocks that give the patrol its places. Every
+            fold keeps 4 m against 6 m (docs/evaluation.md, session 84).
         patrol_sight: a patrol place the observer sees on the way, within this many metres,
             within 90 degrees of its heading (the Scitos's 180-degree lidar) and with no
             wall between, counts as visited in this tour (the one it drives to is still
