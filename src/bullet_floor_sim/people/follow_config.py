@@ -241,7 +241,9 @@ class FollowConfig:
             and worse on intel_lab (65 -> 55 %, 63 -> 50 %): the hubs of the whole building
             lay 15-20 m from where the walker, going between neighbouring regions, stayed for
             ten minutes, and the patrol between watches, starting at a hub each time, did not
-            get there (docs/evaluation.md, session 43).
+            get there (docs/evaluation.md, session 43). Folded at seed 13 against 60 s
+            (session 84): 17 of 18 runs the same, trk50 the same on all 18, so every fold
+            keeps it off by the tie rule; the study's figures hardly depend on it.
         patrol_return: at the first patrol place (or hub watch) done once it has patrolled
             this long (s) since the search plan's regions were done, the observer searches
             them again from the most likely (``search_rounds`` rounds, then the others), then
