@@ -11,7 +11,9 @@ value's score and tracked share per world, the fold's pick and its held-out scor
 means, each value's worst share of legs given up, which values the given-up bar kept out
 of how many folds, and a ``FOLDS`` line. A value that gave up more than ``--max-given-up``
 of its legs (the study's bar, 2 %) in any one run on a world a fold learns from is not that
-fold's pick (the shipped default always may be).
+fold's pick (the shipped default always may be). With ``--bars``, neither is a value
+with a run under any other of the issue's bars there (bench/eval_bars.py: tracked, trk50,
+gt50, the margins); the table names those runs.
 
 Each world is checked before any run (eval_worlds.py's map check); for a ``clean`` or
 ``planner`` field, with each value too: a world that any value makes refuse is left out of
@@ -145,13 +147,23 @@ def pooled(runs: Dict[Tuple[str, int], dict], key: str, world: str, seeds: List[
 
 
 def table(runs: Dict[str, Dict[Tuple[str, int], dict]], labels: List[str], worlds: List[str],
-          seeds: List[int], score: str, max_given_up: float = 1.0) -> List[str]:
-    """The markdown lines of the folds (``runs``: label -> its EVAL fields)."""
+          seeds: List[int], score: str, max_given_up: float = 1.0,
+          bars: bool = False) -> List[str]:
+    """The markdown lines of the folds (``runs``: label -> its EVAL fields). With ``bars``,
+    a value with a run under any of the issue's bars (eval_bars.BARS) on a world a fold
+    learns from is not that fold's pick, as one that gave up too many legs is not."""
+    from eval_bars import misses   # here: eval_bars imports this module
+
     scores = {v: {w: pooled(runs[v], score, w, seeds) for w in worlds} for v in labels}
     tracked = {v: {w: pooled(runs[v], "tracked", w, seeds) for w in worlds} for v in labels}
     lost = {v: {w: max(float(runs[v][w, s]["given_up"]) for s in seeds) for w in worlds}
             for v in labels}
-    picks = leave_one_out(scores, worlds, lost, max_given_up)
+    under = {v: {w: sorted({m for s in seeds for m in misses(runs[v][w, s])}) if bars else []
+                 for w in worlds} for v in labels}
+    # a run under a bar counts as one that gave up every leg: no limit lets it through
+    picks = leave_one_out(scores, worlds, {v: {w: 2.0 if under[v][w] else lost[v][w]
+                                               for w in worlds} for v in labels},
+                          max_given_up)
     head = (["world"] + ["%s %s" % (score, v) for v in labels]
             + ["tracked %s" % v for v in labels] + ["fold's pick", "held out %s" % score])
     out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
@@ -179,6 +191,13 @@ def table(runs: Dict[str, Dict[Tuple[str, int], dict]], labels: List[str], world
     if barred:
         out.append("not a fold's pick for giving up more than %g %% of the legs on a world "
                    "it learns from: %s fold(s)" % (100 * max_given_up, ", ".join(barred)))
+    for v in labels[1:]:
+        if any(under[v].values()):
+            out.append("%s is under a bar on %s: not the pick of the %d fold(s) that learn from "
+                       "it" % (v, "; ".join("%s (%s)" % (w, ", ".join(m))
+                                            for w, m in under[v].items() if m),
+                               sum(1 for w in worlds if any(under[v][o] for o in worlds
+                                                            if o != w))))
     out.append("FOLDS score=%s held_out=%.4f default=%.4f picks=\"%s\"" % (
         score, held, sum(scores[labels[0]].values()) / n, counts))
     return out
@@ -201,6 +220,9 @@ def main() -> int:
                    help="a value that gave up more than this share of its legs in any one run "
                         "on a world a fold learns from is not that fold's pick (the shipped "
                         "default always may be; default: 0.02, the study's bar)")
+    p.add_argument("--bars", action="store_true",
+                   help="a value with a run under any of the issue's bars (bench/eval_bars.py) "
+                        "on a world a fold learns from is not that fold's pick either")
     p.add_argument("--out", default="", metavar="DIR",
                    help="where the runs' EVAL lines are kept (default: "
                         "~/.ros/bullet_floor_sim/folds/<commit>)")
@@ -241,10 +263,11 @@ def main() -> int:
     what = (" ".join([args.param] + args.values) + " together" if args.together
             else args.param)
     print("%s, %d legs, seed(s) %s; each fold keeps the value with the best mean %s on the "
-          "other worlds, of those that gave up at most %g %% of the legs there\n"
+          "other worlds, of those that gave up at most %g %% of the legs there%s\n"
           % (what, args.legs, " ".join(map(str, args.seed)), args.score,
-             100 * args.max_given_up))
-    for line in table(runs, labels, names, args.seed, args.score, args.max_given_up):
+             100 * args.max_given_up, " and met every bar" if args.bars else ""))
+    for line in table(runs, labels, names, args.seed, args.score, args.max_given_up,
+                      args.bars):
         print(line)
     return 0
 

@@ -119,6 +119,29 @@ def test_the_table_says_which_values_the_bar_kept_out_of_how_many_folds():
                        "it learns from: 1 in 2 fold(s)")
 
 
+def test_with_bars_a_value_under_a_bar_where_a_fold_learns_is_not_its_pick():
+    def line(world, trk50, gt50):
+        return choose_by_folds.parse_eval_line(
+            "EVAL world=%s seed=1 legs=100 given_up=0.000 trk50=%.3f gt50=%.3f tracked=0.9 "
+            "margin=0.1 ll_margin=0.2 modes=follow:90/search:10 legs_asked=100"
+            % (world, trk50, gt50))
+    runs = {"1.5 (default)": {(w, 1): line(w, 0.8, 0.85) for w in ("w1", "w2", "w3")},
+            "1.0": {("w1", 1): line("w1", 0.9, 0.78), ("w2", 1): line("w2", 0.85, 0.85),
+                    ("w3", 1): line("w3", 0.82, 0.85)}}
+    plain = choose_by_folds.table(runs, list(runs), ["w1", "w2", "w3"], [1], "trk50", 0.02)
+    assert plain[-1].endswith('picks="1.0: 3"')
+    out = choose_by_folds.table(runs, list(runs), ["w1", "w2", "w3"], [1], "trk50", 0.02,
+                                bars=True)
+    # gt50 78 % on w1 is under the 80 % bar: the two folds that learn from w1 keep the
+    # default; the fold that leaves w1 out still picks 1.0 and scores it there (90 %)
+    assert "| w1 | 80.0 | 90.0 | 90.0 | 90.0 | 1.0 | 90.0 |" in out
+    assert "| w2 | 80.0 | 85.0 | 90.0 | 90.0 | 1.5 (default) | 80.0 |" in out
+    assert "1.0 is under a bar on w1 (gt50 < 80 %): not the pick of the 2 fold(s) that learn " \
+        "from it" in out
+    assert out[-1] == ('FOLDS score=trk50 held_out=%.4f default=0.8000 picks="1.5 (default): '
+                       '2, 1.0: 1"' % ((0.9 + 0.8 + 0.8) / 3))
+
+
 def test_runs_kept_on_file_are_read_back_by_world_and_seed(tmp_path):
     path = tmp_path / "default.log"
     path.write_text("== noise\nEVAL world=a seed=3 legs=9 trk50=0.500 legs_asked=10\n"
