@@ -15,8 +15,9 @@ pipeline had right at 50 % (a leg with no prediction counts as wrong, so a value
 nothing by predicting less). Prints a markdown table and a ``FOLDS`` line.
 
 Each run's ``CROWD`` line is kept in ``--out LOG`` as it ends: a run cut short, or run
-again with more values, runs only what is missing. The map check leaves out the worlds
-the one-walker study leaves out, with a note.
+again with more values, runs only what is missing (one LOG for one commit: the lines do
+not say which code made them). The default's runs are of the config as shipped. The map
+check leaves out the worlds the one-walker study leaves out, with a note.
 
     .venv/bin/python bench/choose_by_crowd.py prediction.handover_time 10 --people 20 \\
         --seed 13 --out /tmp/crowd13.log
@@ -47,13 +48,15 @@ SECTIONS = {"prediction": ("prediction", PredictionConfig), "follow": ("follow_c
 SCORES = ("acc50", "acc50_seen", "mota")
 
 
-def crowd_line(world: str, param: str, value: str, args) -> str:
-    """One run of the people study with ``param`` = ``value``: its ``CROWD`` line."""
+def crowd_line(world: str, param: str, value: str, args, shipped: bool = False) -> str:
+    """One run of the people study with ``param`` = ``value`` (``shipped``: the config as
+    shipped, unchanged, ``value`` its label): its ``CROWD`` line."""
     section, field = param.split(".", 1)
     attr, cls = SECTIONS[section]
+    changes = {} if shipped else {field: value}
     cfg = CrowdEvalConfig(people=args.people, sim_time=args.seconds, seed=args.seed,
                           world=world, chosen=0,
-                          **{attr: with_changes(cls(), {field: value}, section + ".")})
+                          **{attr: with_changes(cls(), changes, section + ".")})
     r = run_crowd(cfg, None)
     return ("CROWD world=%s param=%s value=%s people=%d seconds=%g seed=%d legs=%d "
             "acc50=%.4f acc50_seen=%.4f acc50_gt=%.4f seen50=%.4f mota=%.4f switches=%d "
@@ -71,8 +74,9 @@ def kept(path: str, args) -> Dict[tuple, dict]:
             for line in f:
                 d = parse_eval_line(line.replace("CROWD ", "EVAL ", 1),
                                     ("world", "param", "value", "people", "seconds", "seed"))
-                if d and d["param"] == args.param and (d["people"], d["seconds"], d["seed"]) \
-                        == (args.people, args.seconds, args.seed):
+                if d and d["param"] == args.param and (d["people"], "%g" % d["seconds"],
+                                                       d["seed"]) == (
+                        args.people, "%g" % args.seconds, args.seed):
                     out[d["world"], "%g" % d["value"]] = d
     return out
 
@@ -110,7 +114,7 @@ def main() -> int:
             if (world_label(w), v) in runs:
                 continue
             try:
-                line = crowd_line(w, args.param, v, args)
+                line = crowd_line(w, args.param, v, args, shipped=v == values[0])
             except BulletFloorSimError as e:
                 sys.exit("choose_by_crowd: %s, %s=%s: %s" % (world_label(w), args.param, v, e))
             print(line, flush=True)
@@ -124,6 +128,11 @@ def main() -> int:
 def report(worlds: List[str], values: List[str], runs: Dict[tuple, dict], args) -> None:
     """The fold table and the FOLDS line."""
     scores = {v: {w: runs[w, v][args.score] for w in worlds} for v in values}
+    blank = ["%s %s=%s" % (w, args.param, v) for v in values for w in worlds
+             if not scores[v][w] == scores[v][w]]
+    if blank:   # nan: no leg completed, none seen, or nobody in view
+        sys.exit("choose_by_crowd: no %s for %s: more people or seconds, or another score"
+                 % (args.score, ", ".join(blank)))
     picks = leave_one_out(scores, worlds)
     print("\n%s, people study (%d people, %g s, seed %d); each fold keeps the value with the "
           "best summed %s on the other worlds\n" % (args.param, args.people, args.seconds,

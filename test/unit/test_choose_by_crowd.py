@@ -63,3 +63,12 @@ def test_report_leaves_each_world_out_by_hand(tmp_path, capsys):
 def test_a_field_that_is_not_one_is_named():
     with pytest.raises(ConfigError, match="prediction.handover_tim"):
         choose_by_crowd.crowd_line("office", "prediction.handover_tim", "10", _args())
+
+
+def test_a_world_without_a_score_stops_the_report_naming_it(tmp_path):
+    log = tmp_path / "crowd.log"
+    log.write_text(_line("a", "4", 0.1) + _line("a", "10", 0.2) + _line("b", "4", 0.1)
+                   + _line("b", "10", 0.2).replace("acc50=0.2000", "acc50=nan"))
+    runs = choose_by_crowd.kept(str(log), _args())
+    with pytest.raises(SystemExit, match="no acc50 for b prediction.handover_time=10"):
+        choose_by_crowd.report(["a", "b"], ["4", "10"], runs, _args())

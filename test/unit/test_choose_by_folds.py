@@ -142,6 +142,21 @@ def test_with_bars_a_value_under_a_bar_where_a_fold_learns_is_not_its_pick():
                        '2, 1.0: 1"' % ((0.9 + 0.8 + 0.8) / 3))
 
 
+def test_with_bars_legs_given_up_stay_max_given_ups_to_judge():
+    def line(world, given_up):
+        return choose_by_folds.parse_eval_line(
+            "EVAL world=%s seed=1 legs=100 given_up=%.3f trk50=0.9 gt50=0.9 tracked=0.9 "
+            "margin=0.1 ll_margin=0.2 modes=follow:90/search:10 legs_asked=100"
+            % (world, given_up))
+    runs = {"1.5 (default)": {(w, 1): line(w, 0.0) for w in ("w1", "w2")},
+            "1.0": {("w1", 1): line("w1", 0.03), ("w2", 1): line("w2", 0.0)}}
+    for r in runs["1.5 (default)"].values():
+        r["trk50"] = 0.8
+    # 3 % given up is within a --max-given-up of 5 %: --bars does not bar it at 2 %
+    out = choose_by_folds.table(runs, list(runs), ["w1", "w2"], [1], "trk50", 0.05, bars=True)
+    assert out[-1].endswith('picks="1.0: 2"')
+
+
 def test_runs_kept_on_file_are_read_back_by_world_and_seed(tmp_path):
     path = tmp_path / "default.log"
     path.write_text("== noise\nEVAL world=a seed=3 legs=9 trk50=0.500 legs_asked=10\n"
