@@ -76,6 +76,9 @@ class PredictionConfig:
             the one under way. 10 s gained the one-walker study about a point of top-1,
             with no better log-loss held out, and lost a 20-person crowd 3-8 points: a new
             track then can take over someone else's leg (docs/evaluation.md, session 50).
+            Folded on the people study (bench/choose_by_crowd.py, 20 people, 18 worlds),
+            every fold keeps 4 s against 10 s; the one-walker study, where every new track
+            is the walker, cannot see that cost (session 84).
             The follower's target has a looser one: a new track the follower takes for it
             goes on with its leg when it was lost up to ``forget_after``, within the same
             distance (PredictorPool.same_entity; session 51).
