@@ -230,6 +230,7 @@ class FollowConfig:
             gave up 0-5 % of its legs instead of 7-17 %, but on freiburg_079 (seed 1) the
             walker spent minutes in a 1 x 3.6 m dead-end room the observer then waited
             outside of, unable to see in: tracked 74 -> 42 % (docs/evaluation.md, session 29).
+            Every fold over seeds 13-14 keeps it off against 0.04 (session 84).
         watch: once the search plan's regions are done, the observer watches at the
             building's hubs (people/search.hub_points: where most ways between its roomy
             places pass), looking round, for at least this long (s) after its first look
