@@ -78,8 +78,8 @@ class NavigatorConfig:
         pass_wait_max: the longest wait (s) at a passing place; it waits as long as what it
             yielded to takes to come that far at 0.4 m/s, at least ``give_way_wait``.
         goal_taken_within: see ``deadlock_time`` (WalkerAgent's ``regoal_within``: further
-            off, a goal given up ends the leg; 0: never). Every fold leads with 1.0 m on
-            trk50, but 1.0 m puts orebro's gt50 under the 80 % bar on two machines; with
+            off, a goal given up ends the leg; 0: never). 17 and 18 folds pick 1.0 m on
+            trk50 on two machines, but it puts orebro's gt50 under the 80 % bar on both; with
             the bars (choose_by_folds.py --bars) 17 of 18 folds keep 1.5 m
             (docs/evaluation.md, sessions 80 and 84).
         detour, detour_wait: a way round what blocks it that is more than ``detour`` m longer
