@@ -150,11 +150,12 @@ def table(runs: Dict[str, Dict[Tuple[str, int], dict]], labels: List[str], world
           seeds: List[int], score: str, max_given_up: float = 1.0,
           bars: bool = False) -> List[str]:
     """The markdown lines of the folds (``runs``: label -> its EVAL fields). With ``bars``,
-    a value with a run under any of the issue's bars (eval_bars.BARS) on a world a fold
-    learns from is not that fold's pick, as one that gave up too many legs is not."""
+    a value with a run under any other of the issue's bars (eval_bars.BARS; legs given up
+    stay ``max_given_up``'s) on a world a fold learns from is not that fold's pick, as one
+    that gave up too many legs is not."""
     from eval_bars import BARS, misses   # here: eval_bars imports this module
 
-    GIVEN_UP_MISS = BARS[0][2]
+    given_up_miss = BARS[0][2]
 
     scores = {v: {w: pooled(runs[v], score, w, seeds) for w in worlds} for v in labels}
     tracked = {v: {w: pooled(runs[v], "tracked", w, seeds) for w in worlds} for v in labels}
@@ -162,7 +163,7 @@ def table(runs: Dict[str, Dict[Tuple[str, int], dict]], labels: List[str], world
             for v in labels}
     # the given-up bar is --max-given-up's, as without --bars
     under = {v: {w: sorted({m for s in seeds for m in misses(runs[v][w, s])
-                            if m != GIVEN_UP_MISS}) if bars else []
+                            if m != given_up_miss}) if bars else []
                  for w in worlds} for v in labels}
     # a run under a bar counts as one that gave up every leg: no limit lets it through
     picks = leave_one_out(scores, worlds, {v: {w: 2.0 if under[v][w] else lost[v][w]
