@@ -25,9 +25,10 @@ check leaves out the worlds the one-walker study leaves out, with a note.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
-from typing import Dict, List
+from typing import Dict, List, Optional
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
@@ -66,18 +67,23 @@ def crowd_line(world: str, param: str, value: str, args, shipped: bool = False) 
                            r.seen_share(), r.mot.mota, r.mot.switches, r.wall_time))
 
 
+def parse_line(line: str, args) -> Optional[dict]:
+    """The fields of a CROWD line of this param, people, seconds and seed, or None."""
+    d = parse_eval_line(line.replace("CROWD ", "EVAL ", 1),
+                        ("world", "param", "value", "people", "seconds", "seed"))
+    if d and d["param"] == args.param and (d["people"], "%g" % d["seconds"], d["seed"]) == (
+            args.people, "%g" % args.seconds, args.seed):
+        return d
+    return None
+
+
 def kept(path: str, args) -> Dict[tuple, dict]:
     """(world, value) -> the fields of a CROWD line of this param, people, seconds and seed."""
     out = {}
     if os.path.isfile(path):
         with open(path) as f:
-            for line in f:
-                d = parse_eval_line(line.replace("CROWD ", "EVAL ", 1),
-                                    ("world", "param", "value", "people", "seconds", "seed"))
-                if d and d["param"] == args.param and (d["people"], "%g" % d["seconds"],
-                                                       d["seed"]) == (
-                        args.people, "%g" % args.seconds, args.seed):
-                    out[d["world"], "%g" % d["value"]] = d
+            for d in filter(None, (parse_line(line, args) for line in f)):
+                out[d["world"], "%g" % d["value"]] = d
     return out
 
 
@@ -120,7 +126,7 @@ def main() -> int:
             print(line, flush=True)
             with open(args.out, "a") as f:
                 f.write(line + "\n")
-            runs = kept(args.out, args)
+            runs[world_label(w), v] = parse_line(line, args)
     report([world_label(w) for w in worlds], values, runs, args)
     return 0
 
@@ -129,7 +135,7 @@ def report(worlds: List[str], values: List[str], runs: Dict[tuple, dict], args) 
     """The fold table and the FOLDS line."""
     scores = {v: {w: runs[w, v][args.score] for w in worlds} for v in values}
     blank = ["%s %s=%s" % (w, args.param, v) for v in values for w in worlds
-             if not scores[v][w] == scores[v][w]]
+             if math.isnan(scores[v][w])]
     if blank:   # nan: no leg completed, none seen, or nobody in view
         sys.exit("choose_by_crowd: no %s for %s: more people or seconds, or another score"
                  % (args.score, ", ".join(blank)))
