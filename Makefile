@@ -67,9 +67,11 @@ SEED ?= 1
 WORKERS ?=
 RAY ?=
 RESULTS ?=
+# WORLDS: names under worlds/ or world.yaml paths (default: every shipped and corpus world)
+WORLDS ?=
 eval: setup
 	$(ROSENV) $(VENV_PY) bench/eval_worlds.py --legs $(LEGS) --seed $(SEED) \
-	  $(if $(WORKERS),--workers $(WORKERS)) $(if $(RAY),--ray $(RAY)) $(if $(RESULTS),--results $(RESULTS))
+	  $(if $(WORLDS),--worlds $(WORLDS)) $(if $(WORKERS),--workers $(WORKERS)) $(if $(RAY),--ray $(RAY)) $(if $(RESULTS),--results $(RESULTS))
 
 # Does learning happen on the Gymnasium environment? A short stable-baselines3 PPO run against
 # a random policy on held-out seeds (bench/ppo_smoke.py; installs requirements/rl.txt, torch
@@ -81,10 +83,12 @@ ppo-smoke: setup
 # The full ROS demo (demo.launch, embedded navigation, observer following) on every shipped
 # world, headless at rtf RTF (0 = flat out), until LEGS walker legs have ended: legs given up,
 # the real-time factor held, what the simulator waited for, each node's CPU and memory
-# (bench/demo_legs.py); PEOPLE people walking too (-1: as each world file says).
+# (bench/demo_legs.py); PEOPLE people walking too (-1: as each world file says); WORLDS as
+# for eval.
 PEOPLE ?= -1
 demo-legs: setup
-	$(ROSENV) $(VENV_PY) bench/demo_legs.py --legs $(LEGS) --seed $(SEED) --rtf $(RTF) --people $(PEOPLE)
+	$(ROSENV) $(VENV_PY) bench/demo_legs.py --legs $(LEGS) --seed $(SEED) --rtf $(RTF) --people $(PEOPLE) \
+	  $(if $(WORLDS),--worlds $(WORLDS))
 
 clean:
 	rm -rf .ws .venv "$${BFS_WS:-$${XDG_CACHE_HOME:-$$HOME/.cache}/bullet_floor_sim/ws-$$(printf %s "$(REPO)" | sha1sum | cut -c1-8)}"

@@ -94,6 +94,26 @@ def test_the_study_refuses_to_start_unless_allowed(tmp_path):
     assert len(notes) == 3 and 'region(s) "2"' in notes[0] and "robot2" in notes[2]
 
 
+def test_the_demos_simulator_refuses_an_observer_cut_off_unless_allowed(tmp_path, caplog):
+    """demo.launch names its walker and observer to the simulator (~study_walker,
+    ~study_observer): the map check's problems stop it (ConfigError: the required node exits)
+    unless ~allow_unreachable; without a study named, they are warnings only."""
+    from types import SimpleNamespace
+
+    from bullet_floor_sim.ros.simulator import _log_check
+
+    cfg = load_world_config(two_rooms(tmp_path, door=0.6))
+    world = SimpleNamespace(config=cfg, fmap=load_map(cfg.map_yaml))
+    with pytest.raises(ConfigError, match=r"the demo would degrade: .*region\(s\) \"2\".*robot2 "
+                                          r".*never reach the walker.*allow_unreachable:=true"):
+        _log_check(world, "robot1", "robot2")
+    with pytest.raises(ConfigError, match=r"no robot 'robot9' \(the world has robot1, robot2\)"):
+        _log_check(world, "robot1", "robot9")
+    _log_check(world, "robot1", "robot2", allow=True)      # goes on, and says so
+    assert caplog.text.count("(going on: allow_unreachable)") == 3
+    _log_check(world)                                        # sim.launch: warnings only
+
+
 def test_a_floor_no_doorway_divides_is_one_auto_room_and_the_study_says_so(tmp_path):
     path = two_rooms(tmp_path, door=2.3)         # an opening wider than a door (2 m)
     yml = tmp_path / "world.yaml"

@@ -32,7 +32,8 @@ from ..people.walker import region_label
 from . import Building, Footprint, person_footprint, robot_footprint
 
 __all__ = ["Passage", "StartReach", "FootprintCheck", "WorldCheck", "check_building",
-           "study_problems", "world_study_problems", "robot_label", "FIXES", "ONE_REGION_SHARE"]
+           "study_problems", "world_study_problems", "refusal", "robot_label", "FIXES",
+           "ONE_REGION_SHARE"]
 
 #: Above this share of the regions' area, one region is most of the building: a warning.
 ONE_REGION_SHARE = 0.5
@@ -382,3 +383,11 @@ def world_study_problems(report: WorldCheck, config, walker: int = 0,
         return ["the world has no robot %d (it has %d)" % (walker, len(names))]
     return study_problems(report, names[walker], names[observer] if observer < len(names)
                           else None)
+
+
+def refusal(what: str, problems: Sequence[str], allow: str) -> str:
+    """The one-line error of a study that :func:`study_problems` says would degrade:
+    ``what`` (who refuses, which world), the problems, :data:`FIXES`, and ``allow`` (how the
+    user lets it go on anyway: ``--allow-unreachable``, ``allow_unreachable:=true``)."""
+    return "%s: %s. Fixes: %s; or allow it with %s" % (what, "; ".join(problems),
+                                                       "; ".join(FIXES), allow)

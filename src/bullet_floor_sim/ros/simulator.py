@@ -495,21 +495,40 @@ class SimulatorNode:
 
 
 
-def _log_check(world: World) -> None:
+def _log_check(world: World, walker: str = "", observer: str = "",
+               allow: bool = False) -> None:
     """The map check (building/check.py, as ``check_world`` prints it) in the log: what the
     map handling changed, what each footprint reaches; a warning for each region the first
     robot cannot reach, a second robot cut off from it, and one region that is most of the
-    building."""
+    building. With ``walker`` named (demo.launch's study: ``~study_walker``, observed by
+    ``~study_observer``), what would make that study degrade raises ConfigError, so the
+    required simulator stops the launch, unless ``allow`` (``~allow_unreachable``): then each
+    problem is a warning that says the demo went on."""
     from ..building import Building
-    from ..building.check import check_building, world_study_problems
+    from ..building.check import check_building, refusal, study_problems, \
+        world_study_problems
 
     report = check_building(Building(world.config, world.fmap))
     for line in report.lines():
         log = rospy.logwarn if line.lstrip().startswith("warning:") else rospy.loginfo
         log("simulator: check_world: %s", line)
-    if world.config.robots and world.config.rois:
+    if not (world.config.robots and world.config.rois):
+        return
+    if not walker:
         for p in world_study_problems(report, world.config):
             rospy.logwarn("simulator: check_world: %s", p)
+        return
+    names = [s.name for s in report.footprint("robot").starts]
+    for who in (walker, observer):
+        if who and who not in names:
+            raise ConfigError("%s: ~study_walker/~study_observer: no robot %r (the world has %s)"
+                              % (world.config.path, who, ", ".join(names)))
+    problems = study_problems(report, walker, observer or None)
+    if problems and not allow:
+        raise ConfigError(refusal("world %s: the demo would degrade" % world.config.path,
+                                  problems, "allow_unreachable:=true"))
+    for p in problems:
+        rospy.logwarn("simulator: check_world: %s (going on: allow_unreachable)", p)
 
 
 def main(argv: Optional[List[str]] = None) -> int:
@@ -586,7 +605,9 @@ def main(argv: Optional[List[str]] = None) -> int:
         for line in world.sections_report:
             rospy.loginfo("simulator: lidar beams at robots of %s", line)
         if rospy.get_param("~check_world", True):
-            _log_check(world)
+            _log_check(world, str(rospy.get_param("~study_walker", "")),
+                       str(rospy.get_param("~study_observer", "")),
+                       bool(rospy.get_param("~allow_unreachable", False)))
         else:   # what the map's handling made solid or floor, at least
             for line in world.solid.report:
                 rospy.loginfo("simulator: map %s: %s", world.fmap.yaml_path, line)

@@ -101,7 +101,7 @@ def refuse_unreachable(world, cfg: EvalConfig, building=None) -> List[str]:
     walker cannot reach (and the passages, and the fixes) unless ``cfg.allow_unreachable``;
     then returns it as warnings that say the run went on, and the check's own warnings (a
     start close to a wall, one region that is most of the building)."""
-    from ...building.check import FIXES, check_building, world_study_problems
+    from ...building.check import check_building, refusal, world_study_problems
 
     b = building or Building(world.config, world.fmap)
     n = len(world.config.robots)
@@ -111,9 +111,8 @@ def refuse_unreachable(world, cfg: EvalConfig, building=None) -> List[str]:
     report = check_building(b)
     problems = world_study_problems(report, world.config, cfg.walker, cfg.observer)
     if problems and not cfg.allow_unreachable:
-        raise EvaluationError("evaluate: world %s: %s. Fixes: %s; or allow it with "
-                              "--allow-unreachable" % (cfg.world, "; ".join(problems),
-                                                       "; ".join(FIXES)))
+        raise EvaluationError(refusal("evaluate: world %s" % cfg.world, problems,
+                                      "--allow-unreachable"))
     return (["going on as allowed (--allow-unreachable): %s" % p for p in problems]
             + ["warning: " + w for w in report.warnings()])
 
