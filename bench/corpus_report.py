@@ -22,12 +22,23 @@ from bullet_floor_sim.sim.config import world_label  # noqa: E402
 from eval_worlds import shipped  # noqa: E402
 
 
+HEADER = ("building", "size (m)", "floor not solid (m²)", "robot1's part of the robot's floor",
+          "regions", "reached by robot1", "reached by robot2", "reached by a person",
+          "narrowest passage between regions (robot)", "map handling changed", "study", "check")
+
+
+def _reached(fc, name: str) -> str:
+    """How many regions the start ``name`` of a footprint's check reaches ("-": no such)."""
+    s = next((s for s in fc.starts if s.name == name), None)
+    return "-" if s is None else "%d" % len(s.reachable)
+
+
 def row(world: str) -> tuple:
-    """(building, its check, the table cells)."""
+    """(building, its check, the table cells: :data:`HEADER`)."""
     t0 = time.time()
     b = Building.load(world)
     rep = check_building(b)
-    robot = rep.footprint("robot")
+    robot, person = rep.footprint("robot"), rep.footprint("person")
     r1 = robot.starts[0]
     names = [r.name for r in b.config.robots]
     problems = study_problems(rep, names[0], names[1] if len(names) > 1 else None)
@@ -37,7 +48,10 @@ def row(world: str) -> tuple:
                                                   b.fmap.height * b.fmap.resolution),
              "%.0f" % rep.free, "%.0f %%" % (100 * r1.share), "%d" % len(rep.regions),
              "%d" % len(r1.reachable),
+             _reached(robot, names[1]) if len(names) > 1 else "-",
+             "%d" % max((len(s.reachable) for s in person.starts), default=0),
              "-" if narrow is None else "%.2f m" % narrow.width,
+             "; ".join(rep.handling) or "nothing",
              "ok" if not problems else "refuses", "%.0f s" % (time.time() - t0)]
     return b, rep, cells
 
@@ -47,12 +61,12 @@ def main() -> int:
     ap.add_argument("--worlds", nargs="*", default=None)
     ap.add_argument("--plot", default=None)
     args = ap.parse_args()
-    rows = [row(w) for w in (args.worlds or shipped())]
-    print("| building | size (m) | floor not solid (m²) | robot1's part of the robot's floor | "
-          "regions | reached by robot1 | narrowest passage between regions | study | check |")
-    print("|---|---|---|---|---|---|---|---|---|")
-    for _, _, cells in rows:
-        print("| " + " | ".join(cells) + " |")
+    print("| " + " | ".join(HEADER) + " |")
+    print("|" + "---|" * len(HEADER))
+    rows = []
+    for w in args.worlds or shipped():
+        rows.append(row(w))
+        print("| " + " | ".join(rows[-1][2]) + " |", flush=True)
     if args.plot:
         montage(rows, args.plot)
         print("plot: %s" % args.plot)
@@ -74,12 +88,14 @@ def montage(rows: list, path: str) -> None:
         x0, x1, y0, y1 = floor_box(b)
         ax.set_xlim(x0, x1)
         ax.set_ylim(y0, y1)
-        ax.set_title("%s: %s reached, %s" % (cells[0], cells[3], cells[7]), fontsize=8)
+        ax.set_title("%s: %s reached, %s" % (cells[0], cells[3], cells[HEADER.index("study")]),
+                     fontsize=8)
         ax.tick_params(labelsize=6)
     for ax in axes.ravel()[n:]:
         ax.axis("off")
     save_figure(plt, fig, path, "check_world on every building (robot footprint): green "
-                "connected to robot1, orange cut off, regions outlined, passage widths in m", 10)
+                "connected to robot1, orange cut off, magenta cleared and blue closed by the "
+                "map handling, regions outlined, passage widths in m", 10)
 
 
 if __name__ == "__main__":

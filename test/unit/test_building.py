@@ -143,6 +143,35 @@ def test_specks_in_a_door_block_it_until_cleaned(tmp_path):
     assert np.array_equal(again.fmap.grid, b.solid.fmap.grid)
 
 
+def test_the_plot_draws_what_the_map_handling_cleared(tmp_path):
+    """The speck speckle removes is drawn magenta at the door (x 4.05-4.15, y 2.4); without
+    the rule nothing is."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from bullet_floor_sim.building.plot import draw_panel
+
+    def magenta(world: str):
+        b = Building(load_world_config(world))
+        report = check_building(b)
+        fig, ax = plt.subplots(figsize=(8, 4), dpi=100)
+        try:
+            draw_panel(ax, b, report, report.footprint("robot"))
+            ax.set_xlim(3.6, 4.6)                 # 1 m round the door: a cell is 5 pixels
+            ax.set_ylim(1.9, 2.9)
+            fig.canvas.draw()
+            px = np.asarray(fig.canvas.buffer_rgba())[..., :3].astype(int)
+        finally:
+            plt.close(fig)
+        return int(((px[..., 0] > 230) & (px[..., 1] < 30) & (px[..., 2] > 230)).sum())
+
+    raw = tmp_path / "raw"
+    raw.mkdir()
+    assert magenta(two_rooms(raw, 1.2, speck=True)) == 0
+    assert magenta(two_rooms(tmp_path, 1.2, speck=True, clean="clean: {speckle: 0.01}")) > 20
+
+
 def test_check_world_cli(tmp_path, capsys):
     path = two_rooms(tmp_path, 0.6)
     assert check_world.main([path, "--plot", str(tmp_path / "c.png"),

@@ -14,9 +14,10 @@ __all__ = ["plot_check", "draw_panel", "floor_box"]
 
 def plot_check(b: Building, report: WorldCheck, path: str) -> None:
     """Write a PNG: for each footprint, the solid map (black), the floor connected to the
-    starts (green) and the rest it could plan on (orange), the regions (outlined green when
-    reached, red when cut off, grey with no goal point), the starts, and each route's
-    narrowest point with its width (red where the footprint cannot pass).
+    starts (green) and the rest it could plan on (orange), what the map handling changed
+    (magenta: occupied cells it cleared, blue: free cells it made solid), the regions
+    (outlined green when reached, red when cut off, grey with no goal point), the starts, and
+    each route's narrowest point with its width (red where the footprint cannot pass).
 
     Raises:
         BulletFloorSimError: matplotlib is missing or the file cannot be written.
@@ -68,6 +69,9 @@ def draw_panel(ax: Any, b: Building, report: WorldCheck, fc: Any) -> None:
     rgb[passable] = (1.0, 0.75, 0.45)
     rgb[reached] = (0.75, 0.93, 0.75)
     rgb[solid] = (0.0, 0.0, 0.0)
+    raw = np.asarray(b.fmap.grid)
+    rgb[(raw == 100) & ~solid] = (1.0, 0.0, 1.0)     # cleared: specks, thin clutter
+    rgb[(raw == 0) & solid] = (0.2, 0.4, 1.0)        # made solid: gaps closed
     ax.imshow(rgb, origin="lower", extent=ext, interpolation="nearest")
     rois = {r.id: r for r in b.regions()[0]}
     reached_ids = {i for s in fc.starts for i in s.reachable}
@@ -89,6 +93,7 @@ def draw_panel(ax: Any, b: Building, report: WorldCheck, fc: Any) -> None:
                     alpha=0.6)
         ax.plot(*p.at, marker="o", ms=3, color="red" if bad else "tab:blue")
         ax.text(p.at[0], p.at[1], "%.2f" % p.width, fontsize=5, color="red" if bad else "navy")
-    ax.set_title("%s (radius %.2f m): green reached, orange cut off; passages in m"
+    ax.set_title("%s (radius %.2f m): green reached, orange cut off; magenta cleared, blue "
+                 "closed by the map handling; passages in m"
                  % (fc.footprint.name, fc.footprint.radius), fontsize=8)
     ax.set_aspect("equal")
