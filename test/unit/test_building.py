@@ -6,9 +6,11 @@ import re
 
 import numpy as np
 import pytest
+from shapely.geometry import Point
 
 from bullet_floor_sim.building import Building, person_footprint, robot_footprint
 from bullet_floor_sim.building.check import check_building, study_problems
+from bullet_floor_sim.data.rois import roi_polygon
 from bullet_floor_sim.errors import ConfigError
 from bullet_floor_sim.people.evaluation import EvalConfig, EvaluationError, run
 from bullet_floor_sim.ros import check_world
@@ -170,6 +172,36 @@ def test_the_plot_draws_what_the_map_handling_cleared(tmp_path):
     raw.mkdir()
     assert magenta(two_rooms(raw, 1.2, speck=True)) == 0
     assert magenta(two_rooms(tmp_path, 1.2, speck=True, clean="clean: {speckle: 0.01}")) > 20
+
+
+def test_rois_auto_writes_the_rooms_of_a_bare_map_and_of_a_world(tmp_path, capsys):
+    """``rois auto``: the two rooms of a bare map.yaml (a 1.0 m door), sharing the door's
+    vertices (the chain rule); from a world whose 0.6 m door robot1 cannot pass, only robot1's
+    room, and the other named as left out."""
+    from bullet_floor_sim.data.rois import load_rois
+    from bullet_floor_sim.people.markov.chain import MarkovChain
+    from bullet_floor_sim.ros import rois as rois_cli
+
+    two_rooms(tmp_path, door=1.0)
+    out = tmp_path / "auto.yaml"
+    assert rois_cli.main(["auto", str(tmp_path / "map.yaml"), "-o", str(out)]) == 0
+    rooms = load_rois(str(out))
+    assert len(rooms) == 2
+    # each a room of 15.8 m^2 of floor, traced a cell or two inside its walls
+    assert all(13.5 < roi_polygon(r).area < 15.8 for r in rooms)
+    assert {roi_polygon(r).contains(Point(2.0, 2.0)) for r in rooms} == {True, False}
+    assert len(MarkovChain.from_rois(rooms).components()) == 1    # joined at the door
+    assert "wrote 2 rooms" in capsys.readouterr().err
+    narrow = tmp_path / "narrow"
+    narrow.mkdir()
+    world = two_rooms(narrow, door=0.6)
+    assert rois_cli.main(["auto", world, "-o", str(out)]) == 0
+    (room,) = load_rois(str(out))
+    assert roi_polygon(room).contains(Point(2.0, 2.0))            # robot1's room
+    err = capsys.readouterr().err
+    assert "left out room 2" in err and "not reachable from robot1" in err
+    assert rois_cli.main(["auto", str(tmp_path / "none.yaml"), "-o", str(out)]) == 1
+    assert "none.yaml" in capsys.readouterr().err
 
 
 def test_check_world_cli(tmp_path, capsys):

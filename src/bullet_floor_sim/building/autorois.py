@@ -24,7 +24,7 @@ from ..sim.config import WorldConfig
 from ..sim.floormap import load_map
 from ..sim.mapcache import map_cache_dir, map_key
 
-__all__ = ["auto_rois_path", "AUTO"]
+__all__ = ["auto_rois_path", "write_auto_rois", "AUTO"]
 
 #: The world.yaml value that asks for rooms found automatically.
 AUTO = "auto"
@@ -46,9 +46,19 @@ def auto_rois_path(cfg: WorldConfig) -> str:
     path = os.path.join(base, "%s_%s.yaml" % (cfg.name or "world", h.hexdigest()[:16]))
     if not os.path.isfile(path):
         os.makedirs(base, exist_ok=True)
-        kept, left_out = _reachable_rooms(replace(cfg, rois=None), fmap)
-        _write(kept, left_out, path)
+        write_auto_rois(cfg, path, fmap)
     return path
+
+
+def write_auto_rois(cfg: WorldConfig, path: str, fmap=None) -> Tuple[int, List[str]]:
+    """Write the rooms of ``cfg``'s map that its first robot reaches (with no robot, those on
+    the part of the floor most rooms are on) to ``path`` as a SOMA ROI file, whatever
+    ``cfg.rois`` says (``rosrun bullet_floor_sim rois auto``); return how many and one line
+    per room left out."""
+    kept, left_out = _reachable_rooms(replace(cfg, rois=None),
+                                      fmap if fmap is not None else load_map(cfg.map_yaml))
+    _write(kept, left_out, path)
+    return len(kept), left_out
 
 
 def _reachable_rooms(cfg: WorldConfig, fmap) -> Tuple[List[Roi], List[str]]:

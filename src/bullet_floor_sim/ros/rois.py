@@ -1,10 +1,16 @@
-"""``rosrun bullet_floor_sim rois export|import``: ROIs between the store and rois.yaml files.
+"""``rosrun bullet_floor_sim rois export|import|auto``: ROIs between the store and rois.yaml files,
+and rooms found automatically.
 
     rois export [--db URI] [--map NAME] [--config C] [-o FILE]
         the newest version of every ROI of a map and config, as a rois.yaml (stdout or FILE)
     rois import FILE [--db URI] [--replace]
         store the file's ROIs as new versions (only those that changed); with --replace, ROIs
         of that map and config missing from the file are deleted (their history stays)
+    rois auto MAP_OR_WORLD -o FILE
+        the rooms of a map_server map.yaml (or a world.yaml's map, with its map handling and
+        rooms: section), found automatically (building/rooms.py), as a rois.yaml: the ones the
+        world's first robot reaches (for a bare map, those on the part of the floor most rooms
+        are on); edit it in rviz like any ROI file
 
 ``--db`` is ``mongodb://host:port/`` or a directory (default ``$ROS_HOME/bullet_floor_sim/db``),
 as ``rois.launch db:=``. A running ROI manager picks imported changes up within seconds.
@@ -37,7 +43,27 @@ def _parser() -> argparse.ArgumentParser:
     im.add_argument("--db", default="", help="mongodb://host:port/ or a directory")
     im.add_argument("--replace", action="store_true",
                     help="delete stored ROIs of that map and config that the file lacks")
+    au = sub.add_parser("auto", help="write the rooms of a map, found automatically, as rois.yaml")
+    au.add_argument("source", help="a map_server map.yaml or a world.yaml")
+    au.add_argument("-o", "--output", required=True, help="the rois.yaml to write")
     return p
+
+
+def auto(args: argparse.Namespace) -> int:
+    from bullet_floor_sim.building.autorois import write_auto_rois
+    from bullet_floor_sim.sim.config import WorldConfig, load_world_config
+    from bullet_floor_sim.yamlio import read_yaml
+
+    doc = read_yaml(args.source, "map or world", BulletFloorSimError)
+    if isinstance(doc, dict) and "image" in doc:      # a map_server map.yaml
+        cfg = WorldConfig(path=os.path.abspath(args.source), map_yaml=os.path.abspath(args.source))
+    else:
+        cfg = load_world_config(args.source)
+    n, left_out = write_auto_rois(cfg, args.output)
+    for line in left_out:
+        print("left out %s" % line, file=sys.stderr)
+    print("wrote %d rooms of %s to %s" % (n, cfg.map_yaml, args.output), file=sys.stderr)
+    return 0
 
 
 def _only(kind: str, values: List[str], option: str, where: str) -> str:
@@ -102,7 +128,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     """Entry point of ``rosrun bullet_floor_sim rois``."""
     args = _parser().parse_args(argv)
     try:
-        return export(args) if args.command == "export" else import_(args)
+        return {"export": export, "import": import_, "auto": auto}[args.command](args)
     except (BulletFloorSimError, OSError) as e:
         print("rois %s: error: %s" % (args.command, e), file=sys.stderr)
         return 1
