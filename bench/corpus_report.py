@@ -94,7 +94,7 @@ def montage(rows: list, path: str) -> None:
     for ax in axes.ravel()[n:]:
         ax.axis("off")
     save_figure(plt, fig, path, "check_world on every building (robot footprint): green "
-                "connected to robot1, orange cut off, magenta cleared and blue closed by the "
+                "connected to robot1, orange cut off,\nmagenta cleared and blue closed by the "
                 "map handling, regions outlined, passage widths in m", 10)
 
 

@@ -57,7 +57,9 @@ def save_figure(plt: Any, fig: Any, path: str, title: str, fontsize: int = 9) ->
     """
     try:
         fig.suptitle(title, fontsize=fontsize)
-        fig.tight_layout()
+        # the title's lines (and a little room) kept clear of the panels' own titles
+        top = (1.2 * (title.count("\n") + 1) + 1.0) * fontsize / 72.0 / fig.get_figheight()
+        fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - top))
         fig.savefig(path, dpi=110)
     except OSError as e:
         raise BulletFloorSimError("--plot %s: cannot write it: %s" % (path, e)) from None
