@@ -14,9 +14,10 @@ from bullet_floor_sim.data.rois import roi_polygon
 from bullet_floor_sim.errors import ConfigError
 from bullet_floor_sim.people.evaluation import EvalConfig, EvaluationError, run
 from bullet_floor_sim.ros import check_world
-from bullet_floor_sim.sim.config import load_world_config, world_label
+from bullet_floor_sim.paths import worlds_dir
+from bullet_floor_sim.sim.config import load_world_config, resolve_world, world_label
 from bullet_floor_sim.sim.floormap import load_map
-from bullet_floor_sim.sim.solidmap import MapHandling, cleaned_map, solid_map
+from bullet_floor_sim.sim.solidmap import cleaned_map, served_handling, solid_map
 
 RES = 0.05
 
@@ -137,12 +138,27 @@ def test_specks_in_a_door_block_it_until_cleaned(tmp_path):
     report = check_building(b)
     assert report.footprint("robot").starts[0].reachable == ["1", "2"]
     assert any("1 occupied blobs (4 cells)" in line for line in report.handling)
-    # the cleaned map has the speck as floor, and handling it again changes nothing more
+    # the cleaned map has the speck as floor, and a node that applies the handling served
+    # with it (only unknown) gets the simulator's solid cells
     served = cleaned_map(b.fmap, b.config.map_handling)
     assert int((np.asarray(b.fmap.grid) == 100).sum()) - int(
         (np.asarray(served.grid) == 100).sum()) == 4
-    again = solid_map(served, MapHandling(speckle=0.01))
+    again = solid_map(served, served_handling(b.config.map_handling))
     assert np.array_equal(again.fmap.grid, b.solid.fmap.grid)
+
+
+def test_a_cleaned_real_map_gives_the_same_solid_cells_with_the_served_handling():
+    """malaga_corridor (a real SLAM map): its handling applied again to its own output clears
+    more (slivers and specks the first pass exposed), so a node given the cleaned map applies
+    only ``unknown`` (served_handling) and gets exactly the solid cells of the map itself."""
+    cfg = load_world_config(resolve_world("malaga_corridor", worlds_dir()))
+    raw = load_map(cfg.map_yaml)
+    solid = np.asarray(solid_map(raw, cfg.map_handling).fmap.grid) == 100
+    served = cleaned_map(raw, cfg.map_handling)
+    twice = np.asarray(solid_map(served, cfg.map_handling).fmap.grid) == 100
+    assert int((solid & ~twice).sum()) > 100 and not (twice & ~solid).any()
+    once = np.asarray(solid_map(served, served_handling(cfg.map_handling)).fmap.grid) == 100
+    assert np.array_equal(once, solid)
 
 
 def test_the_plot_draws_what_the_map_handling_cleared(tmp_path):

@@ -66,7 +66,7 @@ from ..sim.config import load_world_config, resolve_world
 from ..errors import BulletFloorSimError, CommandError, ConfigError
 from ..sim.pacing import BacklogGate, CommandGate, clock_wall_bound, tcp_unread, waits_line
 from ..paths import worlds_dir
-from ..sim.solidmap import cleaned_map
+from ..sim.solidmap import cleaned_map, served_handling
 from ..sim.world import World
 from .params import set_map_handling
 from .sim.frames import gt_tf_robots, map_to_odom
@@ -564,7 +564,11 @@ def main(argv: Optional[List[str]] = None) -> int:
     except BulletFloorSimError as e:
         rospy.logfatal("simulator: %s", e)
         return 1
-    set_map_handling(world.config.map_handling)  # before /map: nodes read it as the world does
+    # before /map: nodes read it as the world does (a cleaned /map has the cleaning done)
+    serve_cleaned = bool(rospy.get_param("~serve_cleaned", False))
+    set_map_handling(served_handling(world.config.map_handling)
+                     if serve_cleaned and rospy.get_param("~publish_map", True)
+                     else world.config.map_handling)
     rates = {k: float(rospy.get_param("~%s_rate" % k, d))
              for k, d in (("clock", 100.0), ("odom", 50.0), ("pose", 20.0), ("state", 10.0),
                           ("people", 10.0))}
@@ -580,7 +584,7 @@ def main(argv: Optional[List[str]] = None) -> int:
                              send_share=float(rospy.get_param("~send_share", 0.1)),
                              report_period=float(rospy.get_param("~report_period", 10.0)),
                              gate=gate, backlog=backlog,
-                             serve_cleaned=bool(rospy.get_param("~serve_cleaned", False)),
+                             serve_cleaned=serve_cleaned,
                              upstream_type_names=bool(rospy.get_param("~upstream_type_names",
                                                                       True)),
                              wheel_tf=mode == "builtin")

@@ -51,7 +51,7 @@ from ..errors import ConfigError
 from .floormap import FloorMap
 from .mapcache import load_entry, map_cache_dir, map_key, store_entry
 
-__all__ = ["MapHandling", "SolidMap", "solid_map", "cleaned_map", "UNKNOWN_MODES",
+__all__ = ["MapHandling", "SolidMap", "solid_map", "cleaned_map", "served_handling", "UNKNOWN_MODES",
            "while_mapping"]
 
 UNKNOWN_MODES = ("wall", "free")
@@ -134,8 +134,10 @@ def while_mapping(handling: Optional[MapHandling] = None) -> MapHandling:
 def cleaned_map(fmap: FloorMap, handling: MapHandling = MapHandling()) -> FloorMap:
     """The user's map with the handling's changes made, for map_server, amcl and move_base:
     removed speckle and unknown slivers become free (0), closed gaps occupied (100); unknown
-    cells that stay solid stay unknown (-1), as the map had them. A node that applies the
-    same handling to it gets the same solid cells back."""
+    cells that stay solid stay unknown (-1), as the map had them. A node that applies
+    :func:`served_handling` to it gets the same solid cells back. (Not the whole handling
+    again: on a real map the cleaning rules, applied to their own output, clear a little more,
+    254 cells of malaga_corridor's 645546 solid ones.)"""
     grid = np.asarray(fmap.grid)
     solid = np.asarray(solid_map(fmap, handling).fmap.grid) == 100
     out = grid.copy()
@@ -145,6 +147,12 @@ def cleaned_map(fmap: FloorMap, handling: MapHandling = MapHandling()) -> FloorM
                     yaml_path=fmap.yaml_path, image_path=fmap.image_path, negate=fmap.negate,
                     occupied_thresh=fmap.occupied_thresh, free_thresh=fmap.free_thresh,
                     mode=fmap.mode)
+
+
+def served_handling(handling: MapHandling) -> MapHandling:
+    """The handling a node applies to :func:`cleaned_map`'s output to get the solid cells of
+    ``handling`` applied to the map itself: the cleaning already done, only ``unknown``."""
+    return dataclasses.replace(handling, close_gaps=0.0, speckle=0.0, unknown_slivers=0.0)
 
 
 def _distance(solid: np.ndarray) -> np.ndarray:
