@@ -19,7 +19,10 @@ that amcl localises),
 i.e. bare topics and frames ``/odom``, ``odom``, ``base_footprint``, as the MORSE tutorial's),
 ``~only`` ("": a robot's name keeps that robot of the world alone, in its namespace: the one
 that maps in mapping.launch), ``~serve_cleaned`` (false: /map with the world's map handling
-applied), ``~check_world`` (true: log the map check, building/check.py, at start),
+applied; the handling set for the nodes is then ``unknown`` alone), ``~check_world`` (true:
+log the map check, building/check.py, at start), ``~study_walker`` and ``~study_observer``
+("": the robots of a study, as demo.launch sets them: the check's problems for them stop the
+simulator, unless ``~allow_unreachable``),
 ``~publish_initialpose`` (false: true publishes each spawn pose, latched, on ``N/initialpose``
 at start and after ``~reset``, so amcl starts localised whatever the world),
 ``~robot_state_publishers`` (builtin: this node publishes what one robot_state_publisher per
